@@ -1,0 +1,68 @@
+#!/usr/bin/env bash
+# Installs every build and test dependency of voxcap from Debian's packages: bookworm, plus
+# bookworm-backports for libcamera 0.3 and libgpiod v2 (the API family current Raspberry Pi OS ships).
+# Idempotent: a second run changes nothing and finishes quickly. Nothing is fetched from anywhere but
+# Debian's archive. Run as root (or with sudo available).
+set -euo pipefail
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+export DEBIAN_FRONTEND=noninteractive
+
+codename=$(. /etc/os-release && echo "${VERSION_CODENAME:-}")
+if [ "$codename" != "bookworm" ]; then
+  echo "install-deps: this script targets Debian bookworm (found '${codename:-unknown}'); continuing anyway" >&2
+fi
+
+# bookworm-backports: libcamera-dev 0.3.x and libgpiod-dev 2.x live there.
+bp=/etc/apt/sources.list.d/bookworm-backports.sources
+if ! grep -rqs "bookworm-backports" /etc/apt/sources.list /etc/apt/sources.list.d/; then
+  $SUDO tee "$bp" >/dev/null <<'SRC'
+Types: deb
+URIs: http://deb.debian.org/debian
+Suites: bookworm-backports
+Components: main
+Signed-By: /usr/share/keyrings/debian-archive-keyring.gpg
+SRC
+fi
+
+# Toolchain and build.
+pkgs=(build-essential cmake ninja-build pkg-config git clang libclang-rt-14-dev lld valgrind)
+# Tests and benchmarks.
+pkgs+=(googletest libgtest-dev libgmock-dev libbenchmark-dev)
+# Libraries of the host, the simulator and the edge.
+pkgs+=(libopencv-dev libglm-dev nlohmann-json3-dev libtomlplusplus-dev libcli11-dev
+       libspdlog-dev libfmt-dev libusb-1.0-0-dev libftdi1-dev linux-libc-dev)
+# The V4L2 VM test: a Debian kernel with the vivid module booted under qemu with a busybox initramfs.
+pkgs+=(qemu-system-x86 busybox-static cpio xz-utils zstd kmod)
+# From bookworm-backports (pinned to that suite explicitly).
+bp_pkgs=(libcamera-dev libgpiod-dev)
+
+missing=()
+for p in "${pkgs[@]}" "${bp_pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+# libcamera/libgpiod must be the backports versions (0.3 / 2.x), not bookworm's 0.0.3 / 1.6.
+if dpkg-query -W -f='${Version}' libgpiod-dev 2>/dev/null | grep -q '^1\.'; then missing+=(libgpiod-dev); fi
+if dpkg-query -W -f='${Version}' libcamera-dev 2>/dev/null | grep -q '^0\.0\.'; then missing+=(libcamera-dev); fi
+
+if [ ${#missing[@]} -gt 0 ]; then
+  echo "install-deps: installing ${missing[*]}"
+  $SUDO apt-get update -qq
+  $SUDO apt-get install -y -qq --no-install-recommends "${pkgs[@]}" >/dev/null
+  $SUDO apt-get install -y -qq --no-install-recommends -t bookworm-backports "${bp_pkgs[@]}" >/dev/null
+fi
+
+# The kernel image for the VM test is unpacked into a cache folder rather than installed, so the
+# machine's own /boot and /lib/modules are untouched. Debian's own package, from Debian's archive.
+kcache=${VOXCAP_KERNEL_CACHE:-/var/cache/voxcap/kernel}
+if [ ! -f "$kcache/ready" ]; then
+  $SUDO mkdir -p "$kcache"
+  tmp=$(mktemp -d); chmod 755 "$tmp"
+  kpkg=$(apt-cache depends linux-image-amd64 2>/dev/null | awk '/Depends: linux-image-[0-9]/{print $2; exit}')
+  (cd "$tmp" && apt-get download -qq "$kpkg")
+  $SUDO dpkg-deb -x "$tmp"/linux-image-*.deb "$kcache"
+  rm -rf "$tmp"
+  echo "$kpkg" | $SUDO tee "$kcache/ready" >/dev/null
+fi
+echo "install-deps: all dependencies present"

@@ -1,0 +1,17 @@
+// The voxcap subcommands. Each group lives in its own cmd_<group>.cpp and adds itself to the app
+// in main.cpp; a subcommand's work runs in its CLI11 callback, and errors are thrown as exceptions
+// (vc::UsageError for bad input, anything derived from std::exception for I/O), caught once in main.
+#pragma once
+
+#include <stdexcept>
+
+#include <CLI/CLI.hpp>
+
+namespace vc::cli {
+
+// Bad input from the user (a missing file, a malformed option value): exit code 2.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+}  // namespace vc::cli
