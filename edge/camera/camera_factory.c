@@ -1,0 +1,32 @@
+/* Backend selection by name: the only place that knows every camera backend. */
+#include <errno.h>
+#include <stdio.h>
+#include <string.h>
+
+#include "voxcap/edge/camera_backend.h"
+
+static const vc_camera_backend* const backends[] = {
+    &vc_camera_backend_v4l2,
+};
+
+static const char* const names[] = {"v4l2", NULL};
+
+const char* const* vc_camera_backend_names(void) { return names; }
+
+int vc_camera_open(const vc_camera_config* cfg, vc_camera** out, char* why, size_t why_len) {
+  if (out) *out = NULL;
+  if (!cfg || !out) {
+    if (why && why_len) snprintf(why, why_len, "camera: invalid arguments");
+    return -EINVAL;
+  }
+  if (!cfg->backend || !cfg->backend[0]) {
+    if (why && why_len) snprintf(why, why_len, "camera config: no backend given (one of v4l2, libcamera, file, sim)");
+    return -EINVAL;
+  }
+  for (size_t i = 0; i < sizeof backends / sizeof backends[0]; i++)
+    if (strcmp(backends[i]->name, cfg->backend) == 0)
+      return vc_camera_open_backend(backends[i], cfg, out, why, why_len);
+  if (why && why_len)
+    snprintf(why, why_len, "camera config: unknown backend '%s' (one of v4l2, libcamera, file, sim)", cfg->backend);
+  return -EINVAL;
+}
