@@ -1,0 +1,114 @@
+/* Background model and shadow-aware background subtraction (the method's section 5, eq. 1 and 2).
+ *
+ * Lifecycle, per camera:  vc_bgmodel_new(w, h)
+ *                         vc_bgmodel_learn(m, frame) × n      (frames of the empty scene)
+ *                         vc_bgmodel_finish(m)                (mean and standard deviation images)
+ *                         vc_bgmodel_set_params(m, &params)   (thresholds from the host's CONFIG;
+ *                                                              may be called again at any time)
+ *                         vc_subtract(m, frame, mask)         (per frame: no allocation, no float)
+ *                         vc_bgmodel_free(m)
+ *
+ * Pixels are interleaved RGB24 (uint8 R, G, B), rows `stride` bytes apart. Masks are uint8, one byte
+ * per pixel, rows `width` bytes apart: 0 = background (including shadow), 255 = foreground.
+ *
+ * Classification of pixel p against mean mu and standard deviation sigma (per channel c):
+ *   foreground        if |p_c - mu_c| >  T_u * sigma_c  for any channel           (eq. 1)
+ *   background        if |p_c - mu_c| <  T_l * sigma_c  for every channel
+ *   otherwise (band)  shadow test: foreground iff cos^2(angle(p, mu)) < cos^2(T_angular)   (eq. 2)
+ *                     or the brightness ratio alpha = p.mu / |mu|^2 lies outside
+ *                     [shadow_min_gain, shadow_max_gain]; a shadow counts as background.
+ * The model's mean is an 8-bit image (the rounded mean of the learnt frames) and its sigma is kept in
+ * Q8.8; vc_bgmodel_mean()/vc_bgmodel_sigma() return exactly the values the classifier uses, so a
+ * float implementation of the rules above on those values gives the same mask (see the tests).
+ *
+ * Thread safety: a model may be used by one thread at a time for learn/finish/set_params; after
+ * that, vc_subtract() only reads it and may run concurrently on different frames.
+ */
+#ifndef VOXCAP_EDGE_BGMODEL_H
+#define VOXCAP_EDGE_BGMODEL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Thresholds of the subtraction, normally from the host's CONFIG message. Plain doubles: they are
+ * converted to per-pixel integer tables once, in vc_bgmodel_set_params(). */
+typedef struct vc_subtract_params {
+  double t_upper;         /* T_u, > 0: foreground above T_u * sigma in any channel (eq. 1) */
+  double t_lower;         /* T_l, 0 < T_l <= T_u: surely background below T_l * sigma in all channels */
+  double cos2_angular;    /* cos^2(T_angular) in [0, 1]: in-band pixels with a smaller squared cosine
+                           * to the background colour are foreground (eq. 2) */
+  double shadow_min_gain; /* a shadow darkens: alpha = p.mu/|mu|^2 must be >= this (>= 0) ... */
+  double shadow_max_gain; /* ... and <= this (>= min). 1.0 = shadows are never brighter than the
+                           * background; a large value disables the brightness condition */
+  double sigma_floor;     /* sigma below this (grey levels, > 0) is raised to it, so that a perfectly
+                           * still pixel does not turn every one-level change into foreground */
+} vc_subtract_params;
+
+/* Fills the defaults: T_u 10, T_l 3, T_angular 6 degrees, alpha in [0.25, 1.0], sigma floor 1.0. */
+void vc_subtract_params_default(vc_subtract_params *params);
+
+/* 0 if the parameters are usable, -EINVAL otherwise. When `why` is not NULL it receives a static
+ * string naming the first bad field (never freed by the caller). */
+int vc_subtract_params_check(const vc_subtract_params *params, const char **why);
+
+typedef struct vc_bgmodel vc_bgmodel;
+
+/* New empty model for width x height frames (1..16384 each). Returns NULL and sets errno (EINVAL,
+ * ENOMEM) on failure. The caller owns the model and releases it with vc_bgmodel_free(). */
+vc_bgmodel *vc_bgmodel_new(int width, int height);
+
+/* Frees the model; NULL is a no-op. */
+void vc_bgmodel_free(vc_bgmodel *model);
+
+/* Accumulates one frame of the empty scene (borrowed for the call only). Returns 0, -EINVAL on a
+ * bad argument (stride < 3*width), -EBUSY after vc_bgmodel_finish(), -EOVERFLOW after 65535 frames. */
+int vc_bgmodel_learn(vc_bgmodel *model, const uint8_t *rgb, size_t stride);
+
+/* Computes the mean and standard deviation images from the learnt frames and releases the
+ * accumulators. Returns 0, -ENODATA if fewer than 2 frames were learnt, -EBUSY if already finished. */
+int vc_bgmodel_finish(vc_bgmodel *model);
+
+/* Derives the per-pixel integer thresholds from `params` (floats are used here, not per frame).
+ * Returns 0, -EINVAL for bad parameters, -EAGAIN before vc_bgmodel_finish(). */
+int vc_bgmodel_set_params(vc_bgmodel *model, const vc_subtract_params *params);
+
+/* Frames learnt so far (also after finish). */
+int vc_bgmodel_frames(const vc_bgmodel *model);
+int vc_bgmodel_width(const vc_bgmodel *model);
+int vc_bgmodel_height(const vc_bgmodel *model);
+
+/* The model's mean (uint8, interleaved RGB, stride 3*width) and sigma (uint16 Q8.8 grey levels,
+ * interleaved RGB, 3*width elements per row), before the sigma floor is applied. Borrowed pointers,
+ * valid until the model is freed; NULL before vc_bgmodel_finish(). */
+const uint8_t *vc_bgmodel_mean(const vc_bgmodel *model);
+const uint16_t *vc_bgmodel_sigma_q8(const vc_bgmodel *model);
+
+/* Per-frame counters (optional output of vc_subtract). */
+typedef struct vc_subtract_stats {
+  uint32_t band;   /* pixels between the two thresholds that went through the shadow test */
+  uint32_t shadow; /* of those, the ones classified shadow (background) */
+} vc_subtract_stats;
+
+/* Classifies one frame. `rgb` (stride bytes per row) and `mask` (width bytes per row, width*height
+ * bytes, caller-owned) are borrowed for the call. `stats` may be NULL. No allocation, no floating
+ * point. Returns 0, -EINVAL on a bad argument, -EAGAIN before vc_bgmodel_set_params(). */
+int vc_subtract(const vc_bgmodel *model, const uint8_t *rgb, size_t stride, uint8_t *mask,
+                vc_subtract_stats *stats);
+
+/* Name of the kernel variant in use ("generic" or "avx2"). */
+const char *vc_edge_kernel_name(void);
+
+/* Selects the kernel variant for all subsequent calls of this library: "auto" (the best one this CPU
+ * runs), "generic" (portable C, what every CPU runs), "avx2" (x86-64 with AVX2). Returns 0, or
+ * -ENOTSUP when the variant cannot run here. Meant for tests and benchmarks; not thread-safe. */
+int vc_edge_kernel_select(const char *name);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* VOXCAP_EDGE_BGMODEL_H */

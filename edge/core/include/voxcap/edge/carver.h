@@ -1,0 +1,92 @@
+/* Partial visual hull carving over a voxel grid from the two silhouettes of one edge node
+ * (paper section 7).
+ *
+ * A voxel is occupied when its centre projects inside the silhouette (nonzero mask pixel) of both
+ * cameras; a centre outside an image, or behind a camera, is empty. The projection is OpenCV's
+ * (cv::projectPoints): x_cam = R x_world + t, pinhole with k1 k2 p1 p2 k3 distortion, and the pixel
+ * is (floor(u + 0.5), floor(v + 0.5)), pixel centres at integer coordinates.
+ *
+ * vc_carver_new() does all floating-point work at configuration time; vc_carver_run() is integer-only
+ * and allocation-free. The output bitset is voxel i + nx*(j + ny*k), bit 0 of byte 0 first, exactly as
+ * the RLE of proto/ expects (vc_rle_encode(bitset, vc_carver_voxels(c), ...)).
+ */
+#ifndef VOXCAP_EDGE_CARVER_H
+#define VOXCAP_EDGE_CARVER_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* A calibrated camera, as in rig.yaml (all doubles, configuration time only). */
+typedef struct vc_camera_model {
+  int width, height; /* image size in pixels; masks are width*height bytes, stride width */
+  double K[9];       /* row-major intrinsics: fx = K[0], cx = K[2], fy = K[4], cy = K[5]; K[1] (skew)
+                      * must be 0 (cv::projectPoints ignores it), last row 0 0 1 */
+  double dist[5];    /* k1 k2 p1 p2 k3 (OpenCV order) */
+  double R[9];       /* row-major rotation cam_from_world */
+  double t[3];       /* translation cam_from_world, metres */
+} vc_camera_model;
+
+/* The shared voxel grid: voxel (i,j,k) has centre min + (i+1/2, j+1/2, k+1/2) * voxel_m. */
+typedef struct vc_voxel_grid {
+  double min[3];  /* min corner, world metres */
+  double voxel_m; /* edge length, metres, > 0 */
+  int nx, ny, nz; /* 1..4096 each, nx*ny*nz <= 2^31 */
+} vc_voxel_grid;
+
+/* Projects p_world with the carver's camera model. Returns 1 and the pixel in *px, *py when the point
+ * is in front of the camera and its pixel lies inside the image, 0 otherwise (*px, *py untouched).
+ * This is the exact rule vc_carver_run() applies to voxel centres. */
+int vc_camera_project(const vc_camera_model *cam, const double p_world[3], int *px, int *py);
+
+/* 0 when the camera model is usable, -EINVAL otherwise (why: static string, may be NULL). */
+int vc_camera_check(const vc_camera_model *cam, const char **why);
+int vc_grid_check(const vc_voxel_grid *grid, const char **why);
+
+typedef struct vc_carver vc_carver;
+
+/* Builds the carver's tables for `grid` seen by `cam0` and `cam1` (all three borrowed for the call).
+ * Returns NULL and sets errno: EINVAL (bad camera or grid), ENOMEM. The caller owns the carver and
+ * frees it with vc_carver_free(). Time and memory grow with the voxel count: about 4.5 bytes per
+ * voxel seen by both cameras (more for voxels that project larger than 64 pixels). */
+vc_carver *vc_carver_new(const vc_voxel_grid *grid, const vc_camera_model *cam0,
+                         const vc_camera_model *cam1);
+
+/* Frees the carver; NULL is a no-op. */
+void vc_carver_free(vc_carver *carver);
+
+/* Number of voxels, and bytes of a bitset holding them (ceil(voxels / 8)). */
+uint64_t vc_carver_voxels(const vc_carver *carver);
+size_t vc_carver_bitset_bytes(const vc_carver *carver);
+
+/* Fraction of the grid's voxels whose centre is not seen by both cameras (outside an image or
+ * behind a camera): those voxels are always empty. The edge warns at CONFIG when this is > 0. */
+double vc_carver_unseen_fraction(const vc_carver *carver);
+
+/* Bytes of tables the carver holds (for memory budgets and the benchmark). */
+size_t vc_carver_memory_bytes(const vc_carver *carver);
+
+/* What a run did (optional output of vc_carver_run). */
+typedef struct vc_carve_stats {
+  uint64_t occupied;       /* voxels set in the bitset */
+  uint32_t blocks_skipped; /* blocks (any level) proved empty by the tile summaries */
+  uint32_t blocks_filled;  /* blocks (any level) proved full */
+  uint32_t leaves_tested;  /* 4x4x4 leaves tested voxel by voxel */
+} vc_carve_stats;
+
+/* Carves one frame. mask0/mask1: cam0's and cam1's silhouettes (width*height bytes, stride width,
+ * nonzero = foreground), borrowed for the call. bitset: caller-owned, vc_carver_bitset_bytes() bytes,
+ * fully overwritten (bits past the last voxel are 0). `stats` may be NULL. Integer-only, no
+ * allocation. The carver keeps per-frame scratch, so one carver runs one frame at a time.
+ * Returns 0 or -EINVAL. */
+int vc_carver_run(vc_carver *carver, const uint8_t *mask0, const uint8_t *mask1, uint8_t *bitset,
+                  vc_carve_stats *stats);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* VOXCAP_EDGE_CARVER_H */

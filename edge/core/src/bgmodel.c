@@ -1,0 +1,292 @@
+/* Background model and shadow-aware subtraction (paper section 5, eq. 1 and 2), in integers.
+ *
+ * Learning sums each channel and its square per pixel (uint32: exact for up to 65535 frames); finish()
+ * turns them into an 8-bit mean image and a Q8.8 standard deviation image (sample deviation, n-1).
+ * set_params() then precomputes, per pixel and channel, the two integer thresholds the frame loop
+ * needs: since p and mu are integers, |p - mu| > T_u*sigma  <=>  |p - mu| > floor(T_u*sigma)  and
+ * |p - mu| < T_l*sigma  <=>  |p - mu| <= ceil(T_l*sigma) - 1, so eq. 1 and the lower threshold become
+ * exact byte comparisons (tu, tl below), with no rounding difference to a float implementation.
+ *
+ * Per frame, each row runs in two passes:
+ *  A. vectorised, byte-wise over the interleaved RGB row: d = |p - mu|, code = 0xFF if d > tu,
+ *     1 if d > tl, else 0; a pixel's class is the OR of its three channel codes (0 = background,
+ *     1 = in the band, 0xFF = foreground). The loop is branch-free and the compiler vectorises it.
+ *  B. the band pixels only (typically a few percent: shadows and noise tails) get eq. 2 in 64-bit
+ *     integers: with dot = p.mu, pp = |p|^2, mm = |mu|^2 (exact integers < 2^18),
+ *        shadow  <=>  dot^2 * 2^24 >= c2 * pp * mm              (c2 = cos^2(T_angular) in Q0.24)
+ *                and  g_lo * mm <= dot * 2^16 <= g_hi * mm     (alpha = dot/mm, gains in Q16.16)
+ *     and a shadow becomes background. Requiring alpha <= 1 (shadows darken) keeps bright
+ *     same-hue foreground, e.g. a white shirt over a grey wall, from being taken for shadow, and the
+ *     lower gain keeps dark clothes of the wall's hue from it; both are configurable.
+ * Model data per pixel for pass A: mean, tu, tl = 9 bytes, planar by role, interleaved by channel
+ * like the image, so that pass A is three aligned streams of bytes. Memory traffic dominates: at
+ * 640x480 a frame reads 0.9 MB of pixels and 2.8 MB of model.
+ * Limits: sigma is clamped to 255.99 (Q8.8); thresholds at or above 255 never fire.
+ */
+#include "voxcap/edge/bgmodel.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdbool.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "dispatch.h"
+
+#define VC_MAX_DIM 16384
+#define VC_MAX_FRAMES 65535
+#define VC_CHUNK 256 /* pixels per pass-A chunk: the code buffer stays in L1 */
+
+struct vc_bgmodel {
+  int width, height;
+  int frames;
+  bool finished, ready;
+  uint32_t *sum;      /* [3*w*h] sum of samples, while learning */
+  uint32_t *sumsq;    /* [3*w*h] sum of squared samples, while learning */
+  uint8_t *mean;      /* [3*w*h] rounded mean, grey levels */
+  uint16_t *sigma_q8; /* [3*w*h] Q8.8 standard deviation, grey levels */
+  uint8_t *tu;        /* [3*w*h] floor(T_u*sigma) clamped to 255: foreground when d > tu */
+  uint8_t *tl;        /* [3*w*h] ceil(T_l*sigma)-1 clamped to 255: band when d > tl */
+  uint64_t c2_q24;    /* Q0.24 cos^2(T_angular) */
+  uint64_t glo_q16;   /* Q16.16 lowest brightness ratio of a shadow */
+  uint64_t ghi_q16;   /* Q16.16 highest brightness ratio of a shadow */
+};
+
+void vc_subtract_params_default(vc_subtract_params *params) {
+  if (params == NULL) return;
+  params->t_upper = 10.0;
+  params->t_lower = 3.0;
+  params->cos2_angular = 0.98907380036690284; /* cos^2(6 degrees) */
+  params->shadow_min_gain = 0.25;
+  params->shadow_max_gain = 1.0;
+  params->sigma_floor = 1.0;
+}
+
+int vc_subtract_params_check(const vc_subtract_params *p, const char **why) {
+  const char *bad = NULL;
+  if (p == NULL)
+    bad = "params is NULL";
+  else if (!(p->t_upper > 0.0 && p->t_upper <= 1000.0))
+    bad = "t_upper must be in (0, 1000]";
+  else if (!(p->t_lower > 0.0 && p->t_lower <= p->t_upper))
+    bad = "t_lower must be in (0, t_upper]";
+  else if (!(p->cos2_angular >= 0.0 && p->cos2_angular <= 1.0))
+    bad = "cos2_angular must be in [0, 1]";
+  else if (!(p->shadow_min_gain >= 0.0 && p->shadow_min_gain <= 65536.0))
+    bad = "shadow_min_gain must be in [0, 65536]";
+  else if (!(p->shadow_max_gain >= p->shadow_min_gain && p->shadow_max_gain <= 65536.0))
+    bad = "shadow_max_gain must be in [shadow_min_gain, 65536]";
+  else if (!(p->sigma_floor > 0.0 && p->sigma_floor <= 255.0))
+    bad = "sigma_floor must be in (0, 255]";
+  if (why != NULL) *why = bad;
+  return bad == NULL ? 0 : -EINVAL;
+}
+
+vc_bgmodel *vc_bgmodel_new(int width, int height) {
+  if (width < 1 || height < 1 || width > VC_MAX_DIM || height > VC_MAX_DIM) {
+    errno = EINVAL;
+    return NULL;
+  }
+  size_t n = (size_t)width * (size_t)height * 3;
+  vc_bgmodel *m = calloc(1, sizeof(*m));
+  if (m == NULL) goto err_nomem;
+  m->width = width;
+  m->height = height;
+  m->sum = calloc(n, sizeof(*m->sum));
+  m->sumsq = calloc(n, sizeof(*m->sumsq));
+  if (m->sum == NULL || m->sumsq == NULL) goto err_nomem;
+  return m;
+
+err_nomem:
+  vc_bgmodel_free(m);
+  errno = ENOMEM;
+  return NULL;
+}
+
+void vc_bgmodel_free(vc_bgmodel *m) {
+  if (m == NULL) return;
+  free(m->sum);
+  free(m->sumsq);
+  free(m->mean);
+  free(m->sigma_q8);
+  free(m->tu);
+  free(m->tl);
+  free(m);
+}
+
+int vc_bgmodel_learn(vc_bgmodel *m, const uint8_t *rgb, size_t stride) {
+  if (m == NULL || rgb == NULL || stride < (size_t)m->width * 3) return -EINVAL;
+  if (m->finished) return -EBUSY;
+  if (m->frames >= VC_MAX_FRAMES) return -EOVERFLOW;
+  const size_t row = (size_t)m->width * 3;
+  for (int y = 0; y < m->height; y++) {
+    const uint8_t *restrict src = rgb + (size_t)y * stride;
+    uint32_t *restrict s = m->sum + (size_t)y * row;
+    uint32_t *restrict q = m->sumsq + (size_t)y * row;
+    for (size_t i = 0; i < row; i++) {
+      uint32_t v = src[i];
+      s[i] += v;
+      q[i] += v * v;
+    }
+  }
+  m->frames++;
+  return 0;
+}
+
+int vc_bgmodel_finish(vc_bgmodel *m) {
+  if (m == NULL) return -EINVAL;
+  if (m->finished) return -EBUSY;
+  if (m->frames < 2) return -ENODATA;
+  const size_t n = (size_t)m->width * (size_t)m->height * 3;
+  m->mean = malloc(n);
+  m->sigma_q8 = malloc(n * sizeof(*m->sigma_q8));
+  if (m->mean == NULL || m->sigma_q8 == NULL) goto err_nomem;
+  const uint64_t f = (uint64_t)m->frames;
+  for (size_t i = 0; i < n; i++) {
+    uint64_t s = m->sum[i], q = m->sumsq[i];
+    m->mean[i] = (uint8_t)((s + f / 2) / f);
+    /* n*sum(x^2) - (sum x)^2 >= 0 exactly in 64 bits (< 2^49 for 65535 frames). */
+    uint64_t num = f * q - s * s;
+    double sigma = sqrt((double)num / (double)(f * (f - 1)));
+    double q8 = floor(sigma * 256.0 + 0.5);
+    m->sigma_q8[i] = (uint16_t)(q8 > 65535.0 ? 65535.0 : q8);
+  }
+  free(m->sum);
+  free(m->sumsq);
+  m->sum = m->sumsq = NULL;
+  m->finished = true;
+  return 0;
+
+err_nomem:
+  free(m->mean);
+  free(m->sigma_q8);
+  m->mean = NULL;
+  m->sigma_q8 = NULL;
+  return -ENOMEM;
+}
+
+int vc_bgmodel_set_params(vc_bgmodel *m, const vc_subtract_params *p) {
+  if (m == NULL || vc_subtract_params_check(p, NULL) != 0) return -EINVAL;
+  if (!m->finished) return -EAGAIN;
+  const size_t n = (size_t)m->width * (size_t)m->height * 3;
+  if (m->tu == NULL) m->tu = malloc(n);
+  if (m->tl == NULL) m->tl = malloc(n);
+  if (m->tu == NULL || m->tl == NULL) return -ENOMEM;
+  for (size_t i = 0; i < n; i++) {
+    double sigma = fmax((double)m->sigma_q8[i] / 256.0, p->sigma_floor);
+    double up = floor(p->t_upper * sigma);
+    double lo = ceil(p->t_lower * sigma) - 1.0;
+    m->tu[i] = (uint8_t)(up > 255.0 ? 255.0 : up);
+    m->tl[i] = (uint8_t)(lo > 255.0 ? 255.0 : lo);
+  }
+  m->c2_q24 = (uint64_t)llround(p->cos2_angular * 16777216.0);
+  m->glo_q16 = (uint64_t)llround(p->shadow_min_gain * 65536.0);
+  m->ghi_q16 = (uint64_t)llround(p->shadow_max_gain * 65536.0);
+  m->ready = true;
+  return 0;
+}
+
+int vc_bgmodel_frames(const vc_bgmodel *m) { return m ? m->frames : 0; }
+int vc_bgmodel_width(const vc_bgmodel *m) { return m ? m->width : 0; }
+int vc_bgmodel_height(const vc_bgmodel *m) { return m ? m->height : 0; }
+const uint8_t *vc_bgmodel_mean(const vc_bgmodel *m) { return m ? m->mean : NULL; }
+const uint16_t *vc_bgmodel_sigma_q8(const vc_bgmodel *m) { return m ? m->sigma_q8 : NULL; }
+
+/* ---- per-frame kernels ---------------------------------------------------------------------- */
+
+static inline uint8_t u8max(uint8_t a, uint8_t b) { return a > b ? a : b; }
+static inline uint8_t u8min(uint8_t a, uint8_t b) { return a < b ? a : b; }
+
+/* Pass A over one row: out[i] = 0 (background), 1 (band) or 0xFF (foreground). Written as min/max
+ * byte arithmetic so that gcc and clang both vectorise the first loop; the second loop folds the
+ * three channel codes of each pixel (a stride-3 gather, vectorised where the ISA has byte shuffles). */
+VC_HOT void classify_row_body(const uint8_t *restrict px, const uint8_t *restrict mean,
+                              const uint8_t *restrict tu, const uint8_t *restrict tl,
+                              uint8_t *restrict out, int n) {
+  uint8_t code[3 * VC_CHUNK];
+  for (int x0 = 0; x0 < n; x0 += VC_CHUNK) {
+    const int len = n - x0 < VC_CHUNK ? n - x0 : VC_CHUNK;
+    const int nb = 3 * len;
+    const uint8_t *restrict p = px + 3 * x0;
+    const uint8_t *restrict mu = mean + 3 * x0;
+    const uint8_t *restrict u = tu + 3 * x0;
+    const uint8_t *restrict l = tl + 3 * x0;
+    for (int b = 0; b < nb; b++) {
+      uint8_t d = (uint8_t)(u8max(p[b], mu[b]) - u8min(p[b], mu[b]));
+      uint8_t over_l = (uint8_t)(d - u8min(d, l[b])); /* > 0 iff d > tl */
+      uint8_t over_u = (uint8_t)(d - u8min(d, u[b])); /* > 0 iff d > tu */
+      code[b] = (uint8_t)(u8min(over_l, 1) | (uint8_t)(0u - u8min(over_u, 1)));
+    }
+    uint8_t *restrict o = out + x0;
+    for (int i = 0; i < len; i++) o[i] = (uint8_t)(code[3 * i] | code[3 * i + 1] | code[3 * i + 2]);
+  }
+}
+
+static void classify_row_generic(const uint8_t *restrict px, const uint8_t *restrict mean,
+                                 const uint8_t *restrict tu, const uint8_t *restrict tl,
+                                 uint8_t *restrict out, int n) {
+  classify_row_body(px, mean, tu, tl, out, n);
+}
+
+#if VC_HAVE_AVX2_VARIANT
+VC_TARGET_AVX2 static void classify_row_avx2(const uint8_t *restrict px, const uint8_t *restrict mean,
+                                             const uint8_t *restrict tu, const uint8_t *restrict tl,
+                                             uint8_t *restrict out, int n) {
+  classify_row_body(px, mean, tu, tl, out, n);
+}
+#endif
+
+/* Pass B: eq. 2 for the band pixels of one row (out[i] == 1). The row is scanned 8 bytes at a time;
+ * a band byte (0x01) is the only value whose bit 0 differs from its bit 1 (0x00 and 0xFF do not). */
+static void shadow_row(const vc_bgmodel *m, const uint8_t *px, const uint8_t *mean, uint8_t *out, int n,
+                       vc_subtract_stats *stats) {
+  const uint64_t lsb = 0x0101010101010101ull;
+  uint32_t band = 0, shadow = 0;
+  for (int x0 = 0; x0 < n; x0 += 8) {
+    int len = n - x0 < 8 ? n - x0 : 8;
+    uint64_t w = 0;
+    memcpy(&w, out + x0, (size_t)len);
+    if (((w ^ (w >> 1)) & lsb) == 0) continue;
+    for (int i = x0; i < x0 + len; i++) {
+      if (out[i] != 1) continue;
+      const uint8_t *p = px + 3 * i, *mu = mean + 3 * i;
+      uint64_t dot = (uint64_t)p[0] * mu[0] + (uint64_t)p[1] * mu[1] + (uint64_t)p[2] * mu[2];
+      uint64_t pp = (uint64_t)p[0] * p[0] + (uint64_t)p[1] * p[1] + (uint64_t)p[2] * p[2];
+      uint64_t mm = (uint64_t)mu[0] * mu[0] + (uint64_t)mu[1] * mu[1] + (uint64_t)mu[2] * mu[2];
+      /* dot, pp, mm < 2^18: dot^2 * 2^24 < 2^60 and c2 * pp * mm <= 2^24 * 2^36 = 2^60. */
+      bool hue_ok = (dot * dot << 24) >= m->c2_q24 * pp * mm;
+      uint64_t dot16 = dot << 16;
+      bool gain_ok = dot16 >= m->glo_q16 * mm && dot16 <= m->ghi_q16 * mm;
+      bool is_shadow = hue_ok && gain_ok;
+      out[i] = is_shadow ? 0 : 0xFF;
+      band++;
+      shadow += is_shadow;
+    }
+  }
+  if (stats != NULL) {
+    stats->band += band;
+    stats->shadow += shadow;
+  }
+}
+
+int vc_subtract(const vc_bgmodel *m, const uint8_t *rgb, size_t stride, uint8_t *mask,
+                vc_subtract_stats *stats) {
+  if (m == NULL || rgb == NULL || mask == NULL || stride < (size_t)m->width * 3) return -EINVAL;
+  if (!m->ready) return -EAGAIN;
+  void (*classify)(const uint8_t *restrict, const uint8_t *restrict, const uint8_t *restrict,
+                   const uint8_t *restrict, uint8_t *restrict, int) = classify_row_generic;
+#if VC_HAVE_AVX2_VARIANT
+  if (vc__use_avx2()) classify = classify_row_avx2;
+#endif
+  if (stats != NULL) memset(stats, 0, sizeof(*stats));
+  const int w = m->width;
+  const size_t row = (size_t)w * 3;
+  for (int y = 0; y < m->height; y++) {
+    const uint8_t *px = rgb + (size_t)y * stride;
+    const size_t off = (size_t)y * row;
+    uint8_t *out = mask + (size_t)y * (size_t)w;
+    classify(px, m->mean + off, m->tu + off, m->tl + off, out, w);
+    shadow_row(m, px, m->mean + off, out, w, stats);
+  }
+  return 0;
+}

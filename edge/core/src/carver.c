@@ -1,0 +1,663 @@
+/* Partial visual hull carving (paper section 7): hierarchical, exact, integer-only per frame.
+ *
+ * The paper precomputes every voxel's projection per static camera. A plain table of pixel indices
+ * costs 8 bytes per voxel for two cameras (134 MB at 256^3) and reads all of it every frame. Here:
+ *
+ * Configuration (floats allowed): the grid is cut into 16^3 top blocks, each into 8^3 mid blocks,
+ * each into 4^3 leaves. Every voxel centre is projected once with OpenCV's model (including
+ * distortion). Each block keeps, per camera, the range of 8x8-pixel image tiles covering the pixels
+ * of its voxel centres (an exact bound: it is built from the centres' own pixels), and whether all of
+ * its voxels are seen. Each leaf seen by both cameras keeps, per voxel and camera, the pixel as a
+ * 2-byte offset (du, dv) from the leaf's pixel rectangle, plus a 64-bit mask of voxels seen by both.
+ * That is 4.25 bytes per voxel, and only for leaves both cameras see.
+ *
+ * Per frame: each mask is summarised per 8x8 tile as "any foreground" and "all foreground" (eight
+ * 64-bit words per tile), and both summaries get a summed-area table (80x60 tiles at 640x480).
+ * Then, top-down, a block whose tile range holds no foreground tile in one camera is empty, a block
+ * whose tiles are all full in both cameras (and whose voxels are all seen) is filled, and only the
+ * remaining leaves are tested voxel by voxel, for the cameras that are still undecided. The tile
+ * bounds are conservative, so the result equals the per-voxel rule exactly; tiles only decide how
+ * much work is skipped. A human in a 2-camera hull leaves most blocks empty or full.
+ *
+ * A leaf whose pixel rectangle exceeds 256 pixels (voxels close to a camera) keeps 4-byte pixel
+ * indices instead; that is rare in a sensible rig and costs only memory.
+ * Limits: grids up to 4096 per axis and 2^31 voxels; images up to 16384 pixels a side.
+ */
+#include "voxcap/edge/carver.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdbool.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define TOP 16
+#define MID 8
+#define LEAF 4
+#define TILE_SHIFT 3 /* 8x8-pixel tiles */
+#define NO_TAB UINT32_MAX
+
+enum {
+  F_SKIP = 1,  /* no voxel of the block is seen by both cameras: always empty */
+  F_ALL0 = 2,  /* every voxel of the block (inside the grid) is seen by camera 0 */
+  F_ALL1 = 4,  /* ... by camera 1 */
+  F_NONE0 = 8, /* no voxel of the block is seen by camera 0 (rect 0 meaningless) */
+  F_NONE1 = 16,
+};
+
+enum { S_OUT = 0, S_PART = 1, S_FULL = 2 };
+
+typedef struct node {
+  uint16_t r[2][4]; /* per camera: tx0, ty0, tx1, ty1 (inclusive tile range) */
+  uint8_t flags;
+} node;
+
+typedef struct leaf_tab {
+  uint64_t valid;   /* bit v: voxel v (x + 4y + 16z) is in the grid and seen by both cameras */
+  uint32_t base[2]; /* per camera: pixel index of the leaf rectangle's top-left corner */
+  uint32_t wide;    /* NO_TAB, or index into `wide`: the leaf's rectangle is too large for 2-byte
+                     * offsets (voxels close to a camera), so it keeps full pixel indices */
+} leaf_tab;
+
+typedef struct cam_frame {
+  int tw, th;        /* tiles across and down */
+  uint32_t *sat_any; /* (tw+1)*(th+1) summed-area table of "tile has foreground" */
+  uint32_t *sat_full;/* same for "tile is all foreground" */
+  uint8_t *any, *full; /* tw*th per-tile flags (scratch) */
+} cam_frame;
+
+struct vc_carver {
+  vc_voxel_grid grid;
+  int W[2], H[2];
+  int tbx, tby, tbz; /* top blocks per axis */
+  node *top, *mid, *leaf;   /* [ntop], [8*ntop], [64*ntop] */
+  uint32_t *leaf_tab_idx;   /* [64*ntop]: index into tabs or NO_TAB */
+  leaf_tab *tabs;           /* [ntabs] */
+  uint16_t *entries;        /* [ntabs * 2 * 64]: (du | dv << 8) per camera and voxel */
+  uint32_t *wide;           /* [nwide * 2 * 64]: pixel index per camera and voxel (wide leaves) */
+  size_t ntabs, nwide, wide_cap;
+  uint64_t nvox;
+  double unseen_fraction;
+  size_t memory;
+  cam_frame fr[2];
+};
+
+/* ---- configuration ---------------------------------------------------------------------------- */
+
+int vc_camera_check(const vc_camera_model *c, const char **why) {
+  const char *bad = NULL;
+  if (c == NULL)
+    bad = "camera is NULL";
+  else if (c->width < 1 || c->height < 1 || c->width > 16384 || c->height > 16384)
+    bad = "image size must be 1..16384";
+  else if (!(c->K[0] > 0.0 && c->K[4] > 0.0 && isfinite(c->K[2]) && isfinite(c->K[5])))
+    bad = "K must have positive finite fx, fy and finite cx, cy";
+  else if (c->K[1] != 0.0 || c->K[3] != 0.0 || c->K[6] != 0.0 || c->K[7] != 0.0 || c->K[8] != 1.0)
+    bad = "K must be [fx 0 cx; 0 fy cy; 0 0 1] (OpenCV's projection ignores skew)";
+  if (bad == NULL) {
+    for (int i = 0; i < 5; i++)
+      if (!isfinite(c->dist[i])) bad = "distortion coefficients must be finite";
+    for (int i = 0; i < 9; i++)
+      if (!isfinite(c->R[i])) bad = "R must be finite";
+    for (int i = 0; i < 3; i++)
+      if (!isfinite(c->t[i])) bad = "t must be finite";
+  }
+  if (bad == NULL) {
+    /* R must be a rotation: R R^T = I within 1e-6. */
+    for (int a = 0; a < 3 && bad == NULL; a++)
+      for (int b = 0; b < 3; b++) {
+        double d = 0.0;
+        for (int k = 0; k < 3; k++) d += c->R[3 * a + k] * c->R[3 * b + k];
+        if (fabs(d - (a == b ? 1.0 : 0.0)) > 1e-6) {
+          bad = "R must be a rotation matrix";
+          break;
+        }
+      }
+  }
+  if (why != NULL) *why = bad;
+  return bad == NULL ? 0 : -EINVAL;
+}
+
+int vc_grid_check(const vc_voxel_grid *g, const char **why) {
+  const char *bad = NULL;
+  if (g == NULL)
+    bad = "grid is NULL";
+  else if (!(g->voxel_m > 0.0 && isfinite(g->voxel_m)))
+    bad = "voxel size must be positive";
+  else if (!isfinite(g->min[0]) || !isfinite(g->min[1]) || !isfinite(g->min[2]))
+    bad = "grid min corner must be finite";
+  else if (g->nx < 1 || g->ny < 1 || g->nz < 1 || g->nx > 4096 || g->ny > 4096 || g->nz > 4096)
+    bad = "grid dimensions must be 1..4096";
+  else if ((uint64_t)g->nx * (uint64_t)g->ny * (uint64_t)g->nz > (1ull << 31))
+    bad = "grid has more than 2^31 voxels";
+  if (why != NULL) *why = bad;
+  return bad == NULL ? 0 : -EINVAL;
+}
+
+/* OpenCV's projectPoints model (modules/calib3d, cvProjectPoints2Internal) for one point. */
+int vc_camera_project(const vc_camera_model *c, const double p[3], int *px, int *py) {
+  const double *R = c->R;
+  double X = R[0] * p[0] + R[1] * p[1] + R[2] * p[2] + c->t[0];
+  double Y = R[3] * p[0] + R[4] * p[1] + R[5] * p[2] + c->t[1];
+  double Z = R[6] * p[0] + R[7] * p[1] + R[8] * p[2] + c->t[2];
+  if (!(Z > 0.0)) return 0;
+  double z = 1.0 / Z;
+  double x = X * z, y = Y * z;
+  double r2 = x * x + y * y, r4 = r2 * r2, r6 = r4 * r2;
+  const double *k = c->dist; /* k1 k2 p1 p2 k3 */
+  double radial = 1.0 + k[0] * r2 + k[1] * r4 + k[4] * r6;
+  double a1 = 2.0 * x * y, a2 = r2 + 2.0 * x * x, a3 = r2 + 2.0 * y * y;
+  double xd = x * radial + k[2] * a1 + k[3] * a2;
+  double yd = y * radial + k[2] * a3 + k[3] * a1;
+  double u = xd * c->K[0] + c->K[2];
+  double v = yd * c->K[4] + c->K[5];
+  double fu = floor(u + 0.5), fv = floor(v + 0.5);
+  if (!(fu >= 0.0 && fu < (double)c->width && fv >= 0.0 && fv < (double)c->height)) return 0;
+  *px = (int)fu;
+  *py = (int)fv;
+  return 1;
+}
+
+static int imin(int a, int b) { return a < b ? a : b; }
+static int imax(int a, int b) { return a > b ? a : b; }
+
+/* Pixel rectangle accumulator of one camera over a block. */
+typedef struct prect {
+  int x0, y0, x1, y1;
+  uint64_t seen; /* voxels seen */
+} prect;
+
+static void prect_init(prect *r) {
+  r->x0 = r->y0 = INT32_MAX;
+  r->x1 = r->y1 = -1;
+  r->seen = 0;
+}
+
+static void prect_add(prect *r, int x, int y) {
+  r->x0 = imin(r->x0, x);
+  r->y0 = imin(r->y0, y);
+  r->x1 = imax(r->x1, x);
+  r->y1 = imax(r->y1, y);
+  r->seen++;
+}
+
+static void prect_union(prect *r, const prect *s) {
+  if (s->seen == 0) return;
+  r->x0 = imin(r->x0, s->x0);
+  r->y0 = imin(r->y0, s->y0);
+  r->x1 = imax(r->x1, s->x1);
+  r->y1 = imax(r->y1, s->y1);
+  r->seen += s->seen;
+}
+
+/* Summary of a block while building: rects over the voxels of non-skipped children. */
+typedef struct bsum {
+  prect r[2];
+  bool skip, all0, all1;
+} bsum;
+
+static void bsum_init(bsum *b) {
+  prect_init(&b->r[0]);
+  prect_init(&b->r[1]);
+  b->skip = true;
+  b->all0 = b->all1 = true;
+}
+
+static void bsum_merge(bsum *b, const bsum *c) {
+  b->all0 = b->all0 && c->all0;
+  b->all1 = b->all1 && c->all1;
+  if (c->skip) return;
+  b->skip = false;
+  prect_union(&b->r[0], &c->r[0]);
+  prect_union(&b->r[1], &c->r[1]);
+}
+
+static void node_set(node *n, const bsum *b) {
+  memset(n, 0, sizeof(*n));
+  n->flags = (uint8_t)((b->skip ? F_SKIP : 0) | (b->all0 ? F_ALL0 : 0) | (b->all1 ? F_ALL1 : 0));
+  for (int c = 0; c < 2; c++) {
+    if (b->skip || b->r[c].seen == 0) {
+      n->flags |= (uint8_t)(c == 0 ? F_NONE0 : F_NONE1);
+      continue;
+    }
+    n->r[c][0] = (uint16_t)(b->r[c].x0 >> TILE_SHIFT);
+    n->r[c][1] = (uint16_t)(b->r[c].y0 >> TILE_SHIFT);
+    n->r[c][2] = (uint16_t)(b->r[c].x1 >> TILE_SHIFT);
+    n->r[c][3] = (uint16_t)(b->r[c].y1 >> TILE_SHIFT);
+  }
+  if (n->flags & (F_NONE0 | F_NONE1)) n->flags |= F_SKIP;
+}
+
+static void voxel_centre(const vc_voxel_grid *g, int i, int j, int k, double p[3]) {
+  p[0] = g->min[0] + ((double)i + 0.5) * g->voxel_m;
+  p[1] = g->min[1] + ((double)j + 0.5) * g->voxel_m;
+  p[2] = g->min[2] + ((double)k + 0.5) * g->voxel_m;
+}
+
+/* Projection of the 64 voxels of one leaf, before it is known whether it gets a table. */
+typedef struct leaf_proj {
+  int px[2][64], py[2][64];
+  uint64_t seen[2]; /* bit v: voxel v in the grid and seen by camera c */
+  uint64_t in_grid;
+} leaf_proj;
+
+/* Builds one leaf at voxel origin (i0, j0, k0): its node, and its table when both cameras see it.
+ * Returns 0 or -ENOMEM. */
+static int build_leaf(vc_carver *cv, const vc_camera_model *cam[2], int i0, int j0, int k0,
+                      size_t li, bsum *out, size_t *tab_cap) {
+  const vc_voxel_grid *g = &cv->grid;
+  leaf_proj lp;
+  memset(lp.seen, 0, sizeof(lp.seen));
+  lp.in_grid = 0;
+  bsum_init(out);
+  cv->leaf_tab_idx[li] = NO_TAB;
+  prect r[2];
+  prect_init(&r[0]);
+  prect_init(&r[1]);
+  for (int z = 0; z < LEAF; z++)
+    for (int y = 0; y < LEAF; y++)
+      for (int x = 0; x < LEAF; x++) {
+        int i = i0 + x, j = j0 + y, k = k0 + z, v = x + LEAF * (y + LEAF * z);
+        if (i >= g->nx || j >= g->ny || k >= g->nz) continue;
+        lp.in_grid |= 1ull << v;
+        double p[3];
+        voxel_centre(g, i, j, k, p);
+        for (int c = 0; c < 2; c++) {
+          if (vc_camera_project(cam[c], p, &lp.px[c][v], &lp.py[c][v])) {
+            lp.seen[c] |= 1ull << v;
+            prect_add(&r[c], lp.px[c][v], lp.py[c][v]);
+          }
+        }
+      }
+  uint64_t both = lp.seen[0] & lp.seen[1];
+  out->all0 = lp.seen[0] == lp.in_grid;
+  out->all1 = lp.seen[1] == lp.in_grid;
+  out->skip = both == 0;
+  out->r[0] = r[0];
+  out->r[1] = r[1];
+  node_set(&cv->leaf[li], out);
+  if (out->skip) return 0;
+
+  bool wide = false;
+  for (int c = 0; c < 2; c++)
+    if (r[c].x1 - r[c].x0 > 255 || r[c].y1 - r[c].y0 > 255) wide = true;
+  if (cv->ntabs == *tab_cap) {
+    size_t cap = *tab_cap ? *tab_cap * 2 : 1024;
+    leaf_tab *t = realloc(cv->tabs, cap * sizeof(*t));
+    if (t == NULL) return -ENOMEM;
+    cv->tabs = t;
+    uint16_t *e = realloc(cv->entries, cap * 2 * 64 * sizeof(*e));
+    if (e == NULL) return -ENOMEM;
+    cv->entries = e;
+    *tab_cap = cap;
+  }
+  size_t ti = cv->ntabs++;
+  leaf_tab *t = &cv->tabs[ti];
+  t->valid = both;
+  t->wide = NO_TAB;
+  uint16_t *e = cv->entries + ti * 2 * 64;
+  if (wide) {
+    if (cv->nwide == cv->wide_cap) {
+      size_t cap = cv->wide_cap ? cv->wide_cap * 2 : 64;
+      uint32_t *wt = realloc(cv->wide, cap * 2 * 64 * sizeof(*wt));
+      if (wt == NULL) return -ENOMEM;
+      cv->wide = wt;
+      cv->wide_cap = cap;
+    }
+    t->wide = (uint32_t)cv->nwide++;
+    uint32_t *we = cv->wide + (size_t)t->wide * 2 * 64;
+    for (int c = 0; c < 2; c++) {
+      t->base[c] = 0;
+      for (int v = 0; v < 64; v++)
+        we[c * 64 + v] = (lp.seen[c] >> v & 1)
+                             ? (uint32_t)lp.py[c][v] * (uint32_t)cv->W[c] + (uint32_t)lp.px[c][v]
+                             : 0;
+    }
+    memset(e, 0, 2 * 64 * sizeof(*e));
+    cv->leaf_tab_idx[li] = (uint32_t)ti;
+    return 0;
+  }
+  for (int c = 0; c < 2; c++) {
+    t->base[c] = (uint32_t)r[c].y0 * (uint32_t)cv->W[c] + (uint32_t)r[c].x0;
+    for (int v = 0; v < 64; v++) {
+      uint16_t q = 0; /* unseen voxels point at the rectangle's corner; `valid` masks them */
+      if (lp.seen[c] >> v & 1)
+        q = (uint16_t)((lp.px[c][v] - r[c].x0) | (lp.py[c][v] - r[c].y0) << 8);
+      e[c * 64 + v] = q;
+    }
+  }
+  cv->leaf_tab_idx[li] = (uint32_t)ti;
+  return 0;
+}
+
+static int frame_alloc(cam_frame *f, int W, int H) {
+  f->tw = (W + (1 << TILE_SHIFT) - 1) >> TILE_SHIFT;
+  f->th = (H + (1 << TILE_SHIFT) - 1) >> TILE_SHIFT;
+  size_t ns = (size_t)(f->tw + 1) * (size_t)(f->th + 1);
+  size_t nt = (size_t)f->tw * (size_t)f->th;
+  f->sat_any = calloc(ns, sizeof(uint32_t));
+  f->sat_full = calloc(ns, sizeof(uint32_t));
+  f->any = calloc(nt, 1);
+  f->full = calloc(nt, 1);
+  return (f->sat_any && f->sat_full && f->any && f->full) ? 0 : -ENOMEM;
+}
+
+static void frame_free(cam_frame *f) {
+  free(f->sat_any);
+  free(f->sat_full);
+  free(f->any);
+  free(f->full);
+}
+
+vc_carver *vc_carver_new(const vc_voxel_grid *grid, const vc_camera_model *cam0,
+                         const vc_camera_model *cam1) {
+  int err = -EINVAL;
+  vc_carver *cv = NULL;
+  if (vc_grid_check(grid, NULL) != 0 || vc_camera_check(cam0, NULL) != 0 ||
+      vc_camera_check(cam1, NULL) != 0)
+    goto err;
+  err = -ENOMEM;
+  cv = calloc(1, sizeof(*cv));
+  if (cv == NULL) goto err;
+  cv->grid = *grid;
+  const vc_camera_model *cam[2] = {cam0, cam1};
+  for (int c = 0; c < 2; c++) {
+    cv->W[c] = cam[c]->width;
+    cv->H[c] = cam[c]->height;
+    if (frame_alloc(&cv->fr[c], cv->W[c], cv->H[c]) != 0) goto err;
+  }
+  cv->nvox = (uint64_t)grid->nx * (uint64_t)grid->ny * (uint64_t)grid->nz;
+  cv->tbx = (grid->nx + TOP - 1) / TOP;
+  cv->tby = (grid->ny + TOP - 1) / TOP;
+  cv->tbz = (grid->nz + TOP - 1) / TOP;
+  size_t ntop = (size_t)cv->tbx * (size_t)cv->tby * (size_t)cv->tbz;
+  cv->top = calloc(ntop, sizeof(node));
+  cv->mid = calloc(ntop * 8, sizeof(node));
+  cv->leaf = calloc(ntop * 64, sizeof(node));
+  cv->leaf_tab_idx = malloc(ntop * 64 * sizeof(uint32_t));
+  if (!cv->top || !cv->mid || !cv->leaf || !cv->leaf_tab_idx) goto err;
+
+  size_t tab_cap = 0;
+  uint64_t seen_both = 0;
+  for (int tz = 0; tz < cv->tbz; tz++)
+    for (int ty = 0; ty < cv->tby; ty++)
+      for (int tx = 0; tx < cv->tbx; tx++) {
+        size_t ti = (size_t)tx + (size_t)cv->tbx * ((size_t)ty + (size_t)cv->tby * (size_t)tz);
+        bsum top;
+        bsum_init(&top);
+        for (int m = 0; m < 8; m++) {
+          int mi0 = tx * TOP + (m & 1) * MID, mj0 = ty * TOP + (m >> 1 & 1) * MID,
+              mk0 = tz * TOP + (m >> 2) * MID;
+          bsum mid;
+          bsum_init(&mid);
+          for (int l = 0; l < 8; l++) {
+            int i0 = mi0 + (l & 1) * LEAF, j0 = mj0 + (l >> 1 & 1) * LEAF, k0 = mk0 + (l >> 2) * LEAF;
+            size_t li = (ti * 8 + (size_t)m) * 8 + (size_t)l;
+            bsum leaf;
+            err = build_leaf(cv, cam, i0, j0, k0, li, &leaf, &tab_cap);
+            if (err != 0) goto err;
+            if (cv->leaf_tab_idx[li] != NO_TAB)
+              seen_both += (uint64_t)__builtin_popcountll(cv->tabs[cv->leaf_tab_idx[li]].valid);
+            bsum_merge(&mid, &leaf);
+          }
+          node_set(&cv->mid[ti * 8 + (size_t)m], &mid);
+          bsum_merge(&top, &mid);
+        }
+        node_set(&cv->top[ti], &top);
+      }
+  cv->unseen_fraction = (double)(cv->nvox - seen_both) / (double)cv->nvox;
+  cv->memory = sizeof(*cv) + ntop * 73 * sizeof(node) + ntop * 64 * sizeof(uint32_t) +
+               cv->ntabs * (sizeof(leaf_tab) + 2 * 64 * sizeof(uint16_t)) +
+               cv->nwide * 2 * 64 * sizeof(uint32_t);
+  for (int c = 0; c < 2; c++) {
+    const cam_frame *f = &cv->fr[c];
+    cv->memory += 2 * (size_t)(f->tw + 1) * (size_t)(f->th + 1) * 4 + 2 * (size_t)f->tw * (size_t)f->th;
+  }
+  return cv;
+
+err:
+  vc_carver_free(cv);
+  errno = -err;
+  return NULL;
+}
+
+void vc_carver_free(vc_carver *cv) {
+  if (cv == NULL) return;
+  free(cv->top);
+  free(cv->mid);
+  free(cv->leaf);
+  free(cv->leaf_tab_idx);
+  free(cv->tabs);
+  free(cv->entries);
+  free(cv->wide);
+  frame_free(&cv->fr[0]);
+  frame_free(&cv->fr[1]);
+  free(cv);
+}
+
+uint64_t vc_carver_voxels(const vc_carver *cv) { return cv ? cv->nvox : 0; }
+size_t vc_carver_bitset_bytes(const vc_carver *cv) { return cv ? (size_t)((cv->nvox + 7) / 8) : 0; }
+double vc_carver_unseen_fraction(const vc_carver *cv) { return cv ? cv->unseen_fraction : 1.0; }
+size_t vc_carver_memory_bytes(const vc_carver *cv) { return cv ? cv->memory : 0; }
+
+/* ---- per frame ------------------------------------------------------------------------------ */
+
+static inline uint64_t load64(const uint8_t *p) {
+  uint64_t w;
+  memcpy(&w, p, 8);
+  return w;
+}
+
+/* Nonzero when some byte of w is zero (exact). */
+static inline uint64_t has_zero_byte(uint64_t w) {
+  return (w - 0x0101010101010101ull) & ~w & 0x8080808080808080ull;
+}
+
+/* Tile flags and their summed-area tables for one mask. */
+static void summarise(cam_frame *f, const uint8_t *mask, int W, int H) {
+  const int ts = 1 << TILE_SHIFT;
+  const int full_tiles = W >> TILE_SHIFT; /* tiles with all 8 columns inside the image */
+  for (int ty = 0; ty < f->th; ty++) {
+    uint8_t *any = f->any + (size_t)ty * (size_t)f->tw;
+    uint8_t *full = f->full + (size_t)ty * (size_t)f->tw;
+    int y0 = ty * ts, y1 = imin(H, y0 + ts);
+    for (int tx = 0; tx < full_tiles; tx++) {
+      uint64_t or_ = 0, zero = 0;
+      for (int y = y0; y < y1; y++) {
+        uint64_t w = load64(mask + (size_t)y * (size_t)W + (size_t)(tx * ts));
+        or_ |= w;
+        zero |= has_zero_byte(w);
+      }
+      any[tx] = or_ != 0;
+      full[tx] = zero == 0;
+    }
+    if (full_tiles < f->tw) { /* the last, narrower column of tiles */
+      int tx = full_tiles;
+      bool a = false, fl = true;
+      for (int y = y0; y < y1; y++)
+        for (int x = tx * ts; x < W; x++) {
+          bool on = mask[(size_t)y * (size_t)W + (size_t)x] != 0;
+          a = a || on;
+          fl = fl && on;
+        }
+      any[tx] = a;
+      full[tx] = fl;
+    }
+  }
+  const size_t sw = (size_t)f->tw + 1;
+  for (int ty = 0; ty < f->th; ty++) {
+    uint32_t ra = 0, rf = 0;
+    for (int tx = 0; tx < f->tw; tx++) {
+      ra += f->any[(size_t)ty * (size_t)f->tw + (size_t)tx];
+      rf += f->full[(size_t)ty * (size_t)f->tw + (size_t)tx];
+      f->sat_any[(size_t)(ty + 1) * sw + (size_t)tx + 1] = f->sat_any[(size_t)ty * sw + (size_t)tx + 1] + ra;
+      f->sat_full[(size_t)(ty + 1) * sw + (size_t)tx + 1] = f->sat_full[(size_t)ty * sw + (size_t)tx + 1] + rf;
+    }
+  }
+}
+
+static inline uint32_t sat_count(const uint32_t *s, size_t sw, const uint16_t r[4]) {
+  size_t x0 = r[0], y0 = r[1], x1 = (size_t)r[2] + 1, y1 = (size_t)r[3] + 1;
+  return s[y1 * sw + x1] - s[y0 * sw + x1] - s[y1 * sw + x0] + s[y0 * sw + x0];
+}
+
+/* State of a block in camera c: empty, undecided or all foreground. */
+static inline int cam_state(const cam_frame *f, const node *n, int c) {
+  if (n->flags & (c == 0 ? F_NONE0 : F_NONE1)) return S_OUT;
+  const uint16_t *r = n->r[c];
+  const size_t sw = (size_t)f->tw + 1;
+  if (sat_count(f->sat_any, sw, r) == 0) return S_OUT;
+  if (!(n->flags & (c == 0 ? F_ALL0 : F_ALL1))) return S_PART;
+  uint32_t area = (uint32_t)(r[2] - r[0] + 1) * (uint32_t)(r[3] - r[1] + 1);
+  return sat_count(f->sat_full, sw, r) == area ? S_FULL : S_PART;
+}
+
+/* Sets bits [pos, pos+len) of the (zeroed) bitset. */
+static void set_bits(uint8_t *bits, uint64_t pos, unsigned len) {
+  while (len > 0 && (pos & 7) != 0) {
+    bits[pos >> 3] |= (uint8_t)(1u << (pos & 7));
+    pos++;
+    len--;
+  }
+  if (len >= 8) {
+    memset(bits + (pos >> 3), 0xFF, len >> 3);
+    pos += len & ~7u;
+    len &= 7u;
+  }
+  while (len > 0) {
+    bits[pos >> 3] |= (uint8_t)(1u << (pos & 7));
+    pos++;
+    len--;
+  }
+}
+
+/* Fills the voxels [i0, i0+s) x [j0, j0+s) x [k0, k0+s) clipped to the grid. */
+static uint64_t fill_block(const vc_voxel_grid *g, uint8_t *bits, int i0, int j0, int k0, int s) {
+  int i1 = imin(g->nx, i0 + s), j1 = imin(g->ny, j0 + s), k1 = imin(g->nz, k0 + s);
+  for (int k = k0; k < k1; k++)
+    for (int j = j0; j < j1; j++)
+      set_bits(bits, (uint64_t)i0 + (uint64_t)g->nx * ((uint64_t)j + (uint64_t)g->ny * (uint64_t)k),
+               (unsigned)(i1 - i0));
+  return (uint64_t)(i1 - i0) * (uint64_t)(j1 - j0) * (uint64_t)(k1 - k0);
+}
+
+/* Bit v of the result: the mask pixel of voxel v is foreground. */
+static inline uint64_t leaf_lookup(const uint8_t *mask, uint32_t base, size_t W, const uint16_t *e) {
+  const uint8_t *b = mask + base;
+  uint64_t bits = 0;
+  for (int v = 0; v < 64; v++) {
+    uint16_t q = e[v];
+    bits |= (uint64_t)(b[(size_t)(q >> 8) * W + (q & 0xFFu)] != 0) << v;
+  }
+  return bits;
+}
+
+/* Same for a wide leaf: full pixel indices. */
+static inline uint64_t leaf_lookup_wide(const uint8_t *mask, const uint32_t *e) {
+  uint64_t bits = 0;
+  for (int v = 0; v < 64; v++) bits |= (uint64_t)(mask[e[v]] != 0) << v;
+  return bits;
+}
+
+/* ORs a leaf's 64 bits (x + 4y + 16z) into the bitset at voxel origin (i0, j0, k0). Bits of voxels
+ * outside the grid are zero, so no byte past a row's last voxel is written. */
+static void write_leaf(const vc_voxel_grid *g, uint8_t *bits, int i0, int j0, int k0, uint64_t b) {
+  for (int z = 0; z < LEAF; z++)
+    for (int y = 0; y < LEAF; y++) {
+      unsigned nib = (unsigned)(b >> (LEAF * (y + LEAF * z))) & 0xFu;
+      if (nib == 0) continue;
+      uint64_t pos = (uint64_t)i0 + (uint64_t)g->nx * ((uint64_t)(j0 + y) + (uint64_t)g->ny * (uint64_t)(k0 + z));
+      unsigned sh = (unsigned)(pos & 7);
+      bits[pos >> 3] |= (uint8_t)(nib << sh);
+      if ((nib << sh) > 0xFFu) bits[(pos >> 3) + 1] |= (uint8_t)(nib >> (8 - sh));
+    }
+}
+
+int vc_carver_run(vc_carver *cv, const uint8_t *mask0, const uint8_t *mask1, uint8_t *bitset,
+                  vc_carve_stats *stats) {
+  if (cv == NULL || mask0 == NULL || mask1 == NULL || bitset == NULL) return -EINVAL;
+  const uint8_t *mask[2] = {mask0, mask1};
+  for (int c = 0; c < 2; c++) summarise(&cv->fr[c], mask[c], cv->W[c], cv->H[c]);
+  memset(bitset, 0, vc_carver_bitset_bytes(cv));
+  const vc_voxel_grid *g = &cv->grid;
+  const size_t W0 = (size_t)cv->W[0], W1 = (size_t)cv->W[1];
+  uint64_t occupied = 0;
+  uint32_t skipped = 0, filled = 0, tested = 0;
+
+  for (int tz = 0; tz < cv->tbz; tz++)
+    for (int ty = 0; ty < cv->tby; ty++)
+      for (int tx = 0; tx < cv->tbx; tx++) {
+        size_t ti = (size_t)tx + (size_t)cv->tbx * ((size_t)ty + (size_t)cv->tby * (size_t)tz);
+        const node *tn = &cv->top[ti];
+        if (tn->flags & F_SKIP) continue;
+        int t0 = cam_state(&cv->fr[0], tn, 0);
+        int t1 = t0 == S_OUT ? S_OUT : cam_state(&cv->fr[1], tn, 1);
+        if (t0 == S_OUT || t1 == S_OUT) {
+          skipped++;
+          continue;
+        }
+        if (t0 == S_FULL && t1 == S_FULL) {
+          occupied += fill_block(g, bitset, tx * TOP, ty * TOP, tz * TOP, TOP);
+          filled++;
+          continue;
+        }
+        for (int m = 0; m < 8; m++) {
+          size_t mi = ti * 8 + (size_t)m;
+          const node *mn = &cv->mid[mi];
+          if (mn->flags & F_SKIP) continue;
+          int mi0 = tx * TOP + (m & 1) * MID, mj0 = ty * TOP + (m >> 1 & 1) * MID,
+              mk0 = tz * TOP + (m >> 2) * MID;
+          int m0 = t0 == S_FULL ? S_FULL : cam_state(&cv->fr[0], mn, 0);
+          int m1 = (t1 == S_FULL || m0 == S_OUT) ? (m0 == S_OUT ? S_OUT : S_FULL)
+                                                 : cam_state(&cv->fr[1], mn, 1);
+          if (m0 == S_OUT || m1 == S_OUT) {
+            skipped++;
+            continue;
+          }
+          if (m0 == S_FULL && m1 == S_FULL) {
+            occupied += fill_block(g, bitset, mi0, mj0, mk0, MID);
+            filled++;
+            continue;
+          }
+          for (int l = 0; l < 8; l++) {
+            size_t li = mi * 8 + (size_t)l;
+            const node *ln = &cv->leaf[li];
+            if (ln->flags & F_SKIP) continue;
+            int i0 = mi0 + (l & 1) * LEAF, j0 = mj0 + (l >> 1 & 1) * LEAF, k0 = mk0 + (l >> 2) * LEAF;
+            int l0 = m0 == S_FULL ? S_FULL : cam_state(&cv->fr[0], ln, 0);
+            int l1 = (m1 == S_FULL || l0 == S_OUT) ? (l0 == S_OUT ? S_OUT : S_FULL)
+                                                   : cam_state(&cv->fr[1], ln, 1);
+            if (l0 == S_OUT || l1 == S_OUT) {
+              skipped++;
+              continue;
+            }
+            const leaf_tab *t = &cv->tabs[cv->leaf_tab_idx[li]];
+            uint64_t b = t->valid;
+            if (l0 == S_FULL && l1 == S_FULL) {
+              filled++;
+            } else {
+              if (t->wide != NO_TAB) {
+                const uint32_t *we = cv->wide + (size_t)t->wide * 2 * 64;
+                if (l0 == S_PART) b &= leaf_lookup_wide(mask0, we);
+                if (l1 == S_PART && b != 0) b &= leaf_lookup_wide(mask1, we + 64);
+              } else {
+                const uint16_t *e = cv->entries + (size_t)cv->leaf_tab_idx[li] * 2 * 64;
+                if (l0 == S_PART) b &= leaf_lookup(mask0, t->base[0], W0, e);
+                if (l1 == S_PART && b != 0) b &= leaf_lookup(mask1, t->base[1], W1, e + 64);
+              }
+              tested++;
+            }
+            if (b == 0) continue;
+            occupied += (uint64_t)__builtin_popcountll(b);
+            write_leaf(g, bitset, i0, j0, k0, b);
+          }
+        }
+      }
+  if (stats != NULL) {
+    stats->occupied = occupied;
+    stats->blocks_skipped = skipped;
+    stats->blocks_filled = filled;
+    stats->leaves_tested = tested;
+  }
+  return 0;
+}
