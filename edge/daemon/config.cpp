@@ -1,0 +1,229 @@
+#include "config.hpp"
+
+#include <fmt/core.h>
+
+#include <set>
+#include <toml++/toml.h>
+
+#include "voxcap/edge/clock.h"
+
+namespace vc::edge {
+namespace {
+
+struct Reader {
+  std::string file;
+
+  [[noreturn]] void fail(const std::string& key, const std::string& what) const {
+    throw ConfigError(fmt::format("{}: {}: {}", file, key, what));
+  }
+
+  void check_keys(const toml::table& t, const std::string& prefix, const std::set<std::string>& known) const {
+    for (const auto& [k, v] : t) {
+      std::string key(k.str());
+      if (!known.count(key)) fail(prefix + key, "unknown key");
+    }
+  }
+
+  template <typename T>
+  void get(const toml::table& t, const std::string& prefix, const char* key, T& out) const {
+    const toml::node* n = t.get(key);
+    if (!n) return;
+    if constexpr (std::is_same_v<T, std::string>) {
+      if (!n->is_string()) fail(prefix + key, "must be a string");
+      out = **n->as_string();
+    } else if constexpr (std::is_same_v<T, bool>) {
+      if (!n->is_boolean()) fail(prefix + key, "must be true or false");
+      out = **n->as_boolean();
+    } else if constexpr (std::is_integral_v<T>) {
+      if (!n->is_integer()) fail(prefix + key, "must be an integer");
+      out = static_cast<T>(**n->as_integer());
+    } else {
+      if (n->is_integer())
+        out = static_cast<T>(**n->as_integer());
+      else if (n->is_floating_point())
+        out = static_cast<T>(**n->as_floating_point());
+      else
+        fail(prefix + key, "must be a number");
+    }
+  }
+
+  const toml::table* table(const toml::table& t, const char* key) const {
+    const toml::node* n = t.get(key);
+    if (!n) return nullptr;
+    if (!n->is_table()) fail(key, "must be a table");
+    return n->as_table();
+  }
+};
+
+}  // namespace
+
+void load_edge_toml(const std::string& path, EdgeSettings& s) {
+  Reader r{path};
+  toml::table root;
+  try {
+    root = toml::parse_file(path);
+  } catch (const toml::parse_error& e) {
+    throw ConfigError(fmt::format("{}:{}:{}: {}", path, e.source().begin.line, e.source().begin.column,
+                                  e.description()));
+  }
+  r.check_keys(root, "", {"node_id", "host", "cameras", "trigger", "link", "log"});
+  r.get(root, "", "node_id", s.node_id);
+  if (auto* h = r.table(root, "host")) {
+    r.check_keys(*h, "host.", {"address", "port"});
+    r.get(*h, "host.", "address", s.host);
+    r.get(*h, "host.", "port", s.port);
+  }
+  if (const toml::node* cams = root.get("cameras")) {
+    const toml::array* arr = cams->as_array();
+    if (!arr || arr->size() != 2) r.fail("cameras", "must be an array of exactly two [[cameras]] tables");
+    for (size_t k = 0; k < 2; k++) {
+      const toml::table* c = arr->get(k)->as_table();
+      std::string p = fmt::format("cameras[{}].", k);
+      if (!c) r.fail(p.substr(0, p.size() - 1), "must be a table");
+      r.check_keys(*c, p,
+                   {"backend", "device", "index", "width", "height", "format", "fps", "exposure_us",
+                    "external_trigger", "latency_us"});
+      CameraSettings& cs = s.cameras[k];
+      r.get(*c, p, "backend", cs.backend);
+      r.get(*c, p, "device", cs.device);
+      r.get(*c, p, "index", cs.index);
+      r.get(*c, p, "width", cs.width);
+      r.get(*c, p, "height", cs.height);
+      r.get(*c, p, "format", cs.format);
+      r.get(*c, p, "fps", cs.fps);
+      r.get(*c, p, "exposure_us", cs.exposure_us);
+      r.get(*c, p, "external_trigger", cs.external_trigger);
+      r.get(*c, p, "latency_us", cs.latency_us);
+    }
+  }
+  if (auto* t = r.table(root, "trigger")) {
+    r.check_keys(*t, "trigger.",
+                 {"backend", "bind", "port", "chip", "line", "line_name", "active_low", "bias", "debounce_us",
+                  "event_clock", "tolerance_us", "max_delay_ms"});
+    r.get(*t, "trigger.", "backend", s.trigger_backend);
+    r.get(*t, "trigger.", "bind", s.trigger_bind);
+    r.get(*t, "trigger.", "port", s.trigger_port);
+    r.get(*t, "trigger.", "chip", s.gpio_chip);
+    r.get(*t, "trigger.", "line", s.gpio_line);
+    r.get(*t, "trigger.", "line_name", s.gpio_line_name);
+    r.get(*t, "trigger.", "active_low", s.gpio_active_low);
+    r.get(*t, "trigger.", "bias", s.gpio_bias);
+    r.get(*t, "trigger.", "debounce_us", s.gpio_debounce_us);
+    r.get(*t, "trigger.", "event_clock", s.gpio_event_clock);
+    r.get(*t, "trigger.", "tolerance_us", s.pair_tolerance_us);
+    r.get(*t, "trigger.", "max_delay_ms", s.pair_max_delay_ms);
+  }
+  if (auto* l = r.table(root, "link")) {
+    r.check_keys(*l, "link.",
+                 {"queue_messages", "queue_mib", "heartbeat_ms", "host_timeout_ms", "reconnect_min_ms",
+                  "reconnect_max_ms", "stats_ms", "camera_timeout_ms"});
+    r.get(*l, "link.", "queue_messages", s.queue_messages);
+    r.get(*l, "link.", "queue_mib", s.queue_mib);
+    r.get(*l, "link.", "heartbeat_ms", s.heartbeat_ms);
+    r.get(*l, "link.", "host_timeout_ms", s.host_timeout_ms);
+    r.get(*l, "link.", "reconnect_min_ms", s.reconnect_min_ms);
+    r.get(*l, "link.", "reconnect_max_ms", s.reconnect_max_ms);
+    r.get(*l, "link.", "stats_ms", s.stats_ms);
+    r.get(*l, "link.", "camera_timeout_ms", s.camera_timeout_ms);
+  }
+  if (auto* lg = r.table(root, "log")) {
+    r.check_keys(*lg, "log.", {"verbosity"});
+    r.get(*lg, "log.", "verbosity", s.verbosity);
+  }
+}
+
+void EdgeSettings::validate() const {
+  auto bad = [](const std::string& key, const std::string& what) {
+    throw ConfigError(fmt::format("{}: {}", key, what));
+  };
+  if (node_id < 0 || node_id > 65535) bad("node_id", fmt::format("must be in 0..65535, got {}", node_id));
+  if (host.empty()) bad("host.address", "must not be empty");
+  if (port <= 0 || port > 65535) bad("host.port", fmt::format("must be in 1..65535, got {}", port));
+  for (size_t k = 0; k < 2; k++) {
+    const CameraSettings& c = cameras[k];
+    std::string p = fmt::format("cameras[{}].", k);
+    if (c.backend != "v4l2" && c.backend != "libcamera" && c.backend != "file" && c.backend != "sim")
+      bad(p + "backend", fmt::format("must be v4l2, libcamera, file or sim, got '{}'", c.backend));
+    if (c.backend != "sim" && c.device.empty()) bad(p + "device", "must be set for backend " + c.backend);
+    if (c.width < 0 || c.height < 0 || c.width > 16384 || c.height > 16384) bad(p + "width", "out of range");
+    vc_pixfmt f;
+    if (vc_pixfmt_from_name(c.format.c_str(), &f) < 0)
+      bad(p + "format", fmt::format("unknown pixel format '{}'", c.format));
+    if (c.fps < 0 || c.fps > 1000) bad(p + "fps", "must be in 0..1000");
+  }
+  if (trigger_backend != "udp" && trigger_backend != "gpiod")
+    bad("trigger.backend", fmt::format("must be udp or gpiod, got '{}'", trigger_backend));
+  if (trigger_port < 0 || trigger_port > 65535) bad("trigger.port", "must be in 0..65535");
+  if (trigger_backend == "gpiod" && gpio_line < 0 && gpio_line_name.empty())
+    bad("trigger.line", "set trigger.line (offset) or trigger.line_name for the gpiod backend");
+  if (gpio_bias != "as-is" && gpio_bias != "disabled" && gpio_bias != "pull-up" && gpio_bias != "pull-down")
+    bad("trigger.bias", "must be as-is, disabled, pull-up or pull-down");
+  vc_clock_id clk;
+  if (vc_clock_from_name(gpio_event_clock.c_str(), &clk) < 0 || clk == VC_CLOCK_BOOTTIME)
+    bad("trigger.event_clock", "must be monotonic or realtime");
+  if (pair_tolerance_us <= 0) bad("trigger.tolerance_us", "must be > 0");
+  if (pair_max_delay_ms <= 0) bad("trigger.max_delay_ms", "must be > 0");
+  if (queue_messages < 1 || queue_messages > 4096) bad("link.queue_messages", "must be in 1..4096");
+  if (queue_mib < 1 || queue_mib > 1024) bad("link.queue_mib", "must be in 1..1024");
+  if (heartbeat_ms < 10) bad("link.heartbeat_ms", "must be >= 10");
+  if (host_timeout_ms <= heartbeat_ms) bad("link.host_timeout_ms", "must be larger than link.heartbeat_ms");
+  if (reconnect_min_ms < 1 || reconnect_max_ms < reconnect_min_ms)
+    bad("link.reconnect_min_ms", "need 1 <= reconnect_min_ms <= reconnect_max_ms");
+  if (stats_ms < 10) bad("link.stats_ms", "must be >= 10");
+}
+
+vc_edged_options to_options(const EdgeSettings& s) {
+  vc_edged_options o{};
+  o.node_id = static_cast<uint16_t>(s.node_id);
+  for (int k = 0; k < 2; k++) {
+    const CameraSettings& c = s.cameras[k];
+    vc_camera_config& cc = o.cameras[k];
+    vc_camera_config_init(&cc);
+    cc.backend = c.backend.c_str();
+    cc.device = c.device.empty() ? nullptr : c.device.c_str();
+    cc.index = c.index >= 0 ? c.index : s.node_id * 2 + k;
+    cc.width = c.width;
+    cc.height = c.height;
+    vc_pixfmt_from_name(c.format.c_str(), &cc.pixfmt);
+    if (c.fps > 0) {
+      cc.fps_num = static_cast<uint32_t>(c.fps * 1000.0 + 0.5);
+      cc.fps_den = 1000;
+    }
+    cc.external_trigger = c.external_trigger;
+    cc.exposure_us = c.exposure_us;
+    cc.held_frames = 2;
+    o.camera_latency_ns[k] = static_cast<int64_t>(c.latency_us * 1000.0);
+    cc.trigger_latency_ns = o.camera_latency_ns[k];
+  }
+  vc_trigger_config_init(&o.trigger);
+  o.trigger.backend = s.trigger_backend.c_str();
+  o.trigger.bind_address = s.trigger_bind.c_str();
+  o.trigger.port = static_cast<uint16_t>(s.trigger_port ? s.trigger_port : 47000 + s.node_id);
+  o.trigger.chip = s.gpio_chip.c_str();
+  o.trigger.line_name = s.gpio_line_name.empty() ? nullptr : s.gpio_line_name.c_str();
+  o.trigger.line_offset = s.gpio_line >= 0 ? static_cast<unsigned>(s.gpio_line) : 0;
+  o.trigger.active_low = s.gpio_active_low;
+  o.trigger.bias = s.gpio_bias == "disabled"    ? VC_TRIGGER_BIAS_DISABLED
+                   : s.gpio_bias == "pull-up"   ? VC_TRIGGER_BIAS_PULL_UP
+                   : s.gpio_bias == "pull-down" ? VC_TRIGGER_BIAS_PULL_DOWN
+                                                : VC_TRIGGER_BIAS_AS_IS;
+  o.trigger.debounce_us = static_cast<unsigned>(s.gpio_debounce_us);
+  vc_clock_from_name(s.gpio_event_clock.c_str(), &o.trigger.event_clock);
+  o.pair_tolerance_ns = static_cast<uint64_t>(s.pair_tolerance_us * 1000.0);
+  o.pair_max_delay_ns = static_cast<uint64_t>(s.pair_max_delay_ms * 1e6);
+  o.link.host = s.host.c_str();
+  o.link.port = static_cast<uint16_t>(s.port);
+  o.link.node_id = o.node_id;
+  o.link.queue_msgs = static_cast<unsigned>(s.queue_messages);
+  o.link.queue_bytes = static_cast<size_t>(s.queue_mib) << 20;
+  o.link.heartbeat_ms = s.heartbeat_ms;
+  o.link.host_timeout_ms = s.host_timeout_ms;
+  o.link.reconnect_min_ms = s.reconnect_min_ms;
+  o.link.reconnect_max_ms = s.reconnect_max_ms;
+  o.stats_ms = s.stats_ms;
+  o.camera_timeout_ms = s.camera_timeout_ms;
+  o.verbosity = s.verbosity;
+  return o;
+}
+
+}  // namespace vc::edge

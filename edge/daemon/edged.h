@@ -1,0 +1,55 @@
+/* The edge daemon's run loop: cameras + trigger + pairing + node + link, wired together.
+ *
+ * Threads: one capture thread per camera (it alone drives its vc_camera: capture, copy the frame into
+ * one of a few daemon-owned slots, release the driver buffer at once, hand the slot to the pairer);
+ * one trigger thread (pulses into the pairer; for emulated cameras also the soft trigger); the link
+ * thread (link.h); and the pipeline thread — the caller of vc_edged_run — which applies the host's
+ * commands and processes every complete frame pair (background learning or subtract → carve → HULL).
+ * Copying frames costs ~0.1 ms per frame pair at 640x480 and buys a driver buffer that is always free
+ * and slots no other thread can release under us.
+ *
+ * Emulated cameras (file, sim) are reopened when the phase changes: with `background` while the host
+ * asks for the empty scene, with seq_base = START's first seq while running, so that every node shows
+ * the same motion frame for the same pulse. Real cameras are opened once.
+ */
+#ifndef VOXCAP_EDGE_EDGED_H
+#define VOXCAP_EDGE_EDGED_H
+
+#include <stdbool.h>
+#include <stdint.h>
+
+#include "voxcap/edge/camera.h"
+#include "voxcap/edge/trigger.h"
+#include "link.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct vc_edged_options {
+  uint16_t node_id;
+  vc_camera_config cameras[2];   /* strings borrowed for the daemon's lifetime */
+  int64_t camera_latency_ns[2];  /* frame timestamp − pulse time, per camera */
+  vc_trigger_config trigger;
+  uint64_t pair_tolerance_ns;    /* 0 = 4 ms */
+  uint64_t pair_max_delay_ns;    /* 0 = 50 ms */
+  vc_link_config link;
+  int stats_ms;                  /* STATS period, 0 = 1000 */
+  int camera_timeout_ms;         /* a camera that delivers nothing this long is reported, 0 = 2000 */
+  unsigned frame_slots;          /* copied frames per camera, 0 = 4 */
+  int verbosity;                 /* 0 warnings, 1 info, 2 debug */
+} vc_edged_options;
+
+/* Opens cameras and trigger once to check the configuration and the devices; prints what it found
+ * (or why not) on stdout/stderr. Returns 0 when everything opened. */
+int vc_edged_check(const vc_edged_options* opt);
+
+/* Runs until vc_edged_request_stop() (e.g. from a SIGINT/SIGTERM handler). 0 on a clean stop,
+ * a negative code when a device could not be opened at all. */
+int vc_edged_run(const vc_edged_options* opt);
+void vc_edged_request_stop(void); /* async-signal-safe */
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* VOXCAP_EDGE_EDGED_H */

@@ -1,0 +1,88 @@
+// voxcap-edge: the edge node daemon. Thin: options from edge.toml and the command line, then the run
+// loop of edged.c until SIGINT/SIGTERM. Exit codes: 0 ok, 1 runtime failure, 2 bad configuration.
+#include <csignal>
+#include <cstdio>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <fmt/core.h>
+
+#include "config.hpp"
+#include "edged.h"
+
+namespace {
+
+void on_signal(int) { vc_edged_request_stop(); }
+
+// "BACKEND" or "BACKEND:DEVICE".
+void apply_camera(const std::string& spec, vc::edge::CameraSettings& c) {
+  auto colon = spec.find(':');
+  c.backend = spec.substr(0, colon);
+  if (colon != std::string::npos) c.device = spec.substr(colon + 1);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "voxcap-edge — the edge node of a voxcap rig: captures two cameras on the trigger, subtracts the "
+      "background, carves the partial visual hull and streams it to the host.\n"
+      "Configuration: edge.toml (see edge/daemon/README.md for every key) with command-line overrides."};
+  std::string config_path;
+  bool check = false;
+  int node_id = -1, port = -1, trigger_port = -1, gpio_line = -1, verbosity = -1;
+  std::string host, trigger, gpio_chip, camera0, camera1, size;
+  app.add_option("-c,--config", config_path, "edge.toml to read (keys not given keep their defaults)");
+  app.add_option("--node-id", node_id, "this node's id (overrides node_id)");
+  app.add_option("--host", host, "host address (overrides host.address)");
+  app.add_option("--port", port, "host TCP port (overrides host.port; default 7700)");
+  app.add_option("--trigger", trigger, "trigger input backend: udp | gpiod (overrides trigger.backend)");
+  app.add_option("--trigger-port", trigger_port, "udp trigger port (overrides trigger.port; default 47000+node id)");
+  app.add_option("--gpio-chip", gpio_chip, "gpiod: chip, e.g. gpiochip0 (overrides trigger.chip)");
+  app.add_option("--gpio-line", gpio_line, "gpiod: line offset (overrides trigger.line)");
+  app.add_option("--camera0", camera0, "first camera as BACKEND[:DEVICE], e.g. v4l2:/dev/video0, sim, file:DIR");
+  app.add_option("--camera1", camera1, "second camera as BACKEND[:DEVICE]");
+  app.add_option("--size", size, "both cameras' size WxH (overrides cameras[].width/height)");
+  app.add_option("-v,--verbosity", verbosity, "0 warnings, 1 info, 2 debug");
+  app.add_flag("--check", check, "validate the configuration, open the cameras and the trigger, report, and exit");
+  CLI11_PARSE(app, argc, argv);
+
+  vc::edge::EdgeSettings s;
+  try {
+    if (!config_path.empty()) vc::edge::load_edge_toml(config_path, s);
+    if (node_id >= 0) s.node_id = node_id;
+    if (!host.empty()) s.host = host;
+    if (port >= 0) s.port = port;
+    if (!trigger.empty()) s.trigger_backend = trigger;
+    if (trigger_port >= 0) s.trigger_port = trigger_port;
+    if (!gpio_chip.empty()) s.gpio_chip = gpio_chip;
+    if (gpio_line >= 0) s.gpio_line = gpio_line;
+    if (!camera0.empty()) apply_camera(camera0, s.cameras[0]);
+    if (!camera1.empty()) apply_camera(camera1, s.cameras[1]);
+    if (!size.empty()) {
+      int w = 0, h = 0;
+      if (std::sscanf(size.c_str(), "%dx%d", &w, &h) != 2 || w <= 0 || h <= 0)
+        throw vc::edge::ConfigError("--size: expected WxH, got '" + size + "'");
+      for (auto& c : s.cameras) c.width = w, c.height = h;
+    }
+    if (verbosity >= 0) s.verbosity = verbosity;
+    s.validate();
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "voxcap-edge: {}\n", e.what());
+    return 2;
+  }
+  vc_edged_options opt = vc::edge::to_options(s);
+  if (check) return vc_edged_check(&opt) == 0 ? 0 : 1;
+
+  struct sigaction sa {};
+  sa.sa_handler = on_signal;
+  sigaction(SIGINT, &sa, nullptr);
+  sigaction(SIGTERM, &sa, nullptr);
+  std::signal(SIGPIPE, SIG_IGN);
+  int rc = vc_edged_run(&opt);
+  if (rc < 0) {
+    fmt::print(stderr, "voxcap-edge: stopped: {}\n", std::string(strerror(-rc)));
+    return 1;
+  }
+  return 0;
+}

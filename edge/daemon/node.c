@@ -1,0 +1,368 @@
+/* The edge node's state machine and per-frame pipeline (see node.h). */
+#define _GNU_SOURCE /* M_PI, clock_gettime */
+#include "node.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdbool.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#include "voxcap/edge/bgmodel.h"
+#include "voxcap/edge/carver.h"
+#include "voxcap/edge/cleanup.h"
+#include "voxcap/rle.h"
+
+enum { ST_SUBTRACT, ST_CLEANUP, ST_CARVE, ST_ENCODE, ST_COUNT };
+static const uint32_t stage_ids[ST_COUNT] = {VC_STAGE_SUBTRACT, VC_STAGE_CLEANUP, VC_STAGE_CARVE,
+                                             VC_STAGE_ENCODE};
+
+typedef struct stage_acc {
+  uint64_t sum_ns;
+  uint64_t max_ns;
+} stage_acc;
+
+struct vc_node {
+  uint16_t id;
+  vc_node_camera cams[VC_NODE_CAMS];
+  uint32_t state;
+  vc_config cfg; /* the applied CONFIG */
+  bool have_cfg;
+
+  vc_bgmodel* bg[VC_NODE_CAMS];
+  bool bg_learnt; /* bg[] finished */
+  uint32_t bg_wanted, bg_have;
+  vc_subtract_params sub;
+  int cleanup_iterations;
+
+  vc_carver* carver;
+  uint8_t* masks[VC_NODE_CAMS];
+  uint8_t* scratch;
+  size_t scratch_len;
+  uint8_t* bitset;
+  uint8_t* msgbuf;
+  size_t msgcap;
+  bool have_frame;
+
+  uint64_t first_seq;
+  vc_node_counters counters;
+  stage_acc stages[ST_COUNT];
+  uint32_t stage_frames;
+};
+
+static uint64_t now_ns(void) {
+  struct timespec ts;
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
+}
+
+static void stage_add(vc_node* n, int st, uint64_t t0, uint64_t t1) {
+  uint64_t d = t1 - t0;
+  n->stages[st].sum_ns += d;
+  if (d > n->stages[st].max_ns) n->stages[st].max_ns = d;
+}
+
+vc_node* vc_node_new(uint16_t node_id, const vc_node_camera cams[VC_NODE_CAMS]) {
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
+    if (cams[c].width <= 0 || cams[c].height <= 0 || cams[c].width > 16384 || cams[c].height > 16384) {
+      errno = EINVAL;
+      return NULL;
+    }
+  }
+  vc_node* n = calloc(1, sizeof(*n));
+  if (!n) {
+    errno = ENOMEM;
+    return NULL;
+  }
+  n->id = node_id;
+  memcpy(n->cams, cams, sizeof(n->cams));
+  n->state = VC_STATE_IDLE;
+  return n;
+}
+
+static void free_models(vc_node* n) {
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
+    vc_bgmodel_free(n->bg[c]);
+    n->bg[c] = NULL;
+  }
+  n->bg_learnt = false;
+}
+
+void vc_node_free(vc_node* n) {
+  if (!n) return;
+  free_models(n);
+  vc_carver_free(n->carver);
+  for (int c = 0; c < VC_NODE_CAMS; c++) free(n->masks[c]);
+  free(n->scratch);
+  free(n->bitset);
+  free(n->msgbuf);
+  free(n);
+}
+
+int vc_node_hello(const vc_node* n, uint32_t capabilities, uint8_t* buf, size_t cap, size_t* len) {
+  vc_hello h;
+  memset(&h, 0, sizeof(h));
+  h.node_id = n->id;
+  h.sw_major = 0;
+  h.sw_minor = 1;
+  h.sw_patch = 0;
+  h.capabilities = capabilities;
+  h.camera_count = VC_NODE_CAMS;
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
+    h.cameras[c].width = (uint16_t)n->cams[c].width;
+    h.cameras[c].height = (uint16_t)n->cams[c].height;
+    h.cameras[c].pixel_format = n->cams[c].pixel_format;
+    h.cameras[c].max_fps_milli = n->cams[c].max_fps_milli;
+  }
+  vc_header hdr = {.node_id = n->id};
+  return vc_encode_hello(buf, cap, len, &hdr, &h);
+}
+
+static void to_camera_model(const vc_config_camera* in, vc_camera_model* out) {
+  out->width = (int)in->width;
+  out->height = (int)in->height;
+  memcpy(out->K, in->K, sizeof(out->K));
+  memcpy(out->dist, in->dist, sizeof(out->dist));
+  memcpy(out->R, in->R_cam_from_world, sizeof(out->R));
+  memcpy(out->t, in->t_cam_from_world, sizeof(out->t));
+}
+
+/* CONFIG's clean-up sizes map onto passes of the 3x3 majority filter (cleanup.h): one pass removes
+ * speckles and fills holes of up to 2x2 = 4 pixels, a second pass takes somewhat larger ones. */
+static int cleanup_passes(const vc_config* cfg) {
+  uint32_t px = cfg->speckle_px > cfg->hole_px ? cfg->speckle_px : cfg->hole_px;
+  if (px == 0) return 0;
+  return px <= 4 ? 1 : 2;
+}
+
+int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_len, char* warning,
+                      size_t warning_len) {
+  if (warning && warning_len) warning[0] = '\0';
+  if (cfg->camera_count != VC_NODE_CAMS) {
+    snprintf(why, why_len, "CONFIG has %u cameras, this node has %d", cfg->camera_count, VC_NODE_CAMS);
+    return -EINVAL;
+  }
+  vc_camera_model models[VC_NODE_CAMS];
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
+    const vc_config_camera* cc = &cfg->cameras[c];
+    if ((int)cc->width != n->cams[c].width || (int)cc->height != n->cams[c].height) {
+      snprintf(why, why_len, "CONFIG camera %d is %ux%u, the camera delivers %dx%d", c, cc->width,
+               cc->height, n->cams[c].width, n->cams[c].height);
+      return -EINVAL;
+    }
+    to_camera_model(cc, &models[c]);
+    const char* bad = NULL;
+    if (vc_camera_check(&models[c], &bad) < 0) {
+      snprintf(why, why_len, "CONFIG camera %d: %s", c, bad ? bad : "invalid");
+      return -EINVAL;
+    }
+  }
+  vc_voxel_grid grid = {{cfg->min_m[0], cfg->min_m[1], cfg->min_m[2]}, cfg->voxel_m,
+                        (int)cfg->nx, (int)cfg->ny, (int)cfg->nz};
+  const char* bad = NULL;
+  if (vc_grid_check(&grid, &bad) < 0) {
+    snprintf(why, why_len, "CONFIG grid: %s", bad ? bad : "invalid");
+    return -EINVAL;
+  }
+  vc_subtract_params sub;
+  vc_subtract_params_default(&sub);
+  sub.t_upper = cfg->t_upper;
+  sub.t_lower = cfg->t_lower;
+  double ang = cfg->shadow_angle_deg * M_PI / 180.0;
+  sub.cos2_angular = cos(ang) * cos(ang);
+  if (vc_subtract_params_check(&sub, &bad) < 0) {
+    snprintf(why, why_len, "CONFIG thresholds: %s", bad ? bad : "invalid");
+    return -EINVAL;
+  }
+
+  vc_carver* carver = vc_carver_new(&grid, &models[0], &models[1]);
+  if (!carver) {
+    snprintf(why, why_len, "CONFIG: cannot build the carver for a %dx%dx%d grid: %s", grid.nx, grid.ny,
+             grid.nz, strerror(errno));
+    return errno == ENOMEM ? -ENOMEM : -EINVAL;
+  }
+  size_t bits_bytes = vc_carver_bitset_bytes(carver);
+  size_t msgcap = VC_PROTO_HEADER_SIZE + 64 + vc_rle_max_encoded_size(vc_carver_voxels(carver));
+  uint8_t* bitset = malloc(bits_bytes);
+  uint8_t* msgbuf = malloc(msgcap);
+  size_t scratch_len = vc_cleanup_scratch_size(n->cams[0].width > n->cams[1].width ? n->cams[0].width
+                                                                                    : n->cams[1].width);
+  uint8_t* scratch = malloc(scratch_len);
+  uint8_t* masks[VC_NODE_CAMS] = {NULL, NULL};
+  for (int c = 0; c < VC_NODE_CAMS; c++)
+    masks[c] = calloc((size_t)n->cams[c].width * (size_t)n->cams[c].height, 1);
+  if (!bitset || !msgbuf || !scratch || !masks[0] || !masks[1]) {
+    snprintf(why, why_len, "CONFIG: out of memory");
+    free(bitset);
+    free(msgbuf);
+    free(scratch);
+    free(masks[0]);
+    free(masks[1]);
+    vc_carver_free(carver);
+    return -ENOMEM;
+  }
+
+  /* Commit: nothing below fails. */
+  vc_carver_free(n->carver);
+  n->carver = carver;
+  free(n->bitset);
+  n->bitset = bitset;
+  free(n->msgbuf);
+  n->msgbuf = msgbuf;
+  n->msgcap = msgcap;
+  free(n->scratch);
+  n->scratch = scratch;
+  n->scratch_len = scratch_len;
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
+    free(n->masks[c]);
+    n->masks[c] = masks[c];
+  }
+  n->have_frame = false;
+  n->cfg = *cfg;
+  n->have_cfg = true;
+  n->sub = sub;
+  n->cleanup_iterations = cleanup_passes(cfg);
+  if (n->bg_learnt) {
+    /* A learnt background survives a new CONFIG: the cameras' sizes were checked above. */
+    for (int c = 0; c < VC_NODE_CAMS; c++) vc_bgmodel_set_params(n->bg[c], &n->sub);
+    n->state = VC_STATE_READY;
+  } else {
+    free_models(n);
+    n->state = VC_STATE_CONFIGURED;
+  }
+  double unseen = vc_carver_unseen_fraction(carver);
+  if (unseen > 0 && warning && warning_len)
+    snprintf(warning, warning_len, "%.1f %% of the voxel grid is not seen by both cameras of node %u",
+             unseen * 100.0, n->id);
+  return 0;
+}
+
+int vc_node_background_begin(vc_node* n, uint32_t frames) {
+  if (!n->have_cfg) return -EAGAIN;
+  if (frames == 0) frames = n->cfg.background_frames;
+  if (frames < 2) frames = 2;
+  free_models(n);
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
+    n->bg[c] = vc_bgmodel_new(n->cams[c].width, n->cams[c].height);
+    if (!n->bg[c]) {
+      free_models(n);
+      n->state = VC_STATE_CONFIGURED;
+      return -ENOMEM;
+    }
+  }
+  n->bg_wanted = frames;
+  n->bg_have = 0;
+  n->state = VC_STATE_BACKGROUND;
+  return 0;
+}
+
+int vc_node_background_add(vc_node* n, const uint8_t* const rgb[VC_NODE_CAMS],
+                           const size_t stride[VC_NODE_CAMS]) {
+  if (n->state != VC_STATE_BACKGROUND) return -EAGAIN;
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
+    int rc = vc_bgmodel_learn(n->bg[c], rgb[c], stride[c]);
+    if (rc < 0) return rc;
+  }
+  if (++n->bg_have < n->bg_wanted) return 0;
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
+    int rc = vc_bgmodel_finish(n->bg[c]);
+    if (rc == 0) rc = vc_bgmodel_set_params(n->bg[c], &n->sub);
+    if (rc < 0) {
+      free_models(n);
+      n->state = VC_STATE_CONFIGURED;
+      return rc;
+    }
+  }
+  n->bg_learnt = true;
+  n->state = VC_STATE_READY;
+  return 1;
+}
+
+int vc_node_start(vc_node* n, uint64_t first_seq) {
+  if (n->state != VC_STATE_READY && n->state != VC_STATE_RUNNING) return -EAGAIN;
+  n->first_seq = first_seq;
+  n->state = VC_STATE_RUNNING;
+  return 0;
+}
+
+void vc_node_stop(vc_node* n) {
+  if (n->state == VC_STATE_RUNNING) n->state = VC_STATE_READY;
+}
+
+int vc_node_process(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
+                    const uint8_t* const rgb[VC_NODE_CAMS], const size_t stride[VC_NODE_CAMS],
+                    const uint8_t** msg, size_t* len) {
+  if (n->state != VC_STATE_RUNNING) return -EAGAIN;
+  if (seq < n->first_seq) return 1;
+  uint64_t t0 = now_ns();
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
+    int rc = vc_subtract(n->bg[c], rgb[c], stride[c], n->masks[c], NULL);
+    if (rc < 0) return rc;
+  }
+  uint64_t t1 = now_ns();
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
+    int rc = vc_cleanup(n->masks[c], n->cams[c].width, n->cams[c].height, n->cleanup_iterations,
+                        n->scratch, n->scratch_len);
+    if (rc < 0) return rc;
+  }
+  uint64_t t2 = now_ns();
+  int rc = vc_carver_run(n->carver, n->masks[0], n->masks[1], n->bitset, NULL);
+  if (rc < 0) return rc;
+  n->have_frame = true;
+  uint64_t t3 = now_ns();
+  vc_header hdr = {.node_id = n->id, .seq = seq, .t_trigger_ns = t_trigger_ns};
+  rc = vc_encode_hull_bits(n->msgbuf, n->msgcap, len, &hdr, n->cfg.grid_id, n->bitset,
+                           (size_t)vc_carver_voxels(n->carver));
+  uint64_t t4 = now_ns();
+  stage_add(n, ST_SUBTRACT, t0, t1);
+  stage_add(n, ST_CLEANUP, t1, t2);
+  stage_add(n, ST_CARVE, t2, t3);
+  stage_add(n, ST_ENCODE, t3, t4);
+  n->stage_frames++;
+  n->counters.frames_processed++;
+  if (rc < 0) {
+    if (rc == VC_PROTO_ELIMIT) n->counters.hulls_over_limit++;
+    return rc;
+  }
+  n->counters.hulls_encoded++;
+  *msg = n->msgbuf;
+  return 0;
+}
+
+const uint8_t* vc_node_mask(const vc_node* n, int cam) {
+  if (!n->have_frame || cam < 0 || cam >= VC_NODE_CAMS) return NULL;
+  return n->masks[cam];
+}
+
+const uint8_t* vc_node_bitset(const vc_node* n, uint64_t* voxels) {
+  if (!n->have_frame) {
+    if (voxels) *voxels = 0;
+    return NULL;
+  }
+  if (voxels) *voxels = vc_carver_voxels(n->carver);
+  return n->bitset;
+}
+
+uint32_t vc_node_state(const vc_node* n) { return n->state; }
+uint16_t vc_node_id(const vc_node* n) { return n->id; }
+uint64_t vc_node_first_seq(const vc_node* n) { return n->first_seq; }
+
+void vc_node_get_counters(const vc_node* n, vc_node_counters* out) { *out = n->counters; }
+
+int vc_node_take_stage_times(vc_node* n, vc_stage_time* stages, int max_stages, uint32_t* frames) {
+  int k = 0;
+  *frames = n->stage_frames;
+  for (int s = 0; s < ST_COUNT && k < max_stages; s++) {
+    if (n->stage_frames == 0) break;
+    uint64_t mean = n->stages[s].sum_ns / n->stage_frames;
+    stages[k].stage_id = stage_ids[s];
+    stages[k].mean_ns = mean > UINT32_MAX ? UINT32_MAX : (uint32_t)mean;
+    stages[k].max_ns = n->stages[s].max_ns > UINT32_MAX ? UINT32_MAX : (uint32_t)n->stages[s].max_ns;
+    k++;
+  }
+  memset(n->stages, 0, sizeof(n->stages));
+  n->stage_frames = 0;
+  return k;
+}

@@ -1,0 +1,97 @@
+/* vc_node: what an edge node does with the host's commands and its frame pairs, free of sockets and
+ * devices so that it can be tested frame by frame.
+ *
+ *   IDLE --CONFIG--> CONFIGURED --BACKGROUND--> BACKGROUND --n frames--> READY --START--> RUNNING
+ *                                                                          ^----STOP-------'
+ * CONFIG may come again at any time (it returns the node to CONFIGURED, keeping a learnt background
+ * when the cameras' sizes did not change, so a node that rejoins does not need the empty scene again).
+ *
+ * Per frame in RUNNING: subtraction (eq. 1–2) and clean-up for both cameras, partial hull carving,
+ * and the HULL message encoded straight from the bitset into the node's own buffer. Everything per
+ * frame is allocation-free; CONFIG allocates (background models, carver, buffers).
+ *
+ * A node has exactly two cameras (one partial hull from two views, DESIGN.md). Not thread-safe: one
+ * thread (the edge's pipeline thread) drives it.
+ */
+#ifndef VOXCAP_EDGE_NODE_H
+#define VOXCAP_EDGE_NODE_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "voxcap/proto.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define VC_NODE_CAMS 2
+
+typedef struct vc_node vc_node;
+
+typedef struct vc_node_camera {
+  int width, height;      /* what the camera delivers (RGB24 after conversion) */
+  uint32_t pixel_format;  /* FourCC of the device's native format, as HELLO reports it */
+  uint32_t max_fps_milli;
+} vc_node_camera;
+
+/* A node with id node_id and the two cameras described (copied). NULL + errno on failure. */
+vc_node* vc_node_new(uint16_t node_id, const vc_node_camera cams[VC_NODE_CAMS]);
+void vc_node_free(vc_node* node); /* NULL is a no-op */
+
+/* The node's HELLO (written to buf, as vc_encode_hello). capabilities: VC_CAP_*. */
+int vc_node_hello(const vc_node* node, uint32_t capabilities, uint8_t* buf, size_t cap, size_t* len);
+
+/* Applies a CONFIG. On failure (-EINVAL: cameras disagree with HELLO, bad thresholds or grid;
+ * -ENOMEM) the node keeps its previous configuration and why says what was wrong. On success
+ * *warning is set (non-empty) when part of the grid is seen by neither camera. */
+int vc_node_configure(vc_node* node, const vc_config* cfg, char* why, size_t why_len, char* warning,
+                      size_t warning_len);
+
+/* BACKGROUND: learn from the next `frames` frame pairs (0: CONFIG's background_frames). -EAGAIN
+ * before CONFIG. */
+int vc_node_background_begin(vc_node* node, uint32_t frames);
+/* One frame pair of the empty scene. Returns 1 when the model is complete (node READY), 0 when more
+ * frames are wanted, or a negative code (-EAGAIN when not learning). */
+int vc_node_background_add(vc_node* node, const uint8_t* const rgb[VC_NODE_CAMS],
+                           const size_t stride[VC_NODE_CAMS]);
+
+/* START: stream frames with seq >= first_seq. -EAGAIN unless READY (or already RUNNING). */
+int vc_node_start(vc_node* node, uint64_t first_seq);
+/* STOP: back to READY. */
+void vc_node_stop(vc_node* node);
+
+/* One frame pair in RUNNING: subtract, clean up, carve, and encode the HULL (header seq and
+ * t_trigger_ns as given). On success *msg and *len point at the HULL in the node's buffer, valid until
+ * the next call on the node. Returns 0, 1 when the frame was skipped (seq < first_seq), -EAGAIN when
+ * not RUNNING, VC_PROTO_ELIMIT when the hull has too many runs (counted, nothing to send). */
+int vc_node_process(vc_node* node, uint64_t seq, uint64_t t_trigger_ns,
+                    const uint8_t* const rgb[VC_NODE_CAMS], const size_t stride[VC_NODE_CAMS],
+                    const uint8_t** msg, size_t* len);
+
+/* The silhouettes of the last processed frame (width x height bytes each, 0/255), for feature
+ * tracking and diagnostics; NULL before the first frame. Valid until the next call on the node. */
+const uint8_t* vc_node_mask(const vc_node* node, int cam);
+/* The bitset of the last carved hull and its voxel count (NULL/0 before the first frame). */
+const uint8_t* vc_node_bitset(const vc_node* node, uint64_t* voxels);
+
+uint32_t vc_node_state(const vc_node* node);     /* vc_node_state (proto.h) */
+uint16_t vc_node_id(const vc_node* node);
+uint64_t vc_node_first_seq(const vc_node* node);
+
+/* Counters the node keeps itself; the daemon adds its own (queue drops, pairing) to STATS. */
+typedef struct vc_node_counters {
+  uint64_t frames_processed;
+  uint64_t hulls_encoded;
+  uint64_t hulls_over_limit;
+} vc_node_counters;
+void vc_node_get_counters(const vc_node* node, vc_node_counters* out);
+
+/* Per-stage times since the last call: fills stages[] (subtract, cleanup, carve, encode) and returns
+ * how many, plus *frames covered; resets the accumulators. */
+int vc_node_take_stage_times(vc_node* node, vc_stage_time* stages, int max_stages, uint32_t* frames);
+
+#ifdef __cplusplus
+}
+#endif
+#endif /* VOXCAP_EDGE_NODE_H */

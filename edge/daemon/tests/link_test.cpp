@@ -1,0 +1,235 @@
+// The edge's link against a fake host on 127.0.0.1: HELLO first, host messages delivered, heartbeats,
+// reconnection after the host goes away, undecodable bytes drop the connection. Loops are bounded.
+#include "link.h"
+
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+namespace {
+
+struct FakeHost {
+  int lfd = -1;
+  uint16_t port = 0;
+  FakeHost() {
+    lfd = socket(AF_INET, SOCK_STREAM, 0);
+    int one = 1;
+    setsockopt(lfd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one));
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    bind(lfd, reinterpret_cast<sockaddr*>(&a), sizeof(a));
+    listen(lfd, 4);
+    socklen_t len = sizeof(a);
+    getsockname(lfd, reinterpret_cast<sockaddr*>(&a), &len);
+    port = ntohs(a.sin_port);
+  }
+  ~FakeHost() { close(lfd); }
+  int accept_within(int ms) {
+    pollfd p{lfd, POLLIN, 0};
+    if (poll(&p, 1, ms) <= 0) return -1;
+    return accept(lfd, nullptr, nullptr);
+  }
+};
+
+// Reads messages from fd for up to ms, returning them decoded (types and seqs).
+struct Received {
+  std::vector<uint16_t> types;
+  bool closed = false;
+};
+Received read_for(int fd, int ms, size_t stop_after = 1000) {
+  Received r;
+  vc_decoder* dec = vc_decoder_new(0);
+  auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
+  uint8_t buf[65536];
+  while (std::chrono::steady_clock::now() < end && r.types.size() < stop_after) {
+    pollfd p{fd, POLLIN, 0};
+    if (poll(&p, 1, 20) <= 0) continue;
+    ssize_t n = recv(fd, buf, sizeof(buf), 0);
+    if (n <= 0) {
+      r.closed = true;
+      break;
+    }
+    size_t used = 0;
+    for (size_t off = 0; off < (size_t)n; off += used) {
+      if (vc_decoder_feed(dec, buf + off, n - off, &used) < 0) break;
+      vc_msg m;
+      while (vc_decoder_next(dec, &m) > 0) r.types.push_back(m.hdr.type);
+    }
+  }
+  vc_decoder_free(dec);
+  return r;
+}
+
+std::vector<uint8_t> hello_bytes() {
+  vc_hello h{};
+  h.node_id = 4;
+  h.camera_count = 1;
+  h.cameras[0].width = 64;
+  h.cameras[0].height = 48;
+  std::vector<uint8_t> buf(256);
+  size_t len = 0;
+  vc_header hdr{};
+  hdr.node_id = 4;
+  EXPECT_EQ(vc_encode_hello(buf.data(), buf.size(), &len, &hdr, &h), 0);
+  buf.resize(len);
+  return buf;
+}
+
+struct Sink {
+  std::mutex mu;
+  std::vector<uint16_t> types;
+  std::atomic<int> ups{0}, downs{0};
+  static void on_message(void* u, const vc_msg* m) {
+    auto* s = static_cast<Sink*>(u);
+    std::lock_guard<std::mutex> g(s->mu);
+    s->types.push_back(m->hdr.type);
+  }
+  static void on_connection(void* u, bool up) { (up ? static_cast<Sink*>(u)->ups : static_cast<Sink*>(u)->downs)++; }
+  static uint32_t state(void*) { return VC_STATE_READY; }
+  static void log(void*, int, const char*) {}
+};
+
+vc_link* start_link(FakeHost& host, Sink& sink, int host_timeout_ms = 3000) {
+  vc_link_config cfg{};
+  cfg.host = "127.0.0.1";
+  cfg.port = host.port;
+  cfg.node_id = 4;
+  cfg.reconnect_min_ms = 20;
+  cfg.reconnect_max_ms = 100;
+  cfg.heartbeat_ms = 50;
+  cfg.host_timeout_ms = host_timeout_ms;
+  vc_link_callbacks cb{Sink::on_message, Sink::on_connection, Sink::state, Sink::log, &sink};
+  auto hello = hello_bytes();
+  vc_link* link = nullptr;
+  EXPECT_EQ(vc_link_start(&cfg, &cb, hello.data(), hello.size(), &link), 0);
+  return link;
+}
+
+void send_start(int fd, uint64_t seq) {
+  uint8_t buf[128];
+  size_t len = 0;
+  vc_header hdr{};
+  hdr.seq = seq;
+  ASSERT_EQ(vc_encode_start(buf, sizeof(buf), &len, &hdr), 0);
+  ASSERT_EQ(send(fd, buf, len, MSG_NOSIGNAL), (ssize_t)len);
+}
+
+TEST(Link, HelloFirstThenHeartbeatsAndHostMessagesDelivered) {
+  FakeHost host;
+  Sink sink;
+  vc_link* link = start_link(host, sink);
+  int fd = host.accept_within(2000);
+  ASSERT_GE(fd, 0);
+  send_start(fd, 77);
+  Received r = read_for(fd, 400);
+  ASSERT_FALSE(r.types.empty());
+  EXPECT_EQ(r.types[0], VC_MSG_HELLO);
+  size_t hb = 0;
+  for (auto t : r.types) hb += t == VC_MSG_HEARTBEAT;
+  EXPECT_GE(hb, 2u);
+  {
+    std::lock_guard<std::mutex> g(sink.mu);
+    ASSERT_EQ(sink.types.size(), 1u);
+    EXPECT_EQ(sink.types[0], VC_MSG_START);
+  }
+  EXPECT_TRUE(vc_link_connected(link));
+  vc_link_stop(link);
+  close(fd);
+}
+
+TEST(Link, QueuedMessagesReachTheHost) {
+  FakeHost host;
+  Sink sink;
+  vc_link* link = start_link(host, sink);
+  int fd = host.accept_within(2000);
+  ASSERT_GE(fd, 0);
+  for (int i = 0; i < 200 && !vc_link_connected(link); i++) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  uint8_t buf[128];
+  size_t len = 0;
+  vc_header hdr{};
+  hdr.node_id = 4;
+  ASSERT_EQ(vc_encode_stop(buf, sizeof(buf), &len, &hdr), 0);  // any message will do
+  for (int i = 0; i < 5; i++) ASSERT_EQ(vc_link_send(link, buf, len), 0);
+  Received r = read_for(fd, 300);
+  size_t stops = 0;
+  for (auto t : r.types) stops += t == VC_MSG_STOP;
+  EXPECT_EQ(stops, 5u);
+  vc_link_stop(link);
+  close(fd);
+}
+
+TEST(Link, ReconnectsAfterTheHostGoesAwayAndSaysHelloAgain) {
+  FakeHost host;
+  Sink sink;
+  vc_link* link = start_link(host, sink);
+  int fd = host.accept_within(2000);
+  ASSERT_GE(fd, 0);
+  read_for(fd, 100, 1);
+  close(fd);  // the host goes away
+  int fd2 = host.accept_within(3000);
+  ASSERT_GE(fd2, 0) << "the link did not reconnect";
+  Received r = read_for(fd2, 300, 1);
+  ASSERT_FALSE(r.types.empty());
+  EXPECT_EQ(r.types[0], VC_MSG_HELLO);
+  vc_link_stats st;
+  vc_link_get_stats(link, &st);
+  EXPECT_GE(st.connects, 2u);
+  vc_link_stop(link);
+  close(fd2);
+}
+
+TEST(Link, GarbageFromTheHostDropsTheConnection) {
+  FakeHost host;
+  Sink sink;
+  vc_link* link = start_link(host, sink);
+  int fd = host.accept_within(2000);
+  ASSERT_GE(fd, 0);
+  read_for(fd, 100, 1);
+  const char junk[64] = "this is not the voxcap protocol, not at all......";
+  send(fd, junk, sizeof(junk), MSG_NOSIGNAL);
+  Received r = read_for(fd, 2000);
+  EXPECT_TRUE(r.closed);
+  vc_link_stats st;
+  vc_link_get_stats(link, &st);
+  EXPECT_GE(st.rejected, 1u);
+  vc_link_stop(link);
+  close(fd);
+}
+
+TEST(Link, SilentHostIsDroppedAfterTheTimeout) {
+  FakeHost host;
+  Sink sink;
+  vc_link* link = start_link(host, sink, 300);
+  int fd = host.accept_within(2000);
+  ASSERT_GE(fd, 0);
+  Received r = read_for(fd, 2000);  // we never answer
+  EXPECT_TRUE(r.closed);
+  vc_link_stop(link);
+  close(fd);
+}
+
+TEST(Link, SendWhileDisconnectedIsCountedNotQueued) {
+  FakeHost host;
+  Sink sink;
+  close(host.lfd);  // nobody listens
+  host.lfd = socket(AF_INET, SOCK_STREAM, 0);
+  vc_link* link = start_link(host, sink);
+  uint8_t b[4] = {1, 2, 3, 4};
+  EXPECT_EQ(vc_link_send(link, b, 4), -ENOTCONN);
+  vc_link_stats st;
+  vc_link_get_stats(link, &st);
+  EXPECT_EQ(st.queue_dropped, 1u);
+  vc_link_stop(link);
+}
+
+}  // namespace
