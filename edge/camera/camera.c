@@ -230,7 +230,7 @@ int vc_camera_release(vc_camera* cam, vc_frame* frame) {
 
 int vc_camera_soft_trigger(vc_camera* cam, uint64_t seq, uint64_t t_ns) {
   if (!cam) return -EINVAL;
-  clear_error(cam);
+  /* may run on another thread than capture: leaves the error state alone unless it fails */
   if (!cam->be->soft_trigger)
     return vc_camera_set_error(cam, -ENOTSUP,
                                "no software trigger: a real camera is triggered by its trigger input");

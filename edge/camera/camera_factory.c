@@ -7,9 +7,11 @@
 
 static const vc_camera_backend* const backends[] = {
     &vc_camera_backend_v4l2,
+    &vc_camera_backend_libcamera,
+    &vc_camera_backend_file,
 };
 
-static const char* const names[] = {"v4l2", NULL};
+static const char* const names[] = {"v4l2", "libcamera", "file", NULL};
 
 const char* const* vc_camera_backend_names(void) { return names; }
 

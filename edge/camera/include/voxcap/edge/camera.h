@@ -18,7 +18,7 @@
  *   -ENOTSUP    format, size or feature not supported     -EBUSY    device in use; all frames held
  *   -ETIMEDOUT  the camera stopped delivering             -ENODATA  file backend: end of the sequence
  *   -EINVAL     bad configuration                         -EIO      driver or decoding error
- * A vc_camera is not thread-safe: one thread drives it.
+ * A vc_camera is not thread-safe: one thread drives it (vc_camera_soft_trigger excepted).
  */
 #ifndef VOXCAP_EDGE_CAMERA_H
 #define VOXCAP_EDGE_CAMERA_H
@@ -132,7 +132,8 @@ int vc_camera_capture(vc_camera* cam, int timeout_ms, vc_frame* frame);
 /* Returns a held frame's buffer; frame->rgb is invalid afterwards. */
 int vc_camera_release(vc_camera* cam, vc_frame* frame);
 /* Emulated external trigger (file, sim with external_trigger): the pulse `seq` fired at t_ns; the
- * next capture returns its frame. -ENOTSUP for real cameras, whose trigger is a wire. */
+ * next capture returns its frame. -ENOTSUP for real cameras, whose trigger is a wire. The one call
+ * that may come from another thread than the capturing one (the trigger input's). */
 int vc_camera_soft_trigger(vc_camera* cam, uint64_t seq, uint64_t t_ns);
 /* Stops streaming; held frames stay valid until released or the camera is freed. */
 int vc_camera_stop(vc_camera* cam);

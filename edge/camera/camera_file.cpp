@@ -1,0 +1,232 @@
+// The "file" camera backend: replays the image folders `voxcap sim --out DIR` writes —
+// DIR/cam<k>/<frame>.png, or DIR/background/cam<k>/<i>.png with `background` — through the C
+// vc_camera_backend interface. A C++17 shim because cv::imread is the PNG reader (BGR → RGB here).
+//
+// Frames are ordered by the number in their file name (zero padding or not). Two modes:
+//   free-running: frame i is stamped t0 + i·period (t0 = start time, period from fps, 60 Hz if unset);
+//     with `pace` the capture sleeps until that time, like a camera would;
+//   external_trigger: the emulated twin of a triggered sensor — each vc_camera_soft_trigger(seq, t)
+//     exposes frame (seq − seq_base), stamped t + trigger_latency_ns. soft_trigger may be called from
+//     another thread than capture (the trigger input's), the only cross-thread call of the interface.
+// At the end of the sequence: wrap around with `loop`, else -ENODATA.
+#include <dirent.h>
+#include <sys/stat.h>
+#include <time.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <condition_variable>
+#include <cstdlib>
+#include <cstring>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "voxcap/edge/camera_backend.h"
+#include "voxcap/edge/clock.h"
+
+namespace vc::edgecam {
+namespace {
+
+constexpr size_t kMaxPendingTriggers = 64;
+
+struct FileCamera {
+  std::string folder;
+  std::vector<std::pair<uint64_t, std::string>> frames;  // (number in the name, path), sorted
+  int width = 0, height = 0;
+  uint64_t period_ns = 0;
+  bool triggered = false, pace = false, loop = false;
+  int64_t latency_ns = 0;
+  uint64_t seq_base = 0;
+  uint64_t t0 = 0;
+  uint64_t next = 0;      // free-running: next frame ordinal
+  uint64_t sequence = 0;  // frames exposed so far (the "driver" counter); under mu when triggered
+
+  std::mutex mu;
+  std::condition_variable cv;
+  std::deque<std::pair<uint64_t, uint64_t>> triggers;  // (seq, t_ns)
+  uint64_t triggers_dropped = 0;
+};
+
+bool is_dir(const std::string& p) {
+  struct stat st;
+  return stat(p.c_str(), &st) == 0 && S_ISDIR(st.st_mode);
+}
+
+// Frames of a folder: files named <digits>.png, by number.
+std::vector<std::pair<uint64_t, std::string>> list_frames(const std::string& folder) {
+  std::vector<std::pair<uint64_t, std::string>> out;
+  DIR* d = opendir(folder.c_str());
+  if (!d) return out;
+  while (dirent* e = readdir(d)) {
+    std::string name = e->d_name;
+    if (name.size() < 5 || name.compare(name.size() - 4, 4, ".png") != 0) continue;
+    std::string stem = name.substr(0, name.size() - 4);
+    if (stem.empty() || stem.find_first_not_of("0123456789") != std::string::npos) continue;
+    out.emplace_back(std::strtoull(stem.c_str(), nullptr, 10), folder + "/" + name);
+  }
+  closedir(d);
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+// Reads a PNG into rgb (w x h, stride bytes per row). 0, -EIO (unreadable) or -ENOTSUP (size).
+int read_rgb(vc_camera* cam, const std::string& path, int w, int h, uint8_t* rgb, size_t stride) {
+  cv::Mat bgr = cv::imread(path, cv::IMREAD_COLOR);
+  if (bgr.empty()) return vc_camera_set_error(cam, -EIO, "cannot read image %s", path.c_str());
+  if (bgr.cols != w || bgr.rows != h)
+    return vc_camera_set_error(cam, -EIO, "%s is %dx%d, the sequence is %dx%d", path.c_str(), bgr.cols, bgr.rows, w,
+                               h);
+  cv::Mat out(h, w, CV_8UC3, rgb, stride);
+  cv::cvtColor(bgr, out, cv::COLOR_BGR2RGB);
+  return 0;
+}
+
+int file_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info, void** out) {
+  *out = nullptr;
+  if (!cfg->device || !cfg->device[0])
+    return vc_camera_set_error(cam, -EINVAL, "no folder given (the --out folder of `voxcap sim`)");
+  std::string dir = cfg->device;
+  if (!is_dir(dir)) return vc_camera_set_error(cam, -ENOENT, "no such folder");
+  auto f = std::make_unique<FileCamera>();
+  f->folder = dir + (cfg->background ? "/background" : "") + "/cam" + std::to_string(cfg->index);
+  if (!is_dir(f->folder))
+    return vc_camera_set_error(cam, -ENOENT, "no folder %s (is this a `voxcap sim --out` folder?)", f->folder.c_str());
+  f->frames = list_frames(f->folder);
+  if (f->frames.empty()) return vc_camera_set_error(cam, -ENOENT, "no <number>.png frames in %s", f->folder.c_str());
+  cv::Mat first = cv::imread(f->frames[0].second, cv::IMREAD_COLOR);
+  if (first.empty()) return vc_camera_set_error(cam, -EIO, "cannot read image %s", f->frames[0].second.c_str());
+  f->width = first.cols;
+  f->height = first.rows;
+  if (cfg->width > 0 && (cfg->width != f->width || cfg->height != f->height))
+    return vc_camera_set_error(cam, -ENOTSUP, "size %dx%d not supported (the images are %dx%d)", cfg->width,
+                               cfg->height, f->width, f->height);
+  if (cfg->n_controls) return vc_camera_set_error(cam, -ENOTSUP, "device controls are a v4l2 backend feature");
+  const uint32_t fps_num = cfg->fps_num ? cfg->fps_num : 60, fps_den = cfg->fps_num && cfg->fps_den ? cfg->fps_den : 1;
+  f->period_ns = 1000000000ull * fps_den / fps_num;
+  f->triggered = cfg->external_trigger;
+  f->pace = cfg->pace;
+  f->loop = cfg->loop;
+  f->latency_ns = cfg->trigger_latency_ns;
+  f->seq_base = cfg->seq_base;
+  info->width = f->width;
+  info->height = f->height;
+  info->pixfmt = VC_PIXFMT_RGB24;
+  info->fps_num = fps_num;
+  info->fps_den = fps_den;
+  info->buffers = 1;
+  snprintf(info->driver, sizeof info->driver, "%zu frames", f->frames.size());
+  *out = f.release();
+  return 0;
+}
+
+int file_start(vc_camera*, void* p) {
+  auto* f = static_cast<FileCamera*>(p);
+  f->t0 = vc_clock_monotonic_ns();
+  f->next = 0;
+  std::lock_guard<std::mutex> lock(f->mu);
+  f->triggers.clear();
+  return 0;
+}
+
+int file_stop(vc_camera*, void*) { return 0; }
+
+// Which frame ordinal `index` shows, honouring loop; false at the end of a non-looping sequence.
+bool frame_at(const FileCamera* f, uint64_t index, size_t* ordinal) {
+  if (index >= f->frames.size() && !f->loop) return false;
+  *ordinal = (size_t)(index % f->frames.size());
+  return true;
+}
+
+int file_capture(vc_camera* cam, void* p, int timeout_ms, uint8_t* rgb, size_t stride, vc_frame* meta) {
+  auto* f = static_cast<FileCamera*>(p);
+  uint64_t index, t_ns, sequence;
+  if (f->triggered) {
+    std::unique_lock<std::mutex> lock(f->mu);
+    auto ready = [&] { return !f->triggers.empty(); };
+    if (timeout_ms < 0)
+      f->cv.wait(lock, ready);
+    else if (!f->cv.wait_for(lock, std::chrono::milliseconds(timeout_ms), ready))
+      return vc_camera_set_error(cam, -ETIMEDOUT, "camera stopped delivering: no trigger within %d ms", timeout_ms);
+    auto [seq, t] = f->triggers.front();
+    f->triggers.pop_front();
+    sequence = f->sequence++;
+    lock.unlock();
+    if (seq < f->seq_base)
+      return vc_camera_set_error(cam, -EINVAL, "trigger seq %llu is below seq_base %llu", (unsigned long long)seq,
+                                 (unsigned long long)f->seq_base);
+    index = seq - f->seq_base;
+    t_ns = (uint64_t)((int64_t)t + f->latency_ns);
+  } else {
+    index = f->next;
+    sequence = f->sequence;
+    t_ns = f->t0 + index * f->period_ns;
+    if (f->pace) {
+      uint64_t now = vc_clock_monotonic_ns();
+      if (t_ns > now) {
+        if (timeout_ms >= 0 && t_ns - now > (uint64_t)timeout_ms * 1000000ull) {
+          struct timespec ts = {timeout_ms / 1000, (long)(timeout_ms % 1000) * 1000000L};
+          nanosleep(&ts, nullptr);
+          return vc_camera_set_error(cam, -ETIMEDOUT, "camera stopped delivering: no frame within %d ms", timeout_ms);
+        }
+        struct timespec ts = {(time_t)(t_ns / 1000000000ull), (long)(t_ns % 1000000000ull)};
+        while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
+        }
+      }
+    }
+  }
+  size_t ordinal;
+  if (!frame_at(f, index, &ordinal))
+    return vc_camera_set_error(cam, -ENODATA, "end of the sequence (%zu frames, asked for frame %llu)",
+                               f->frames.size(), (unsigned long long)index);
+  int rc = read_rgb(cam, f->frames[ordinal].second, f->width, f->height, rgb, stride);
+  if (rc) return rc;
+  if (!f->triggered) {
+    f->next++;
+    f->sequence++;
+  }
+  meta->t_ns = t_ns;
+  meta->sequence = sequence;
+  meta->index = f->frames[ordinal].first;
+  meta->flags = VC_FRAME_TS_SYNTH;
+  return 0;
+}
+
+int file_soft_trigger(vc_camera* cam, void* p, uint64_t seq, uint64_t t_ns) {
+  auto* f = static_cast<FileCamera*>(p);
+  if (!f->triggered)
+    return vc_camera_set_error(cam, -EINVAL, "soft trigger on a free-running camera (set external_trigger)");
+  {
+    std::lock_guard<std::mutex> lock(f->mu);
+    if (f->triggers.size() == kMaxPendingTriggers) {
+      f->triggers.pop_front();  // the oldest frame is lost, as on a sensor whose buffers are full
+      f->triggers_dropped++;
+      f->sequence++;
+    }
+    f->triggers.emplace_back(seq, t_ns);
+  }
+  f->cv.notify_one();
+  return 0;
+}
+
+void file_free(void* p) { delete static_cast<FileCamera*>(p); }
+
+}  // namespace
+}  // namespace vc::edgecam
+
+extern "C" const vc_camera_backend vc_camera_backend_file = {
+    "file",
+    vc::edgecam::file_open,
+    vc::edgecam::file_start,
+    vc::edgecam::file_capture,
+    vc::edgecam::file_stop,
+    vc::edgecam::file_free,
+    vc::edgecam::file_soft_trigger,
+};
