@@ -1,0 +1,41 @@
+/* Internal to vc_proto: payload layouts (SPEC.md "Messages") and the body checks shared by the
+ * encoders and the decoder, so both apply exactly the same rules. */
+#ifndef VOXCAP_PROTO_INTERNAL_H
+#define VOXCAP_PROTO_INTERNAL_H
+
+#include "voxcap/proto.h"
+
+/* Fixed parts and record sizes of version 1.0 payloads, in bytes. */
+#define VC_HELLO_FIXED 16
+#define VC_HELLO_CAMERA_SIZE 12
+#define VC_CONFIG_FIXED 78
+#define VC_CONFIG_CAMERA_SIZE 216
+#define VC_BACKGROUND_SIZE 4
+#define VC_HULL_FIXED 24
+#define VC_FEATURES_FIXED 6
+#define VC_FEATURE_SIZE 16
+#define VC_STATS_FIXED 8
+#define VC_STAGE_SIZE 12
+#define VC_COUNTER_SIZE 12
+#define VC_HEARTBEAT_SIZE 12
+#define VC_ERROR_FIXED 10
+
+#if defined(__GNUC__) || defined(__clang__)
+#define VC_PRINTF(fmt_idx, arg_idx) __attribute__((format(printf, fmt_idx, arg_idx)))
+#else
+#define VC_PRINTF(fmt_idx, arg_idx)
+#endif
+
+/* Records code and a formatted detail in diag (which may be NULL); returns code. */
+int vc_diag_set(vc_proto_diag *diag, int code, const char *fmt, ...) VC_PRINTF(3, 4);
+
+int vc_check_hello(const vc_hello *m, uint16_t header_node_id, vc_proto_diag *diag);
+int vc_check_config(const vc_config *m, vc_proto_diag *diag);
+/* Validates the RLE against the counts; *runs (may be NULL) receives the number of runs. */
+int vc_check_hull(const vc_hull *m, uint64_t *runs, vc_proto_diag *diag);
+int vc_check_features(const vc_features *m, vc_proto_diag *diag);
+int vc_check_stats(const vc_stats *m, vc_proto_diag *diag);
+int vc_check_heartbeat(const vc_heartbeat *m, vc_proto_diag *diag);
+int vc_check_error(const vc_error *m, vc_proto_diag *diag);
+
+#endif /* VOXCAP_PROTO_INTERNAL_H */
