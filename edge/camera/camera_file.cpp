@@ -2,26 +2,17 @@
 // DIR/cam<k>/<frame>.png, or DIR/background/cam<k>/<i>.png with `background` — through the C
 // vc_camera_backend interface. A C++17 shim because cv::imread is the PNG reader (BGR → RGB here).
 //
-// Frames are ordered by the number in their file name (zero padding or not). Two modes:
-//   free-running: frame i is stamped t0 + i·period (t0 = start time, period from fps, 60 Hz if unset);
-//     with `pace` the capture sleeps until that time, like a camera would;
-//   external_trigger: the emulated twin of a triggered sensor — each vc_camera_soft_trigger(seq, t)
-//     exposes frame (seq − seq_base), stamped t + trigger_latency_ns. soft_trigger may be called from
-//     another thread than capture (the trigger input's), the only cross-thread call of the interface.
-// At the end of the sequence: wrap around with `loop`, else -ENODATA.
+// Frames are ordered by the number in their file name (zero padding or not). Which frame is shown
+// when, free-running or triggered, is EmulatedTiming's (60 Hz unless fps is set). At the end of the
+// sequence: wrap around with `loop`, else -ENODATA.
 #include <dirent.h>
 #include <sys/stat.h>
-#include <time.h>
 
 #include <algorithm>
 #include <cerrno>
-#include <chrono>
-#include <condition_variable>
 #include <cstdlib>
 #include <cstring>
-#include <deque>
 #include <memory>
-#include <mutex>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -29,30 +20,18 @@
 #include <utility>
 #include <vector>
 
+#include "emulated_timing.hpp"
 #include "voxcap/edge/camera_backend.h"
-#include "voxcap/edge/clock.h"
 
 namespace vc::edgecam {
 namespace {
-
-constexpr size_t kMaxPendingTriggers = 64;
 
 struct FileCamera {
   std::string folder;
   std::vector<std::pair<uint64_t, std::string>> frames;  // (number in the name, path), sorted
   int width = 0, height = 0;
-  uint64_t period_ns = 0;
-  bool triggered = false, pace = false, loop = false;
-  int64_t latency_ns = 0;
-  uint64_t seq_base = 0;
-  uint64_t t0 = 0;
-  uint64_t next = 0;      // free-running: next frame ordinal
-  uint64_t sequence = 0;  // frames exposed so far (the "driver" counter); under mu when triggered
-
-  std::mutex mu;
-  std::condition_variable cv;
-  std::deque<std::pair<uint64_t, uint64_t>> triggers;  // (seq, t_ns)
-  uint64_t triggers_dropped = 0;
+  bool loop = false;
+  EmulatedTiming timing;
 };
 
 bool is_dir(const std::string& p) {
@@ -110,12 +89,8 @@ int file_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info,
                                cfg->height, f->width, f->height);
   if (cfg->n_controls) return vc_camera_set_error(cam, -ENOTSUP, "device controls are a v4l2 backend feature");
   const uint32_t fps_num = cfg->fps_num ? cfg->fps_num : 60, fps_den = cfg->fps_num && cfg->fps_den ? cfg->fps_den : 1;
-  f->period_ns = 1000000000ull * fps_den / fps_num;
-  f->triggered = cfg->external_trigger;
-  f->pace = cfg->pace;
+  f->timing.configure(*cfg, 1000000000ull / 60);
   f->loop = cfg->loop;
-  f->latency_ns = cfg->trigger_latency_ns;
-  f->seq_base = cfg->seq_base;
   info->width = f->width;
   info->height = f->height;
   info->pixfmt = VC_PIXFMT_RGB24;
@@ -128,11 +103,7 @@ int file_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info,
 }
 
 int file_start(vc_camera*, void* p) {
-  auto* f = static_cast<FileCamera*>(p);
-  f->t0 = vc_clock_monotonic_ns();
-  f->next = 0;
-  std::lock_guard<std::mutex> lock(f->mu);
-  f->triggers.clear();
+  static_cast<FileCamera*>(p)->timing.start();
   return 0;
 }
 
@@ -147,73 +118,25 @@ bool frame_at(const FileCamera* f, uint64_t index, size_t* ordinal) {
 
 int file_capture(vc_camera* cam, void* p, int timeout_ms, uint8_t* rgb, size_t stride, vc_frame* meta) {
   auto* f = static_cast<FileCamera*>(p);
-  uint64_t index, t_ns, sequence;
-  if (f->triggered) {
-    std::unique_lock<std::mutex> lock(f->mu);
-    auto ready = [&] { return !f->triggers.empty(); };
-    if (timeout_ms < 0)
-      f->cv.wait(lock, ready);
-    else if (!f->cv.wait_for(lock, std::chrono::milliseconds(timeout_ms), ready))
-      return vc_camera_set_error(cam, -ETIMEDOUT, "camera stopped delivering: no trigger within %d ms", timeout_ms);
-    auto [seq, t] = f->triggers.front();
-    f->triggers.pop_front();
-    sequence = f->sequence++;
-    lock.unlock();
-    if (seq < f->seq_base)
-      return vc_camera_set_error(cam, -EINVAL, "trigger seq %llu is below seq_base %llu", (unsigned long long)seq,
-                                 (unsigned long long)f->seq_base);
-    index = seq - f->seq_base;
-    t_ns = (uint64_t)((int64_t)t + f->latency_ns);
-  } else {
-    index = f->next;
-    sequence = f->sequence;
-    t_ns = f->t0 + index * f->period_ns;
-    if (f->pace) {
-      uint64_t now = vc_clock_monotonic_ns();
-      if (t_ns > now) {
-        if (timeout_ms >= 0 && t_ns - now > (uint64_t)timeout_ms * 1000000ull) {
-          struct timespec ts = {timeout_ms / 1000, (long)(timeout_ms % 1000) * 1000000L};
-          nanosleep(&ts, nullptr);
-          return vc_camera_set_error(cam, -ETIMEDOUT, "camera stopped delivering: no frame within %d ms", timeout_ms);
-        }
-        struct timespec ts = {(time_t)(t_ns / 1000000000ull), (long)(t_ns % 1000000000ull)};
-        while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
-        }
-      }
-    }
-  }
-  size_t ordinal;
-  if (!frame_at(f, index, &ordinal))
-    return vc_camera_set_error(cam, -ENODATA, "end of the sequence (%zu frames, asked for frame %llu)",
-                               f->frames.size(), (unsigned long long)index);
-  int rc = read_rgb(cam, f->frames[ordinal].second, f->width, f->height, rgb, stride);
+  EmulatedTiming::Shot shot;
+  int rc = f->timing.next(cam, timeout_ms, &shot);
   if (rc) return rc;
-  if (!f->triggered) {
-    f->next++;
-    f->sequence++;
-  }
-  meta->t_ns = t_ns;
-  meta->sequence = sequence;
+  size_t ordinal;
+  if (!frame_at(f, shot.index, &ordinal))
+    return vc_camera_set_error(cam, -ENODATA, "end of the sequence (%zu frames, asked for frame %llu)",
+                               f->frames.size(), (unsigned long long)shot.index);
+  rc = read_rgb(cam, f->frames[ordinal].second, f->width, f->height, rgb, stride);
+  if (rc) return rc;
+  f->timing.delivered();
+  meta->t_ns = shot.t_ns;
+  meta->sequence = shot.sequence;
   meta->index = f->frames[ordinal].first;
   meta->flags = VC_FRAME_TS_SYNTH;
   return 0;
 }
 
 int file_soft_trigger(vc_camera* cam, void* p, uint64_t seq, uint64_t t_ns) {
-  auto* f = static_cast<FileCamera*>(p);
-  if (!f->triggered)
-    return vc_camera_set_error(cam, -EINVAL, "soft trigger on a free-running camera (set external_trigger)");
-  {
-    std::lock_guard<std::mutex> lock(f->mu);
-    if (f->triggers.size() == kMaxPendingTriggers) {
-      f->triggers.pop_front();  // the oldest frame is lost, as on a sensor whose buffers are full
-      f->triggers_dropped++;
-      f->sequence++;
-    }
-    f->triggers.emplace_back(seq, t_ns);
-  }
-  f->cv.notify_one();
-  return 0;
+  return static_cast<FileCamera*>(p)->timing.soft_trigger(cam, seq, t_ns);
 }
 
 void file_free(void* p) { delete static_cast<FileCamera*>(p); }
