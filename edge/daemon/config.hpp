@@ -31,7 +31,7 @@ struct CameraSettings {
 struct EdgeSettings {
   int node_id = 0;
   std::string host = "127.0.0.1";
-  int port = 7700;
+  int port = 7600;
   std::array<CameraSettings, 2> cameras;
   std::string trigger_backend = "udp";  // udp | gpiod
   std::string trigger_bind = "127.0.0.1";

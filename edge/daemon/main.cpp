@@ -35,7 +35,7 @@ int main(int argc, char** argv) {
   app.add_option("-c,--config", config_path, "edge.toml to read (keys not given keep their defaults)");
   app.add_option("--node-id", node_id, "this node's id (overrides node_id)");
   app.add_option("--host", host, "host address (overrides host.address)");
-  app.add_option("--port", port, "host TCP port (overrides host.port; default 7700)");
+  app.add_option("--port", port, "host TCP port (overrides host.port; default 7600)");
   app.add_option("--trigger", trigger, "trigger input backend: udp | gpiod (overrides trigger.backend)");
   app.add_option("--trigger-port", trigger_port, "udp trigger port (overrides trigger.port; default 47000+node id)");
   app.add_option("--gpio-chip", gpio_chip, "gpiod: chip, e.g. gpiochip0 (overrides trigger.chip)");
