@@ -2,7 +2,8 @@
  * CMake compiles this file INSTEAD of trigger_gpiod.c when pkg-config finds libgpiod < 2; it cannot be
  * built on a v2 machine, so it is kept small and mirrors trigger_gpiod.c. The v1 API has no event
  * sequence numbers and no clock choice: pulses are counted here, and the timestamps are the kernel's
- * (CLOCK_MONOTONIC on kernels >= 5.7; REALTIME before, which event_clock = realtime converts). */
+ * (CLOCK_MONOTONIC on kernels >= 5.7; REALTIME before, which event_clock = realtime converts).
+ * Checked to compile against Debian bookworm's libgpiod-dev 1.6.3 headers (-fsyntax-only). */
 #define _GNU_SOURCE
 #include <errno.h>
 #include <gpiod.h>
@@ -58,7 +59,7 @@ static int gpiod_open(vc_trigger* trig, const vc_trigger_config* cfg, vc_trigger
   snprintf(src, sizeof src, "%s line %u", cfg->chip, gpiod_line_offset(g->line));
   vc_trigger_set_source(trig, src);
   if (cfg->active_low) flags |= GPIOD_LINE_REQUEST_FLAG_ACTIVE_LOW;
-  if (cfg->bias == VC_TRIGGER_BIAS_DISABLED) flags |= GPIOD_LINE_REQUEST_FLAG_BIAS_DISABLED;
+  if (cfg->bias == VC_TRIGGER_BIAS_DISABLED) flags |= GPIOD_LINE_REQUEST_FLAG_BIAS_DISABLE;
   if (cfg->bias == VC_TRIGGER_BIAS_PULL_UP) flags |= GPIOD_LINE_REQUEST_FLAG_BIAS_PULL_UP;
   if (cfg->bias == VC_TRIGGER_BIAS_PULL_DOWN) flags |= GPIOD_LINE_REQUEST_FLAG_BIAS_PULL_DOWN;
   if (cfg->debounce_us) {
