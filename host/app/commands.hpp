@@ -14,4 +14,7 @@ struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+// `voxcap bench ...` (cmd_bench.cpp).
+void add_bench_commands(CLI::App& app);
+
 }  // namespace vc::cli

@@ -13,6 +13,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "voxcap 0.1.0");
   app.require_subcommand(1, 1);
   // Subcommand groups register here (one line each).
+  vc::cli::add_bench_commands(app);
 
   try {
     app.parse(argc, argv);
