@@ -191,6 +191,26 @@ TEST_F(FileBackend, ClearErrors) {
   EXPECT_EQ(why_, "file: " + empty + ": no <number>.png frames in " + empty + "/cam0");
 }
 
+TEST_F(FileBackend, FramesAreOrderedByNumberWithoutPadding) {
+  fs::path d = dir_ / "unpadded";
+  fs::create_directories(d / "cam0");
+  for (int n : {10, 2, 1}) write(d / "cam0" / (std::to_string(n) + ".png"), colour(0, n));
+  std::string dev = d.string();
+  cfg_.device = dev.c_str();
+  ASSERT_EQ(open(), 0) << why_;
+  for (int pass = 0; pass < 2; pass++) {  // a restart begins again at the first frame
+    ASSERT_EQ(vc_camera_start(cam_), 0);
+    for (uint64_t want : {1u, 2u, 10u}) {
+      vc_frame f;
+      ASSERT_EQ(vc_camera_capture(cam_, 100, &f), 0) << vc_camera_last_error(cam_);
+      EXPECT_EQ(f.index, want);
+      EXPECT_EQ(f.rgb[f.stride], colour(0, (int)want)[0]);
+      vc_camera_release(cam_, &f);
+    }
+    ASSERT_EQ(vc_camera_stop(cam_), 0);
+  }
+}
+
 TEST_F(FileBackend, UnreadableFrameIsAnIoError) {
   FILE* f = fopen((dir_ / "cam0" / "000002.png").c_str(), "w");
   fputs("not a png", f);
