@@ -47,7 +47,7 @@ std::string error_of(const fs::path& p) {
   return "no error";
 }
 
-TEST(Calibration, RoundTripIsExact) {
+TEST(RigCalibration, RoundTripIsExact) {
   const Calibration in = sample();
   const fs::path p = temp_file("rig.yaml");
   write_calibration(p.string(), in);
@@ -71,7 +71,7 @@ TEST(Calibration, RoundTripIsExact) {
   EXPECT_EQ(out.grid->min_m, in.grid->min_m);
 }
 
-TEST(Calibration, ReadableByPlainFileStorage) {
+TEST(RigCalibration, ReadableByPlainFileStorage) {
   // Anyone with OpenCV can read the file without voxcap.
   const fs::path p = temp_file("plain.yaml");
   const Calibration in = sample();
@@ -84,7 +84,7 @@ TEST(Calibration, ReadableByPlainFileStorage) {
   EXPECT_EQ(K.at<double>(0, 0), in.cameras[1].K(0, 0));
 }
 
-TEST(Calibration, AcceptsRvecAndFourDistortionCoefficientsWithoutGrid) {
+TEST(RigCalibration, AcceptsRvecAndFourDistortionCoefficientsWithoutGrid) {
   const fs::path p = temp_file("rvec.yaml");
   write_text(p, R"(%YAML:1.0
 ---
@@ -111,7 +111,7 @@ cam0:
   EXPECT_FALSE(c.grid.has_value());
 }
 
-TEST(Calibration, ErrorsNameTheFileAndTheNode) {
+TEST(RigCalibration, ErrorsNameTheFileAndTheNode) {
   EXPECT_THAT(error_of(temp_file("does-not-exist.yaml")), HasSubstr("no such file"));
 
   const fs::path p = temp_file("bad.yaml");
@@ -162,7 +162,7 @@ TEST(Calibration, ErrorsNameTheFileAndTheNode) {
   EXPECT_THAT(error_of(p), HasSubstr("cam0.dist: only k1 k2 p1 p2 k3"));
 }
 
-TEST(Calibration, WriteRefusesInvalidCalibrations) {
+TEST(RigCalibration, WriteRefusesInvalidCalibrations) {
   Calibration c = sample();
   c.cameras[2].K(1, 1) = 0;
   EXPECT_THROW(write_calibration(temp_file("x.yaml").string(), c), std::runtime_error);

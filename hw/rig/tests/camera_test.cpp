@@ -29,9 +29,9 @@ std::vector<cv::Point3d> random_points(std::mt19937& rng, int n) {
   return pts;
 }
 
-class CameraProjection : public ::testing::TestWithParam<bool> {};
+class RigCameraProjection : public ::testing::TestWithParam<bool> {};
 
-TEST_P(CameraProjection, MatchesCvProjectPoints) {
+TEST_P(RigCameraProjection, MatchesCvProjectPoints) {
   std::mt19937 rng(42);
   for (int c = 0; c < 20; ++c) {
     const Camera cam = random_camera(rng, GetParam());
@@ -50,7 +50,7 @@ TEST_P(CameraProjection, MatchesCvProjectPoints) {
   }
 }
 
-TEST_P(CameraProjection, RayThroughProjectedPixelPassesThroughThePoint) {
+TEST_P(RigCameraProjection, RayThroughProjectedPixelPassesThroughThePoint) {
   std::mt19937 rng(7);
   for (int c = 0; c < 10; ++c) {
     const Camera cam = random_camera(rng, GetParam());
@@ -63,10 +63,10 @@ TEST_P(CameraProjection, RayThroughProjectedPixelPassesThroughThePoint) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Distortion, CameraProjection, ::testing::Values(false, true),
+INSTANTIATE_TEST_SUITE_P(RigDistortion, RigCameraProjection, ::testing::Values(false, true),
                          [](const ::testing::TestParamInfo<bool>& p) { return p.param ? "distorted" : "pinhole"; });
 
-TEST(Camera, LookAtPutsTargetAtPrincipalPointAndUpUp) {
+TEST(RigCamera, LookAtPutsTargetAtPrincipalPointAndUpUp) {
   const Camera cam = Camera::look_at("front", 640, 480, 500, {0, -4, 2}, {0, 0, 1});
   ASSERT_TRUE(cam.valid(nullptr));
   const cv::Point2d c = cam.project({0, 0, 1});
@@ -79,7 +79,7 @@ TEST(Camera, LookAtPutsTargetAtPrincipalPointAndUpUp) {
   EXPECT_GT(cam.to_cam({0, 0, 1})[2], 0);
 }
 
-TEST(Camera, ProjectionMatrixAgreesWithoutDistortion) {
+TEST(RigCamera, ProjectionMatrixAgreesWithoutDistortion) {
   const Camera cam = Camera::look_at("c", 320, 240, 300, {3, 1, 2}, {0, 0, 1});
   const cv::Matx34d P = cam.projection_matrix();
   const cv::Vec3d p(0.3, -0.2, 1.4);
@@ -89,7 +89,7 @@ TEST(Camera, ProjectionMatrixAgreesWithoutDistortion) {
   EXPECT_NEAR(h[1] / h[2], px.y, 1e-9);
 }
 
-TEST(Camera, InImageUsesPixelCentreConvention) {
+TEST(RigCamera, InImageUsesPixelCentreConvention) {
   Camera cam = Camera::look_at("c", 10, 8, 10, {0, -4, 2}, {0, 0, 1});
   EXPECT_TRUE(cam.in_image({-0.5, -0.5}));
   EXPECT_TRUE(cam.in_image({9.49, 7.49}));
@@ -97,7 +97,7 @@ TEST(Camera, InImageUsesPixelCentreConvention) {
   EXPECT_FALSE(cam.in_image({3, -0.51}));
 }
 
-TEST(Camera, ValidRejectsBadModels) {
+TEST(RigCamera, ValidRejectsBadModels) {
   const Camera good = Camera::look_at("c", 640, 480, 500, {0, -4, 2}, {0, 0, 1});
   std::string why;
   ASSERT_TRUE(good.valid(&why)) << why;

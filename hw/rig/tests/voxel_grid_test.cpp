@@ -17,7 +17,7 @@ VoxelGrid small_grid() {
   return g;
 }
 
-TEST(VoxelGrid, CentreIndexAndCountFollowTheDesignConvention) {
+TEST(RigVoxelGrid, CentreIndexAndCountFollowTheDesignConvention) {
   const VoxelGrid g = small_grid();
   ASSERT_TRUE(g.valid(nullptr));
   EXPECT_EQ(g.count(), 96u);
@@ -34,7 +34,7 @@ TEST(VoxelGrid, CentreIndexAndCountFollowTheDesignConvention) {
   EXPECT_LT(cv::norm(g.max_m() - cv::Vec3d(1.0, 0.5, 0.75)), 1e-12);
 }
 
-TEST(VoxelGrid, LocateInvertsCenter) {
+TEST(RigVoxelGrid, LocateInvertsCenter) {
   const VoxelGrid g = small_grid();
   for (int k = 0; k < g.nz; ++k) {
     for (int j = 0; j < g.ny; ++j) {
@@ -52,7 +52,7 @@ TEST(VoxelGrid, LocateInvertsCenter) {
   EXPECT_FALSE(g.locate({0, 0, -0.01}, &a, &b, &c));
 }
 
-TEST(VoxelGrid, CoveringContainsTheBoxAndIsCentred) {
+TEST(RigVoxelGrid, CoveringContainsTheBoxAndIsCentred) {
   const VoxelGrid g = VoxelGrid::covering({-1.25, -1.25, 0}, {1.25, 1.25, 2.2}, 0.02);
   ASSERT_TRUE(g.valid(nullptr));
   EXPECT_EQ(g.nx, 125);
@@ -67,7 +67,7 @@ TEST(VoxelGrid, CoveringContainsTheBoxAndIsCentred) {
   EXPECT_NEAR(h.min_m[0] + h.max_m()[0], 1.0, 1e-12);
 }
 
-TEST(VoxelGrid, BitHelpersAreLsbFirst) {
+TEST(RigVoxelGrid, BitHelpersAreLsbFirst) {
   std::vector<std::uint8_t> bits(2, 0);
   hull_set(bits.data(), 0);
   hull_set(bits.data(), 9);
@@ -77,7 +77,7 @@ TEST(VoxelGrid, BitHelpersAreLsbFirst) {
   EXPECT_FALSE(hull_bit(bits.data(), 8));
 }
 
-TEST(VoxelGrid, ValidRejectsBadGrids) {
+TEST(RigVoxelGrid, ValidRejectsBadGrids) {
   std::string why;
   VoxelGrid g = small_grid();
   g.voxel_m = 0;

@@ -1,0 +1,89 @@
+// Motions that drive the performer: built-in procedural motions on the standard skeleton, or a
+// BVH clip mapped onto the standard joints. Every motion starts with the initialization pose of
+// the method (facing the front cameras at -y, legs together, arms spread horizontally), held for
+// lead_hold_s and blended (slerp per joint) into the motion over lead_blend_s.
+#pragma once
+
+#include <array>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "voxcap/sim/body.hpp"
+#include "voxcap/sim/skeleton.hpp"
+
+namespace vc::sim {
+
+struct MotionOptions {
+  std::string source = "walk";  // a built-in name (builtin_motion_names()) or a path ending in .bvh
+  double fps = 60;              // output (camera) rate; frame f is at t = f / fps
+  double lead_hold_s = 1.0;     // initialization pose
+  double lead_blend_s = 0.5;    // blend into the motion's first pose
+  double bvh_frame_time_s = 0;  // 0: the file's (see README: CMU subjects captured at 60 fps)
+  double bvh_scale = 0;         // metres per BVH unit; 0: by naming convention (README)
+  bool loop = false;            // BVH: loop the clip instead of holding its last frame
+
+  bool valid(std::string* why) const;
+};
+
+// How a BVH clip was placed in the world:
+//   p_world = R_world_from_file * (scale * p_file) + t_world_m
+// for every joint position p_file of the file's own forward kinematics, and the clip's frame
+// first_frame + tau / frame_time_s is shown at clip time tau.
+struct BvhMapping {
+  std::string convention;    // "cgspeed-motionbuilder", "cgspeed-3dsmax" or "generic"
+  double scale = 1;          // metres per file unit
+  cv::Matx33d R_world_from_file = cv::Matx33d::eye();
+  cv::Vec3d t_world_m{0, 0, 0};
+  double frame_time_s = 0;   // the one used
+  int first_frame = 0;       // 1 when frame 0 is a converter's synthetic T-pose
+  int frames = 0;            // frames in the file
+  // Per standard joint: the file joint whose position it is, or -1 when derived (head is the
+  // midpoint of the Head joint and its End Site, head_top and the hand tips are placed from the
+  // head and wrist frames with the body description's sizes).
+  std::array<int, kJointCount> file_joint{};
+  std::array<std::string, kJointCount> file_joint_name{};
+};
+
+class Motion {
+ public:
+  // Throws std::invalid_argument for an unknown built-in name or invalid options, and
+  // std::runtime_error for an unreadable or non-humanoid BVH (message names the file).
+  static Motion create(const MotionOptions& options, const BodyDescription& body);
+
+  const std::string& name() const;
+  double fps() const;
+  int lead_in_frames() const;    // frames before the motion proper (hold + blend)
+  int natural_frames() const;    // lead-in + the clip (BVH) or + one cycle (built-in)
+  // The body's pose at a frame (any frame >= 0; BVH clips hold their last frame or loop).
+  BodyPose body_pose(int frame) const;
+  // The underlying skeleton (metres, world-aligned root) and its pose.
+  const Skeleton& skeleton() const;
+  Pose skeleton_pose(int frame) const;
+  const FootGeometry& feet() const;
+  const BodyDescription& body() const;
+  // nullptr for built-in motions.
+  const BvhMapping* bvh() const;
+  // BVH clip time at a frame (seconds from first_frame; negative during the lead-in).
+  double clip_time(int frame) const;
+
+  struct Impl;
+
+ private:
+  explicit Motion(std::shared_ptr<const Impl> impl) : impl_(std::move(impl)) {}
+  std::shared_ptr<const Impl> impl_;
+};
+
+struct BuiltinMotion {
+  std::string name;
+  std::string description;
+  double cycle_s;  // one cycle of the motion (after the lead-in)
+};
+const std::vector<BuiltinMotion>& builtin_motions();
+
+// The standard skeleton of the built-in motions: one joint per Joint (same index), offsets from
+// the body description in the initialization pose (world axes: x left of the performer, -y
+// forward, z up); head_top and the hand tips are End Sites.
+Skeleton standard_skeleton(const BodyDescription& body);
+
+}  // namespace vc::sim

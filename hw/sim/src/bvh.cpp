@@ -1,0 +1,334 @@
+// BVH reader and writer. The reader is a bounds-checked tokenizer over the whole text (it is fed
+// user files and is fuzzed): HIERARCHY with ROOT/JOINT/End Site blocks, OFFSET and CHANNELS per
+// joint, then MOTION with "Frames:", "Frame Time:" and frames * channels numbers. Channel order is
+// kept per joint, exactly as written, because real files mix orders (ZYX legs with ZXY arms).
+#include "voxcap/sim/bvh.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+
+namespace vc::sim {
+namespace {
+
+constexpr int kMaxJoints = 4096;
+constexpr long kMaxFrames = 50'000'000;
+
+class Lexer {
+ public:
+  Lexer(std::string_view text, const std::string& source) : text_(text), source_(source) {}
+
+  [[noreturn]] void fail(const std::string& what) const {
+    throw std::runtime_error(source_ + ":" + std::to_string(line_) + ": " + what);
+  }
+
+  bool at_end() {
+    skip_space();
+    return pos_ >= text_.size();
+  }
+
+  std::string_view token() {
+    skip_space();
+    if (pos_ >= text_.size()) fail("unexpected end of file");
+    const std::size_t start = pos_;
+    while (pos_ < text_.size() && !is_space(text_[pos_])) ++pos_;
+    return text_.substr(start, pos_ - start);
+  }
+
+  std::string_view peek() {
+    const std::size_t save_pos = pos_;
+    const int save_line = line_;
+    skip_space();
+    std::string_view t;
+    if (pos_ < text_.size()) t = token();
+    pos_ = save_pos;
+    line_ = save_line;
+    return t;
+  }
+
+  void expect(std::string_view want) {
+    const std::string_view got = token();
+    if (got != want) fail("expected '" + std::string(want) + "', got '" + std::string(got) + "'");
+  }
+
+  // The rest of the current line, trimmed (joint names may contain spaces or colons).
+  std::string rest_of_line() {
+    while (pos_ < text_.size() && (text_[pos_] == ' ' || text_[pos_] == '\t')) ++pos_;
+    const std::size_t start = pos_;
+    while (pos_ < text_.size() && text_[pos_] != '\n' && text_[pos_] != '\r') ++pos_;
+    std::size_t end = pos_;
+    while (end > start && (text_[end - 1] == ' ' || text_[end - 1] == '\t')) --end;
+    return std::string(text_.substr(start, end - start));
+  }
+
+  double number() {
+    const std::string_view t = token();
+    double v = 0;
+    const char* first = t.data();
+    const char* last = t.data() + t.size();
+    if (first != last && *first == '+') ++first;
+    const auto [ptr, ec] = std::from_chars(first, last, v);
+    if (ec != std::errc() || ptr != last || !std::isfinite(v)) {
+      fail("expected a number, got '" + std::string(t.substr(0, 40)) + "'");
+    }
+    return v;
+  }
+
+  long integer() {
+    const std::string_view t = token();
+    long v = 0;
+    const auto [ptr, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
+    if (ec != std::errc() || ptr != t.data() + t.size()) {
+      fail("expected an integer, got '" + std::string(t.substr(0, 40)) + "'");
+    }
+    return v;
+  }
+
+  std::size_t remaining() const { return text_.size() - pos_; }
+
+ private:
+  static bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; }
+  void skip_space() {
+    while (pos_ < text_.size() && is_space(text_[pos_])) {
+      if (text_[pos_] == '\n') ++line_;
+      ++pos_;
+    }
+  }
+
+  std::string_view text_;
+  const std::string& source_;
+  std::size_t pos_ = 0;
+  int line_ = 1;
+};
+
+BvhChannel parse_channel(Lexer& lx) {
+  const std::string_view t = lx.token();
+  if (t == "Xposition") return BvhChannel::Xposition;
+  if (t == "Yposition") return BvhChannel::Yposition;
+  if (t == "Zposition") return BvhChannel::Zposition;
+  if (t == "Xrotation") return BvhChannel::Xrotation;
+  if (t == "Yrotation") return BvhChannel::Yrotation;
+  if (t == "Zrotation") return BvhChannel::Zrotation;
+  lx.fail("unknown channel '" + std::string(t.substr(0, 40)) + "'");
+}
+
+cv::Vec3d parse_offset(Lexer& lx) {
+  lx.expect("OFFSET");
+  const double x = lx.number(), y = lx.number(), z = lx.number();
+  return {x, y, z};
+}
+
+// Parses the block after "ROOT name" / "JOINT name" (the name already read).
+void parse_joint(Lexer& lx, BvhClip& clip, const std::string& name, int parent, int depth) {
+  if (depth > 256) lx.fail("hierarchy nested too deeply");
+  if (static_cast<int>(clip.skeleton.joints.size()) >= kMaxJoints) lx.fail("too many joints");
+  const int index = static_cast<int>(clip.skeleton.joints.size());
+  clip.skeleton.joints.push_back({name, parent, {0, 0, 0}, false});
+  clip.channels.emplace_back();
+  clip.first_channel.push_back(clip.channel_count);
+  lx.expect("{");
+  clip.skeleton.joints[static_cast<std::size_t>(index)].offset = parse_offset(lx);
+  if (lx.peek() == "CHANNELS") {
+    lx.token();
+    const long n = lx.integer();
+    if (n < 0 || n > 6) lx.fail("CHANNELS count must be 0..6");
+    for (long i = 0; i < n; ++i) clip.channels[static_cast<std::size_t>(index)].push_back(parse_channel(lx));
+    clip.channel_count += static_cast<int>(n);
+  }
+  for (;;) {
+    const std::string_view t = lx.token();
+    if (t == "}") return;
+    if (t == "JOINT") {
+      const std::string child = lx.rest_of_line();
+      if (child.empty()) lx.fail("JOINT without a name");
+      parse_joint(lx, clip, child, index, depth + 1);
+    } else if (t == "End") {
+      lx.expect("Site");
+      if (static_cast<int>(clip.skeleton.joints.size()) >= kMaxJoints) lx.fail("too many joints");
+      lx.expect("{");
+      const cv::Vec3d off = parse_offset(lx);
+      lx.expect("}");
+      clip.skeleton.joints.push_back({name + "_end", index, off, true});
+      clip.channels.emplace_back();
+      clip.first_channel.push_back(clip.channel_count);
+    } else {
+      lx.fail("expected JOINT, End Site or '}', got '" + std::string(t.substr(0, 40)) + "'");
+    }
+  }
+}
+
+cv::Matx33d axis_rotation(BvhChannel c, double degrees) {
+  const double a = degrees * M_PI / 180.0;
+  switch (c) {
+    case BvhChannel::Xrotation: return rot_x(a);
+    case BvhChannel::Yrotation: return rot_y(a);
+    default: return rot_z(a);
+  }
+}
+
+}  // namespace
+
+BvhClip parse_bvh(std::string_view text, const std::string& source_name) {
+  Lexer lx(text, source_name);
+  BvhClip clip;
+  lx.expect("HIERARCHY");
+  lx.expect("ROOT");
+  const std::string root = lx.rest_of_line();
+  if (root.empty()) lx.fail("ROOT without a name");
+  parse_joint(lx, clip, root, -1, 0);
+  const std::string_view after = lx.token();
+  if (after == "ROOT") lx.fail("more than one ROOT is not supported");
+  if (after != "MOTION") lx.fail("expected MOTION, got '" + std::string(after.substr(0, 40)) + "'");
+  lx.expect("Frames:");
+  const long frames = lx.integer();
+  if (frames < 0 || frames > kMaxFrames) lx.fail("Frames: out of range");
+  lx.expect("Frame");
+  lx.expect("Time:");
+  {
+    const std::string_view t = lx.peek();
+    const auto dot = t.find('.');
+    if (dot != std::string_view::npos) {
+      std::size_t e = dot + 1;
+      while (e < t.size() && t[e] >= '0' && t[e] <= '9') ++e;
+      clip.frame_time_decimals = static_cast<int>(e - dot - 1);
+    }
+  }
+  clip.frame_time_s = lx.number();
+  if (!(clip.frame_time_s > 0) || clip.frame_time_s > 10) lx.fail("Frame Time: must be in (0, 10] seconds");
+  clip.frames = static_cast<int>(frames);
+  const std::size_t count = static_cast<std::size_t>(frames) * static_cast<std::size_t>(clip.channel_count);
+  // Every value takes at least two bytes ("0 "), so a count the text cannot hold is an error
+  // before any allocation.
+  if (count > lx.remaining() / 2 + 1) lx.fail("Frames x channels is larger than the file holds");
+  clip.values.reserve(count);
+  for (std::size_t i = 0; i < count; ++i) clip.values.push_back(lx.number());
+  if (!lx.at_end()) lx.fail("more values than Frames x channels");
+  std::string why;
+  if (!clip.skeleton.valid(&why)) lx.fail(why);
+  return clip;
+}
+
+BvhClip read_bvh(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) throw std::runtime_error(path + ": read error");
+  return parse_bvh(ss.str(), path);
+}
+
+Pose BvhClip::pose(int frame, double scale) const {
+  if (frame < 0 || frame >= frames) throw std::out_of_range("BvhClip::pose: frame out of range");
+  const double* v = frame_values(frame);
+  const std::size_t n = skeleton.joints.size();
+  Pose pose;
+  pose.local.assign(n, cv::Matx33d::eye());
+  bool any_translation = false;
+  std::vector<cv::Vec3d> translation(n, cv::Vec3d(0, 0, 0));
+  for (std::size_t j = 0; j < n; ++j) {
+    const double* jv = v + first_channel[j];
+    cv::Matx33d R = cv::Matx33d::eye();
+    cv::Vec3d t(0, 0, 0);
+    for (std::size_t c = 0; c < channels[j].size(); ++c) {
+      switch (channels[j][c]) {
+        case BvhChannel::Xposition: t[0] = jv[c] * scale; break;
+        case BvhChannel::Yposition: t[1] = jv[c] * scale; break;
+        case BvhChannel::Zposition: t[2] = jv[c] * scale; break;
+        default: R = R * axis_rotation(channels[j][c], jv[c]); break;
+      }
+    }
+    pose.local[j] = R;
+    if (j == 0) {
+      pose.root_position = t;
+    } else if (t != cv::Vec3d(0, 0, 0)) {
+      translation[j] = t;
+      any_translation = true;
+    }
+  }
+  if (any_translation) pose.translation = std::move(translation);
+  return pose;
+}
+
+Skeleton BvhClip::scaled_skeleton(double scale) const {
+  Skeleton s = skeleton;
+  for (auto& j : s.joints) j.offset *= scale;
+  return s;
+}
+
+std::string format_bvh(const Skeleton& skeleton, const std::vector<Pose>& poses, double frame_time_s) {
+  std::string why;
+  if (!skeleton.valid(&why)) throw std::invalid_argument("format_bvh: " + why);
+  const std::size_t n = skeleton.joints.size();
+  std::string out = "HIERARCHY\n";
+  char buf[160];
+  // Depth-first in index order (parents precede children, so children lists are in order).
+  std::vector<std::vector<int>> kids(n);
+  for (std::size_t j = 1; j < n; ++j) kids[static_cast<std::size_t>(skeleton.joints[j].parent)].push_back(static_cast<int>(j));
+  std::vector<int> order;  // joints with channels, in the order they appear in the file
+  auto emit = [&](auto&& self, int j, int depth) -> void {
+    const SkeletonJoint& jt = skeleton.joints[static_cast<std::size_t>(j)];
+    const std::string ind(static_cast<std::size_t>(depth), '\t');
+    if (jt.end_site) {
+      out += ind + "End Site\n" + ind + "{\n";
+      std::snprintf(buf, sizeof buf, "%s\tOFFSET %.6f %.6f %.6f\n", ind.c_str(), jt.offset[0], jt.offset[1], jt.offset[2]);
+      out += buf;
+      out += ind + "}\n";
+      return;
+    }
+    out += ind + (j == 0 ? "ROOT " : "JOINT ") + jt.name + "\n" + ind + "{\n";
+    std::snprintf(buf, sizeof buf, "%s\tOFFSET %.6f %.6f %.6f\n", ind.c_str(), jt.offset[0], jt.offset[1], jt.offset[2]);
+    out += buf;
+    out += ind + (j == 0 ? "\tCHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation\n"
+                         : "\tCHANNELS 3 Zrotation Yrotation Xrotation\n");
+    order.push_back(j);
+    const auto& ch = kids[static_cast<std::size_t>(j)];
+    if (ch.empty()) {
+      // BVH wants every chain to end in an End Site.
+      out += ind + "\tEnd Site\n" + ind + "\t{\n" + ind + "\t\tOFFSET 0.000000 0.000000 0.000000\n" + ind + "\t}\n";
+    }
+    for (int c : ch) self(self, c, depth + 1);
+    out += ind + "}\n";
+  };
+  if (skeleton.joints[0].end_site) throw std::invalid_argument("format_bvh: the root cannot be an End Site");
+  emit(emit, 0, 0);
+  out += "MOTION\n";
+  out += "Frames: " + std::to_string(poses.size()) + "\n";
+  std::snprintf(buf, sizeof buf, "Frame Time: %.9f\n", frame_time_s);
+  out += buf;
+  for (const Pose& pose : poses) {
+    if (pose.local.size() != n) throw std::invalid_argument("format_bvh: pose of another skeleton");
+    for (std::size_t j = 1; j < pose.translation.size(); ++j) {
+      if (pose.translation[j] != cv::Vec3d(0, 0, 0)) {
+        throw std::invalid_argument("format_bvh: joint translations are not representable");
+      }
+    }
+    std::string line;
+    for (std::size_t i = 0; i < order.size(); ++i) {
+      const int j = order[i];
+      if (j == 0) {
+        std::snprintf(buf, sizeof buf, "%.6f %.6f %.6f ", pose.root_position[0], pose.root_position[1], pose.root_position[2]);
+        line += buf;
+      }
+      const cv::Vec3d e = euler_from_matrix("ZYX", pose.local[static_cast<std::size_t>(j)]);
+      std::snprintf(buf, sizeof buf, "%.6f %.6f %.6f", e[0], e[1], e[2]);
+      line += buf;
+      line += i + 1 < order.size() ? " " : "\n";
+    }
+    out += line;
+  }
+  return out;
+}
+
+void write_bvh(const std::string& path, const Skeleton& skeleton, const std::vector<Pose>& poses,
+               double frame_time_s) {
+  const std::string text = format_bvh(skeleton, poses, frame_time_s);
+  std::ofstream f(path, std::ios::binary);
+  if (!f) throw std::runtime_error(path + ": cannot open for writing");
+  f << text;
+  if (!f) throw std::runtime_error(path + ": write error");
+}
+
+}  // namespace vc::sim
