@@ -9,9 +9,10 @@ static const vc_camera_backend* const backends[] = {
     &vc_camera_backend_v4l2,
     &vc_camera_backend_libcamera,
     &vc_camera_backend_file,
+    &vc_camera_backend_sim,
 };
 
-static const char* const names[] = {"v4l2", "libcamera", "file", NULL};
+static const char* const names[] = {"v4l2", "libcamera", "file", "sim", NULL};
 
 const char* const* vc_camera_backend_names(void) { return names; }
 

@@ -135,7 +135,7 @@ TEST(CameraFactory, SelectsByNameAndRejectsUnknown) {
   const char* const* names = vc_camera_backend_names();
   std::vector<std::string> got;
   for (; *names; names++) got.emplace_back(*names);
-  EXPECT_EQ(got, (std::vector<std::string>{"v4l2", "libcamera", "file"}));
+  EXPECT_EQ(got, (std::vector<std::string>{"v4l2", "libcamera", "file", "sim"}));
   vc_camera_config cfg;
   vc_camera_config_init(&cfg);
   vc_camera* cam = nullptr;
