@@ -200,10 +200,11 @@ static inline uint8_t u8min(uint8_t a, uint8_t b) { return a < b ? a : b; }
 /* Pass A over one row: out[i] = 0 (background), 1 (band) or 0xFF (foreground). Written as min/max
  * byte arithmetic so that gcc and clang both vectorise the first loop; the second loop folds the
  * three channel codes of each pixel (a stride-3 gather, vectorised where the ISA has byte shuffles). */
-VC_HOT void classify_row_body(const uint8_t *restrict px, const uint8_t *restrict mean,
-                              const uint8_t *restrict tu, const uint8_t *restrict tl,
-                              uint8_t *restrict out, int n) {
+VC_HOT uint8_t classify_row_body(const uint8_t *restrict px, const uint8_t *restrict mean,
+                                 const uint8_t *restrict tu, const uint8_t *restrict tl,
+                                 uint8_t *restrict out, int n) {
   uint8_t code[3 * VC_CHUNK];
+  uint8_t any_band = 0; /* nonzero when some pixel of the row is in the band (value 1) */
   for (int x0 = 0; x0 < n; x0 += VC_CHUNK) {
     const int len = n - x0 < VC_CHUNK ? n - x0 : VC_CHUNK;
     const int nb = 3 * len;
@@ -218,47 +219,56 @@ VC_HOT void classify_row_body(const uint8_t *restrict px, const uint8_t *restric
       code[b] = (uint8_t)(u8min(over_l, 1) | (uint8_t)(0u - u8min(over_u, 1)));
     }
     uint8_t *restrict o = out + x0;
-    for (int i = 0; i < len; i++) o[i] = (uint8_t)(code[3 * i] | code[3 * i + 1] | code[3 * i + 2]);
+    for (int i = 0; i < len; i++) {
+      uint8_t v = (uint8_t)(code[3 * i] | code[3 * i + 1] | code[3 * i + 2]);
+      o[i] = v;
+      any_band |= (uint8_t)(v & (uint8_t)~(v >> 1) & 1u); /* 1 only for the band value 0x01 */
+    }
   }
+  return any_band;
 }
 
-static void classify_row_generic(const uint8_t *restrict px, const uint8_t *restrict mean,
-                                 const uint8_t *restrict tu, const uint8_t *restrict tl,
-                                 uint8_t *restrict out, int n) {
-  classify_row_body(px, mean, tu, tl, out, n);
+static uint8_t classify_row_generic(const uint8_t *restrict px, const uint8_t *restrict mean,
+                                    const uint8_t *restrict tu, const uint8_t *restrict tl,
+                                    uint8_t *restrict out, int n) {
+  return classify_row_body(px, mean, tu, tl, out, n);
 }
 
 #if VC_HAVE_AVX2_VARIANT
-VC_TARGET_AVX2 static void classify_row_avx2(const uint8_t *restrict px, const uint8_t *restrict mean,
-                                             const uint8_t *restrict tu, const uint8_t *restrict tl,
-                                             uint8_t *restrict out, int n) {
-  classify_row_body(px, mean, tu, tl, out, n);
+VC_TARGET_AVX2 static uint8_t classify_row_avx2(const uint8_t *restrict px, const uint8_t *restrict mean,
+                                                const uint8_t *restrict tu, const uint8_t *restrict tl,
+                                                uint8_t *restrict out, int n) {
+  return classify_row_body(px, mean, tu, tl, out, n);
 }
 #endif
 
 /* Pass B: eq. 2 for the band pixels of one row (out[i] == 1). The row is scanned 8 bytes at a time;
- * a band byte (0x01) is the only value whose bit 0 differs from its bit 1 (0x00 and 0xFF do not). */
+ * a band byte (0x01) is the only value whose bit 0 differs from its bit 1 (0x00 and 0xFF do not), so
+ * (w ^ w >> 1) & 0x01..01 marks them, and count-trailing-zeros walks the marks without a branch per
+ * pixel. Words without band pixels (the vast majority) cost a load and a test. */
 static void shadow_row(const vc_bgmodel *m, const uint8_t *px, const uint8_t *mean, uint8_t *out, int n,
                        vc_subtract_stats *stats) {
   const uint64_t lsb = 0x0101010101010101ull;
   uint32_t band = 0, shadow = 0;
+  const uint64_t c2 = m->c2_q24, glo = m->glo_q16, ghi = m->ghi_q16;
   for (int x0 = 0; x0 < n; x0 += 8) {
-    int len = n - x0 < 8 ? n - x0 : 8;
     uint64_t w = 0;
-    memcpy(&w, out + x0, (size_t)len);
-    if (((w ^ (w >> 1)) & lsb) == 0) continue;
-    for (int i = x0; i < x0 + len; i++) {
-      if (out[i] != 1) continue;
+    if (n - x0 >= 8)
+      memcpy(&w, out + x0, 8); /* a constant size: one load */
+    else
+      memcpy(&w, out + x0, (size_t)(n - x0));
+    uint64_t marks = (w ^ (w >> 1)) & lsb;
+    while (marks != 0) {
+      int i = x0 + (__builtin_ctzll(marks) >> 3);
+      marks &= marks - 1;
       const uint8_t *p = px + 3 * i, *mu = mean + 3 * i;
       uint64_t dot = (uint64_t)p[0] * mu[0] + (uint64_t)p[1] * mu[1] + (uint64_t)p[2] * mu[2];
       uint64_t pp = (uint64_t)p[0] * p[0] + (uint64_t)p[1] * p[1] + (uint64_t)p[2] * p[2];
       uint64_t mm = (uint64_t)mu[0] * mu[0] + (uint64_t)mu[1] * mu[1] + (uint64_t)mu[2] * mu[2];
       /* dot, pp, mm < 2^18: dot^2 * 2^24 < 2^60 and c2 * pp * mm <= 2^24 * 2^36 = 2^60. */
-      bool hue_ok = (dot * dot << 24) >= m->c2_q24 * pp * mm;
       uint64_t dot16 = dot << 16;
-      bool gain_ok = dot16 >= m->glo_q16 * mm && dot16 <= m->ghi_q16 * mm;
-      bool is_shadow = hue_ok && gain_ok;
-      out[i] = is_shadow ? 0 : 0xFF;
+      unsigned is_shadow = ((dot * dot << 24) >= c2 * pp * mm) & (dot16 >= glo * mm) & (dot16 <= ghi * mm);
+      out[i] = (uint8_t)(is_shadow - 1u); /* shadow -> 0 (background), else 0xFF */
       band++;
       shadow += is_shadow;
     }
@@ -273,8 +283,8 @@ int vc_subtract(const vc_bgmodel *m, const uint8_t *rgb, size_t stride, uint8_t 
                 vc_subtract_stats *stats) {
   if (m == NULL || rgb == NULL || mask == NULL || stride < (size_t)m->width * 3) return -EINVAL;
   if (!m->ready) return -EAGAIN;
-  void (*classify)(const uint8_t *restrict, const uint8_t *restrict, const uint8_t *restrict,
-                   const uint8_t *restrict, uint8_t *restrict, int) = classify_row_generic;
+  uint8_t (*classify)(const uint8_t *restrict, const uint8_t *restrict, const uint8_t *restrict,
+                      const uint8_t *restrict, uint8_t *restrict, int) = classify_row_generic;
 #if VC_HAVE_AVX2_VARIANT
   if (vc__use_avx2()) classify = classify_row_avx2;
 #endif
@@ -285,8 +295,8 @@ int vc_subtract(const vc_bgmodel *m, const uint8_t *rgb, size_t stride, uint8_t 
     const uint8_t *px = rgb + (size_t)y * stride;
     const size_t off = (size_t)y * row;
     uint8_t *out = mask + (size_t)y * (size_t)w;
-    classify(px, m->mean + off, m->tu + off, m->tl + off, out, w);
-    shadow_row(m, px, m->mean + off, out, w, stats);
+    if (classify(px, m->mean + off, m->tu + off, m->tl + off, out, w))
+      shadow_row(m, px, m->mean + off, out, w, stats);
   }
   return 0;
 }
