@@ -14,6 +14,9 @@ struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+void add_config_commands(CLI::App& app);   // cmd_config.cpp: voxcap config check
+void add_trigger_commands(CLI::App& app);  // cmd_trigger.cpp: voxcap trigger test|listen
+
 // `voxcap bench ...` (cmd_bench.cpp).
 void add_bench_commands(CLI::App& app);
 

@@ -13,6 +13,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "voxcap 0.1.0");
   app.require_subcommand(1, 1);
   // Subcommand groups register here (one line each).
+  vc::cli::add_config_commands(app);
+  vc::cli::add_trigger_commands(app);
   vc::cli::add_bench_commands(app);
 
   try {

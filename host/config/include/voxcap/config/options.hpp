@@ -1,0 +1,134 @@
+// The option structs of a rig configuration (rig.toml), one per concern. Each checks itself with
+// `bool valid(std::string* why) const`; `why` then starts with the offending key path relative to the
+// struct's own TOML table ("rate_hz: must be in (0, 1000], got 0"), which the loader prefixes with the
+// table's path and the file name. They are filled from TOML in one place, load_rig_config()
+// (rig_config.hpp); none of them depends on the rig model, so lower layers (trigger) can use them alone.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace vc::config {
+
+// A UDP endpoint given as "host:port" with a numeric IPv4 host or "localhost".
+struct Endpoint {
+  std::string host;    // as written ("127.0.0.1", "localhost")
+  uint16_t port = 0;
+
+  // Parses "host:port"; returns false and says why for anything else.
+  static bool parse(std::string_view text, Endpoint* out, std::string* why);
+  bool is_loopback() const;  // 127.0.0.0/8 or "localhost"
+  std::string str() const;   // "host:port"
+  bool operator==(const Endpoint&) const = default;
+};
+
+// Background subtraction on the edges (paper sec. 5, eq. 1-2).
+struct SubtractionOptions {
+  double t_upper = 4.0;            // T_u: foreground when |p - mu| > T_u * sigma in any channel
+  double t_lower = 2.0;            // T_l: surely background when below T_l * sigma in all channels
+  double shadow_angle_deg = 5.0;   // T_angular: in-between pixels with a smaller colour angle are shadow
+  int cleanup_radius_px = 1;       // speckle removal / hole filling size; 0 = no clean-up
+  int background_frames = 30;      // empty-scene frames learnt for mu and sigma
+
+  bool valid(std::string* why) const;
+};
+
+// Trigger generation on the host (see host/trigger). Only the selected backend's table is checked.
+enum class TriggerBackend { Udp, Gpiod, Ftdi };
+std::string_view to_string(TriggerBackend backend);
+bool parse_trigger_backend(std::string_view name, TriggerBackend* out);
+
+struct UdpTriggerOptions {
+  // One datagram per pulse to each target: one per edge in node order; extra targets are extra
+  // listeners (e.g. `voxcap trigger listen`). Loopback only: t_ns is this host's CLOCK_MONOTONIC.
+  std::vector<Endpoint> targets;
+
+  bool valid(std::string* why) const;
+};
+
+struct GpiodTriggerOptions {
+  std::string chip = "/dev/gpiochip0";  // a path, or a bare name such as "gpiochip4" (under /dev)
+  int line_offset = -1;                 // the output line by offset ...
+  std::string line_name;                // ... or by name ("GPIO18"); exactly one of the two is set
+
+  bool valid(std::string* why) const;
+  std::filesystem::path chip_path() const;  // "/dev/" + chip when chip is a bare name
+  std::string line_str() const;             // "18" or "GPIO18", for messages
+};
+
+struct FtdiTriggerOptions {
+  uint16_t vid = 0x0403;
+  uint16_t pid = 0x6014;                // FT232H
+  std::string serial;                   // empty: the first matching device
+  std::string description;              // USB product string to match; empty: any
+  char interface = 'A';                 // A for FT232H; A-D on FT2232H/FT4232H
+  int pin = 3;                          // ADBUS bit driving the trigger buffer (hw/triggerbox)
+  uint32_t sample_rate_hz = 100000;     // bit-bang clock: pulse timing resolution is 1 / this
+  int buffer_ms = 50;                   // pattern queued ahead of the chip (underrun margin)
+
+  bool valid(std::string* why) const;
+  std::string device_str() const;  // "0403:6014" (+ " serial X")
+};
+
+struct TriggerOptions {
+  TriggerBackend backend = TriggerBackend::Udp;
+  double rate_hz = 60.0;               // pulses per second, (0, 1000]
+  double pulse_width_us = 100.0;       // active time of each pulse, less than half the period
+  bool active_low = false;             // the line idles high and pulses low
+  int rt_priority = 50;                // SCHED_FIFO priority of the pulse thread; 0 = normal thread
+  double late_threshold_us = 500.0;    // a pulse emitted later than this after its slot counts as late
+  UdpTriggerOptions udp;
+  GpiodTriggerOptions gpiod;
+  FtdiTriggerOptions ftdi;
+
+  bool valid(std::string* why) const;
+  double period_us() const { return 1e6 / rate_hz; }
+};
+
+// Frame assembly on the host: how long to wait for every node's HULL of a frame.
+enum class MissingNodePolicy { Drop, Degraded };
+std::string_view to_string(MissingNodePolicy policy);
+
+struct AssemblyOptions {
+  double deadline_ms = 50.0;  // after the pulse; (0, 10000]
+  MissingNodePolicy missing_node_policy = MissingNodePolicy::Drop;  // drop the frame, or merge what came
+
+  bool valid(std::string* why) const;
+};
+
+struct RecordingOptions {
+  std::filesystem::path dir = "recordings";  // relative paths are relative to the working directory
+
+  bool valid(std::string* why) const;
+};
+
+// Where the host listens for the edges' TCP connections.
+struct NetworkOptions {
+  std::string listen = "127.0.0.1";  // IPv4 address or "any" (0.0.0.0)
+  uint16_t port = 7600;
+
+  bool valid(std::string* why) const;
+};
+
+enum class NodeRole { Side, Front };  // front nodes also track head, hands and feet (paper sec. 6)
+std::string_view to_string(NodeRole role);
+
+struct NodeConfig {
+  std::string id;                    // [A-Za-z0-9_-]+, unique; the edge says it in HELLO
+  std::string address = "any";       // the edge's IPv4 address/host name, or "any"
+  std::vector<std::string> cameras;  // exactly two camera names of the calibration (cam0 ... camN-1)
+  NodeRole role = NodeRole::Side;
+
+  bool valid(std::string* why) const;
+  bool is_front() const { return role == NodeRole::Front; }
+};
+
+// Feature tracking needs at least one front node; RigConfig::valid() checks that across sections.
+struct FeatureOptions {
+  bool enabled = true;  // track head, hands, feet on the front nodes
+};
+
+}  // namespace vc::config

@@ -1,0 +1,77 @@
+// The rig configuration (rig.toml): which edge nodes there are and which cameras each drives, the
+// calibration file, the voxel grid, the edges' subtraction thresholds, which nodes track features, the
+// trigger, the frame-assembly deadline, the recording folder and the host's listen address. The file
+// layout is documented in host/config/README.md; hw/rigs/ holds examples.
+//
+// load_rig_config() is the ONE place where TOML becomes option structs. Every error is a ConfigError
+// whose message names the file and the key path, e.g.
+//   "rig.toml: trigger.rate_hz: must be in (0, 1000], got 0 (line 12)"
+// Unknown keys are errors (a typo must not silently fall back to a default).
+#pragma once
+
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "voxcap/config/options.hpp"
+#include "voxcap/rig/calibration.hpp"
+#include "voxcap/rig/voxel_grid.hpp"
+
+namespace vc::config {
+
+class ConfigError : public std::runtime_error {
+ public:
+  ConfigError(std::string file, std::string key, std::string problem, int line = 0);
+  const std::string& file() const { return file_; }
+  const std::string& key() const { return key_; }  // "trigger.rate_hz"; empty for file-level errors
+  int line() const { return line_; }               // 0 when unknown
+
+ private:
+  std::string file_, key_;
+  int line_;
+};
+
+enum class GridSource { Config, Calibration };  // [grid] in rig.toml wins over the calibration's grid
+
+struct RigConfig {
+  std::filesystem::path source;            // the rig.toml as given
+  std::string name;                        // [rig] name; default: the file's stem
+  std::filesystem::path calibration_path;  // absolute, resolved against the rig.toml's folder
+  rig::Calibration calibration;            // loaded from calibration_path
+  rig::VoxelGrid grid;
+  GridSource grid_source = GridSource::Config;
+  std::vector<NodeConfig> nodes;
+  SubtractionOptions subtraction;
+  FeatureOptions features;
+  TriggerOptions trigger;
+  AssemblyOptions assembly;
+  RecordingOptions recording;
+  NetworkOptions network;
+  std::vector<std::string> warnings;  // legal but suspicious ("3 udp targets for 2 nodes")
+
+  // Cross-section checks (each section's own valid() included): node ids and camera assignments
+  // against the calibration, front nodes for features, trigger targets against nodes.
+  bool valid(std::string* why) const;
+  const NodeConfig* node(std::string_view id) const;  // nullptr if absent
+  std::vector<const NodeConfig*> front_nodes() const;
+  // Index in calibration.cameras of a camera name; -1 if absent.
+  int camera_index(std::string_view camera_name) const;
+};
+
+struct LoadOptions {
+  bool load_calibration = true;  // false: calibration_path is resolved but not read (grid from [grid])
+};
+
+// Reads, parses and validates a rig.toml (and its calibration file). Throws ConfigError.
+RigConfig load_rig_config(const std::filesystem::path& path, const LoadOptions& options = {});
+// The same from text; `source` names the file in messages and anchors relative paths.
+RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::path& source,
+                           const LoadOptions& options = {});
+
+// The rig.toml to use when none is given: $VOXCAP_RIG, else ./rig.toml if it exists, else the
+// emulated example rig of the source tree (hw/rigs/emulated.toml).
+std::filesystem::path default_rig_config_path();
+
+}  // namespace vc::config

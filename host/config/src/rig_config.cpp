@@ -1,0 +1,88 @@
+// Cross-section validation of a rig configuration and its look-ups.
+#include "voxcap/config/rig_config.hpp"
+
+#include <fmt/format.h>
+
+namespace vc::config {
+namespace {
+
+bool fail(std::string* why, std::string message) {
+  if (why) *why = std::move(message);
+  return false;
+}
+
+template <typename Options>
+bool section_valid(const Options& o, const char* section, std::string* why) {
+  std::string sub;
+  if (o.valid(&sub)) return true;
+  return fail(why, std::string(section) + "." + sub);
+}
+
+}  // namespace
+
+int RigConfig::camera_index(std::string_view camera_name) const {
+  for (size_t k = 0; k < calibration.cameras.size(); ++k) {
+    // A camera is named by its own name or by its node in the calibration file (cam<k>).
+    if (calibration.cameras[k].name == camera_name || fmt::format("cam{}", k) == camera_name)
+      return static_cast<int>(k);
+  }
+  return -1;
+}
+
+const NodeConfig* RigConfig::node(std::string_view id) const {
+  for (const NodeConfig& n : nodes)
+    if (n.id == id) return &n;
+  return nullptr;
+}
+
+std::vector<const NodeConfig*> RigConfig::front_nodes() const {
+  std::vector<const NodeConfig*> out;
+  for (const NodeConfig& n : nodes)
+    if (n.is_front()) out.push_back(&n);
+  return out;
+}
+
+bool RigConfig::valid(std::string* why) const {
+  std::string sub;
+  if (!grid.valid(&sub)) return fail(why, "grid: " + sub);
+  if (nodes.empty()) return fail(why, "nodes: at least one [[nodes]] table is needed");
+
+  const bool have_cameras = !calibration.cameras.empty();
+  std::vector<std::string> driver(calibration.cameras.size());
+  for (size_t i = 0; i < nodes.size(); ++i) {
+    const NodeConfig& n = nodes[i];
+    if (!n.valid(&sub)) return fail(why, fmt::format("nodes[{}].{}", i, sub));
+    for (size_t j = 0; j < i; ++j)
+      if (nodes[j].id == n.id)
+        return fail(why, fmt::format("nodes[{}].id: \"{}\" is already the id of nodes[{}]", i, n.id, j));
+    if (!have_cameras) continue;  // calibration not loaded: names cannot be checked
+    for (size_t c = 0; c < n.cameras.size(); ++c) {
+      const int k = camera_index(n.cameras[c]);
+      if (k < 0)
+        return fail(why, fmt::format("nodes[{}].cameras[{}]: no camera \"{}\" in the calibration (it has cam0..cam{})",
+                                     i, c, n.cameras[c], calibration.cameras.size() - 1));
+      std::string& owner = driver[static_cast<size_t>(k)];
+      if (!owner.empty())
+        return fail(why, fmt::format("nodes[{}].cameras[{}]: camera \"{}\" is already driven by node {}", i, c,
+                                     n.cameras[c], owner));
+      owner = n.id;
+    }
+  }
+
+  if (!section_valid(subtraction, "subtraction", why)) return false;
+  if (!section_valid(trigger, "trigger", why)) return false;
+  if (!section_valid(assembly, "assembly", why)) return false;
+  if (!section_valid(recording, "recording", why)) return false;
+  if (!section_valid(network, "network", why)) return false;
+
+  if (features.enabled && front_nodes().empty())
+    return fail(why, "features.enabled: feature tracking needs at least one node with role = \"front\" "
+                     "(or set enabled = false)");
+  if (trigger.backend == TriggerBackend::Udp && trigger.udp.targets.size() < nodes.size())
+    return fail(why, fmt::format("trigger.udp.targets: {} targets for {} nodes: the emulated trigger needs one "
+                                 "endpoint per node, in node order",
+                                 trigger.udp.targets.size(), nodes.size()));
+  return true;
+}
+
+}  // namespace vc::config
