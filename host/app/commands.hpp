@@ -16,6 +16,7 @@ struct UsageError : std::runtime_error {
 
 void add_config_commands(CLI::App& app);   // cmd_config.cpp: voxcap config check
 void add_trigger_commands(CLI::App& app);  // cmd_trigger.cpp: voxcap trigger test|listen
+void add_proto_commands(CLI::App& app);    // cmd_proto.cpp: voxcap proto dump
 
 // `voxcap bench ...` (cmd_bench.cpp).
 void add_bench_commands(CLI::App& app);

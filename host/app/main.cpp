@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   // Subcommand groups register here (one line each).
   vc::cli::add_config_commands(app);
   vc::cli::add_trigger_commands(app);
+  vc::cli::add_proto_commands(app);
   vc::cli::add_bench_commands(app);
 
   try {

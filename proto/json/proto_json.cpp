@@ -217,6 +217,7 @@ Json type_json(uint16_t type) {
 
 Json header_to_json(const vc_header& h) {
   Json j;
+  j["magic"] = VC_PROTO_MAGIC;  // every decoded message has it; shown so the dump lists every header field
   j["version_major"] = h.version_major;
   j["version_minor"] = h.version_minor;
   j["type"] = h.type;
@@ -242,19 +243,34 @@ Json msg_to_json(const vc_msg& msg, const JsonOptions& opt) {
     put_hex(body, "payload", msg.payload, msg.payload ? msg.hdr.payload_len : 0, opt);
   } else {
     switch (msg.hdr.type) {
-      case VC_MSG_HELLO: body = hello_json(msg.u.hello); break;
-      case VC_MSG_CONFIG: body = config_json(msg.u.config); break;
-      case VC_MSG_BACKGROUND: body["frame_count"] = msg.u.background.frame_count; break;
-      case VC_MSG_HULL: body = hull_json(msg.u.hull, opt); break;
-      case VC_MSG_FEATURES: body = features_json(msg.u.features); break;
-      case VC_MSG_STATS: body = stats_json(msg.u.stats); break;
+      case VC_MSG_HELLO:
+        body = hello_json(msg.u.hello);
+        break;
+      case VC_MSG_CONFIG:
+        body = config_json(msg.u.config);
+        break;
+      case VC_MSG_BACKGROUND:
+        body["frame_count"] = msg.u.background.frame_count;
+        break;
+      case VC_MSG_HULL:
+        body = hull_json(msg.u.hull, opt);
+        break;
+      case VC_MSG_FEATURES:
+        body = features_json(msg.u.features);
+        break;
+      case VC_MSG_STATS:
+        body = stats_json(msg.u.stats);
+        break;
       case VC_MSG_HEARTBEAT:
         body["sender_time_ns"] = msg.u.heartbeat.sender_time_ns;
         body["state"] = msg.u.heartbeat.state;
         put_name(body, "state", vc_node_state_name(msg.u.heartbeat.state));
         break;
-      case VC_MSG_ERROR: body = error_body_json(msg.u.error); break;
-      default: break;  // START, STOP: no fields
+      case VC_MSG_ERROR:
+        body = error_body_json(msg.u.error);
+        break;
+      default:
+        break;  // START, STOP: no fields
     }
   }
   j["body"] = body;
@@ -299,8 +315,8 @@ bool drain(vc_decoder* dec, Sink&& sink) {
 
 }  // namespace
 
-Json decode_events(std::span<const uint8_t> bytes, size_t max_payload, const std::function<size_t(size_t)>& chunker,
-                   bool with_detail, const JsonOptions& opt) {
+Json decode_events(std::span<const uint8_t> bytes, size_t max_payload,
+                   const std::function<size_t(size_t)>& chunker, bool with_detail, const JsonOptions& opt) {
   DecoderPtr dec = make_decoder(max_payload);
   Json events = Json::array();
   auto sink = [&](int rc, uint64_t offset, const vc_msg& msg) {
@@ -340,7 +356,8 @@ Json decode_events(std::span<const uint8_t> bytes, size_t max_payload, const std
 
 bool DumpOptions::valid(std::string* why) const {
   if (max_payload > VC_PROTO_MAX_PAYLOAD) {
-    if (why) *why = fmt::format("max_payload {} is over the protocol limit {}", max_payload, VC_PROTO_MAX_PAYLOAD);
+    if (why)
+      *why = fmt::format("max_payload {} is over the protocol limit {}", max_payload, VC_PROTO_MAX_PAYLOAD);
     return false;
   }
   return true;
@@ -353,12 +370,20 @@ std::string scalar_text(const Json& v) {
   return v.dump();
 }
 
+// Fields clearer in hex: the magic, flags and CRCs.
+bool shown_in_hex(const std::string& key) {
+  return key == "magic" || key == "flags" || key.ends_with("_crc");
+}
+
 // "k=v k=v" for a flat object (nested arrays printed as JSON).
 std::string inline_object(const Json& o) {
   std::string s;
   for (const auto& [k, v] : o.items()) {
     if (!s.empty()) s += ' ';
-    s += k + '=' + scalar_text(v);
+    if (v.is_number_unsigned() && shown_in_hex(k))
+      s += fmt::format("{}=0x{:08x}", k, v.get<uint64_t>());
+    else
+      s += k + '=' + scalar_text(v);
   }
   return s;
 }
@@ -382,7 +407,8 @@ std::string event_to_text(const Json& event) {
   out += "  header: " + inline_object(m["header"]) + '\n';
   if (!m["known"].get<bool>()) out += "  known: false (type not defined in this version; skipped)\n";
   if (m["ignored_bytes"].get<uint64_t>() > 0)
-    out += fmt::format("  ignored_bytes: {} (fields of a newer minor version)\n", m["ignored_bytes"].get<uint64_t>());
+    out += fmt::format("  ignored_bytes: {} (fields of a newer minor version)\n",
+                       m["ignored_bytes"].get<uint64_t>());
   for (const auto& [k, v] : m["body"].items()) {
     if (v.is_array() && !v.empty() && v[0].is_object()) {
       for (size_t i = 0; i < v.size(); i++) out += fmt::format("  {}[{}]: {}\n", k, i, inline_object(v[i]));

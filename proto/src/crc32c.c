@@ -13,12 +13,12 @@
 #define CRC32C_POLY_REFLECTED 0x82F63B78u
 
 static uint32_t g_table[8][256];
-static uint32_t (*g_impl)(uint32_t, const uint8_t *, size_t);
-static const char *g_impl_name = "slicing-by-8";
+static uint32_t (*g_impl)(uint32_t, const uint8_t*, size_t);
+static const char* g_impl_name = "slicing-by-8";
 static pthread_once_t g_once = PTHREAD_ONCE_INIT;
 
 /* crc here is the raw (pre-inverted) register. */
-static uint32_t crc32c_sw_raw(uint32_t crc, const uint8_t *p, size_t n) {
+static uint32_t crc32c_sw_raw(uint32_t crc, const uint8_t* p, size_t n) {
   while (n >= 8) {
     uint32_t lo = vc_ld32(p) ^ crc;
     uint32_t hi = vc_ld32(p + 4);
@@ -36,8 +36,7 @@ static uint32_t crc32c_sw_raw(uint32_t crc, const uint8_t *p, size_t n) {
 #include <nmmintrin.h>
 #define VC_HAVE_SSE42_PATH 1
 
-__attribute__((target("sse4.2"))) static uint32_t crc32c_sse42_raw(uint32_t crc, const uint8_t *p,
-                                                                      size_t n) {
+__attribute__((target("sse4.2"))) static uint32_t crc32c_sse42_raw(uint32_t crc, const uint8_t* p, size_t n) {
   uint64_t c = crc;
   while (n >= 8) {
     uint64_t w;
@@ -59,7 +58,8 @@ static void crc32c_init(void) {
     g_table[0][i] = c;
   }
   for (uint32_t i = 0; i < 256; i++) {
-    for (int t = 1; t < 8; t++) g_table[t][i] = (g_table[t - 1][i] >> 8) ^ g_table[0][g_table[t - 1][i] & 0xFF];
+    for (int t = 1; t < 8; t++)
+      g_table[t][i] = (g_table[t - 1][i] >> 8) ^ g_table[0][g_table[t - 1][i] & 0xFF];
   }
   g_impl = crc32c_sw_raw;
 #ifdef VC_HAVE_SSE42_PATH
@@ -71,19 +71,19 @@ static void crc32c_init(void) {
 #endif
 }
 
-uint32_t vc_crc32c(uint32_t crc, const void *data, size_t len) {
+uint32_t vc_crc32c(uint32_t crc, const void* data, size_t len) {
   pthread_once(&g_once, crc32c_init);
   if (len == 0) return crc;
-  return ~g_impl(~crc, (const uint8_t *)data, len);
+  return ~g_impl(~crc, (const uint8_t*)data, len);
 }
 
-uint32_t vc_crc32c_portable(uint32_t crc, const void *data, size_t len) {
+uint32_t vc_crc32c_portable(uint32_t crc, const void* data, size_t len) {
   pthread_once(&g_once, crc32c_init);
   if (len == 0) return crc;
-  return ~crc32c_sw_raw(~crc, (const uint8_t *)data, len);
+  return ~crc32c_sw_raw(~crc, (const uint8_t*)data, len);
 }
 
-const char *vc_crc32c_impl(void) {
+const char* vc_crc32c_impl(void) {
   pthread_once(&g_once, crc32c_init);
   return g_impl_name;
 }

@@ -14,43 +14,44 @@
 #include "wire.h"
 
 typedef struct reader {
-  const uint8_t *p;
+  const uint8_t* p;
   size_t len, off;
-  const char *type; /* message type name for details */
+  const char* type; /* message type name for details */
   bool newer;       /* the message's minor version is newer than ours */
   uint32_t ignored;
-  vc_proto_diag *diag;
+  vc_proto_diag* diag;
 } reader;
 
-static int need(reader *r, size_t n, const char *what) {
+static int need(reader* r, size_t n, const char* what) {
   if (r->len - r->off < n)
-    return vc_diag_set(r->diag, VC_PROTO_ETRUNCATED, "%s: %s needs %zu bytes at payload offset %zu, payload_len is %zu",
-                       r->type, what, n, r->off, r->len);
+    return vc_diag_set(r->diag, VC_PROTO_ETRUNCATED,
+                       "%s: %s needs %zu bytes at payload offset %zu, payload_len is %zu", r->type, what, n,
+                       r->off, r->len);
   return 0;
 }
 
 /* A record of `size` bytes of which this version knows `known`. */
-static int check_record_size(reader *r, uint16_t size, size_t known, const char *what) {
+static int check_record_size(reader* r, uint16_t size, size_t known, const char* what) {
   if (size < known || (size > known && !r->newer))
-    return vc_diag_set(r->diag, VC_PROTO_EINCONSISTENT, "%s: %s is %u, version %d.%d defines %zu", r->type, what,
-                       size, VC_PROTO_VERSION_MAJOR, VC_PROTO_VERSION_MINOR, known);
+    return vc_diag_set(r->diag, VC_PROTO_EINCONSISTENT, "%s: %s is %u, version %d.%d defines %zu", r->type,
+                       what, size, VC_PROTO_VERSION_MAJOR, VC_PROTO_VERSION_MINOR, known);
   return 0;
 }
 
 /* After the last known field: nothing may follow unless the message is from a newer minor version. */
-static int finish(reader *r) {
+static int finish(reader* r) {
   size_t rest = r->len - r->off;
   if (rest && !r->newer)
-    return vc_diag_set(r->diag, VC_PROTO_ETRAILING, "%s: %zu bytes after the last field (payload_len %zu)", r->type,
-                       rest, r->len);
+    return vc_diag_set(r->diag, VC_PROTO_ETRAILING, "%s: %zu bytes after the last field (payload_len %zu)",
+                       r->type, rest, r->len);
   r->ignored += (uint32_t)rest;
   return 0;
 }
 
-static int parse_hello(reader *r, vc_hello *m, uint16_t header_node_id) {
+static int parse_hello(reader* r, vc_hello* m, uint16_t header_node_id) {
   int rc = need(r, VC_HELLO_FIXED, "the fixed part");
   if (rc) return rc;
-  const uint8_t *p = r->p;
+  const uint8_t* p = r->p;
   m->node_id = vc_ld16(p + 0);
   m->sw_major = vc_ld16(p + 2);
   m->sw_minor = vc_ld16(p + 4);
@@ -60,11 +61,12 @@ static int parse_hello(reader *r, vc_hello *m, uint16_t header_node_id) {
   uint16_t rec = m->camera_record_size = vc_ld16(p + 14);
   r->off = VC_HELLO_FIXED;
   if (m->camera_count > VC_PROTO_MAX_CAMERAS)
-    return vc_diag_set(r->diag, VC_PROTO_ELIMIT, "HELLO: camera_count %u > %d", m->camera_count, VC_PROTO_MAX_CAMERAS);
+    return vc_diag_set(r->diag, VC_PROTO_ELIMIT, "HELLO: camera_count %u > %d", m->camera_count,
+                       VC_PROTO_MAX_CAMERAS);
   if ((rc = check_record_size(r, rec, VC_HELLO_CAMERA_SIZE, "camera_record_size"))) return rc;
   if ((rc = need(r, (size_t)m->camera_count * rec, "cameras"))) return rc;
   for (unsigned i = 0; i < m->camera_count; i++) {
-    const uint8_t *c = r->p + r->off;
+    const uint8_t* c = r->p + r->off;
     m->cameras[i].width = vc_ld16(c + 0);
     m->cameras[i].height = vc_ld16(c + 2);
     m->cameras[i].pixel_format = vc_ld32(c + 4);
@@ -76,10 +78,10 @@ static int parse_hello(reader *r, vc_hello *m, uint16_t header_node_id) {
   return vc_check_hello(m, header_node_id, r->diag);
 }
 
-static int parse_config(reader *r, vc_config *m) {
+static int parse_config(reader* r, vc_config* m) {
   int rc = need(r, VC_CONFIG_FIXED, "the fixed part");
   if (rc) return rc;
-  const uint8_t *p = r->p;
+  const uint8_t* p = r->p;
   m->grid_id = vc_ld32(p + 0);
   m->nx = vc_ld32(p + 4);
   m->ny = vc_ld32(p + 8);
@@ -97,12 +99,13 @@ static int parse_config(reader *r, vc_config *m) {
   uint16_t rec = m->camera_record_size = vc_ld16(p + 76);
   r->off = VC_CONFIG_FIXED;
   if (m->camera_count > VC_PROTO_MAX_CAMERAS)
-    return vc_diag_set(r->diag, VC_PROTO_ELIMIT, "CONFIG: camera_count %u > %d", m->camera_count, VC_PROTO_MAX_CAMERAS);
+    return vc_diag_set(r->diag, VC_PROTO_ELIMIT, "CONFIG: camera_count %u > %d", m->camera_count,
+                       VC_PROTO_MAX_CAMERAS);
   if ((rc = check_record_size(r, rec, VC_CONFIG_CAMERA_SIZE, "camera_record_size"))) return rc;
   if ((rc = need(r, (size_t)m->camera_count * rec, "cameras"))) return rc;
   for (unsigned i = 0; i < m->camera_count; i++) {
-    const uint8_t *c = r->p + r->off;
-    vc_config_camera *cam = &m->cameras[i];
+    const uint8_t* c = r->p + r->off;
+    vc_config_camera* cam = &m->cameras[i];
     cam->width = vc_ld32(c + 0);
     cam->height = vc_ld32(c + 4);
     for (int k = 0; k < 9; k++) cam->K[k] = vc_ldf64(c + 8 + 8 * k);
@@ -116,7 +119,7 @@ static int parse_config(reader *r, vc_config *m) {
   return vc_check_config(m, r->diag);
 }
 
-static int parse_background(reader *r, vc_background *m) {
+static int parse_background(reader* r, vc_background* m) {
   int rc = need(r, VC_BACKGROUND_SIZE, "frame_count");
   if (rc) return rc;
   m->frame_count = vc_ld32(r->p);
@@ -124,10 +127,10 @@ static int parse_background(reader *r, vc_background *m) {
   return finish(r);
 }
 
-static int parse_hull(reader *r, vc_hull *m) {
+static int parse_hull(reader* r, vc_hull* m) {
   int rc = need(r, VC_HULL_FIXED, "the fixed part");
   if (rc) return rc;
-  const uint8_t *p = r->p;
+  const uint8_t* p = r->p;
   m->grid_id = vc_ld32(p + 0);
   m->rle_len = vc_ld32(p + 4);
   m->voxel_count = vc_ld64(p + 8);
@@ -140,7 +143,7 @@ static int parse_hull(reader *r, vc_hull *m) {
   return vc_check_hull(m, &m->run_count, r->diag);
 }
 
-static int parse_features(reader *r, vc_features *m) {
+static int parse_features(reader* r, vc_features* m) {
   int rc = need(r, VC_FEATURES_FIXED, "the fixed part");
   if (rc) return rc;
   m->camera = vc_ld16(r->p + 0);
@@ -153,7 +156,7 @@ static int parse_features(reader *r, vc_features *m) {
   if ((rc = check_record_size(r, rec, VC_FEATURE_SIZE, "feature_record_size"))) return rc;
   if ((rc = need(r, (size_t)m->feature_count * rec, "features"))) return rc;
   for (unsigned i = 0; i < m->feature_count; i++) {
-    const uint8_t *f = r->p + r->off;
+    const uint8_t* f = r->p + r->off;
     m->features[i].feature_id = vc_ld16(f + 0);
     m->features[i].state = vc_ld16(f + 2);
     m->features[i].u = vc_ldf32(f + 4);
@@ -166,7 +169,7 @@ static int parse_features(reader *r, vc_features *m) {
   return vc_check_features(m, r->diag);
 }
 
-static int parse_stats(reader *r, vc_stats *m) {
+static int parse_stats(reader* r, vc_stats* m) {
   int rc = need(r, VC_STATS_FIXED, "the fixed part");
   if (rc) return rc;
   m->frames = vc_ld32(r->p + 0);
@@ -180,13 +183,13 @@ static int parse_stats(reader *r, vc_stats *m) {
                  "stages and counters")))
     return rc;
   for (unsigned i = 0; i < m->stage_count; i++, r->off += VC_STAGE_SIZE) {
-    const uint8_t *s = r->p + r->off;
+    const uint8_t* s = r->p + r->off;
     m->stages[i].stage_id = vc_ld32(s + 0);
     m->stages[i].mean_ns = vc_ld32(s + 4);
     m->stages[i].max_ns = vc_ld32(s + 8);
   }
   for (unsigned i = 0; i < m->counter_count; i++, r->off += VC_COUNTER_SIZE) {
-    const uint8_t *c = r->p + r->off;
+    const uint8_t* c = r->p + r->off;
     m->counters[i].counter_id = vc_ld32(c + 0);
     m->counters[i].value = vc_ld64(c + 4);
   }
@@ -194,7 +197,7 @@ static int parse_stats(reader *r, vc_stats *m) {
   return vc_check_stats(m, r->diag);
 }
 
-static int parse_heartbeat(reader *r, vc_heartbeat *m) {
+static int parse_heartbeat(reader* r, vc_heartbeat* m) {
   int rc = need(r, VC_HEARTBEAT_SIZE, "the fixed part");
   if (rc) return rc;
   m->sender_time_ns = vc_ld64(r->p + 0);
@@ -204,7 +207,7 @@ static int parse_heartbeat(reader *r, vc_heartbeat *m) {
   return vc_check_heartbeat(m, r->diag);
 }
 
-static int parse_error(reader *r, vc_error *m) {
+static int parse_error(reader* r, vc_error* m) {
   int rc = need(r, VC_ERROR_FIXED, "the fixed part");
   if (rc) return rc;
   m->code = vc_ld32(r->p + 0);
@@ -213,37 +216,62 @@ static int parse_error(reader *r, vc_error *m) {
   m->text_len = vc_ld16(r->p + 8);
   r->off = VC_ERROR_FIXED;
   if (m->text_len > VC_PROTO_MAX_ERROR_TEXT)
-    return vc_diag_set(r->diag, VC_PROTO_ELIMIT, "ERROR: text_len %u > %d", m->text_len, VC_PROTO_MAX_ERROR_TEXT);
+    return vc_diag_set(r->diag, VC_PROTO_ELIMIT, "ERROR: text_len %u > %d", m->text_len,
+                       VC_PROTO_MAX_ERROR_TEXT);
   if ((rc = need(r, m->text_len, "text (text_len)"))) return rc;
-  m->text = (const char *)(r->p + r->off);
+  m->text = (const char*)(r->p + r->off);
   r->off += m->text_len;
   if ((rc = finish(r))) return rc;
   return vc_check_error(m, r->diag);
 }
 
-static int parse_body(vc_msg *m, vc_proto_diag *diag) {
-  reader r = {m->payload, m->hdr.payload_len, 0, vc_msg_type_name(m->hdr.type),
-              m->hdr.version_minor > VC_PROTO_VERSION_MINOR, 0, diag};
+static int parse_body(vc_msg* m, vc_proto_diag* diag) {
+  reader r = {m->payload,
+              m->hdr.payload_len,
+              0,
+              vc_msg_type_name(m->hdr.type),
+              m->hdr.version_minor > VC_PROTO_VERSION_MINOR,
+              0,
+              diag};
   int rc;
   switch (m->hdr.type) {
-    case VC_MSG_HELLO: rc = parse_hello(&r, &m->u.hello, m->hdr.node_id); break;
-    case VC_MSG_CONFIG: rc = parse_config(&r, &m->u.config); break;
-    case VC_MSG_BACKGROUND: rc = parse_background(&r, &m->u.background); break;
+    case VC_MSG_HELLO:
+      rc = parse_hello(&r, &m->u.hello, m->hdr.node_id);
+      break;
+    case VC_MSG_CONFIG:
+      rc = parse_config(&r, &m->u.config);
+      break;
+    case VC_MSG_BACKGROUND:
+      rc = parse_background(&r, &m->u.background);
+      break;
     case VC_MSG_START:
-    case VC_MSG_STOP: rc = finish(&r); break;
-    case VC_MSG_HULL: rc = parse_hull(&r, &m->u.hull); break;
-    case VC_MSG_FEATURES: rc = parse_features(&r, &m->u.features); break;
-    case VC_MSG_STATS: rc = parse_stats(&r, &m->u.stats); break;
-    case VC_MSG_HEARTBEAT: rc = parse_heartbeat(&r, &m->u.heartbeat); break;
-    case VC_MSG_ERROR: rc = parse_error(&r, &m->u.error); break;
-    default: return 0; /* unknown type: reported with known = false, body left unset */
+    case VC_MSG_STOP:
+      rc = finish(&r);
+      break;
+    case VC_MSG_HULL:
+      rc = parse_hull(&r, &m->u.hull);
+      break;
+    case VC_MSG_FEATURES:
+      rc = parse_features(&r, &m->u.features);
+      break;
+    case VC_MSG_STATS:
+      rc = parse_stats(&r, &m->u.stats);
+      break;
+    case VC_MSG_HEARTBEAT:
+      rc = parse_heartbeat(&r, &m->u.heartbeat);
+      break;
+    case VC_MSG_ERROR:
+      rc = parse_error(&r, &m->u.error);
+      break;
+    default:
+      return 0; /* unknown type: reported with known = false, body left unset */
   }
   m->ignored_bytes = r.ignored;
   return rc;
 }
 
-int vc_msg_decode(const uint8_t *buf, size_t len, size_t max_payload, vc_msg *out, size_t *consumed,
-                  vc_proto_diag *diag) {
+int vc_msg_decode(const uint8_t* buf, size_t len, size_t max_payload, vc_msg* out, size_t* consumed,
+                  vc_proto_diag* diag) {
   if ((len && !buf) || !out || !consumed) return -EINVAL;
   if (max_payload == 0) max_payload = VC_PROTO_MAX_PAYLOAD;
   if (max_payload > VC_PROTO_MAX_PAYLOAD) return -EINVAL;
@@ -264,7 +292,7 @@ int vc_msg_decode(const uint8_t *buf, size_t len, size_t max_payload, vc_msg *ou
   if (len < VC_PROTO_HEADER_SIZE) return 0;
 
   memset(out, 0, sizeof *out);
-  vc_header *h = &out->hdr;
+  vc_header* h = &out->hdr;
   h->version_major = buf[4];
   h->version_minor = buf[5];
   h->type = vc_ld16(buf + 6);
@@ -277,10 +305,11 @@ int vc_msg_decode(const uint8_t *buf, size_t len, size_t max_payload, vc_msg *ou
   h->header_crc = vc_ld32(buf + 36);
   uint32_t crc = vc_crc32c(0, buf, 36);
   if (crc != h->header_crc)
-    return vc_diag_set(diag, VC_PROTO_EHEADER_CRC, "header_crc 0x%08x, bytes 0..35 give 0x%08x", h->header_crc, crc);
+    return vc_diag_set(diag, VC_PROTO_EHEADER_CRC, "header_crc 0x%08x, bytes 0..35 give 0x%08x",
+                       h->header_crc, crc);
   if (h->payload_len > max_payload)
-    return vc_diag_set(diag, VC_PROTO_EOVERSIZE, "payload_len %u > limit %zu (type %u)", h->payload_len, max_payload,
-                       h->type);
+    return vc_diag_set(diag, VC_PROTO_EOVERSIZE, "payload_len %u > limit %zu (type %u)", h->payload_len,
+                       max_payload, h->type);
   if (len - VC_PROTO_HEADER_SIZE < h->payload_len) return 0;
   out->payload = buf + VC_PROTO_HEADER_SIZE;
   crc = vc_crc32c(0, out->payload, h->payload_len);

@@ -16,23 +16,23 @@
 #define DECODER_INITIAL_CAP (64u * 1024u)
 
 struct vc_decoder {
-  uint8_t *buf;
-  size_t cap;          /* allocated bytes */
-  size_t cap_max;      /* header + max_payload */
+  uint8_t* buf;
+  size_t cap;     /* allocated bytes */
+  size_t cap_max; /* header + max_payload */
   size_t max_payload;
-  size_t rd, wr;       /* unread bytes are buf[rd..wr) */
-  uint64_t stream_rd;  /* stream offset of buf[rd] */
-  int fatal;           /* sticky fatal error, 0 if none */
+  size_t rd, wr;      /* unread bytes are buf[rd..wr) */
+  uint64_t stream_rd; /* stream offset of buf[rd] */
+  int fatal;          /* sticky fatal error, 0 if none */
   vc_proto_diag diag;
 };
 
-vc_decoder *vc_decoder_new(size_t max_payload) {
+vc_decoder* vc_decoder_new(size_t max_payload) {
   if (max_payload == 0) max_payload = VC_PROTO_MAX_PAYLOAD;
   if (max_payload > VC_PROTO_MAX_PAYLOAD) {
     errno = EINVAL;
     return NULL;
   }
-  vc_decoder *dec = calloc(1, sizeof *dec);
+  vc_decoder* dec = calloc(1, sizeof *dec);
   if (!dec) goto err_alloc;
   dec->max_payload = max_payload;
   dec->cap_max = VC_PROTO_HEADER_SIZE + max_payload;
@@ -48,13 +48,13 @@ err_alloc:
   return NULL;
 }
 
-void vc_decoder_free(vc_decoder *dec) {
+void vc_decoder_free(vc_decoder* dec) {
   if (!dec) return;
   free(dec->buf);
   free(dec);
 }
 
-int vc_decoder_feed(vc_decoder *dec, const uint8_t *data, size_t len, size_t *consumed) {
+int vc_decoder_feed(vc_decoder* dec, const uint8_t* data, size_t len, size_t* consumed) {
   if (!dec || (len && !data) || !consumed) return -EINVAL;
   *consumed = 0;
   if (dec->fatal) return dec->fatal;
@@ -68,7 +68,7 @@ int vc_decoder_feed(vc_decoder *dec, const uint8_t *data, size_t len, size_t *co
     size_t want = dec->wr + len;
     size_t grown = dec->cap * 2 > want ? dec->cap * 2 : want;
     if (grown > dec->cap_max) grown = dec->cap_max;
-    uint8_t *nb = realloc(dec->buf, grown);
+    uint8_t* nb = realloc(dec->buf, grown);
     if (!nb) return -ENOMEM;
     dec->buf = nb;
     dec->cap = grown;
@@ -80,7 +80,7 @@ int vc_decoder_feed(vc_decoder *dec, const uint8_t *data, size_t len, size_t *co
   return 0;
 }
 
-int vc_decoder_next(vc_decoder *dec, vc_msg *out) {
+int vc_decoder_next(vc_decoder* dec, vc_msg* out) {
   if (!dec || !out) return -EINVAL;
   if (dec->fatal) return dec->fatal;
   size_t used = 0;
@@ -96,7 +96,7 @@ int vc_decoder_next(vc_decoder *dec, vc_msg *out) {
   return rc;
 }
 
-int vc_decoder_finish(vc_decoder *dec) {
+int vc_decoder_finish(vc_decoder* dec) {
   if (!dec) return -EINVAL;
   if (dec->fatal) return dec->fatal;
   size_t pending = dec->wr - dec->rd;
@@ -106,8 +106,14 @@ int vc_decoder_finish(vc_decoder *dec) {
   return dec->fatal;
 }
 
-const vc_proto_diag *vc_decoder_diag(const vc_decoder *dec) { return &dec->diag; }
+const vc_proto_diag* vc_decoder_diag(const vc_decoder* dec) {
+  return &dec->diag;
+}
 
-uint64_t vc_decoder_offset(const vc_decoder *dec) { return dec->stream_rd; }
+uint64_t vc_decoder_offset(const vc_decoder* dec) {
+  return dec->stream_rd;
+}
 
-size_t vc_decoder_pending(const vc_decoder *dec) { return dec->wr - dec->rd; }
+size_t vc_decoder_pending(const vc_decoder* dec) {
+  return dec->wr - dec->rd;
+}

@@ -10,7 +10,7 @@
 #include "wire.h"
 
 /* Checks arguments and room for a payload of plen bytes; sets *len to the message size. */
-static int frame_begin(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, size_t plen) {
+static int frame_begin(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, size_t plen) {
   if (!len || !hdr || (cap && !buf)) return -EINVAL;
   if (plen > VC_PROTO_MAX_PAYLOAD) return VC_PROTO_ELIMIT;
   *len = VC_PROTO_HEADER_SIZE + plen;
@@ -18,7 +18,7 @@ static int frame_begin(uint8_t *buf, size_t cap, size_t *len, const vc_header *h
 }
 
 /* Writes the header for the payload already at buf + 40. */
-static void frame_seal(uint8_t *buf, const vc_header *hdr, uint8_t major, uint8_t minor, uint16_t type,
+static void frame_seal(uint8_t* buf, const vc_header* hdr, uint8_t major, uint8_t minor, uint16_t type,
                        size_t plen) {
   vc_st32(buf + 0, VC_PROTO_MAGIC);
   buf[4] = major;
@@ -33,11 +33,11 @@ static void frame_seal(uint8_t *buf, const vc_header *hdr, uint8_t major, uint8_
   vc_st32(buf + 36, vc_crc32c(0, buf, 36));
 }
 
-static void seal(uint8_t *buf, const vc_header *hdr, uint16_t type, size_t plen) {
+static void seal(uint8_t* buf, const vc_header* hdr, uint16_t type, size_t plen) {
   frame_seal(buf, hdr, VC_PROTO_VERSION_MAJOR, VC_PROTO_VERSION_MINOR, type, plen);
 }
 
-int vc_frame_encode(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, const uint8_t *payload,
+int vc_frame_encode(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const uint8_t* payload,
                     size_t payload_len) {
   if (payload_len && !payload) return -EINVAL;
   int rc = frame_begin(buf, cap, len, hdr, payload_len);
@@ -47,13 +47,13 @@ int vc_frame_encode(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr,
   return 0;
 }
 
-int vc_encode_hello(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, const vc_hello *m) {
+int vc_encode_hello(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_hello* m) {
   if (!m || !hdr) return -EINVAL;
   int rc = vc_check_hello(m, hdr->node_id, NULL);
   if (rc) return rc;
   size_t plen = VC_HELLO_FIXED + (size_t)m->camera_count * VC_HELLO_CAMERA_SIZE;
   if ((rc = frame_begin(buf, cap, len, hdr, plen))) return rc;
-  uint8_t *p = buf + VC_PROTO_HEADER_SIZE;
+  uint8_t* p = buf + VC_PROTO_HEADER_SIZE;
   vc_st16(p + 0, m->node_id);
   vc_st16(p + 2, m->sw_major);
   vc_st16(p + 4, m->sw_minor);
@@ -63,7 +63,7 @@ int vc_encode_hello(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr,
   vc_st16(p + 14, VC_HELLO_CAMERA_SIZE);
   p += VC_HELLO_FIXED;
   for (unsigned i = 0; i < m->camera_count; i++, p += VC_HELLO_CAMERA_SIZE) {
-    const vc_hello_camera *c = &m->cameras[i];
+    const vc_hello_camera* c = &m->cameras[i];
     vc_st16(p + 0, c->width);
     vc_st16(p + 2, c->height);
     vc_st32(p + 4, c->pixel_format);
@@ -73,13 +73,13 @@ int vc_encode_hello(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr,
   return 0;
 }
 
-int vc_encode_config(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, const vc_config *m) {
+int vc_encode_config(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_config* m) {
   if (!m || !hdr) return -EINVAL;
   int rc = vc_check_config(m, NULL);
   if (rc) return rc;
   size_t plen = VC_CONFIG_FIXED + (size_t)m->camera_count * VC_CONFIG_CAMERA_SIZE;
   if ((rc = frame_begin(buf, cap, len, hdr, plen))) return rc;
-  uint8_t *p = buf + VC_PROTO_HEADER_SIZE;
+  uint8_t* p = buf + VC_PROTO_HEADER_SIZE;
   vc_st32(p + 0, m->grid_id);
   vc_st32(p + 4, m->nx);
   vc_st32(p + 8, m->ny);
@@ -97,7 +97,7 @@ int vc_encode_config(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr
   vc_st16(p + 76, VC_CONFIG_CAMERA_SIZE);
   p += VC_CONFIG_FIXED;
   for (unsigned i = 0; i < m->camera_count; i++, p += VC_CONFIG_CAMERA_SIZE) {
-    const vc_config_camera *c = &m->cameras[i];
+    const vc_config_camera* c = &m->cameras[i];
     vc_st32(p + 0, c->width);
     vc_st32(p + 4, c->height);
     for (int k = 0; k < 9; k++) vc_stf64(p + 8 + 8 * k, c->K[k]);
@@ -109,8 +109,8 @@ int vc_encode_config(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr
   return 0;
 }
 
-int vc_encode_background(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr,
-                         const vc_background *m) {
+int vc_encode_background(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr,
+                         const vc_background* m) {
   if (!m) return -EINVAL;
   int rc = frame_begin(buf, cap, len, hdr, VC_BACKGROUND_SIZE);
   if (rc) return rc;
@@ -119,71 +119,73 @@ int vc_encode_background(uint8_t *buf, size_t cap, size_t *len, const vc_header 
   return 0;
 }
 
-static int encode_empty(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, uint16_t type) {
+static int encode_empty(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, uint16_t type) {
   int rc = frame_begin(buf, cap, len, hdr, 0);
   if (rc) return rc;
   seal(buf, hdr, type, 0);
   return 0;
 }
 
-int vc_encode_start(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr) {
+int vc_encode_start(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr) {
   return encode_empty(buf, cap, len, hdr, VC_MSG_START);
 }
 
-int vc_encode_stop(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr) {
+int vc_encode_stop(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr) {
   return encode_empty(buf, cap, len, hdr, VC_MSG_STOP);
 }
 
-static void put_hull_fixed(uint8_t *p, uint32_t grid_id, uint32_t rle_len, uint64_t voxels, uint64_t occupied) {
+static void put_hull_fixed(uint8_t* p, uint32_t grid_id, uint32_t rle_len, uint64_t voxels,
+                           uint64_t occupied) {
   vc_st32(p + 0, grid_id);
   vc_st32(p + 4, rle_len);
   vc_st64(p + 8, voxels);
   vc_st64(p + 16, occupied);
 }
 
-int vc_encode_hull(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, const vc_hull *m) {
+int vc_encode_hull(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_hull* m) {
   if (!m || !hdr) return -EINVAL;
   int rc = vc_check_hull(m, NULL, NULL);
   if (rc) return rc;
   size_t plen = VC_HULL_FIXED + (size_t)m->rle_len;
   if ((rc = frame_begin(buf, cap, len, hdr, plen))) return rc;
-  uint8_t *p = buf + VC_PROTO_HEADER_SIZE;
+  uint8_t* p = buf + VC_PROTO_HEADER_SIZE;
   put_hull_fixed(p, m->grid_id, m->rle_len, m->voxel_count, m->occupied_count);
   if (m->rle_len) memmove(p + VC_HULL_FIXED, m->rle, m->rle_len);
   seal(buf, hdr, VC_MSG_HULL, plen);
   return 0;
 }
 
-int vc_encode_hull_bits(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, uint32_t grid_id,
-                        const uint8_t *bits, size_t nbits) {
+int vc_encode_hull_bits(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, uint32_t grid_id,
+                        const uint8_t* bits, size_t nbits) {
   if (!len || !hdr || (cap && !buf) || (nbits && !bits)) return -EINVAL;
   if (nbits > VC_PROTO_MAX_VOXELS) return VC_PROTO_ELIMIT;
   const size_t fixed = VC_PROTO_HEADER_SIZE + VC_HULL_FIXED;
-  uint8_t *rle = cap >= fixed ? buf + fixed : NULL;
+  uint8_t* rle = cap >= fixed ? buf + fixed : NULL;
   size_t rle_cap = cap >= fixed ? cap - fixed : 0, rle_len = 0;
   vc_rle_info info;
   int rc = vc_rle_encode_info(bits, nbits, rle, rle_cap, &rle_len, &info);
   *len = fixed + rle_len;
-  if (info.runs > VC_PROTO_MAX_RLE_RUNS || VC_HULL_FIXED + rle_len > VC_PROTO_MAX_PAYLOAD) return VC_PROTO_ELIMIT;
+  if (info.runs > VC_PROTO_MAX_RLE_RUNS || VC_HULL_FIXED + rle_len > VC_PROTO_MAX_PAYLOAD)
+    return VC_PROTO_ELIMIT;
   if (rc) return rc; /* -ENOSPC, with *len the size needed */
   put_hull_fixed(buf + VC_PROTO_HEADER_SIZE, grid_id, (uint32_t)rle_len, nbits, info.occupied);
   seal(buf, hdr, VC_MSG_HULL, VC_HULL_FIXED + rle_len);
   return 0;
 }
 
-int vc_encode_features(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, const vc_features *m) {
+int vc_encode_features(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_features* m) {
   if (!m) return -EINVAL;
   int rc = vc_check_features(m, NULL);
   if (rc) return rc;
   size_t plen = VC_FEATURES_FIXED + (size_t)m->feature_count * VC_FEATURE_SIZE;
   if ((rc = frame_begin(buf, cap, len, hdr, plen))) return rc;
-  uint8_t *p = buf + VC_PROTO_HEADER_SIZE;
+  uint8_t* p = buf + VC_PROTO_HEADER_SIZE;
   vc_st16(p + 0, m->camera);
   vc_st16(p + 2, m->feature_count);
   vc_st16(p + 4, VC_FEATURE_SIZE);
   p += VC_FEATURES_FIXED;
   for (unsigned i = 0; i < m->feature_count; i++, p += VC_FEATURE_SIZE) {
-    const vc_feature *f = &m->features[i];
+    const vc_feature* f = &m->features[i];
     vc_st16(p + 0, f->feature_id);
     vc_st16(p + 2, f->state);
     vc_stf32(p + 4, f->u);
@@ -194,13 +196,14 @@ int vc_encode_features(uint8_t *buf, size_t cap, size_t *len, const vc_header *h
   return 0;
 }
 
-int vc_encode_stats(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, const vc_stats *m) {
+int vc_encode_stats(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_stats* m) {
   if (!m) return -EINVAL;
   int rc = vc_check_stats(m, NULL);
   if (rc) return rc;
-  size_t plen = VC_STATS_FIXED + (size_t)m->stage_count * VC_STAGE_SIZE + (size_t)m->counter_count * VC_COUNTER_SIZE;
+  size_t plen =
+      VC_STATS_FIXED + (size_t)m->stage_count * VC_STAGE_SIZE + (size_t)m->counter_count * VC_COUNTER_SIZE;
   if ((rc = frame_begin(buf, cap, len, hdr, plen))) return rc;
-  uint8_t *p = buf + VC_PROTO_HEADER_SIZE;
+  uint8_t* p = buf + VC_PROTO_HEADER_SIZE;
   vc_st32(p + 0, m->frames);
   vc_st16(p + 4, m->stage_count);
   vc_st16(p + 6, m->counter_count);
@@ -218,25 +221,25 @@ int vc_encode_stats(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr,
   return 0;
 }
 
-int vc_encode_heartbeat(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, const vc_heartbeat *m) {
+int vc_encode_heartbeat(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_heartbeat* m) {
   if (!m) return -EINVAL;
   int rc = vc_check_heartbeat(m, NULL);
   if (rc) return rc;
   if ((rc = frame_begin(buf, cap, len, hdr, VC_HEARTBEAT_SIZE))) return rc;
-  uint8_t *p = buf + VC_PROTO_HEADER_SIZE;
+  uint8_t* p = buf + VC_PROTO_HEADER_SIZE;
   vc_st64(p + 0, m->sender_time_ns);
   vc_st32(p + 8, m->state);
   seal(buf, hdr, VC_MSG_HEARTBEAT, VC_HEARTBEAT_SIZE);
   return 0;
 }
 
-int vc_encode_error(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, const vc_error *m) {
+int vc_encode_error(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_error* m) {
   if (!m) return -EINVAL;
   int rc = vc_check_error(m, NULL);
   if (rc) return rc;
   size_t plen = VC_ERROR_FIXED + (size_t)m->text_len;
   if ((rc = frame_begin(buf, cap, len, hdr, plen))) return rc;
-  uint8_t *p = buf + VC_PROTO_HEADER_SIZE;
+  uint8_t* p = buf + VC_PROTO_HEADER_SIZE;
   vc_st32(p + 0, m->code);
   vc_st16(p + 4, m->severity);
   vc_st16(p + 6, m->about_type);
@@ -246,20 +249,31 @@ int vc_encode_error(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr,
   return 0;
 }
 
-int vc_msg_encode(uint8_t *buf, size_t cap, size_t *len, const vc_msg *msg) {
+int vc_msg_encode(uint8_t* buf, size_t cap, size_t* len, const vc_msg* msg) {
   if (!msg) return -EINVAL;
-  const vc_header *h = &msg->hdr;
+  const vc_header* h = &msg->hdr;
   switch (h->type) {
-    case VC_MSG_HELLO: return vc_encode_hello(buf, cap, len, h, &msg->u.hello);
-    case VC_MSG_CONFIG: return vc_encode_config(buf, cap, len, h, &msg->u.config);
-    case VC_MSG_BACKGROUND: return vc_encode_background(buf, cap, len, h, &msg->u.background);
-    case VC_MSG_START: return vc_encode_start(buf, cap, len, h);
-    case VC_MSG_STOP: return vc_encode_stop(buf, cap, len, h);
-    case VC_MSG_HULL: return vc_encode_hull(buf, cap, len, h, &msg->u.hull);
-    case VC_MSG_FEATURES: return vc_encode_features(buf, cap, len, h, &msg->u.features);
-    case VC_MSG_STATS: return vc_encode_stats(buf, cap, len, h, &msg->u.stats);
-    case VC_MSG_HEARTBEAT: return vc_encode_heartbeat(buf, cap, len, h, &msg->u.heartbeat);
-    case VC_MSG_ERROR: return vc_encode_error(buf, cap, len, h, &msg->u.error);
-    default: return -EINVAL;
+    case VC_MSG_HELLO:
+      return vc_encode_hello(buf, cap, len, h, &msg->u.hello);
+    case VC_MSG_CONFIG:
+      return vc_encode_config(buf, cap, len, h, &msg->u.config);
+    case VC_MSG_BACKGROUND:
+      return vc_encode_background(buf, cap, len, h, &msg->u.background);
+    case VC_MSG_START:
+      return vc_encode_start(buf, cap, len, h);
+    case VC_MSG_STOP:
+      return vc_encode_stop(buf, cap, len, h);
+    case VC_MSG_HULL:
+      return vc_encode_hull(buf, cap, len, h, &msg->u.hull);
+    case VC_MSG_FEATURES:
+      return vc_encode_features(buf, cap, len, h, &msg->u.features);
+    case VC_MSG_STATS:
+      return vc_encode_stats(buf, cap, len, h, &msg->u.stats);
+    case VC_MSG_HEARTBEAT:
+      return vc_encode_heartbeat(buf, cap, len, h, &msg->u.heartbeat);
+    case VC_MSG_ERROR:
+      return vc_encode_error(buf, cap, len, h, &msg->u.error);
+    default:
+      return -EINVAL;
   }
 }

@@ -27,15 +27,15 @@
 #endif
 
 /* Records code and a formatted detail in diag (which may be NULL); returns code. */
-int vc_diag_set(vc_proto_diag *diag, int code, const char *fmt, ...) VC_PRINTF(3, 4);
+int vc_diag_set(vc_proto_diag* diag, int code, const char* fmt, ...) VC_PRINTF(3, 4);
 
-int vc_check_hello(const vc_hello *m, uint16_t header_node_id, vc_proto_diag *diag);
-int vc_check_config(const vc_config *m, vc_proto_diag *diag);
+int vc_check_hello(const vc_hello* m, uint16_t header_node_id, vc_proto_diag* diag);
+int vc_check_config(const vc_config* m, vc_proto_diag* diag);
 /* Validates the RLE against the counts; *runs (may be NULL) receives the number of runs. */
-int vc_check_hull(const vc_hull *m, uint64_t *runs, vc_proto_diag *diag);
-int vc_check_features(const vc_features *m, vc_proto_diag *diag);
-int vc_check_stats(const vc_stats *m, vc_proto_diag *diag);
-int vc_check_heartbeat(const vc_heartbeat *m, vc_proto_diag *diag);
-int vc_check_error(const vc_error *m, vc_proto_diag *diag);
+int vc_check_hull(const vc_hull* m, uint64_t* runs, vc_proto_diag* diag);
+int vc_check_features(const vc_features* m, vc_proto_diag* diag);
+int vc_check_stats(const vc_stats* m, vc_proto_diag* diag);
+int vc_check_heartbeat(const vc_heartbeat* m, vc_proto_diag* diag);
+int vc_check_error(const vc_error* m, vc_proto_diag* diag);
 
 #endif /* VOXCAP_PROTO_INTERNAL_H */

@@ -5,53 +5,89 @@
 
 #define ARRAY_LEN(a) (sizeof(a) / sizeof((a)[0]))
 
-static const char *lookup(const char *const *names, size_t n, uint32_t id) {
+static const char* lookup(const char* const* names, size_t n, uint32_t id) {
   return id < n ? names[id] : NULL;
 }
 
-const char *vc_proto_strerror(int code) {
+const char* vc_proto_strerror(int code) {
   switch (code) {
-    case 0: return "success";
-    case VC_PROTO_EMAGIC: return "bad magic";
-    case VC_PROTO_EVERSION: return "unsupported protocol major version";
-    case VC_PROTO_EHEADER_CRC: return "header CRC mismatch";
-    case VC_PROTO_EPAYLOAD_CRC: return "payload CRC mismatch";
-    case VC_PROTO_EOVERSIZE: return "payload larger than the receiver's limit";
-    case VC_PROTO_EEOF: return "stream ended inside a message";
-    case VC_PROTO_ETRUNCATED: return "payload shorter than its fields";
-    case VC_PROTO_ETRAILING: return "unexpected bytes after the last field";
-    case VC_PROTO_EINCONSISTENT: return "inconsistent counts";
-    case VC_PROTO_ERLE: return "malformed RLE";
-    case VC_PROTO_ELIMIT: return "count over a protocol limit";
-    case VC_PROTO_EFIELD: return "field value out of range";
-    case -EINVAL: return "invalid argument";
-    case -ENOSPC: return "output buffer too small";
-    case -ENOMEM: return "out of memory";
-    case -EBADMSG: return "malformed data";
-    default: return "unknown error";
+    case 0:
+      return "success";
+    case VC_PROTO_EMAGIC:
+      return "bad magic";
+    case VC_PROTO_EVERSION:
+      return "unsupported protocol major version";
+    case VC_PROTO_EHEADER_CRC:
+      return "header CRC mismatch";
+    case VC_PROTO_EPAYLOAD_CRC:
+      return "payload CRC mismatch";
+    case VC_PROTO_EOVERSIZE:
+      return "payload larger than the receiver's limit";
+    case VC_PROTO_EEOF:
+      return "stream ended inside a message";
+    case VC_PROTO_ETRUNCATED:
+      return "payload shorter than its fields";
+    case VC_PROTO_ETRAILING:
+      return "unexpected bytes after the last field";
+    case VC_PROTO_EINCONSISTENT:
+      return "inconsistent counts";
+    case VC_PROTO_ERLE:
+      return "malformed RLE";
+    case VC_PROTO_ELIMIT:
+      return "count over a protocol limit";
+    case VC_PROTO_EFIELD:
+      return "field value out of range";
+    case -EINVAL:
+      return "invalid argument";
+    case -ENOSPC:
+      return "output buffer too small";
+    case -ENOMEM:
+      return "out of memory";
+    case -EBADMSG:
+      return "malformed data";
+    default:
+      return "unknown error";
   }
 }
 
-const char *vc_proto_error_name(int code) {
+const char* vc_proto_error_name(int code) {
   switch (code) {
-    case 0: return "OK";
-    case VC_PROTO_EMAGIC: return "VC_PROTO_EMAGIC";
-    case VC_PROTO_EVERSION: return "VC_PROTO_EVERSION";
-    case VC_PROTO_EHEADER_CRC: return "VC_PROTO_EHEADER_CRC";
-    case VC_PROTO_EPAYLOAD_CRC: return "VC_PROTO_EPAYLOAD_CRC";
-    case VC_PROTO_EOVERSIZE: return "VC_PROTO_EOVERSIZE";
-    case VC_PROTO_EEOF: return "VC_PROTO_EEOF";
-    case VC_PROTO_ETRUNCATED: return "VC_PROTO_ETRUNCATED";
-    case VC_PROTO_ETRAILING: return "VC_PROTO_ETRAILING";
-    case VC_PROTO_EINCONSISTENT: return "VC_PROTO_EINCONSISTENT";
-    case VC_PROTO_ERLE: return "VC_PROTO_ERLE";
-    case VC_PROTO_ELIMIT: return "VC_PROTO_ELIMIT";
-    case VC_PROTO_EFIELD: return "VC_PROTO_EFIELD";
-    case -EINVAL: return "EINVAL";
-    case -ENOSPC: return "ENOSPC";
-    case -ENOMEM: return "ENOMEM";
-    case -EBADMSG: return "EBADMSG";
-    default: return "UNKNOWN";
+    case 0:
+      return "OK";
+    case VC_PROTO_EMAGIC:
+      return "VC_PROTO_EMAGIC";
+    case VC_PROTO_EVERSION:
+      return "VC_PROTO_EVERSION";
+    case VC_PROTO_EHEADER_CRC:
+      return "VC_PROTO_EHEADER_CRC";
+    case VC_PROTO_EPAYLOAD_CRC:
+      return "VC_PROTO_EPAYLOAD_CRC";
+    case VC_PROTO_EOVERSIZE:
+      return "VC_PROTO_EOVERSIZE";
+    case VC_PROTO_EEOF:
+      return "VC_PROTO_EEOF";
+    case VC_PROTO_ETRUNCATED:
+      return "VC_PROTO_ETRUNCATED";
+    case VC_PROTO_ETRAILING:
+      return "VC_PROTO_ETRAILING";
+    case VC_PROTO_EINCONSISTENT:
+      return "VC_PROTO_EINCONSISTENT";
+    case VC_PROTO_ERLE:
+      return "VC_PROTO_ERLE";
+    case VC_PROTO_ELIMIT:
+      return "VC_PROTO_ELIMIT";
+    case VC_PROTO_EFIELD:
+      return "VC_PROTO_EFIELD";
+    case -EINVAL:
+      return "EINVAL";
+    case -ENOSPC:
+      return "ENOSPC";
+    case -ENOMEM:
+      return "ENOMEM";
+    case -EBADMSG:
+      return "EBADMSG";
+    default:
+      return "UNKNOWN";
   }
 }
 
@@ -69,52 +105,52 @@ bool vc_proto_error_is_fatal(int code) {
   }
 }
 
-const char *vc_msg_type_name(uint16_t type) {
-  static const char *const names[] = {NULL,    "HELLO", "CONFIG",   "BACKGROUND", "START", "STOP",
-                                      "HULL", "FEATURES", "STATS", "HEARTBEAT",  "ERROR"};
+const char* vc_msg_type_name(uint16_t type) {
+  static const char* const names[] = {NULL,   "HELLO",    "CONFIG", "BACKGROUND", "START", "STOP",
+                                      "HULL", "FEATURES", "STATS",  "HEARTBEAT",  "ERROR"};
   return lookup(names, ARRAY_LEN(names), type);
 }
 
-const char *vc_stage_name(uint32_t id) {
-  static const char *const names[] = {"capture", "subtract", "cleanup", "carve",
+const char* vc_stage_name(uint32_t id) {
+  static const char* const names[] = {"capture", "subtract", "cleanup", "carve",
                                       "encode",  "features", "send",    "frame"};
   return lookup(names, ARRAY_LEN(names), id);
 }
 
-const char *vc_counter_name(uint32_t id) {
-  static const char *const names[] = {"frames_captured",      "hulls_sent",           "features_sent",
-                                      "send_queue_drops",     "frames_without_pulse", "pulses_without_frame",
-                                      "hulls_over_limit",     "camera_errors"};
+const char* vc_counter_name(uint32_t id) {
+  static const char* const names[] = {"frames_captured",  "hulls_sent",           "features_sent",
+                                      "send_queue_drops", "frames_without_pulse", "pulses_without_frame",
+                                      "hulls_over_limit", "camera_errors"};
   return lookup(names, ARRAY_LEN(names), id);
 }
 
-const char *vc_feature_name(uint32_t id) {
-  static const char *const names[] = {"head", "left_hand", "right_hand", "left_foot", "right_foot"};
+const char* vc_feature_name(uint32_t id) {
+  static const char* const names[] = {"head", "left_hand", "right_hand", "left_foot", "right_foot"};
   return lookup(names, ARRAY_LEN(names), id);
 }
 
-const char *vc_feature_state_name(uint32_t state) {
-  static const char *const names[] = {"tracking", "predicted", "lost", "not_visible"};
+const char* vc_feature_state_name(uint32_t state) {
+  static const char* const names[] = {"tracking", "predicted", "lost", "not_visible"};
   return lookup(names, ARRAY_LEN(names), state);
 }
 
-const char *vc_node_state_name(uint32_t state) {
-  static const char *const names[] = {"host", "idle", "configured", "background", "ready", "running"};
+const char* vc_node_state_name(uint32_t state) {
+  static const char* const names[] = {"host", "idle", "configured", "background", "ready", "running"};
   return lookup(names, ARRAY_LEN(names), state);
 }
 
-const char *vc_role_name(uint32_t role) {
-  static const char *const names[] = {"none", "front"};
+const char* vc_role_name(uint32_t role) {
+  static const char* const names[] = {"none", "front"};
   return lookup(names, ARRAY_LEN(names), role);
 }
 
-const char *vc_error_code_name(uint32_t code) {
-  static const char *const names[] = {NULL,     "protocol", "version",  "state",   "config",
+const char* vc_error_code_name(uint32_t code) {
+  static const char* const names[] = {NULL,     "protocol", "version",  "state",   "config",
                                       "camera", "trigger",  "overload", "internal"};
   return lookup(names, ARRAY_LEN(names), code);
 }
 
-const char *vc_error_severity_name(uint32_t severity) {
-  static const char *const names[] = {"warning", "error", "fatal"};
+const char* vc_error_severity_name(uint32_t severity) {
+  static const char* const names[] = {"warning", "error", "fatal"};
   return lookup(names, ARRAY_LEN(names), severity);
 }

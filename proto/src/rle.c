@@ -23,12 +23,12 @@
 #define VARINT_MAX_BYTES 10
 
 typedef struct rle_writer {
-  uint8_t *out;
+  uint8_t* out;
   size_t cap;
   size_t len; /* bytes needed so far; may exceed cap, then nothing more is written */
 } rle_writer;
 
-static void put_run_slow(rle_writer *w, uint64_t v) {
+static void put_run_slow(rle_writer* w, uint64_t v) {
   uint8_t tmp[VARINT_MAX_BYTES];
   size_t n = 0;
   while (v >= 0x80) {
@@ -40,9 +40,9 @@ static void put_run_slow(rle_writer *w, uint64_t v) {
   w->len += n;
 }
 
-static inline void put_run(rle_writer *w, uint64_t v) {
+static inline void put_run(rle_writer* w, uint64_t v) {
   if (w->cap >= VARINT_MAX_BYTES && w->len <= w->cap - VARINT_MAX_BYTES) {
-    uint8_t *p = w->out + w->len;
+    uint8_t* p = w->out + w->len;
     while (v >= 0x80) {
       *p++ = (uint8_t)(v | 0x80);
       v >>= 7;
@@ -55,8 +55,8 @@ static inline void put_run(rle_writer *w, uint64_t v) {
 }
 
 /* Strict LEB128 read: at most 10 bytes, value < 2^64, no redundant trailing 0x00 byte. */
-static inline int get_run(const uint8_t **pp, const uint8_t *end, uint64_t *v) {
-  const uint8_t *p = *pp;
+static inline int get_run(const uint8_t** pp, const uint8_t* end, uint64_t* v) {
+  const uint8_t* p = *pp;
   if (p < end && *p < 0x80) { /* the common case: a run shorter than 128 */
     *v = *p;
     *pp = p + 1;
@@ -81,14 +81,14 @@ static inline int get_run(const uint8_t **pp, const uint8_t *end, uint64_t *v) {
 /* ---- word access to the bitset ------------------------------------------------------------------ */
 
 typedef struct bit_source {
-  const uint8_t *bits;
+  const uint8_t* bits;
   size_t nbits;
   size_t full_words; /* words entirely inside nbits */
   size_t nwords;     /* full_words, plus one if a partial tail word exists */
   uint64_t tail;     /* the partial tail word, bits past nbits cleared */
 } bit_source;
 
-static void bit_source_init(bit_source *s, const uint8_t *bits, size_t nbits) {
+static void bit_source_init(bit_source* s, const uint8_t* bits, size_t nbits) {
   s->bits = bits;
   s->nbits = nbits;
   s->full_words = nbits / 64;
@@ -103,18 +103,18 @@ static void bit_source_init(bit_source *s, const uint8_t *bits, size_t nbits) {
   }
 }
 
-static inline uint64_t word_at(const bit_source *s, size_t w) {
+static inline uint64_t word_at(const bit_source* s, size_t w) {
   return w < s->full_words ? vc_ld64(s->bits + 8 * w) : s->tail;
 }
 
 /* First bit index >= pos whose value differs from `flip`'s (flip = 0: find a 1; flip = ~0: find a 0),
  * or nbits if none. pos < nbits. */
-static inline size_t find_next(const bit_source *s, size_t pos, uint64_t flip) {
+static inline size_t find_next(const bit_source* s, size_t pos, uint64_t flip) {
   size_t w = pos >> 6;
   uint64_t x = (word_at(s, w) ^ flip) & (~UINT64_C(0) << (pos & 63));
   if (!x) {
     /* Skip words that are all empty (flip = 0) or all occupied (flip = ~0), four at a time. */
-    const uint8_t *b = s->bits;
+    const uint8_t* b = s->bits;
     for (++w; w + 4 <= s->full_words; w += 4) {
       uint64_t a0 = vc_ld64(b + 8 * w) ^ flip, a1 = vc_ld64(b + 8 * w + 8) ^ flip;
       uint64_t a2 = vc_ld64(b + 8 * w + 16) ^ flip, a3 = vc_ld64(b + 8 * w + 24) ^ flip;
@@ -137,8 +137,8 @@ size_t vc_rle_max_encoded_size(size_t nbits) {
   return nbits == SIZE_MAX ? SIZE_MAX : nbits + 1;
 }
 
-int vc_rle_encode_info(const uint8_t *bits, size_t nbits, uint8_t *out, size_t cap, size_t *out_len,
-                       vc_rle_info *info) {
+int vc_rle_encode_info(const uint8_t* bits, size_t nbits, uint8_t* out, size_t cap, size_t* out_len,
+                       vc_rle_info* info) {
   if (!out_len || (nbits && !bits) || (cap && !out)) return -EINVAL;
   rle_writer w = {out, cap, 0};
   bit_source s;
@@ -166,12 +166,12 @@ int vc_rle_encode_info(const uint8_t *bits, size_t nbits, uint8_t *out, size_t c
   return w.len <= cap ? 0 : -ENOSPC;
 }
 
-int vc_rle_encode(const uint8_t *bits, size_t nbits, uint8_t *out, size_t cap, size_t *out_len) {
+int vc_rle_encode(const uint8_t* bits, size_t nbits, uint8_t* out, size_t cap, size_t* out_len) {
   return vc_rle_encode_info(bits, nbits, out, cap, out_len, NULL);
 }
 
 /* Sets bits [pos, pos + n) of b; n >= 1. */
-static void set_range(uint8_t *b, size_t pos, size_t n) {
+static void set_range(uint8_t* b, size_t pos, size_t n) {
   size_t end = pos + n;
   size_t b0 = pos >> 3, b1 = end >> 3;
   unsigned lo = (unsigned)(pos & 7), hi = (unsigned)(end & 7);
@@ -187,7 +187,7 @@ static void set_range(uint8_t *b, size_t pos, size_t n) {
   if (hi) b[b1] |= (uint8_t)((1u << hi) - 1u);
 }
 
-int vc_rle_decode(const uint8_t *rle, size_t len, uint8_t *bits, size_t nbits) {
+int vc_rle_decode(const uint8_t* rle, size_t len, uint8_t* bits, size_t nbits) {
   if ((len && !rle) || (nbits && !bits)) return -EINVAL;
   if (nbits) memset(bits, 0, nbits / 8 + (nbits % 8 != 0));
   if (len == 0) return nbits == 0 ? 0 : -EINVAL;
@@ -208,7 +208,7 @@ int vc_rle_decode(const uint8_t *rle, size_t len, uint8_t *bits, size_t nbits) {
   return pos == nbits ? 0 : -EINVAL;
 }
 
-int vc_rle_inspect(const uint8_t *rle, size_t len, vc_rle_info *info) {
+int vc_rle_inspect(const uint8_t* rle, size_t len, vc_rle_info* info) {
   if (!info || (len && !rle)) return -EINVAL;
   uint64_t total = 0, occupied = 0, runs = 0;
   const uint8_t *p = rle, *end = len ? rle + len : rle;
@@ -228,7 +228,7 @@ int vc_rle_inspect(const uint8_t *rle, size_t len, vc_rle_info *info) {
   return 0;
 }
 
-int vc_rle_popcount(const uint8_t *rle, size_t len, uint64_t *occupied, uint64_t *total) {
+int vc_rle_popcount(const uint8_t* rle, size_t len, uint64_t* occupied, uint64_t* total) {
   vc_rle_info info;
   int rc = vc_rle_inspect(rle, len, &info);
   if (rc) return rc;
@@ -245,7 +245,7 @@ typedef struct run_cursor {
   int done;
 } run_cursor;
 
-static int cursor_next(run_cursor *c) {
+static int cursor_next(run_cursor* c) {
   if (c->p == c->end) {
     c->done = 1;
     c->rem = 0;
@@ -260,7 +260,7 @@ static int cursor_next(run_cursor *c) {
   return 0;
 }
 
-static int cursor_init(run_cursor *c, const uint8_t *p, size_t len) {
+static int cursor_init(run_cursor* c, const uint8_t* p, size_t len) {
   c->p = p;
   c->end = len ? p + len : p; /* no arithmetic on a NULL empty stream */
   c->state = 0;
@@ -279,17 +279,17 @@ static int cursor_init(run_cursor *c, const uint8_t *p, size_t len) {
   return 0;
 }
 
-int vc_rle_and(const uint8_t *a, size_t alen, const uint8_t *b, size_t blen, uint8_t *out, size_t cap,
-               size_t *out_len) {
+int vc_rle_and(const uint8_t* a, size_t alen, const uint8_t* b, size_t blen, uint8_t* out, size_t cap,
+               size_t* out_len) {
   if (!out_len || (alen && !a) || (blen && !b) || (cap && !out)) return -EINVAL;
   run_cursor ca, cb;
   int rc = cursor_init(&ca, a, alen);
   if (!rc) rc = cursor_init(&cb, b, blen);
   if (rc) return rc;
   rle_writer w = {out, cap, 0};
-  int out_state = 0;  /* state of the output run being accumulated (starts empty) */
-  uint64_t acc = 0;   /* its length so far */
-  uint64_t pos = 0;   /* bits consumed from both inputs */
+  int out_state = 0; /* state of the output run being accumulated (starts empty) */
+  uint64_t acc = 0;  /* its length so far */
+  uint64_t pos = 0;  /* bits consumed from both inputs */
   while (!ca.done && !cb.done) {
     uint64_t step = ca.rem < cb.rem ? ca.rem : cb.rem;
     if (pos + step < pos) return -EBADMSG;

@@ -15,7 +15,7 @@ int vc_trigger_dgram_encode(uint8_t out[VC_TRIGGER_DGRAM_SIZE], uint64_t seq, ui
   return 0;
 }
 
-int vc_trigger_dgram_decode(const uint8_t *buf, size_t len, uint64_t *seq, uint64_t *t_ns) {
+int vc_trigger_dgram_decode(const uint8_t* buf, size_t len, uint64_t* seq, uint64_t* t_ns) {
   if (!buf) return -EINVAL;
   if (len != VC_TRIGGER_DGRAM_SIZE) return -EBADMSG;
   if (vc_ld32(buf) != VC_TRIGGER_DGRAM_MAGIC) return -EBADMSG;

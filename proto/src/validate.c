@@ -9,7 +9,7 @@
 #include "internal.h"
 #include "voxcap/rle.h"
 
-int vc_diag_set(vc_proto_diag *diag, int code, const char *fmt, ...) {
+int vc_diag_set(vc_proto_diag* diag, int code, const char* fmt, ...) {
   if (diag) {
     diag->code = code;
     va_list ap;
@@ -20,13 +20,13 @@ int vc_diag_set(vc_proto_diag *diag, int code, const char *fmt, ...) {
   return code;
 }
 
-static bool all_finite(const double *v, size_t n) {
+static bool all_finite(const double* v, size_t n) {
   for (size_t i = 0; i < n; i++)
     if (!isfinite(v[i])) return false;
   return true;
 }
 
-int vc_check_hello(const vc_hello *m, uint16_t header_node_id, vc_proto_diag *diag) {
+int vc_check_hello(const vc_hello* m, uint16_t header_node_id, vc_proto_diag* diag) {
   if (m->camera_count > VC_PROTO_MAX_CAMERAS)
     return vc_diag_set(diag, VC_PROTO_ELIMIT, "HELLO: camera_count %u > %d", m->camera_count,
                        VC_PROTO_MAX_CAMERAS);
@@ -34,14 +34,14 @@ int vc_check_hello(const vc_hello *m, uint16_t header_node_id, vc_proto_diag *di
     return vc_diag_set(diag, VC_PROTO_EINCONSISTENT, "HELLO: node_id %u != header node_id %u", m->node_id,
                        header_node_id);
   for (unsigned i = 0; i < m->camera_count; i++) {
-    const vc_hello_camera *c = &m->cameras[i];
+    const vc_hello_camera* c = &m->cameras[i];
     if (c->width == 0 || c->height == 0)
       return vc_diag_set(diag, VC_PROTO_EFIELD, "HELLO: cameras[%u] has size %ux%u", i, c->width, c->height);
   }
   return 0;
 }
 
-int vc_check_config(const vc_config *m, vc_proto_diag *diag) {
+int vc_check_config(const vc_config* m, vc_proto_diag* diag) {
   if (m->camera_count == 0) return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: camera_count 0");
   if (m->camera_count > VC_PROTO_MAX_CAMERAS)
     return vc_diag_set(diag, VC_PROTO_ELIMIT, "CONFIG: camera_count %u > %d", m->camera_count,
@@ -56,8 +56,9 @@ int vc_check_config(const vc_config *m, vc_proto_diag *diag) {
   if (!(isfinite(m->voxel_m) && m->voxel_m > 0))
     return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: voxel_m %g is not > 0", m->voxel_m);
   if (!(isfinite(m->t_upper) && isfinite(m->t_lower) && m->t_lower >= 0 && m->t_lower <= m->t_upper))
-    return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: need 0 <= t_lower <= t_upper, got t_lower %g t_upper %g",
-                       (double)m->t_lower, (double)m->t_upper);
+    return vc_diag_set(diag, VC_PROTO_EFIELD,
+                       "CONFIG: need 0 <= t_lower <= t_upper, got t_lower %g t_upper %g", (double)m->t_lower,
+                       (double)m->t_upper);
   if (!(m->shadow_angle_deg >= 0 && m->shadow_angle_deg <= 180))
     return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: shadow_angle_deg %g is not in [0, 180]",
                        (double)m->shadow_angle_deg);
@@ -65,7 +66,7 @@ int vc_check_config(const vc_config *m, vc_proto_diag *diag) {
   if (vc_role_name(m->feature_role) == NULL)
     return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: unknown feature_role %u", m->feature_role);
   for (unsigned i = 0; i < m->camera_count; i++) {
-    const vc_config_camera *c = &m->cameras[i];
+    const vc_config_camera* c = &m->cameras[i];
     if (c->width == 0 || c->height == 0)
       return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: cameras[%u] has size %ux%u", i, c->width, c->height);
     if (!all_finite(c->K, 9) || !all_finite(c->dist, 5) || !all_finite(c->R_cam_from_world, 9) ||
@@ -75,10 +76,10 @@ int vc_check_config(const vc_config *m, vc_proto_diag *diag) {
   return 0;
 }
 
-int vc_check_hull(const vc_hull *m, uint64_t *runs, vc_proto_diag *diag) {
+int vc_check_hull(const vc_hull* m, uint64_t* runs, vc_proto_diag* diag) {
   if (m->voxel_count > VC_PROTO_MAX_VOXELS)
-    return vc_diag_set(diag, VC_PROTO_ELIMIT, "HULL: voxel_count %llu > %llu", (unsigned long long)m->voxel_count,
-                       (unsigned long long)VC_PROTO_MAX_VOXELS);
+    return vc_diag_set(diag, VC_PROTO_ELIMIT, "HULL: voxel_count %llu > %llu",
+                       (unsigned long long)m->voxel_count, (unsigned long long)VC_PROTO_MAX_VOXELS);
   if (m->rle_len && !m->rle) return vc_diag_set(diag, -EINVAL, "HULL: rle is NULL");
   vc_rle_info info;
   int rc = vc_rle_inspect(m->rle, m->rle_len, &info);
@@ -90,13 +91,14 @@ int vc_check_hull(const vc_hull *m, uint64_t *runs, vc_proto_diag *diag) {
     return vc_diag_set(diag, VC_PROTO_EINCONSISTENT, "HULL: runs sum to %llu, voxel_count is %llu",
                        (unsigned long long)info.total, (unsigned long long)m->voxel_count);
   if (info.occupied != m->occupied_count)
-    return vc_diag_set(diag, VC_PROTO_EINCONSISTENT, "HULL: occupied runs sum to %llu, occupied_count is %llu",
+    return vc_diag_set(diag, VC_PROTO_EINCONSISTENT,
+                       "HULL: occupied runs sum to %llu, occupied_count is %llu",
                        (unsigned long long)info.occupied, (unsigned long long)m->occupied_count);
   if (runs) *runs = info.runs;
   return 0;
 }
 
-int vc_check_features(const vc_features *m, vc_proto_diag *diag) {
+int vc_check_features(const vc_features* m, vc_proto_diag* diag) {
   if (m->camera >= VC_PROTO_MAX_CAMERAS)
     return vc_diag_set(diag, VC_PROTO_EFIELD, "FEATURES: camera %u >= %d", m->camera, VC_PROTO_MAX_CAMERAS);
   if (m->feature_count > VC_PROTO_MAX_FEATURES)
@@ -104,11 +106,13 @@ int vc_check_features(const vc_features *m, vc_proto_diag *diag) {
                        VC_PROTO_MAX_FEATURES);
   uint32_t seen = 0;
   for (unsigned i = 0; i < m->feature_count; i++) {
-    const vc_feature *f = &m->features[i];
+    const vc_feature* f = &m->features[i];
     if (f->feature_id >= VC_FEATURE_ID_COUNT)
-      return vc_diag_set(diag, VC_PROTO_EFIELD, "FEATURES: features[%u] has unknown feature_id %u", i, f->feature_id);
+      return vc_diag_set(diag, VC_PROTO_EFIELD, "FEATURES: features[%u] has unknown feature_id %u", i,
+                         f->feature_id);
     if (seen & (1u << f->feature_id))
-      return vc_diag_set(diag, VC_PROTO_EINCONSISTENT, "FEATURES: feature_id %u appears twice", f->feature_id);
+      return vc_diag_set(diag, VC_PROTO_EINCONSISTENT, "FEATURES: feature_id %u appears twice",
+                         f->feature_id);
     seen |= 1u << f->feature_id;
     if (f->state >= VC_FEATURE_STATE_COUNT)
       return vc_diag_set(diag, VC_PROTO_EFIELD, "FEATURES: features[%u] has unknown state %u", i, f->state);
@@ -121,14 +125,15 @@ int vc_check_features(const vc_features *m, vc_proto_diag *diag) {
   return 0;
 }
 
-int vc_check_stats(const vc_stats *m, vc_proto_diag *diag) {
+int vc_check_stats(const vc_stats* m, vc_proto_diag* diag) {
   if (m->stage_count > VC_PROTO_MAX_STAGES)
-    return vc_diag_set(diag, VC_PROTO_ELIMIT, "STATS: stage_count %u > %d", m->stage_count, VC_PROTO_MAX_STAGES);
+    return vc_diag_set(diag, VC_PROTO_ELIMIT, "STATS: stage_count %u > %d", m->stage_count,
+                       VC_PROTO_MAX_STAGES);
   if (m->counter_count > VC_PROTO_MAX_COUNTERS)
     return vc_diag_set(diag, VC_PROTO_ELIMIT, "STATS: counter_count %u > %d", m->counter_count,
                        VC_PROTO_MAX_COUNTERS);
   for (unsigned i = 0; i < m->stage_count; i++) {
-    const vc_stage_time *s = &m->stages[i];
+    const vc_stage_time* s = &m->stages[i];
     if (s->mean_ns > s->max_ns)
       return vc_diag_set(diag, VC_PROTO_EINCONSISTENT, "STATS: stage %u mean_ns %u > max_ns %u", s->stage_id,
                          s->mean_ns, s->max_ns);
@@ -144,7 +149,7 @@ int vc_check_stats(const vc_stats *m, vc_proto_diag *diag) {
   return 0;
 }
 
-int vc_check_heartbeat(const vc_heartbeat *m, vc_proto_diag *diag) {
+int vc_check_heartbeat(const vc_heartbeat* m, vc_proto_diag* diag) {
   if (m->state >= VC_STATE_COUNT)
     return vc_diag_set(diag, VC_PROTO_EFIELD, "HEARTBEAT: unknown state %u", m->state);
   return 0;
@@ -152,7 +157,7 @@ int vc_check_heartbeat(const vc_heartbeat *m, vc_proto_diag *diag) {
 
 /* Well-formed UTF-8 (RFC 3629: no overlong forms, no surrogates, <= U+10FFFF) without NUL.
  * Returns the offset of the first bad byte, or n if all is well. */
-static size_t utf8_check(const uint8_t *s, size_t n) {
+static size_t utf8_check(const uint8_t* s, size_t n) {
   size_t i = 0;
   while (i < n) {
     uint8_t c = s[i];
@@ -183,13 +188,14 @@ static size_t utf8_check(const uint8_t *s, size_t n) {
   return n;
 }
 
-int vc_check_error(const vc_error *m, vc_proto_diag *diag) {
+int vc_check_error(const vc_error* m, vc_proto_diag* diag) {
   if (m->severity >= VC_SEVERITY_COUNT)
     return vc_diag_set(diag, VC_PROTO_EFIELD, "ERROR: unknown severity %u", m->severity);
   if (m->text_len > VC_PROTO_MAX_ERROR_TEXT)
-    return vc_diag_set(diag, VC_PROTO_ELIMIT, "ERROR: text_len %u > %d", m->text_len, VC_PROTO_MAX_ERROR_TEXT);
+    return vc_diag_set(diag, VC_PROTO_ELIMIT, "ERROR: text_len %u > %d", m->text_len,
+                       VC_PROTO_MAX_ERROR_TEXT);
   if (m->text_len && !m->text) return vc_diag_set(diag, -EINVAL, "ERROR: text is NULL");
-  size_t bad = m->text_len ? utf8_check((const uint8_t *)m->text, m->text_len) : 0;
+  size_t bad = m->text_len ? utf8_check((const uint8_t*)m->text, m->text_len) : 0;
   if (bad < m->text_len)
     return vc_diag_set(diag, VC_PROTO_EFIELD, "ERROR: text is not UTF-8 without NUL (byte %zu)", bad);
   return 0;

@@ -43,7 +43,8 @@ TEST(Crc32c, AcceleratedMatchesPortableOnAllLengthsAndAlignments) {
   for (auto& b : buf) b = static_cast<uint8_t>(rng());
   for (size_t off = 0; off < 8; off++)
     for (size_t len = 0; len < 300; len++)
-      ASSERT_EQ(vc_crc32c(0, buf.data() + off, len), vc_crc32c_portable(0, buf.data() + off, len)) << off << " " << len;
+      ASSERT_EQ(vc_crc32c(0, buf.data() + off, len), vc_crc32c_portable(0, buf.data() + off, len))
+          << off << " " << len;
   EXPECT_EQ(vc_crc32c(0x12345678u, buf.data(), 4096), vc_crc32c_portable(0x12345678u, buf.data(), 4096));
   RecordProperty("impl", vc_crc32c_impl());
 }

@@ -12,10 +12,18 @@ namespace {
 struct Vec3 {
   double x, y, z;
 };
-Vec3 operator+(Vec3 a, Vec3 b) { return {a.x + b.x, a.y + b.y, a.z + b.z}; }
-Vec3 operator-(Vec3 a, Vec3 b) { return {a.x - b.x, a.y - b.y, a.z - b.z}; }
-Vec3 operator*(double s, Vec3 a) { return {s * a.x, s * a.y, s * a.z}; }
-double dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+Vec3 operator+(Vec3 a, Vec3 b) {
+  return {a.x + b.x, a.y + b.y, a.z + b.z};
+}
+Vec3 operator-(Vec3 a, Vec3 b) {
+  return {a.x - b.x, a.y - b.y, a.z - b.z};
+}
+Vec3 operator*(double s, Vec3 a) {
+  return {s * a.x, s * a.y, s * a.z};
+}
+double dot(Vec3 a, Vec3 b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
 
 struct Capsule {
   Vec3 a, b;
@@ -83,7 +91,7 @@ Bitset human_hull(int n, uint64_t seed) {
   Vec3 hip{0.05 * u(rng), 0.05 * u(rng), 0.95};
   Vec3 neck = hip + Vec3{0.05 * u(rng), 0.05 * u(rng), 0.55};
   std::vector<Capsule> caps;
-  caps.push_back({hip, neck, 0.16});                                      // torso
+  caps.push_back({hip, neck, 0.16});                                         // torso
   caps.push_back({neck + Vec3{0, 0, 0.18}, neck + Vec3{0, 0, 0.22}, 0.11});  // head
   for (int side : {-1, 1}) {
     Vec3 shoulder = neck + Vec3{0.2 * side, 0, -0.05};
@@ -105,7 +113,8 @@ Bitset human_hull(int n, uint64_t seed) {
       for (int j = lo(c.a.y, c.b.y, min_corner.y); j <= hi(c.a.y, c.b.y, min_corner.y); j++)
         for (int i = lo(c.a.x, c.b.x, min_corner.x); i <= hi(c.a.x, c.b.x, min_corner.x); i++) {
           Vec3 p = min_corner + Vec3{(i + 0.5) * voxel_m, (j + 0.5) * voxel_m, (k + 0.5) * voxel_m};
-          if (dist_to_segment(p, c) <= c.r) b.set(static_cast<size_t>(i) + n * (j + static_cast<size_t>(n) * k));
+          if (dist_to_segment(p, c) <= c.r)
+            b.set(static_cast<size_t>(i) + n * (j + static_cast<size_t>(n) * k));
         }
   }
   return b;
@@ -113,12 +122,12 @@ Bitset human_hull(int n, uint64_t seed) {
 
 Bitset extrude(const Bitset& body, int n, int axis) {
   Bitset out(body.nbits);
-  auto idx = [n](int i, int j, int k) { return static_cast<size_t>(i) + n * (j + static_cast<size_t>(n) * k); };
+  auto idx = [n](int i, int j, int k) {
+    return static_cast<size_t>(i) + n * (j + static_cast<size_t>(n) * k);
+  };
   for (int a = 0; a < n; a++)
     for (int c = 0; c < n; c++) {
-      auto at = [&](int t) {
-        return axis == 0 ? idx(t, a, c) : axis == 1 ? idx(a, t, c) : idx(a, c, t);
-      };
+      auto at = [&](int t) { return axis == 0 ? idx(t, a, c) : axis == 1 ? idx(a, t, c) : idx(a, c, t); };
       int first = -1, last = -1;
       for (int t = 0; t < n; t++)
         if (body.get(at(t))) {

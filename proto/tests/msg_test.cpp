@@ -58,7 +58,9 @@ Decoded decode(const Bytes& b, size_t max_payload = 0) {
   return d;
 }
 
-uint32_t le32(const uint8_t* p) { return p[0] | p[1] << 8 | p[2] << 16 | static_cast<uint32_t>(p[3]) << 24; }
+uint32_t le32(const uint8_t* p) {
+  return p[0] | p[1] << 8 | p[2] << 16 | static_cast<uint32_t>(p[3]) << 24;
+}
 
 // ---- layout -----------------------------------------------------------------------------------------
 
@@ -67,9 +69,9 @@ TEST(Layout, HeartbeatByteByByteAsInSpec) {
   m->hdr.flags = 0;
   m->u.heartbeat = {0x3132333435363738ull, VC_STATE_RUNNING};
   const Bytes b = encode(*m);
-  Bytes expected = {'V', 'X', 'C', 'P', 1, 0, 9, 0, 0, 0, 0x03, 0x02, 12, 0, 0, 0,
-                    0x18, 0x17, 0x16, 0x15, 0x14, 0x13, 0x12, 0x11,
-                    0x28, 0x27, 0x26, 0x25, 0x24, 0x23, 0x22, 0x21};
+  Bytes expected = {'V',  'X',  'C',  'P',  1,    0,    9,    0,    0,    0,    0x03,
+                    0x02, 12,   0,    0,    0,    0x18, 0x17, 0x16, 0x15, 0x14, 0x13,
+                    0x12, 0x11, 0x28, 0x27, 0x26, 0x25, 0x24, 0x23, 0x22, 0x21};
   const Bytes payload = {0x38, 0x37, 0x36, 0x35, 0x34, 0x33, 0x32, 0x31, 5, 0, 0, 0};
   uint32_t pcrc = vc_crc32c(0, payload.data(), payload.size());
   for (int i = 0; i < 4; i++) expected.push_back(static_cast<uint8_t>(pcrc >> (8 * i)));
@@ -85,7 +87,7 @@ TEST(Layout, HullFixedPartAndRleFollowTheHeader) {
   m->u.hull = {0x01020304, 3, 10, 3, rle.data(), 0};
   const Bytes b = encode(*m);
   ASSERT_EQ(b.size(), 40u + 24 + 3);
-  EXPECT_EQ(le32(&b[12]), 27u);        // payload_len
+  EXPECT_EQ(le32(&b[12]), 27u);          // payload_len
   EXPECT_EQ(le32(&b[40]), 0x01020304u);  // grid_id
   EXPECT_EQ(le32(&b[44]), 3u);           // rle_len
   EXPECT_EQ(le32(&b[48]), 10u);          // voxel_count (low half)
@@ -122,7 +124,9 @@ std::unique_ptr<vc_msg> sample(uint16_t type, const Bytes& rle, const std::strin
       for (int i = 0; i < 3; i++) c.cameras[0].t_cam_from_world[i] = 1.0 / (i + 3);
       break;
     }
-    case VC_MSG_BACKGROUND: m->u.background.frame_count = 0; break;
+    case VC_MSG_BACKGROUND:
+      m->u.background.frame_count = 0;
+      break;
     case VC_MSG_HULL: {
       uint64_t occ = 0, total = 0;
       EXPECT_EQ(vc_rle_popcount(rle.data(), rle.size(), &occ, &total), 0);
@@ -143,11 +147,14 @@ std::unique_ptr<vc_msg> sample(uint16_t type, const Bytes& rle, const std::strin
       m->u.stats.counter_count = 1;
       m->u.stats.counters[0] = {VC_COUNTER_SEND_QUEUE_DROPS, UINT64_MAX};
       break;
-    case VC_MSG_HEARTBEAT: m->u.heartbeat = {UINT64_MAX, VC_STATE_HOST}; break;
+    case VC_MSG_HEARTBEAT:
+      m->u.heartbeat = {UINT64_MAX, VC_STATE_HOST};
+      break;
     case VC_MSG_ERROR:
       m->u.error = {VC_ERR_CAMERA, VC_SEVERITY_FATAL, 0, static_cast<uint16_t>(text.size()), text.data()};
       break;
-    default: break;
+    default:
+      break;
   }
   return m;
 }
@@ -196,10 +203,17 @@ TEST(RoundTrip, EveryTypeDecodesToWhatWasEncoded) {
         EXPECT_EQ(Bytes(r.u.hull.rle, r.u.hull.rle + r.u.hull.rle_len), rle);
         EXPECT_GT(r.u.hull.run_count, 10u);
         break;
-      case VC_MSG_FEATURES: EXPECT_EQ(r.u.features.features[0].v, 1e4f); break;
-      case VC_MSG_STATS: EXPECT_EQ(r.u.stats.counters[0].value, UINT64_MAX); break;
-      case VC_MSG_ERROR: EXPECT_EQ(std::string(r.u.error.text, r.u.error.text_len), text); break;
-      default: break;
+      case VC_MSG_FEATURES:
+        EXPECT_EQ(r.u.features.features[0].v, 1e4f);
+        break;
+      case VC_MSG_STATS:
+        EXPECT_EQ(r.u.stats.counters[0].value, UINT64_MAX);
+        break;
+      case VC_MSG_ERROR:
+        EXPECT_EQ(std::string(r.u.error.text, r.u.error.text_len), text);
+        break;
+      default:
+        break;
     }
   }
 }
@@ -215,12 +229,14 @@ TEST(RoundTrip, HullFromBitsMatchesHullFromRle) {
   Bytes via_bits(via_rle.size() + 100);
   size_t len = 0;
   vc_header h = header(2, 3, 4);
-  ASSERT_EQ(vc_encode_hull_bits(via_bits.data(), via_bits.size(), &len, &h, 12, body.bytes.data(), body.nbits), 0);
+  ASSERT_EQ(
+      vc_encode_hull_bits(via_bits.data(), via_bits.size(), &len, &h, 12, body.bytes.data(), body.nbits), 0);
   via_bits.resize(len);
   EXPECT_EQ(via_bits, via_rle);
   // Too small a buffer: -ENOSPC and the size needed.
   Bytes small(100);
-  EXPECT_EQ(vc_encode_hull_bits(small.data(), small.size(), &len, &h, 12, body.bytes.data(), body.nbits), -ENOSPC);
+  EXPECT_EQ(vc_encode_hull_bits(small.data(), small.size(), &len, &h, 12, body.bytes.data(), body.nbits),
+            -ENOSPC);
   EXPECT_EQ(len, via_rle.size());
   EXPECT_EQ(vc_encode_hull_bits(nullptr, 0, &len, &h, 12, body.bytes.data(), body.nbits), -ENOSPC);
   EXPECT_EQ(len, via_rle.size());
@@ -289,7 +305,8 @@ TEST(Encoders, RefuseInvalidBodiesWithTheDecodersCode) {
   const std::string with_nul("a\0b", 3);
   auto err = sample(VC_MSG_ERROR, rle, with_nul);
   expect_refused(*err, VC_PROTO_EFIELD);
-  for (const char* bad : {"\xc0\xaf", "\xed\xa0\x80", "\xf4\x90\x80\x80", "\xe2\x82"}) {  // overlong, surrogate, >U+10FFFF, cut
+  for (const char* bad :
+       {"\xc0\xaf", "\xed\xa0\x80", "\xf4\x90\x80\x80", "\xe2\x82"}) {  // overlong, surrogate, >U+10FFFF, cut
     const std::string t(bad);
     auto e = sample(VC_MSG_ERROR, rle, t);
     expect_refused(*e, VC_PROTO_EFIELD);
@@ -392,7 +409,8 @@ using DecoderPtr = std::unique_ptr<vc_decoder, DecoderDeleter>;
 
 // Feeds `stream` in chunks from `chunk_size`, returns the types of messages yielded (negative codes
 // for errors) and the final code of finish.
-std::vector<int> run_stream(const Bytes& stream, size_t max_payload, const std::function<size_t()>& chunk_size) {
+std::vector<int> run_stream(const Bytes& stream, size_t max_payload,
+                            const std::function<size_t()>& chunk_size) {
   DecoderPtr dec(vc_decoder_new(max_payload));
   EXPECT_TRUE(dec);
   std::vector<int> seen;

@@ -55,11 +55,13 @@ void check_properties(const Bitset& a, const Bitset& b) {
 
 TEST(Rle, RandomBitsetsOfManySizesAndDensities) {
   std::mt19937_64 rng(1234);
-  const size_t sizes[] = {0, 1, 2, 7, 8, 9, 15, 16, 17, 63, 64, 65, 127, 128, 129, 255, 256, 257, 1000, 4099, 32768 + 5};
+  const size_t sizes[] = {0,  1,   2,   7,   8,   9,   15,  16,   17,   63,       64,
+                          65, 127, 128, 129, 255, 256, 257, 1000, 4099, 32768 + 5};
   const double densities[] = {0.0, 0.001, 0.02, 0.1, 0.5, 0.9, 0.98, 1.0};
   for (size_t n : sizes)
     for (double da : densities)
-      for (double db : {0.0, 0.3, 0.97, 1.0}) check_properties(t::random_bitset(n, da, rng), t::random_bitset(n, db, rng));
+      for (double db : {0.0, 0.3, 0.97, 1.0})
+        check_properties(t::random_bitset(n, da, rng), t::random_bitset(n, db, rng));
 }
 
 TEST(Rle, RandomRunStructuresIncludingMultiByteVarints) {
@@ -179,8 +181,10 @@ TEST(Rle, RejectsMalformedStreams) {
     const auto ok = encode(Bitset(5));
     std::vector<uint8_t> out(32);
     size_t len = 0;
-    EXPECT_EQ(vc_rle_and(c.rle.data(), c.rle.size(), ok.data(), ok.size(), out.data(), out.size(), &len), c.err);
-    EXPECT_EQ(vc_rle_and(ok.data(), ok.size(), c.rle.data(), c.rle.size(), out.data(), out.size(), &len), c.err);
+    EXPECT_EQ(vc_rle_and(c.rle.data(), c.rle.size(), ok.data(), ok.size(), out.data(), out.size(), &len),
+              c.err);
+    EXPECT_EQ(vc_rle_and(ok.data(), ok.size(), c.rle.data(), c.rle.size(), out.data(), out.size(), &len),
+              c.err);
   }
 }
 
@@ -191,7 +195,8 @@ TEST(Rle, TotalsThatOverflow64BitsAreMalformed) {
   EXPECT_EQ(vc_rle_popcount(rle.data(), rle.size(), nullptr, nullptr), -EBADMSG);
   std::vector<uint8_t> out(64);
   size_t len = 0;
-  EXPECT_EQ(vc_rle_and(rle.data(), rle.size(), rle.data(), rle.size(), out.data(), out.size(), &len), -EBADMSG);
+  EXPECT_EQ(vc_rle_and(rle.data(), rle.size(), rle.data(), rle.size(), out.data(), out.size(), &len),
+            -EBADMSG);
 }
 
 TEST(Rle, RunsNotSummingToNbitsAreInvalid) {
@@ -203,7 +208,8 @@ TEST(Rle, RunsNotSummingToNbitsAreInvalid) {
   const std::vector<uint8_t> shorter{0x03, 0x03, 0x03};  // 9 bits
   std::vector<uint8_t> out(16);
   size_t len = 0;
-  EXPECT_EQ(vc_rle_and(rle.data(), rle.size(), shorter.data(), shorter.size(), out.data(), out.size(), &len), -EINVAL);
+  EXPECT_EQ(vc_rle_and(rle.data(), rle.size(), shorter.data(), shorter.size(), out.data(), out.size(), &len),
+            -EINVAL);
   EXPECT_EQ(vc_rle_and(nullptr, 0, rle.data(), rle.size(), out.data(), out.size(), &len), -EINVAL);
 }
 

@@ -11,7 +11,7 @@ namespace {
 TEST(TriggerDgram, BytesAsSpecified) {
   std::array<uint8_t, VC_TRIGGER_DGRAM_SIZE> b{};
   ASSERT_EQ(vc_trigger_dgram_encode(b.data(), 0x0102030405060708ull, 0x1112131415161718ull), 0);
-  const std::array<uint8_t, 24> expected{'V', 'X', 'T', 'R', 1, 0, 0, 0,
+  const std::array<uint8_t, 24> expected{'V',  'X',  'T',  'R',  1,    0,    0,    0,
                                          0x08, 0x07, 0x06, 0x05, 0x04, 0x03, 0x02, 0x01,
                                          0x18, 0x17, 0x16, 0x15, 0x14, 0x13, 0x12, 0x11};
   EXPECT_EQ(b, expected);

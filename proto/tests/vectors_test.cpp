@@ -38,7 +38,8 @@ Bytes read_bytes(const fs::path& p) {
 
 Bytes unhex(const std::string& h) {
   Bytes b;
-  for (size_t i = 0; i + 1 < h.size(); i += 2) b.push_back(static_cast<uint8_t>(std::stoi(h.substr(i, 2), nullptr, 16)));
+  for (size_t i = 0; i + 1 < h.size(); i += 2)
+    b.push_back(static_cast<uint8_t>(std::stoi(h.substr(i, 2), nullptr, 16)));
   return b;
 }
 
@@ -53,7 +54,9 @@ std::vector<std::string> stream_vectors() {
   return names;
 }
 
-TEST(Vectors, ThereAreVectors) { EXPECT_GE(stream_vectors().size(), 30u); }
+TEST(Vectors, ThereAreVectors) {
+  EXPECT_GE(stream_vectors().size(), 30u);
+}
 
 TEST(Vectors, EveryStreamDecodesToItsEventsInAnyChunking) {
   std::mt19937_64 rng(42);

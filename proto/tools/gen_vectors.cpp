@@ -6,7 +6,9 @@
 
 int main(int argc, char** argv) {
   if (argc != 2) {
-    std::fprintf(stderr, "usage: %s DIR\n  writes the proto test vectors (*.bin, *.json, README.md) into DIR\n", argv[0]);
+    std::fprintf(stderr,
+                 "usage: %s DIR\n  writes the proto test vectors (*.bin, *.json, README.md) into DIR\n",
+                 argv[0]);
     return 2;
   }
   try {

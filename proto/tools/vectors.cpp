@@ -24,8 +24,12 @@ namespace {
 
 using Bytes = std::vector<uint8_t>;
 
-uint16_t ld16(const uint8_t* p) { return static_cast<uint16_t>(p[0] | (p[1] << 8)); }
-uint32_t ld32(const uint8_t* p) { return p[0] | (p[1] << 8) | (p[2] << 16) | (static_cast<uint32_t>(p[3]) << 24); }
+uint16_t ld16(const uint8_t* p) {
+  return static_cast<uint16_t>(p[0] | (p[1] << 8));
+}
+uint32_t ld32(const uint8_t* p) {
+  return p[0] | (p[1] << 8) | (p[2] << 16) | (static_cast<uint32_t>(p[3]) << 24);
+}
 void st16(uint8_t* p, uint16_t v) {
   p[0] = static_cast<uint8_t>(v);
   p[1] = static_cast<uint8_t>(v >> 8);
@@ -61,7 +65,8 @@ Bytes encode(const vc_msg& m) {
   Bytes b(VC_PROTO_HEADER_SIZE + (1u << 20));  // every vector message is far smaller
   size_t len = 0;
   int rc = vc_msg_encode(b.data(), b.size(), &len, &m);
-  if (rc) throw std::runtime_error(fmt::format("encoding type {} failed: {}", m.hdr.type, vc_proto_strerror(rc)));
+  if (rc)
+    throw std::runtime_error(fmt::format("encoding type {} failed: {}", m.hdr.type, vc_proto_strerror(rc)));
   b.resize(len);
   return b;
 }
@@ -75,7 +80,9 @@ Bytes frame(const vc_header& h, const Bytes& payload) {
   return b;
 }
 
-Bytes payload_of(const Bytes& msg) { return Bytes(msg.begin() + VC_PROTO_HEADER_SIZE, msg.end()); }
+Bytes payload_of(const Bytes& msg) {
+  return Bytes(msg.begin() + VC_PROTO_HEADER_SIZE, msg.end());
+}
 
 // Bit-by-bit RLE, independent of vc_rle_encode.
 Bytes reference_rle(const Bytes& bits, size_t nbits) {
@@ -309,9 +316,11 @@ std::vector<Vector> build_streams() {
   const HullData empty = hull_data(Bytes((kNx * kNy * kNz + 7) / 8, 0), kNx * kNy * kNz);
 
   // One valid message of each type.
-  add("hello", "HELLO from node 3: software 0.1.0, two 640x480 RGB3 cameras at 60 fps, hull + features + udp trigger")
+  add("hello",
+      "HELLO from node 3: software 0.1.0, two 640x480 RGB3 cameras at 60 fps, hull + features + udp trigger")
       .message(hello_msg());
-  add("config", "CONFIG for node 3: grid 7 (128^3 voxels of 2 cm), thresholds, role front, two calibrated cameras")
+  add("config",
+      "CONFIG for node 3: grid 7 (128^3 voxels of 2 cm), thresholds, role front, two calibrated cameras")
       .message(config_msg());
   add("background", "BACKGROUND: learn 40 frames of the empty scene").message(background_msg());
   add("start", "START: stream frames (empty payload)").message(make(VC_MSG_START));
@@ -326,8 +335,9 @@ std::vector<Vector> build_streams() {
   add("error", "ERROR from node 3: CONFIG rejected, UTF-8 text").message(error_msg());
 
   {  // A whole session as the host sees it, both directions interleaved.
-    Vector& s = add("session", "A session: HELLO, CONFIG, BACKGROUND, HEARTBEATs, START, two frames of HULL + "
-                               "FEATURES from both cameras, STATS, STOP");
+    Vector& s = add("session",
+                    "A session: HELLO, CONFIG, BACKGROUND, HEARTBEATs, START, two frames of HULL + "
+                    "FEATURES from both cameras, STATS, STOP");
     s.message(hello_msg());
     s.message(config_msg());
     s.message(heartbeat_msg(VC_STATE_CONFIGURED, 17'300'000'000ull));
@@ -344,8 +354,9 @@ std::vector<Vector> build_streams() {
     s.message(make(VC_MSG_STOP));
   }
   {  // Evolution: an unknown type is skipped, not fatal.
-    Vector& u = add("unknown_type", "A message of type 77 (unknown to 1.0) with valid CRCs: reported as unknown and "
-                                    "skipped; the HEARTBEAT after it decodes");
+    Vector& u = add("unknown_type",
+                    "A message of type 77 (unknown to 1.0) with valid CRCs: reported as unknown and "
+                    "skipped; the HEARTBEAT after it decodes");
     vc_msg m = make(77, 5, 6);
     m.known = false;
     Bytes payload{'f', 'u', 't', 'u', 'r', 'e'};
@@ -358,8 +369,9 @@ std::vector<Vector> build_streams() {
     u.message(heartbeat_msg());
   }
   {  // Evolution: a newer minor version appends fields; a 1.0 receiver ignores them.
-    Vector& n = add("newer_minor", "HELLO 1.1 with 16-byte camera records and 6 appended bytes, HULL 1.2 with 3 "
-                                   "appended bytes: decoded, the unknown bytes counted in ignored_bytes");
+    Vector& n = add("newer_minor",
+                    "HELLO 1.1 with 16-byte camera records and 6 appended bytes, HULL 1.2 with 3 "
+                    "appended bytes: decoded, the unknown bytes counted in ignored_bytes");
     vc_msg hello = hello_msg();
     Bytes p = payload_of(encode(hello));
     Bytes q(p.begin(), p.begin() + 16);
@@ -383,8 +395,9 @@ std::vector<Vector> build_streams() {
 
   // ---- rejections: framing (fatal) ----
   {
-    Vector& r = add("bad_magic", "A HEARTBEAT, then bytes that are not a message (an HTTP request): fatal "
-                                 "VC_PROTO_EMAGIC at the second message's offset");
+    Vector& r = add("bad_magic",
+                    "A HEARTBEAT, then bytes that are not a message (an HTTP request): fatal "
+                    "VC_PROTO_EMAGIC at the second message's offset");
     r.message(heartbeat_msg());
     std::string http = "GET / HTTP/1.1\r\nHost: voxcap\r\n\r\n";
     r.error(r.raw(Bytes(http.begin(), http.end())), VC_PROTO_EMAGIC);
@@ -398,22 +411,25 @@ std::vector<Vector> build_streams() {
     r.error(r.raw(frame(m.hdr, payload_of(encode(heartbeat_msg())))), VC_PROTO_EVERSION);
   }
   {
-    Vector& r = add("bad_header_crc", "A HULL whose seq was altered after sealing: fatal VC_PROTO_EHEADER_CRC");
+    Vector& r =
+        add("bad_header_crc", "A HULL whose seq was altered after sealing: fatal VC_PROTO_EHEADER_CRC");
     Bytes b = encode(hull_msg(small));
     b[16] ^= 0x01;
     r.error(r.raw(b), VC_PROTO_EHEADER_CRC);
   }
   {
-    Vector& r = add("bad_payload_crc", "A START, then a HULL with one payload byte altered after sealing: fatal "
-                                       "VC_PROTO_EPAYLOAD_CRC");
+    Vector& r = add("bad_payload_crc",
+                    "A START, then a HULL with one payload byte altered after sealing: fatal "
+                    "VC_PROTO_EPAYLOAD_CRC");
     r.message(make(VC_MSG_START));
     Bytes b = encode(hull_msg(small));
     b[VC_PROTO_HEADER_SIZE + 30] ^= 0x40;
     r.error(r.raw(b), VC_PROTO_EPAYLOAD_CRC);
   }
   {
-    Vector& r = add("oversize", "A START, then a HULL header announcing VC_PROTO_MAX_PAYLOAD + 1 bytes (header CRC "
-                                "valid): fatal VC_PROTO_EOVERSIZE before any payload arrives");
+    Vector& r = add("oversize",
+                    "A START, then a HULL header announcing VC_PROTO_MAX_PAYLOAD + 1 bytes (header CRC "
+                    "valid): fatal VC_PROTO_EOVERSIZE before any payload arrives");
     r.message(make(VC_MSG_START));
     Bytes b = encode(hull_msg(empty));
     b.resize(VC_PROTO_HEADER_SIZE);
@@ -422,8 +438,9 @@ std::vector<Vector> build_streams() {
     r.error(r.raw(b), VC_PROTO_EOVERSIZE);
   }
   {
-    Vector& r = add("oversize_receiver_limit", "A noisy HULL of more than 1024 payload bytes sent to a receiver "
-                                               "created with max_payload 1024: fatal VC_PROTO_EOVERSIZE");
+    Vector& r = add("oversize_receiver_limit",
+                    "A noisy HULL of more than 1024 payload bytes sent to a receiver "
+                    "created with max_payload 1024: fatal VC_PROTO_EOVERSIZE");
     r.max_payload = 1024;
     const size_t nbits = 4 * kNx * kNy * kNz;  // ~3800 runs of 1-2 bytes
     Bytes bits(nbits / 8);
@@ -436,8 +453,9 @@ std::vector<Vector> build_streams() {
     r.error(r.raw(encode(hull_msg(noisy))), VC_PROTO_EOVERSIZE);
   }
   {
-    Vector& r = add("truncated_stream", "A HEARTBEAT, then the first 50 bytes of a HULL and the end of the stream: "
-                                        "fatal VC_PROTO_EEOF at the HULL's offset");
+    Vector& r = add("truncated_stream",
+                    "A HEARTBEAT, then the first 50 bytes of a HULL and the end of the stream: "
+                    "fatal VC_PROTO_EEOF at the HULL's offset");
     r.message(heartbeat_msg());
     Bytes b = encode(hull_msg(small));
     b.resize(50);
@@ -454,37 +472,47 @@ std::vector<Vector> build_streams() {
     return frame(h, p);
   };
   {
-    Vector& r = add("truncated_payload", "A HULL whose payload is 20 bytes, shorter than its 24-byte fixed part "
-                                         "(CRCs valid): VC_PROTO_ETRUNCATED; the HEARTBEAT after it decodes");
+    Vector& r = add("truncated_payload",
+                    "A HULL whose payload is 20 bytes, shorter than its 24-byte fixed part "
+                    "(CRCs valid): VC_PROTO_ETRUNCATED; the HEARTBEAT after it decodes");
     r.rejected(patched(hull_msg(small), [](Bytes& p) { p.resize(20); }), VC_PROTO_ETRUNCATED);
     r.message(heartbeat_msg());
   }
   {
-    Vector& r = add("truncated_records", "A FEATURES announcing 5 records but carrying 4: VC_PROTO_ETRUNCATED");
+    Vector& r =
+        add("truncated_records", "A FEATURES announcing 5 records but carrying 4: VC_PROTO_ETRUNCATED");
     r.rejected(patched(features_msg(), [](Bytes& p) { p.resize(p.size() - 16); }), VC_PROTO_ETRUNCATED);
   }
   {
-    Vector& r = add("trailing_bytes", "A 1.0 HEARTBEAT with 4 bytes after its last field: VC_PROTO_ETRAILING; the "
-                                      "STOP after it decodes");
-    r.rejected(patched(heartbeat_msg(), [](Bytes& p) { p.insert(p.end(), {0, 0, 0, 0}); }), VC_PROTO_ETRAILING);
+    Vector& r = add("trailing_bytes",
+                    "A 1.0 HEARTBEAT with 4 bytes after its last field: VC_PROTO_ETRAILING; the "
+                    "STOP after it decodes");
+    r.rejected(patched(heartbeat_msg(),
+                       [](Bytes& p) {
+                         p.insert(p.end(), {0, 0, 0, 0});
+                       }),
+               VC_PROTO_ETRAILING);
     r.message(make(VC_MSG_STOP));
   }
   {
-    Vector& r = add("inconsistent_popcount", "A HULL whose occupied_count is one more than its occupied runs sum "
-                                             "to: VC_PROTO_EINCONSISTENT; the next HULL decodes");
+    Vector& r = add("inconsistent_popcount",
+                    "A HULL whose occupied_count is one more than its occupied runs sum "
+                    "to: VC_PROTO_EINCONSISTENT; the next HULL decodes");
     r.rejected(patched(hull_msg(small), [&](Bytes& p) { st64(p.data() + 16, small.occupied + 1); }),
                VC_PROTO_EINCONSISTENT);
     r.message(hull_msg(small, kSeq + 1, kTrigger + 16'666'667ull));
   }
   {
-    Vector& r = add("inconsistent_voxel_count", "A HULL whose voxel_count (1921) is not the sum of its runs (1920): "
-                                                "VC_PROTO_EINCONSISTENT");
+    Vector& r = add("inconsistent_voxel_count",
+                    "A HULL whose voxel_count (1921) is not the sum of its runs (1920): "
+                    "VC_PROTO_EINCONSISTENT");
     r.rejected(patched(hull_msg(small), [&](Bytes& p) { st64(p.data() + 8, small.voxels + 1); }),
                VC_PROTO_EINCONSISTENT);
   }
   {
-    Vector& r = add("inconsistent_record_size", "A 1.0 CONFIG whose camera_record_size is 208, not 216: "
-                                                "VC_PROTO_EINCONSISTENT");
+    Vector& r = add("inconsistent_record_size",
+                    "A 1.0 CONFIG whose camera_record_size is 208, not 216: "
+                    "VC_PROTO_EINCONSISTENT");
     r.rejected(patched(config_msg(), [](Bytes& p) { st16(p.data() + 76, 208); }), VC_PROTO_EINCONSISTENT);
   }
   {
@@ -498,7 +526,8 @@ std::vector<Vector> build_streams() {
                VC_PROTO_ERLE);
   }
   {
-    Vector& r = add("too_many_cameras", "A HELLO with camera_count 9 > VC_PROTO_MAX_CAMERAS: VC_PROTO_ELIMIT");
+    Vector& r =
+        add("too_many_cameras", "A HELLO with camera_count 9 > VC_PROTO_MAX_CAMERAS: VC_PROTO_ELIMIT");
     r.rejected(patched(hello_msg(),
                        [](Bytes& p) {
                          Bytes cam(p.begin() + 16, p.begin() + 28);
@@ -522,8 +551,9 @@ std::vector<Vector> build_streams() {
     r.rejected(patched(error_msg(), [](Bytes& p) { p[10] = 0xC3, p[11] = 0x28; }), VC_PROTO_EFIELD);
   }
   {
-    Vector& r = add("hello_node_mismatch", "A HELLO whose node_id (4) differs from its header's (3): "
-                                           "VC_PROTO_EINCONSISTENT");
+    Vector& r = add("hello_node_mismatch",
+                    "A HELLO whose node_id (4) differs from its header's (3): "
+                    "VC_PROTO_EINCONSISTENT");
     r.rejected(patched(hello_msg(), [](Bytes& p) { st16(p.data(), 4); }), VC_PROTO_EINCONSISTENT);
   }
   return v;
@@ -639,9 +669,11 @@ std::vector<std::string> write_all(const std::filesystem::path& dir) {
   bj["description"] = "Trigger datagram of version 2: rejected";
   bj["error"] = "EBADMSG";
   write_file(dir / "trigger_bad_version.json", bj.dump(2) + "\n");
-  names.insert(names.end(), {"trigger.bin", "trigger.json", "trigger_bad_version.bin", "trigger_bad_version.json"});
-  readme += "| `trigger` | the emulated trigger datagram of pulse 1042 |\n"
-            "| `trigger_bad_version` | a trigger datagram of version 2: `-EBADMSG` |\n";
+  names.insert(names.end(),
+               {"trigger.bin", "trigger.json", "trigger_bad_version.bin", "trigger_bad_version.json"});
+  readme +=
+      "| `trigger` | the emulated trigger datagram of pulse 1042 |\n"
+      "| `trigger_bad_version` | a trigger datagram of version 2: `-EBADMSG` |\n";
   write_file(dir / "README.md", readme);
   names.push_back("README.md");
   std::sort(names.begin(), names.end());

@@ -58,17 +58,17 @@ enum vc_proto_err {
 };
 
 /* Short description of any code returned here ("bad magic", "no space", ...). Static string. */
-const char *vc_proto_strerror(int code);
+const char* vc_proto_strerror(int code);
 /* The enum name ("VC_PROTO_EMAGIC", "ENOSPC", "OK"), as test vectors and `voxcap proto dump` show it. */
-const char *vc_proto_error_name(int code);
+const char* vc_proto_error_name(int code);
 /* True for the fatal codes listed above. */
 bool vc_proto_error_is_fatal(int code);
 
 /* Where and why decoding failed. */
 typedef struct vc_proto_diag {
-  int code;          /* 0 or the error code */
-  uint64_t offset;   /* offset of the first byte of the failing message (stream offset in a decoder) */
-  char detail[256];  /* NUL-terminated: message type, field, the values seen */
+  int code;         /* 0 or the error code */
+  uint64_t offset;  /* offset of the first byte of the failing message (stream offset in a decoder) */
+  char detail[256]; /* NUL-terminated: message type, field, the values seen */
 } vc_proto_diag;
 
 /* ---- Message types and enumerations (SPEC.md "Messages") ----------------------------------------- */
@@ -86,7 +86,7 @@ enum vc_msg_type {
   VC_MSG_ERROR = 10,     /* both ways */
 };
 /* "HELLO", ... for known types, NULL otherwise. */
-const char *vc_msg_type_name(uint16_t type);
+const char* vc_msg_type_name(uint16_t type);
 
 /* HELLO capabilities (bit set = supported). Unknown bits are ignored by receivers. */
 #define VC_CAP_HULL (1u << 0)         /* carves and sends HULL */
@@ -117,14 +117,14 @@ enum vc_feature_state {
   VC_FEATURE_STATE_COUNT = 4
 };
 
-enum vc_node_state { /* HEARTBEAT */
-  VC_STATE_HOST = 0,       /* sent by the host, which has no node state */
-  VC_STATE_IDLE = 1,       /* connected, no CONFIG yet */
-  VC_STATE_CONFIGURED = 2, /* CONFIG accepted, no background model */
-  VC_STATE_BACKGROUND = 3, /* learning the background */
-  VC_STATE_READY = 4,      /* background learnt; START will stream */
-  VC_STATE_RUNNING = 5,    /* streaming HULL/FEATURES */
-  VC_STATE_COUNT = 6
+enum vc_node_state {                          /* HEARTBEAT */
+                     VC_STATE_HOST = 0,       /* sent by the host, which has no node state */
+                     VC_STATE_IDLE = 1,       /* connected, no CONFIG yet */
+                     VC_STATE_CONFIGURED = 2, /* CONFIG accepted, no background model */
+                     VC_STATE_BACKGROUND = 3, /* learning the background */
+                     VC_STATE_READY = 4,      /* background learnt; START will stream */
+                     VC_STATE_RUNNING = 5,    /* streaming HULL/FEATURES */
+                     VC_STATE_COUNT = 6
 };
 
 /* STATS ids: open sets; receivers show unknown ids as numbers. */
@@ -148,12 +148,12 @@ enum vc_counter_id {
   VC_COUNTER_HULLS_OVER_LIMIT = 6,     /* hulls not sent: RLE over VC_PROTO_MAX_* limits */
   VC_COUNTER_CAMERA_ERRORS = 7,
 };
-const char *vc_stage_name(uint32_t id);   /* "capture", ... or NULL */
-const char *vc_counter_name(uint32_t id); /* "frames_captured", ... or NULL */
-const char *vc_feature_name(uint32_t id); /* "head", "left_hand", ... or NULL */
-const char *vc_feature_state_name(uint32_t state); /* "tracking", ... or NULL */
-const char *vc_node_state_name(uint32_t state);    /* "host", "idle", ... or NULL */
-const char *vc_role_name(uint32_t role);           /* "none", "front" or NULL */
+const char* vc_stage_name(uint32_t id);            /* "capture", ... or NULL */
+const char* vc_counter_name(uint32_t id);          /* "frames_captured", ... or NULL */
+const char* vc_feature_name(uint32_t id);          /* "head", "left_hand", ... or NULL */
+const char* vc_feature_state_name(uint32_t state); /* "tracking", ... or NULL */
+const char* vc_node_state_name(uint32_t state);    /* "host", "idle", ... or NULL */
+const char* vc_role_name(uint32_t role);           /* "none", "front" or NULL */
 
 /* ERROR codes (the ERROR message's `code`; open set) and severities. */
 enum vc_error_code {
@@ -172,8 +172,8 @@ enum vc_error_severity {
   VC_SEVERITY_FATAL = 2,   /* the sender closes the connection after this message */
   VC_SEVERITY_COUNT = 3
 };
-const char *vc_error_code_name(uint32_t code);         /* "protocol", ... or NULL */
-const char *vc_error_severity_name(uint32_t severity); /* "warning", ... or NULL */
+const char* vc_error_code_name(uint32_t code);         /* "protocol", ... or NULL */
+const char* vc_error_severity_name(uint32_t severity); /* "warning", ... or NULL */
 
 /* ---- Header and message bodies -------------------------------------------------------------------- */
 
@@ -199,7 +199,7 @@ typedef struct vc_hello_camera {
 typedef struct vc_hello {
   uint16_t node_id; /* must equal the header's node_id */
   uint16_t sw_major, sw_minor, sw_patch;
-  uint32_t capabilities; /* VC_CAP_* */
+  uint32_t capabilities;       /* VC_CAP_* */
   uint16_t camera_count;       /* <= VC_PROTO_MAX_CAMERAS */
   uint16_t camera_record_size; /* decoded: as received; encoders write this version's size */
   vc_hello_camera cameras[VC_PROTO_MAX_CAMERAS];
@@ -216,16 +216,16 @@ typedef struct vc_config_camera {
 typedef struct vc_config {
   uint32_t grid_id; /* names this grid in HULL messages */
   uint32_t nx, ny, nz;
-  double min_m[3]; /* world min corner, metres */
-  double voxel_m;  /* voxel edge, metres */
-  float t_upper;   /* eq. 1: foreground if |p - mu| > t_upper * sigma in some channel */
-  float t_lower;   /* background if below t_lower * sigma in all channels */
-  float shadow_angle_deg; /* eq. 2: angular (hue) threshold between the two */
-  uint32_t speckle_px;    /* clean-up: drop foreground blobs smaller than this (0: off) */
-  uint32_t hole_px;       /* clean-up: fill holes smaller than this (0: off) */
-  uint32_t background_frames; /* frames BACKGROUND learns when it says 0 */
-  uint16_t feature_role;      /* vc_feature_role */
-  uint16_t camera_count;      /* 1..VC_PROTO_MAX_CAMERAS, in the node's HELLO order */
+  double min_m[3];             /* world min corner, metres */
+  double voxel_m;              /* voxel edge, metres */
+  float t_upper;               /* eq. 1: foreground if |p - mu| > t_upper * sigma in some channel */
+  float t_lower;               /* background if below t_lower * sigma in all channels */
+  float shadow_angle_deg;      /* eq. 2: angular (hue) threshold between the two */
+  uint32_t speckle_px;         /* clean-up: drop foreground blobs smaller than this (0: off) */
+  uint32_t hole_px;            /* clean-up: fill holes smaller than this (0: off) */
+  uint32_t background_frames;  /* frames BACKGROUND learns when it says 0 */
+  uint16_t feature_role;       /* vc_feature_role */
+  uint16_t camera_count;       /* 1..VC_PROTO_MAX_CAMERAS, in the node's HELLO order */
   uint16_t camera_record_size; /* decoded: as received; encoders write this version's size */
   vc_config_camera cameras[VC_PROTO_MAX_CAMERAS];
 } vc_config;
@@ -239,7 +239,7 @@ typedef struct vc_hull {
   uint32_t rle_len;
   uint64_t voxel_count;    /* must equal the sum of the runs */
   uint64_t occupied_count; /* must equal the sum of the occupied runs */
-  const uint8_t *rle;      /* rle_len bytes (rle.h format) */
+  const uint8_t* rle;      /* rle_len bytes (rle.h format) */
   uint64_t run_count;      /* filled by the decoder; ignored by the encoder */
 } vc_hull;
 
@@ -285,12 +285,12 @@ typedef struct vc_error {
   uint16_t severity;   /* vc_error_severity */
   uint16_t about_type; /* type of the message that caused it, 0 if none */
   uint16_t text_len;
-  const char *text; /* text_len bytes of UTF-8, no NUL; not NUL-terminated */
+  const char* text; /* text_len bytes of UTF-8, no NUL; not NUL-terminated */
 } vc_error;
 
 typedef struct vc_msg {
   vc_header hdr;
-  const uint8_t *payload; /* view of hdr.payload_len bytes (decoded messages only) */
+  const uint8_t* payload; /* view of hdr.payload_len bytes (decoded messages only) */
   bool known;             /* hdr.type is a type this library knows; otherwise `u` is unset */
   uint32_t ignored_bytes; /* bytes of a newer minor version skipped by the decoder */
   union {
@@ -312,32 +312,31 @@ typedef struct vc_msg {
  * produces a message a receiver of this version rejects: a violation returns that VC_PROTO_E* code.
  * -EINVAL for NULL pointers, -ENOSPC (with *len = size needed) when cap is too small. */
 
-int vc_encode_hello(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, const vc_hello *m);
-int vc_encode_config(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, const vc_config *m);
-int vc_encode_background(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr,
-                         const vc_background *m);
-int vc_encode_start(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr);
-int vc_encode_stop(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr);
+int vc_encode_hello(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_hello* m);
+int vc_encode_config(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_config* m);
+int vc_encode_background(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_background* m);
+int vc_encode_start(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr);
+int vc_encode_stop(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr);
 /* m->rle holds m->rle_len bytes of RLE; it is validated (counts, runs) before it is copied. */
-int vc_encode_hull(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, const vc_hull *m);
+int vc_encode_hull(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_hull* m);
 /* HULL straight from a bitset: the RLE is written into buf in place (no intermediate buffer, no
  * allocation), voxel_count = nbits and occupied_count come from the same pass. This is the edge's
  * per-frame path. cap >= VC_PROTO_HEADER_SIZE + 24 + vc_rle_max_encoded_size(nbits) always suffices;
  * VC_PROTO_ELIMIT when the hull has more runs or bytes than the limits allow. */
-int vc_encode_hull_bits(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, uint32_t grid_id,
-                        const uint8_t *bits, size_t nbits);
-int vc_encode_features(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, const vc_features *m);
-int vc_encode_stats(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, const vc_stats *m);
-int vc_encode_heartbeat(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, const vc_heartbeat *m);
-int vc_encode_error(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, const vc_error *m);
+int vc_encode_hull_bits(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, uint32_t grid_id,
+                        const uint8_t* bits, size_t nbits);
+int vc_encode_features(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_features* m);
+int vc_encode_stats(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_stats* m);
+int vc_encode_heartbeat(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_heartbeat* m);
+int vc_encode_error(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_error* m);
 
 /* Dispatches on msg->hdr.type to the encoder above (msg->known types only; -EINVAL otherwise). */
-int vc_msg_encode(uint8_t *buf, size_t cap, size_t *len, const vc_msg *msg);
+int vc_msg_encode(uint8_t* buf, size_t cap, size_t* len, const vc_msg* msg);
 
 /* Low level: a frame with an arbitrary header (version, type and flags taken from hdr as given) and
  * payload. payload_len and both CRCs are computed. For forwarding, tools and test vectors; the typed
  * encoders are built on it. */
-int vc_frame_encode(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr, const uint8_t *payload,
+int vc_frame_encode(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const uint8_t* payload,
                     size_t payload_len);
 
 /* ---- Decoding one buffer ---------------------------------------------------------------------------
@@ -348,8 +347,8 @@ int vc_frame_encode(uint8_t *buf, size_t cap, size_t *len, const vc_header *hdr,
  * body was being parsed; after a fatal one *consumed is 0. Views in *out point into buf. diag may be
  * NULL; its offset is 0 (the start of buf). max_payload: 0 means VC_PROTO_MAX_PAYLOAD.
  * A message of an unknown type with valid framing is returned (1) with out->known = false. */
-int vc_msg_decode(const uint8_t *buf, size_t len, size_t max_payload, vc_msg *out, size_t *consumed,
-                  vc_proto_diag *diag);
+int vc_msg_decode(const uint8_t* buf, size_t len, size_t max_payload, vc_msg* out, size_t* consumed,
+                  vc_proto_diag* diag);
 
 /* ---- Streaming decoder ------------------------------------------------------------------------------
  * Takes bytes in whatever chunks the transport delivers and yields whole messages. Memory is bounded:
@@ -371,29 +370,29 @@ typedef struct vc_decoder vc_decoder;
 
 /* A decoder accepting payloads up to max_payload bytes (0: VC_PROTO_MAX_PAYLOAD). NULL with errno
  * EINVAL if max_payload > VC_PROTO_MAX_PAYLOAD, ENOMEM if out of memory. Free with vc_decoder_free. */
-vc_decoder *vc_decoder_new(size_t max_payload);
-void vc_decoder_free(vc_decoder *dec); /* NULL is a no-op */
+vc_decoder* vc_decoder_new(size_t max_payload);
+void vc_decoder_free(vc_decoder* dec); /* NULL is a no-op */
 
 /* Copies up to len bytes into the decoder; *consumed = how many. It takes fewer (possibly 0) only when
  * its buffer holds a whole message or an error that vc_decoder_next has not yet returned, so
  * alternating feed and next always makes progress. Returns 0, -ENOMEM, or the sticky fatal error. */
-int vc_decoder_feed(vc_decoder *dec, const uint8_t *data, size_t len, size_t *consumed);
+int vc_decoder_feed(vc_decoder* dec, const uint8_t* data, size_t len, size_t* consumed);
 
 /* The next message: 1 (*out filled), 0 (need more bytes), or an error code (vc_decoder_diag says
  * where and why). Fatal errors are sticky: every later call returns the same code. Views in *out
  * (payload, hull.rle, error.text) stay valid until the next call of feed, next, finish or free on
  * this decoder. */
-int vc_decoder_next(vc_decoder *dec, vc_msg *out);
+int vc_decoder_next(vc_decoder* dec, vc_msg* out);
 
 /* End of stream: 0 if it ended on a message boundary, VC_PROTO_EEOF (fatal) if inside a message. */
-int vc_decoder_finish(vc_decoder *dec);
+int vc_decoder_finish(vc_decoder* dec);
 
 /* The last error (code 0 if none). Valid until the decoder is freed. */
-const vc_proto_diag *vc_decoder_diag(const vc_decoder *dec);
+const vc_proto_diag* vc_decoder_diag(const vc_decoder* dec);
 /* Stream offset of the next message not yet returned (bytes consumed by next so far). */
-uint64_t vc_decoder_offset(const vc_decoder *dec);
+uint64_t vc_decoder_offset(const vc_decoder* dec);
 /* Bytes buffered but not yet returned as messages. */
-size_t vc_decoder_pending(const vc_decoder *dec);
+size_t vc_decoder_pending(const vc_decoder* dec);
 
 /* ---- Emulated trigger datagram (SPEC.md "Trigger datagram") ----------------------------------------
  * One UDP datagram per trigger pulse, host -> every edge, on loopback in the emulated rig:
@@ -408,7 +407,7 @@ int vc_trigger_dgram_encode(uint8_t out[VC_TRIGGER_DGRAM_SIZE], uint64_t seq, ui
 
 /* Parses a received datagram: -EBADMSG unless len == 24 with the right magic and version 1
  * (flags are reserved: ignored). seq and t_ns may be NULL; they are written only on success. */
-int vc_trigger_dgram_decode(const uint8_t *buf, size_t len, uint64_t *seq, uint64_t *t_ns);
+int vc_trigger_dgram_decode(const uint8_t* buf, size_t len, uint64_t* seq, uint64_t* t_ns);
 
 #ifdef __cplusplus
 }

@@ -34,22 +34,22 @@ size_t vc_rle_max_encoded_size(size_t nbits);
 /* Encodes ceil(nbits/8) bytes of `bits` into `out`. On success *out_len = bytes written. On -ENOSPC
  * *out_len = the size the encoding needs (out holds a truncated prefix). Skips all-0 and all-1 64-bit
  * words and finds run ends with count-trailing-zeros, so cost is ~nbits/64 word loads + runs. */
-int vc_rle_encode(const uint8_t *bits, size_t nbits, uint8_t *out, size_t cap, size_t *out_len);
+int vc_rle_encode(const uint8_t* bits, size_t nbits, uint8_t* out, size_t cap, size_t* out_len);
 
 /* Decodes `rle` into ceil(nbits/8) bytes of `bits` (whole bytes overwritten, padding bits 0).
  * -EINVAL when the runs do not sum to exactly nbits, -EBADMSG when malformed. `bits` is fully
  * validated against nbits before the first run is written past its end, but its contents are
  * unspecified after an error. */
-int vc_rle_decode(const uint8_t *rle, size_t len, uint8_t *bits, size_t nbits);
+int vc_rle_decode(const uint8_t* rle, size_t len, uint8_t* bits, size_t nbits);
 
 /* Intersection (bitwise AND) of two RLE streams, computed run by run without a bitset: cost is
  * O(runs(a) + runs(b)). Both inputs must be canonical and have the same total (-EINVAL otherwise);
  * the output is canonical. `out` must not overlap the inputs. On -ENOSPC *out_len is the needed size. */
-int vc_rle_and(const uint8_t *a, size_t alen, const uint8_t *b, size_t blen, uint8_t *out, size_t cap,
-               size_t *out_len);
+int vc_rle_and(const uint8_t* a, size_t alen, const uint8_t* b, size_t blen, uint8_t* out, size_t cap,
+               size_t* out_len);
 
 /* Validates `rle` and counts its occupied bits and total bits (either pointer may be NULL). */
-int vc_rle_popcount(const uint8_t *rle, size_t len, uint64_t *occupied, uint64_t *total);
+int vc_rle_popcount(const uint8_t* rle, size_t len, uint64_t* occupied, uint64_t* total);
 
 /* Everything a receiver checks about an RLE stream, in one pass. */
 typedef struct vc_rle_info {
@@ -59,12 +59,12 @@ typedef struct vc_rle_info {
 } vc_rle_info;
 
 /* Validates `rle` and fills `info` (not NULL). Same errors as vc_rle_popcount. */
-int vc_rle_inspect(const uint8_t *rle, size_t len, vc_rle_info *info);
+int vc_rle_inspect(const uint8_t* rle, size_t len, vc_rle_info* info);
 
 /* vc_rle_encode that also reports the stream's vc_rle_info (NULL allowed) at no extra cost: what
  * the HULL encoder uses to fill occupied_count without a second pass. On -ENOSPC info is complete. */
-int vc_rle_encode_info(const uint8_t *bits, size_t nbits, uint8_t *out, size_t cap, size_t *out_len,
-                       vc_rle_info *info);
+int vc_rle_encode_info(const uint8_t* bits, size_t nbits, uint8_t* out, size_t cap, size_t* out_len,
+                       vc_rle_info* info);
 
 #ifdef __cplusplus
 }

@@ -25,7 +25,7 @@ struct JsonOptions {
   size_t max_runs = 0;
 };
 
-// {"version_major", "version_minor", "type", "flags", "node_id", "payload_len", "seq",
+// {"magic", "version_major", "version_minor", "type", "flags", "node_id", "payload_len", "seq",
 //  "t_trigger_ns", "payload_crc", "header_crc"}
 Json header_to_json(const vc_header& hdr);
 
@@ -57,9 +57,9 @@ struct DumpOptions {
   bool valid(std::string* why) const;
 };
 struct DumpResult {
-  size_t messages = 0;        // messages decoded (known or not)
-  size_t rejected = 0;        // messages rejected with a non-fatal error
-  int fatal = 0;              // the fatal error that ended the stream, 0 if none
+  size_t messages = 0;  // messages decoded (known or not)
+  size_t rejected = 0;  // messages rejected with a non-fatal error
+  int fatal = 0;        // the fatal error that ended the stream, 0 if none
   uint64_t fatal_offset = 0;
   std::string fatal_detail;
   bool ok() const { return rejected == 0 && fatal == 0; }
