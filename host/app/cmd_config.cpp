@@ -4,8 +4,8 @@
 #include <memory>
 #include <string>
 
-#include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
@@ -20,7 +20,8 @@ nlohmann::json to_json(const RigConfig& c) {
   using nlohmann::json;
   json nodes = json::array();
   for (const config::NodeConfig& n : c.nodes)
-    nodes.push_back({{"id", n.id}, {"address", n.address}, {"cameras", n.cameras}, {"role", to_string(n.role)}});
+    nodes.push_back(
+        {{"id", n.id}, {"address", n.address}, {"cameras", n.cameras}, {"role", to_string(n.role)}});
   json targets = json::array();
   for (const config::Endpoint& e : c.trigger.udp.targets) targets.push_back(e.str());
   const config::TriggerOptions& t = c.trigger;
@@ -59,7 +60,8 @@ nlohmann::json to_json(const RigConfig& c) {
           {"sample_rate_hz", t.ftdi.sample_rate_hz},
           {"buffer_ms", t.ftdi.buffer_ms}}}}},
       {"assembly",
-       {{"deadline_ms", c.assembly.deadline_ms}, {"missing_node_policy", to_string(c.assembly.missing_node_policy)}}},
+       {{"deadline_ms", c.assembly.deadline_ms},
+        {"missing_node_policy", to_string(c.assembly.missing_node_policy)}}},
       {"recording", {{"dir", c.recording.dir.string()}}},
       {"network", {{"listen", c.network.listen}, {"port", c.network.port}}},
       {"warnings", c.warnings},
@@ -86,8 +88,8 @@ std::string trigger_summary(const config::TriggerOptions& t) {
 void print_summary(const RigConfig& c) {
   fmt::print("{}: ok, rig \"{}\"\n", c.source.string(), c.name);
   fmt::print("  calibration  {} ({} cameras)\n", c.calibration_path.string(), c.calibration.cameras.size());
-  fmt::print("  grid         {} x {} x {} voxels of {} mm from [{}, {}, {}] m ({})\n", c.grid.nx, c.grid.ny, c.grid.nz,
-             c.grid.voxel_m * 1000.0, c.grid.min_m[0], c.grid.min_m[1], c.grid.min_m[2],
+  fmt::print("  grid         {} x {} x {} voxels of {} mm from [{}, {}, {}] m ({})\n", c.grid.nx, c.grid.ny,
+             c.grid.nz, c.grid.voxel_m * 1000.0, c.grid.min_m[0], c.grid.min_m[1], c.grid.min_m[2],
              c.grid_source == config::GridSource::Config ? "rig.toml" : "calibration");
   for (size_t i = 0; i < c.nodes.size(); ++i) {
     const config::NodeConfig& n = c.nodes[i];
@@ -122,7 +124,8 @@ void add_config_commands(CLI::App& app) {
                     "The rig.toml (default: $VOXCAP_RIG, else ./rig.toml, else hw/rigs/emulated.toml)");
   check->add_flag("--json", args->json, "Print the resolved configuration as JSON (keys as in rig.toml)");
   check->callback([args] {
-    const std::filesystem::path path = args->path.empty() ? config::default_rig_config_path() : std::filesystem::path(args->path);
+    const std::filesystem::path path =
+        args->path.empty() ? config::default_rig_config_path() : std::filesystem::path(args->path);
     RigConfig c;
     try {
       c = config::load_rig_config(path);

@@ -9,8 +9,8 @@
 #include <algorithm>
 #include <atomic>
 #include <cerrno>
-#include <cmath>
 #include <chrono>
+#include <cmath>
 #include <csignal>
 #include <cstring>
 #include <memory>
@@ -18,8 +18,8 @@
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
@@ -32,7 +32,9 @@ namespace {
 
 std::atomic<bool> g_interrupted{false};
 
-void on_sigint(int) { g_interrupted = true; }
+void on_sigint(int) {
+  g_interrupted = true;
+}
 
 // Ctrl-C ends the command cleanly (the train is stopped, the summary printed) while it is alive.
 class InterruptScope {
@@ -51,7 +53,8 @@ class InterruptScope {
   }
 
  private:
-  struct sigaction old_int_ {}, old_term_ {};
+  struct sigaction old_int_ {
+  }, old_term_{};
 };
 
 struct TestArgs {
@@ -128,7 +131,8 @@ config::TriggerOptions options_from(const TestArgs& a) {
   if (a.sample_rate_hz > 0) t.ftdi.sample_rate_hz = a.sample_rate_hz;
 
   if (t.backend == config::TriggerBackend::Udp && t.udp.targets.empty())
-    throw UsageError("the udp backend needs at least one --target host:port (or --rig with trigger.udp.targets)");
+    throw UsageError(
+        "the udp backend needs at least one --target host:port (or --rig with trigger.udp.targets)");
   std::string why;
   if (!t.valid(&why)) throw UsageError("trigger." + why);
   return t;
@@ -153,8 +157,9 @@ void run_test(const TestArgs& a) {
       lateness_us.push_back(static_cast<double>(p.lateness_ns) / 1e3);
       if (last_t_ns != 0) {
         const double interval = static_cast<double>(p.t_ns - last_t_ns);
-        interval_error_max_us = std::max(
-            interval_error_max_us, std::fabs(interval - period_ns * std::max(1.0, std::round(interval / period_ns))) / 1e3);
+        interval_error_max_us =
+            std::max(interval_error_max_us,
+                     std::fabs(interval - period_ns * std::max(1.0, std::round(interval / period_ns))) / 1e3);
       }
       last_t_ns = p.t_ns;
     }
@@ -166,7 +171,8 @@ void run_test(const TestArgs& a) {
   });
   if (!a.json)
     fmt::print(stderr, "voxcap: trigger test on {}: {} Hz, {} us, {}\n", gen->describe(), options.rate_hz,
-               options.pulse_width_us, a.count ? fmt::format("{} pulses", a.count) : std::string("until Ctrl-C"));
+               options.pulse_width_us,
+               a.count ? fmt::format("{} pulses", a.count) : std::string("until Ctrl-C"));
 
   InterruptScope interrupt;
   const auto t0 = std::chrono::steady_clock::now();
@@ -182,7 +188,9 @@ void run_test(const TestArgs& a) {
   const std::string error = gen->last_error();
   std::sort(lateness_us.begin(), lateness_us.end());
   auto percentile = [&](double q) {
-    return lateness_us.empty() ? 0.0 : lateness_us[static_cast<size_t>(q * static_cast<double>(lateness_us.size() - 1))];
+    return lateness_us.empty()
+               ? 0.0
+               : lateness_us[static_cast<size_t>(q * static_cast<double>(lateness_us.size() - 1))];
   };
   if (a.json) {
     nlohmann::json j = {{"backend", std::string(gen->backend())},
@@ -204,13 +212,16 @@ void run_test(const TestArgs& a) {
                         {"error", error}};
     fmt::print("{}\n", j.dump(2));
   } else {
-    fmt::print("sent {} pulses in {:.3f} s via {} (late {}, missed {}, lateness p50 {:.1f} / p99 {:.1f} / max {:.1f} us, "
-               "interval error max {:.1f} us",
-               s.pulses_sent, elapsed, gen->backend(), s.late, s.missed, percentile(0.5), percentile(0.99),
-               static_cast<double>(s.max_lateness_ns) / 1e3, interval_error_max_us);
+    fmt::print(
+        "sent {} pulses in {:.3f} s via {} (late {}, missed {}, lateness p50 {:.1f} / p99 {:.1f} / max "
+        "{:.1f} us, "
+        "interval error max {:.1f} us",
+        s.pulses_sent, elapsed, gen->backend(), s.late, s.missed, percentile(0.5), percentile(0.99),
+        static_cast<double>(s.max_lateness_ns) / 1e3, interval_error_max_us);
     if (options.backend == config::TriggerBackend::Udp) fmt::print(", send errors {}", s.errors);
     if (options.backend == config::TriggerBackend::Ftdi)
-      fmt::print(", underruns {}, pin edges {}, bit-bang {:.1f} Hz", s.underruns, s.pin_edges, s.sample_rate_hz);
+      fmt::print(", underruns {}, pin edges {}, bit-bang {:.1f} Hz", s.underruns, s.pin_edges,
+                 s.sample_rate_hz);
     fmt::print(")\n");
   }
   if (!error.empty()) throw std::runtime_error(error);
@@ -277,18 +288,23 @@ void run_listen(const ListenArgs& a) {
 }  // namespace
 
 void add_trigger_commands(CLI::App& app) {
-  CLI::App* group = app.add_subcommand("trigger", "Trigger generation: emit test pulse trains, watch the emulated trigger");
+  CLI::App* group =
+      app.add_subcommand("trigger", "Trigger generation: emit test pulse trains, watch the emulated trigger");
   group->require_subcommand(1, 1);
 
   auto t = std::make_shared<TestArgs>();
   CLI::App* test = group->add_subcommand(
-      "test", "Emit a pulse train through a trigger backend and print each pulse sent (seq, CLOCK_MONOTONIC time, "
-              "lateness) and a summary; settings come from --rig's [trigger] and the options below");
-  test->add_option("--rig", t->rig, "Take the [trigger] settings from this rig.toml (options below override)");
-  test->add_option("--backend", t->backend, "udp (emulated, loopback datagrams), gpiod (GPIO line) or ftdi (USB box)")
+      "test",
+      "Emit a pulse train through a trigger backend and print each pulse sent (seq, CLOCK_MONOTONIC time, "
+      "lateness) and a summary; settings come from --rig's [trigger] and the options below");
+  test->add_option("--rig", t->rig,
+                   "Take the [trigger] settings from this rig.toml (options below override)");
+  test->add_option("--backend", t->backend,
+                   "udp (emulated, loopback datagrams), gpiod (GPIO line) or ftdi (USB box)")
       ->check(CLI::IsMember({"udp", "gpiod", "ftdi"}));
   test->add_option("--rate", t->rate_hz, "Pulses per second, (0, 1000] (default 60)");
-  test->add_option("--width", t->width_us, "Pulse width in microseconds, below half the period (default 100)");
+  test->add_option("--width", t->width_us,
+                   "Pulse width in microseconds, below half the period (default 100)");
   test->add_option("--count", t->count, "Pulses to emit; 0 = until Ctrl-C or --duration (default 10)");
   test->add_option("--duration", t->duration_s, "Stop after this many seconds");
   test->add_option("--target", t->targets, "udp: a loopback host:port to send each pulse to (repeatable)");
@@ -297,22 +313,27 @@ void add_trigger_commands(CLI::App& app) {
   test->add_flag("--active-low", t->active_low, "The line idles high and pulses low (gpiod, ftdi)");
   test->add_option("--usb", t->usb_id, "ftdi: USB VID:PID in hex (default 0403:6014, an FT232H)");
   test->add_option("--serial", t->serial, "ftdi: the box's USB serial number, when several are plugged in");
-  test->add_option("--pin", t->pin, "ftdi: the ADBUS bit driving the trigger (default 3)")->check(CLI::Range(0, 7));
-  test->add_option("--sample-rate", t->sample_rate_hz, "ftdi: bit-bang clock in Hz, 10000..1000000 (default 100000)");
-  test->add_option("--rt-priority", t->rt_priority, "SCHED_FIFO priority of the pulse thread, 0 = normal (default 50)")
+  test->add_option("--pin", t->pin, "ftdi: the ADBUS bit driving the trigger (default 3)")
+      ->check(CLI::Range(0, 7));
+  test->add_option("--sample-rate", t->sample_rate_hz,
+                   "ftdi: bit-bang clock in Hz, 10000..1000000 (default 100000)");
+  test->add_option("--rt-priority", t->rt_priority,
+                   "SCHED_FIFO priority of the pulse thread, 0 = normal (default 50)")
       ->check(CLI::Range(0, 99));
   test->add_flag("--quiet", t->quiet, "Print only the summary");
-  test->add_flag("--json", t->json,
-                 "Print only a JSON summary: backend, target, rate_hz, pulse_width_us, pulses_sent, late, missed, "
-                 "underruns, errors, max_lateness_us, lateness_p50_us, lateness_p99_us, interval_error_max_us "
-                 "(largest distance of a pulse interval from a whole number of periods), pin_edges, sample_rate_hz "
-                 "(ftdi: measured bit-bang clock), elapsed_s, error (empty when none)");
+  test->add_flag(
+      "--json", t->json,
+      "Print only a JSON summary: backend, target, rate_hz, pulse_width_us, pulses_sent, late, missed, "
+      "underruns, errors, max_lateness_us, lateness_p50_us, lateness_p99_us, interval_error_max_us "
+      "(largest distance of a pulse interval from a whole number of periods), pin_edges, sample_rate_hz "
+      "(ftdi: measured bit-bang clock), elapsed_s, error (empty when none)");
   test->callback([t] { run_test(*t); });
 
   auto l = std::make_shared<ListenArgs>();
   CLI::App* listen = group->add_subcommand(
-      "listen", "Receive trigger datagrams (the udp backend's output) as an edge would, print each pulse and any "
-                "gaps in seq");
+      "listen",
+      "Receive trigger datagrams (the udp backend's output) as an edge would, print each pulse and any "
+      "gaps in seq");
   listen->add_option("--port", l->port, "UDP port to listen on (0 = any free port, printed)")->required();
   listen->add_option("--bind", l->bind, "Address to bind (default 127.0.0.1)");
   listen->add_option("--count", l->count, "Stop after this many pulses (default: no limit)");

@@ -25,7 +25,9 @@ using namespace std::chrono_literals;
 using vc::hil::env;
 using vc::hil::env_long;
 
-bool active_low() { return env("VOXCAP_HIL_ACTIVE_LOW") == "1"; }
+bool active_low() {
+  return env("VOXCAP_HIL_ACTIVE_LOW") == "1";
+}
 
 // The edge's gpiod trigger input on the loopback line, or nullptr when none is configured.
 vc_trigger* open_loopback() {
@@ -58,7 +60,8 @@ void check_loopback(vc_trigger* in, uint64_t n, double rate_hz, uint64_t missed,
   for (size_t i = 1; i < got.size(); ++i) {
     EXPECT_EQ(got[i].seq, got[i - 1].seq + 1);
     const double interval = static_cast<double>(got[i].t_ns - got[i - 1].t_ns);
-    max_err_us = std::max(max_err_us, std::fabs(interval - period_ns * std::round(interval / period_ns)) / 1e3);
+    max_err_us =
+        std::max(max_err_us, std::fabs(interval - period_ns * std::round(interval / period_ns)) / 1e3);
   }
   const double span = static_cast<double>(got.back().t_ns - got.front().t_ns);
   const double expected = period_ns * static_cast<double>(n - 1 + missed);
@@ -73,8 +76,9 @@ void check_loopback(vc_trigger* in, uint64_t n, double rate_hz, uint64_t missed,
 TEST(HostTriggerHil, GpiodOutputEmitsTheTrain) {
   const std::string chip = env("VOXCAP_HIL_TRIGGER_OUT_CHIP");
   if (chip.empty() || env("VOXCAP_HIL_TRIGGER_OUT_LINE").empty())
-    GTEST_SKIP() << "no rig configured: set VOXCAP_HIL_TRIGGER_OUT_CHIP and VOXCAP_HIL_TRIGGER_OUT_LINE (a free "
-                    "GPIO output) to run; add VOXCAP_HIL_GPIO_CHIP/LINE for an input wired to it";
+    GTEST_SKIP()
+        << "no rig configured: set VOXCAP_HIL_TRIGGER_OUT_CHIP and VOXCAP_HIL_TRIGGER_OUT_LINE (a free "
+           "GPIO output) to run; add VOXCAP_HIL_GPIO_CHIP/LINE for an input wired to it";
   vc::config::TriggerOptions o;
   o.backend = vc::config::TriggerBackend::Gpiod;
   o.gpiod.chip = chip;

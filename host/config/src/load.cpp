@@ -32,13 +32,20 @@ namespace {
 
 std::string type_name(const toml::node& node) {
   switch (node.type()) {
-    case toml::node_type::string: return "a string";
-    case toml::node_type::integer: return "an integer";
-    case toml::node_type::floating_point: return "a floating-point number";
-    case toml::node_type::boolean: return "a boolean";
-    case toml::node_type::table: return "a table";
-    case toml::node_type::array: return "an array";
-    default: return "a date/time";
+    case toml::node_type::string:
+      return "a string";
+    case toml::node_type::integer:
+      return "an integer";
+    case toml::node_type::floating_point:
+      return "a floating-point number";
+    case toml::node_type::boolean:
+      return "a boolean";
+    case toml::node_type::table:
+      return "a table";
+    case toml::node_type::array:
+      return "an array";
+    default:
+      return "a date/time";
   }
 }
 
@@ -84,11 +91,14 @@ struct Context {
 // One TOML table being read. Each get_* consumes a key; finish() rejects the ones nobody asked for.
 class Reader {
  public:
-  Reader(const toml::table& table, std::string path, Context& ctx) : table_(table), path_(std::move(path)), ctx_(ctx) {
+  Reader(const toml::table& table, std::string path, Context& ctx)
+      : table_(table), path_(std::move(path)), ctx_(ctx) {
     for (auto&& [k, v] : table_) ctx_.note(key(std::string(k.str())), v);
   }
 
-  std::string key(std::string_view k) const { return path_.empty() ? std::string(k) : path_ + "." + std::string(k); }
+  std::string key(std::string_view k) const {
+    return path_.empty() ? std::string(k) : path_ + "." + std::string(k);
+  }
 
   const toml::node* find(std::string_view k) {
     known_.insert(std::string(k));
@@ -218,7 +228,8 @@ void read_subtraction(Reader& r, SubtractionOptions* o) {
 void read_trigger(Reader& r, TriggerOptions* o) {
   std::string backend;
   if (r.get("backend", &backend) && !parse_trigger_backend(backend, &o->backend))
-    r.ctx().fail(r.key("backend"), fmt::format("must be \"udp\", \"gpiod\" or \"ftdi\", got \"{}\"", backend));
+    r.ctx().fail(r.key("backend"),
+                 fmt::format("must be \"udp\", \"gpiod\" or \"ftdi\", got \"{}\"", backend));
   r.get("rate_hz", &o->rate_hz);
   r.get("pulse_width_us", &o->pulse_width_us);
   r.get("active_low", &o->active_low);
@@ -232,7 +243,8 @@ void read_trigger(Reader& r, TriggerOptions* o) {
     for (size_t i = 0; i < targets.size(); ++i) {
       Endpoint e;
       std::string why;
-      if (!Endpoint::parse(targets[i], &e, &why)) r.ctx().fail(fmt::format("{}[{}]", u.key("targets"), i), why);
+      if (!Endpoint::parse(targets[i], &e, &why))
+        r.ctx().fail(fmt::format("{}[{}]", u.key("targets"), i), why);
       o->udp.targets.push_back(e);
     }
     u.finish();
@@ -249,8 +261,8 @@ void read_trigger(Reader& r, TriggerOptions* o) {
         o->gpiod.line_offset = -1;
         if (o->gpiod.line_name.empty()) r.ctx().fail(g.key("line"), "a line name must not be empty");
       } else {
-        r.ctx().fail(g.key("line"), "expected a line offset (integer) or a line name (string), got " +
-                                        type_name(*line));
+        r.ctx().fail(g.key("line"),
+                     "expected a line offset (integer) or a line name (string), got " + type_name(*line));
       }
     }
     g.finish();
@@ -263,7 +275,9 @@ void read_trigger(Reader& r, TriggerOptions* o) {
     f.get("description", &o->ftdi.description);
     std::string iface;
     if (f.get("interface", &iface)) {
-      if (iface.size() != 1) r.ctx().fail(f.key("interface"), fmt::format("must be \"A\", \"B\", \"C\" or \"D\", got \"{}\"", iface));
+      if (iface.size() != 1)
+        r.ctx().fail(f.key("interface"),
+                     fmt::format("must be \"A\", \"B\", \"C\" or \"D\", got \"{}\"", iface));
       o->ftdi.interface = iface[0];
     }
     f.get_int("pin", &o->ftdi.pin, 0, 255);
@@ -283,7 +297,8 @@ void read_assembly(Reader& r, AssemblyOptions* o) {
     else if (policy == "degraded")
       o->missing_node_policy = MissingNodePolicy::Degraded;
     else
-      r.ctx().fail(r.key("missing_node_policy"), fmt::format("must be \"drop\" or \"degraded\", got \"{}\"", policy));
+      r.ctx().fail(r.key("missing_node_policy"),
+                   fmt::format("must be \"drop\" or \"degraded\", got \"{}\"", policy));
   }
   r.finish();
 }
@@ -308,8 +323,10 @@ void read_node(Reader& r, NodeConfig* n) {
 bool read_grid(Reader& r, rig::VoxelGrid* g) {
   const toml::array* min = r.array("min_m");
   if (!min) r.ctx().fail(r.key("min_m"), "missing (the grid's min corner [x, y, z] in metres)");
-  if (min->size() != 3) r.ctx().fail(r.key("min_m"), fmt::format("expected 3 numbers [x, y, z], got {}", min->size()));
-  for (int i = 0; i < 3; ++i) g->min_m[i] = r.number(*min->get(static_cast<size_t>(i)), fmt::format("{}[{}]", r.key("min_m"), i));
+  if (min->size() != 3)
+    r.ctx().fail(r.key("min_m"), fmt::format("expected 3 numbers [x, y, z], got {}", min->size()));
+  for (int i = 0; i < 3; ++i)
+    g->min_m[i] = r.number(*min->get(static_cast<size_t>(i)), fmt::format("{}[{}]", r.key("min_m"), i));
   if (!r.get("voxel_m", &g->voxel_m)) r.ctx().fail(r.key("voxel_m"), "missing (the voxel edge in metres)");
   const char* dims[] = {"nx", "ny", "nz"};
   int* out[] = {&g->nx, &g->ny, &g->nz};
@@ -333,21 +350,24 @@ void check_sections(const RigConfig& c, const Context& ctx) {
 
 void collect_warnings(RigConfig* c) {
   if (c->trigger.backend == TriggerBackend::Udp && c->trigger.udp.targets.size() > c->nodes.size())
-    c->warnings.push_back(fmt::format("trigger.udp.targets: {} targets for {} nodes; the extra ones get pulses too",
-                                      c->trigger.udp.targets.size(), c->nodes.size()));
+    c->warnings.push_back(
+        fmt::format("trigger.udp.targets: {} targets for {} nodes; the extra ones get pulses too",
+                    c->trigger.udp.targets.size(), c->nodes.size()));
   for (size_t k = 0; k < c->calibration.cameras.size(); ++k) {
     const std::string& name = c->calibration.cameras[k].name;
     bool used = false;
     for (const NodeConfig& n : c->nodes)
       for (const std::string& cam : n.cameras)
         if (c->camera_index(cam) == static_cast<int>(k)) used = true;
-    if (!used) c->warnings.push_back(fmt::format("calibration camera {} (cam{}) is not driven by any node", name, k));
+    if (!used)
+      c->warnings.push_back(fmt::format("calibration camera {} (cam{}) is not driven by any node", name, k));
   }
 }
 
 }  // namespace
 
-RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::path& source, const LoadOptions& options) {
+RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::path& source,
+                           const LoadOptions& options) {
   Context ctx;
   ctx.file = source.string();
   toml::table root;

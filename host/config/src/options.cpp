@@ -19,8 +19,7 @@ bool fail(std::string* why, std::string message) {
 }
 
 bool is_id_char(char c) {
-  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
-         c == '-';
+  return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
 }
 
 bool is_ipv4(const std::string& text) {
@@ -72,7 +71,9 @@ bool Endpoint::is_loopback() const {
   return (ntohl(addr.s_addr) >> 24) == 127;
 }
 
-std::string Endpoint::str() const { return fmt::format("{}:{}", host, port); }
+std::string Endpoint::str() const {
+  return fmt::format("{}:{}", host, port);
+}
 
 bool SubtractionOptions::valid(std::string* why) const {
   if (!(t_lower > 0.0) || !std::isfinite(t_lower))
@@ -90,9 +91,12 @@ bool SubtractionOptions::valid(std::string* why) const {
 
 std::string_view to_string(TriggerBackend backend) {
   switch (backend) {
-    case TriggerBackend::Udp: return "udp";
-    case TriggerBackend::Gpiod: return "gpiod";
-    case TriggerBackend::Ftdi: return "ftdi";
+    case TriggerBackend::Udp:
+      return "udp";
+    case TriggerBackend::Gpiod:
+      return "gpiod";
+    case TriggerBackend::Ftdi:
+      return "ftdi";
   }
   return "?";
 }
@@ -174,8 +178,8 @@ bool TriggerOptions::valid(std::string* why) const {
                                  "got {}",
                                  half_period_us, rate_hz, pulse_width_us));
   if (rt_priority < 0 || rt_priority > 99)
-    return fail(why, fmt::format("rt_priority: must be in [0, 99] (0 = no real-time thread), got {}",
-                                 rt_priority));
+    return fail(
+        why, fmt::format("rt_priority: must be in [0, 99] (0 = no real-time thread), got {}", rt_priority));
   if (!(late_threshold_us >= 0.0) || !std::isfinite(late_threshold_us))
     return fail(why, fmt::format("late_threshold_us: must be >= 0, got {}", late_threshold_us));
   std::string sub;
@@ -222,7 +226,9 @@ bool NetworkOptions::valid(std::string* why) const {
   return true;
 }
 
-std::string_view to_string(NodeRole role) { return role == NodeRole::Front ? "front" : "side"; }
+std::string_view to_string(NodeRole role) {
+  return role == NodeRole::Front ? "front" : "side";
+}
 
 bool NodeConfig::valid(std::string* why) const {
   if (id.empty()) return fail(why, "id: must not be empty");
@@ -230,12 +236,11 @@ bool NodeConfig::valid(std::string* why) const {
     if (!is_id_char(c))
       return fail(why, fmt::format("id: only letters, digits, '_' and '-' are allowed, got \"{}\"", id));
   if (address != "any" && !is_ipv4(address) && !is_hostname(address))
-    return fail(why, fmt::format("address: must be an IPv4 address, a host name or \"any\", got \"{}\"",
-                                 address));
+    return fail(why,
+                fmt::format("address: must be an IPv4 address, a host name or \"any\", got \"{}\"", address));
   if (cameras.size() != 2)
     return fail(why, fmt::format("cameras: an edge node drives exactly 2 cameras, got {}", cameras.size()));
-  if (cameras[0] == cameras[1])
-    return fail(why, fmt::format("cameras: \"{}\" is listed twice", cameras[0]));
+  if (cameras[0] == cameras[1]) return fail(why, fmt::format("cameras: \"{}\" is listed twice", cameras[0]));
   for (size_t i = 0; i < cameras.size(); ++i)
     if (cameras[i].empty()) return fail(why, fmt::format("cameras[{}]: must not be empty", i));
   return true;

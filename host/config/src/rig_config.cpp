@@ -59,12 +59,14 @@ bool RigConfig::valid(std::string* why) const {
     for (size_t c = 0; c < n.cameras.size(); ++c) {
       const int k = camera_index(n.cameras[c]);
       if (k < 0)
-        return fail(why, fmt::format("nodes[{}].cameras[{}]: no camera \"{}\" in the calibration (it has cam0..cam{})",
-                                     i, c, n.cameras[c], calibration.cameras.size() - 1));
+        return fail(
+            why,
+            fmt::format("nodes[{}].cameras[{}]: no camera \"{}\" in the calibration (it has cam0..cam{})", i,
+                        c, n.cameras[c], calibration.cameras.size() - 1));
       std::string& owner = driver[static_cast<size_t>(k)];
       if (!owner.empty())
-        return fail(why, fmt::format("nodes[{}].cameras[{}]: camera \"{}\" is already driven by node {}", i, c,
-                                     n.cameras[c], owner));
+        return fail(why, fmt::format("nodes[{}].cameras[{}]: camera \"{}\" is already driven by node {}", i,
+                                     c, n.cameras[c], owner));
       owner = n.id;
     }
   }
@@ -76,12 +78,14 @@ bool RigConfig::valid(std::string* why) const {
   if (!section_valid(network, "network", why)) return false;
 
   if (features.enabled && front_nodes().empty())
-    return fail(why, "features.enabled: feature tracking needs at least one node with role = \"front\" "
-                     "(or set enabled = false)");
+    return fail(why,
+                "features.enabled: feature tracking needs at least one node with role = \"front\" "
+                "(or set enabled = false)");
   if (trigger.backend == TriggerBackend::Udp && trigger.udp.targets.size() < nodes.size())
-    return fail(why, fmt::format("trigger.udp.targets: {} targets for {} nodes: the emulated trigger needs one "
-                                 "endpoint per node, in node order",
-                                 trigger.udp.targets.size(), nodes.size()));
+    return fail(why,
+                fmt::format("trigger.udp.targets: {} targets for {} nodes: the emulated trigger needs one "
+                            "endpoint per node, in node order",
+                            trigger.udp.targets.size(), nodes.size()));
   return true;
 }
 

@@ -13,12 +13,14 @@
 namespace vc::config {
 namespace {
 
-using ::testing::HasSubstr;
 using testing::edit;
+using ::testing::HasSubstr;
 using testing::TempRig;
 using testing::valid_toml;
 
-RigConfig parse(const TempRig& rig, const std::string& text) { return parse_rig_config(text, rig.toml_path()); }
+RigConfig parse(const TempRig& rig, const std::string& text) {
+  return parse_rig_config(text, rig.toml_path());
+}
 
 TEST(LoadRigConfig, ValidConfigFillsEverySection) {
   TempRig rig;
@@ -101,7 +103,8 @@ targets = ["127.0.0.1:7700"]
   EXPECT_EQ(c.network.port, 7600);
   EXPECT_EQ(c.recording.dir, "recordings");
   // Legal but worth a word: calibrated cameras no node drives.
-  EXPECT_THAT(c.warnings, ::testing::Contains(HasSubstr("calibration camera cam2 (cam2) is not driven by any node")));
+  EXPECT_THAT(c.warnings,
+              ::testing::Contains(HasSubstr("calibration camera cam2 (cam2) is not driven by any node")));
   EXPECT_EQ(c.warnings.size(), 4u);  // cam2..cam5
 }
 
@@ -128,70 +131,128 @@ TEST_P(InvalidConfig, IsRejectedNamingTheKey) {
   } catch (const ConfigError& e) {
     const std::string what = e.what();
     EXPECT_THAT(what, HasSubstr(GetParam().expect)) << what;
-    EXPECT_EQ(what.rfind(rig.toml_path().string() + ": ", 0), 0u) << "message must start with the file: " << what;
+    EXPECT_EQ(what.rfind(rig.toml_path().string() + ": ", 0), 0u)
+        << "message must start with the file: " << what;
   }
 }
 
 std::vector<BadCase> bad_cases() {
   return {
-      {"rate zero", edit("rate_hz = 60", "rate_hz = 0"), "trigger.rate_hz: must be in (0, 1000], got 0 (line"},
-      {"rate too high", edit("rate_hz = 60", "rate_hz = 1500"), "trigger.rate_hz: must be in (0, 1000], got 1500"},
-      {"rate wrong type", edit("rate_hz = 60", "rate_hz = \"60\""), "trigger.rate_hz: expected a number, got a string"},
-      {"width too wide", edit("pulse_width_us = 200", "pulse_width_us = 9000"), "trigger.pulse_width_us: must be less than half the period"},
-      {"width negative", edit("pulse_width_us = 200", "pulse_width_us = -1"), "trigger.pulse_width_us: must be > 0"},
-      {"unknown backend", edit("backend = \"udp\"", "backend = \"serial\""), "trigger.backend: must be \"udp\", \"gpiod\" or \"ftdi\", got \"serial\""},
-      {"rt priority", edit("rt_priority = 40", "rt_priority = 120"), "trigger.rt_priority: must be in [0, 99], got 120"},
-      {"late threshold", edit("late_threshold_us = 300", "late_threshold_us = -5"), "trigger.late_threshold_us: must be >= 0"},
-      {"udp not loopback", edit("\"127.0.0.1:7702\"", "\"10.0.0.5:7702\""), "trigger.udp.targets[1]: must be a loopback address"},
-      {"udp bad endpoint", edit("\"127.0.0.1:7702\"", "\"127.0.0.1\""), "trigger.udp.targets[1]: expected \"host:port\""},
-      {"udp bad port", edit("\"127.0.0.1:7702\"", "\"127.0.0.1:99999\""), "trigger.udp.targets[1]: port must be 1-65535"},
-      {"udp duplicate", edit("\"127.0.0.1:7703\"", "\"127.0.0.1:7701\""), "trigger.udp.targets[2]: 127.0.0.1:7701 is listed twice"},
+      {"rate zero", edit("rate_hz = 60", "rate_hz = 0"),
+       "trigger.rate_hz: must be in (0, 1000], got 0 (line"},
+      {"rate too high", edit("rate_hz = 60", "rate_hz = 1500"),
+       "trigger.rate_hz: must be in (0, 1000], got 1500"},
+      {"rate wrong type", edit("rate_hz = 60", "rate_hz = \"60\""),
+       "trigger.rate_hz: expected a number, got a string"},
+      {"width too wide", edit("pulse_width_us = 200", "pulse_width_us = 9000"),
+       "trigger.pulse_width_us: must be less than half the period"},
+      {"width negative", edit("pulse_width_us = 200", "pulse_width_us = -1"),
+       "trigger.pulse_width_us: must be > 0"},
+      {"unknown backend", edit("backend = \"udp\"", "backend = \"serial\""),
+       "trigger.backend: must be \"udp\", \"gpiod\" or \"ftdi\", got \"serial\""},
+      {"rt priority", edit("rt_priority = 40", "rt_priority = 120"),
+       "trigger.rt_priority: must be in [0, 99], got 120"},
+      {"late threshold", edit("late_threshold_us = 300", "late_threshold_us = -5"),
+       "trigger.late_threshold_us: must be >= 0"},
+      {"udp not loopback", edit("\"127.0.0.1:7702\"", "\"10.0.0.5:7702\""),
+       "trigger.udp.targets[1]: must be a loopback address"},
+      {"udp bad endpoint", edit("\"127.0.0.1:7702\"", "\"127.0.0.1\""),
+       "trigger.udp.targets[1]: expected \"host:port\""},
+      {"udp bad port", edit("\"127.0.0.1:7702\"", "\"127.0.0.1:99999\""),
+       "trigger.udp.targets[1]: port must be 1-65535"},
+      {"udp duplicate", edit("\"127.0.0.1:7703\"", "\"127.0.0.1:7701\""),
+       "trigger.udp.targets[2]: 127.0.0.1:7701 is listed twice"},
       {"udp too few", edit(", \"127.0.0.1:7703\"", ""), "trigger.udp.targets: 2 targets for 3 nodes"},
-      {"udp targets not array", edit("targets = [\"127.0.0.1:7701\", \"127.0.0.1:7702\", \"127.0.0.1:7703\"]", "targets = \"127.0.0.1:7701\""), "trigger.udp.targets: expected an array, got a string"},
-      {"gpiod line missing", edit("backend = \"udp\"", "backend = \"gpiod\"", edit("line = 18\n", "")), "trigger.gpiod.line: give either a line offset"},
-      {"gpiod line type", edit("line = 18", "line = 1.5"), "trigger.gpiod.line: expected a line offset (integer) or a line name (string), got a floating-point number"},
-      {"gpiod line range", edit("line = 18", "line = 5000"), "trigger.gpiod.line: must be in [0, 1023], got 5000"},
-      {"ftdi pin", edit("backend = \"udp\"", "backend = \"ftdi\"", edit("pin = 3", "pin = 9")), "trigger.ftdi.pin: must be an ADBUS bit 0-7, got 9"},
-      {"ftdi vid range", edit("vid = 0x0403", "vid = 0x10000"), "trigger.ftdi.vid: must be in [0, 65535], got 65536"},
-      {"ftdi interface", edit("interface = \"A\"", "interface = \"AB\""), "trigger.ftdi.interface: must be \"A\", \"B\", \"C\" or \"D\""},
-      {"ftdi sample rate", edit("backend = \"udp\"", "backend = \"ftdi\"", edit("sample_rate_hz = 200000", "sample_rate_hz = 5000000")), "trigger.ftdi.sample_rate_hz: must be in [10000, 1000000]"},
-      {"ftdi width below a sample", edit("backend = \"udp\"", "backend = \"ftdi\"", edit("pulse_width_us = 200", "pulse_width_us = 2")), "trigger.pulse_width_us: 2 us is shorter than one bit-bang sample"},
+      {"udp targets not array",
+       edit("targets = [\"127.0.0.1:7701\", \"127.0.0.1:7702\", \"127.0.0.1:7703\"]",
+            "targets = \"127.0.0.1:7701\""),
+       "trigger.udp.targets: expected an array, got a string"},
+      {"gpiod line missing", edit("backend = \"udp\"", "backend = \"gpiod\"", edit("line = 18\n", "")),
+       "trigger.gpiod.line: give either a line offset"},
+      {"gpiod line type", edit("line = 18", "line = 1.5"),
+       "trigger.gpiod.line: expected a line offset (integer) or a line name (string), got a floating-point "
+       "number"},
+      {"gpiod line range", edit("line = 18", "line = 5000"),
+       "trigger.gpiod.line: must be in [0, 1023], got 5000"},
+      {"ftdi pin", edit("backend = \"udp\"", "backend = \"ftdi\"", edit("pin = 3", "pin = 9")),
+       "trigger.ftdi.pin: must be an ADBUS bit 0-7, got 9"},
+      {"ftdi vid range", edit("vid = 0x0403", "vid = 0x10000"),
+       "trigger.ftdi.vid: must be in [0, 65535], got 65536"},
+      {"ftdi interface", edit("interface = \"A\"", "interface = \"AB\""),
+       "trigger.ftdi.interface: must be \"A\", \"B\", \"C\" or \"D\""},
+      {"ftdi sample rate",
+       edit("backend = \"udp\"", "backend = \"ftdi\"",
+            edit("sample_rate_hz = 200000", "sample_rate_hz = 5000000")),
+       "trigger.ftdi.sample_rate_hz: must be in [10000, 1000000]"},
+      {"ftdi width below a sample",
+       edit("backend = \"udp\"", "backend = \"ftdi\"", edit("pulse_width_us = 200", "pulse_width_us = 2")),
+       "trigger.pulse_width_us: 2 us is shorter than one bit-bang sample"},
       {"t_lower", edit("t_lower = 2.5", "t_lower = 0"), "subtraction.t_lower: must be > 0, got 0"},
-      {"t_upper below t_lower", edit("t_upper = 4.5", "t_upper = 2"), "subtraction.t_upper: must be greater than t_lower (2.5), got 2"},
-      {"shadow angle", edit("shadow_angle_deg = 6", "shadow_angle_deg = 95"), "subtraction.shadow_angle_deg: must be in (0, 90), got 95"},
-      {"cleanup", edit("cleanup_radius_px = 2", "cleanup_radius_px = 20"), "subtraction.cleanup_radius_px: must be in [0, 8], got 20"},
-      {"cleanup type", edit("cleanup_radius_px = 2", "cleanup_radius_px = 2.5"), "subtraction.cleanup_radius_px: expected an integer, got a floating-point number"},
-      {"background frames", edit("background_frames = 40", "background_frames = 1"), "subtraction.background_frames: must be in [2, 1000], got 1"},
-      {"deadline", edit("deadline_ms = 40", "deadline_ms = 0"), "assembly.deadline_ms: must be in (0, 10000], got 0"},
-      {"policy", edit("missing_node_policy = \"degraded\"", "missing_node_policy = \"wait\""), "assembly.missing_node_policy: must be \"drop\" or \"degraded\", got \"wait\""},
+      {"t_upper below t_lower", edit("t_upper = 4.5", "t_upper = 2"),
+       "subtraction.t_upper: must be greater than t_lower (2.5), got 2"},
+      {"shadow angle", edit("shadow_angle_deg = 6", "shadow_angle_deg = 95"),
+       "subtraction.shadow_angle_deg: must be in (0, 90), got 95"},
+      {"cleanup", edit("cleanup_radius_px = 2", "cleanup_radius_px = 20"),
+       "subtraction.cleanup_radius_px: must be in [0, 8], got 20"},
+      {"cleanup type", edit("cleanup_radius_px = 2", "cleanup_radius_px = 2.5"),
+       "subtraction.cleanup_radius_px: expected an integer, got a floating-point number"},
+      {"background frames", edit("background_frames = 40", "background_frames = 1"),
+       "subtraction.background_frames: must be in [2, 1000], got 1"},
+      {"deadline", edit("deadline_ms = 40", "deadline_ms = 0"),
+       "assembly.deadline_ms: must be in (0, 10000], got 0"},
+      {"policy", edit("missing_node_policy = \"degraded\"", "missing_node_policy = \"wait\""),
+       "assembly.missing_node_policy: must be \"drop\" or \"degraded\", got \"wait\""},
       {"recording dir", edit("dir = \"takes\"", "dir = \"\""), "recording.dir: must not be empty"},
-      {"listen", edit("listen = \"any\"", "listen = \"example.org\""), "network.listen: must be a numeric IPv4 address or \"any\""},
+      {"listen", edit("listen = \"any\"", "listen = \"example.org\""),
+       "network.listen: must be a numeric IPv4 address or \"any\""},
       {"port", edit("port = 7650", "port = 0"), "network.port: must be in [1, 65535], got 0"},
       {"node id missing", edit("id = \"node1\"\n", ""), "nodes[1].id: missing"},
       {"node id chars", edit("id = \"node1\"", "id = \"node 1\""), "nodes[1].id: only letters, digits"},
-      {"node id duplicate", edit("id = \"node2\"", "id = \"node0\""), "nodes[2].id: \"node0\" is already the id of nodes[0]"},
-      {"node address", edit("address = \"127.0.0.1\"", "address = \"-bad-\""), "nodes[0].address: must be an IPv4 address, a host name or \"any\""},
-      {"node cameras count", edit("[\"cam2\", \"cam3\"]", "[\"cam2\"]"), "nodes[1].cameras: an edge node drives exactly 2 cameras, got 1"},
+      {"node id duplicate", edit("id = \"node2\"", "id = \"node0\""),
+       "nodes[2].id: \"node0\" is already the id of nodes[0]"},
+      {"node address", edit("address = \"127.0.0.1\"", "address = \"-bad-\""),
+       "nodes[0].address: must be an IPv4 address, a host name or \"any\""},
+      {"node cameras count", edit("[\"cam2\", \"cam3\"]", "[\"cam2\"]"),
+       "nodes[1].cameras: an edge node drives exactly 2 cameras, got 1"},
       {"node cameras missing", edit("cameras = [\"cam2\", \"cam3\"]\n", ""), "nodes[1].cameras: missing"},
-      {"node camera unknown", edit("\"cam3\"", "\"cam9\""), "nodes[1].cameras[1]: no camera \"cam9\" in the calibration (it has cam0..cam5)"},
-      {"node camera twice", edit("\"cam4\"", "\"cam1\""), "nodes[2].cameras[0]: camera \"cam1\" is already driven by node node0"},
+      {"node camera unknown", edit("\"cam3\"", "\"cam9\""),
+       "nodes[1].cameras[1]: no camera \"cam9\" in the calibration (it has cam0..cam5)"},
+      {"node camera twice", edit("\"cam4\"", "\"cam1\""),
+       "nodes[2].cameras[0]: camera \"cam1\" is already driven by node node0"},
       {"node camera type", edit("\"cam3\"", "3"), "nodes[1].cameras[1]: expected a string, got an integer"},
-      {"node role", edit("role = \"side\"", "role = \"back\""), "nodes[2].role: must be \"front\" or \"side\", got \"back\""},
-      {"no nodes", edit("[[nodes]]\nid = \"node0\"\naddress = \"127.0.0.1\"\ncameras = [\"cam0\", \"cam1\"]\nrole = \"front\"\n\n[[nodes]]\nid = \"node1\"\ncameras = [\"cam2\", \"cam3\"]\n\n[[nodes]]\nid = \"node2\"\naddress = \"any\"\ncameras = [\"cam4\", \"cam5\"]\nrole = \"side\"\n", ""), "nodes: at least one [[nodes]] table is needed"},
-      {"features without front", edit("role = \"front\"", "role = \"side\""), "features.enabled: feature tracking needs at least one node with role = \"front\""},
+      {"node role", edit("role = \"side\"", "role = \"back\""),
+       "nodes[2].role: must be \"front\" or \"side\", got \"back\""},
+      {"no nodes",
+       edit("[[nodes]]\nid = \"node0\"\naddress = \"127.0.0.1\"\ncameras = [\"cam0\", \"cam1\"]\nrole = "
+            "\"front\"\n\n[[nodes]]\nid = \"node1\"\ncameras = [\"cam2\", \"cam3\"]\n\n[[nodes]]\nid = "
+            "\"node2\"\naddress = \"any\"\ncameras = [\"cam4\", \"cam5\"]\nrole = \"side\"\n",
+            ""),
+       "nodes: at least one [[nodes]] table is needed"},
+      {"features without front", edit("role = \"front\"", "role = \"side\""),
+       "features.enabled: feature tracking needs at least one node with role = \"front\""},
       {"grid voxel", edit("voxel_m = 0.025", "voxel_m = 0"), "grid: voxel_m must be a positive number"},
-      {"grid min_m size", edit("min_m = [-1.0, -1.0, 0.0]", "min_m = [-1.0, 0.0]"), "grid.min_m: expected 3 numbers [x, y, z], got 2"},
-      {"grid min_m type", edit("min_m = [-1.0, -1.0, 0.0]", "min_m = [-1.0, \"a\", 0.0]"), "grid.min_m[1]: expected a number, got a string"},
+      {"grid min_m size", edit("min_m = [-1.0, -1.0, 0.0]", "min_m = [-1.0, 0.0]"),
+       "grid.min_m: expected 3 numbers [x, y, z], got 2"},
+      {"grid min_m type", edit("min_m = [-1.0, -1.0, 0.0]", "min_m = [-1.0, \"a\", 0.0]"),
+       "grid.min_m[1]: expected a number, got a string"},
       {"grid nz missing", edit("nz = 90\n", ""), "grid.nz: missing"},
       {"calibration missing", edit("calibration = \"rig.yaml\"\n", ""), "calibration: missing"},
-      {"calibration absent file", edit("calibration = \"rig.yaml\"", "calibration = \"nope.yaml\""), "calibration: file not found:"},
-      {"version", edit("version = 1", "version = 2"), "version: this voxcap reads version 1 rig files, got 2"},
-      {"unknown top-level key", edit("name = \"test\"", "name = \"test\"\nnmae = \"x\""), "nmae: unknown key (did you mean \"name\"?)"},
-      {"unknown trigger key", edit("rate_hz = 60", "rate_hz = 60\nrate_hx = 61"), "trigger.rate_hx: unknown key (did you mean \"rate_hz\"?)"},
-      {"unknown node key", edit("role = \"front\"", "role = \"front\"\ncamera = \"cam0\""), "nodes[0].camera: unknown key (did you mean \"cameras\"?)"},
-      {"unknown nested key", edit("line = 18", "line = 18\nlabel = \"x\""), "trigger.gpiod.label: unknown key"},
+      {"calibration absent file", edit("calibration = \"rig.yaml\"", "calibration = \"nope.yaml\""),
+       "calibration: file not found:"},
+      {"version", edit("version = 1", "version = 2"),
+       "version: this voxcap reads version 1 rig files, got 2"},
+      {"unknown top-level key", edit("name = \"test\"", "name = \"test\"\nnmae = \"x\""),
+       "nmae: unknown key (did you mean \"name\"?)"},
+      {"unknown trigger key", edit("rate_hz = 60", "rate_hz = 60\nrate_hx = 61"),
+       "trigger.rate_hx: unknown key (did you mean \"rate_hz\"?)"},
+      {"unknown node key", edit("role = \"front\"", "role = \"front\"\ncamera = \"cam0\""),
+       "nodes[0].camera: unknown key (did you mean \"cameras\"?)"},
+      {"unknown nested key", edit("line = 18", "line = 18\nlabel = \"x\""),
+       "trigger.gpiod.label: unknown key"},
       {"unknown section", edit("[network]", "[netwrk]"), "netwrk: unknown key (did you mean \"network\"?)"},
-      {"section not a table", edit("[features]\nenabled = true\n", "", edit("name = \"test\"", "name = \"test\"\nfeatures = true")), "features: expected a table, got a boolean"},
+      {"section not a table",
+       edit("[features]\nenabled = true\n", "", edit("name = \"test\"", "name = \"test\"\nfeatures = true")),
+       "features: expected a table, got a boolean"},
       {"syntax error", edit("rate_hz = 60", "rate_hz = = 60"), "TOML syntax error"},
   };
 }
@@ -214,14 +275,16 @@ TEST(LoadRigConfig, ErrorsCarryKeyAndLine) {
     EXPECT_EQ(e.file(), rig.toml_path().string());
     // Line of `rate_hz` in valid_toml().
     const std::string text = valid_toml();
-    const int line = 1 + static_cast<int>(std::count(text.begin(), text.begin() + static_cast<long>(text.find("rate_hz")), '\n'));
+    const int line = 1 + static_cast<int>(std::count(
+                             text.begin(), text.begin() + static_cast<long>(text.find("rate_hz")), '\n'));
     EXPECT_EQ(e.line(), line);
   }
 }
 
 TEST(LoadRigConfig, GridComesFromTheCalibrationWhenRigTomlHasNone) {
   TempRig rig(/*with_grid=*/true);
-  const std::string no_grid = edit("[grid]\nmin_m = [-1.0, -1.0, 0.0]\nvoxel_m = 0.025\nnx = 80\nny = 80\nnz = 90\n", "");
+  const std::string no_grid =
+      edit("[grid]\nmin_m = [-1.0, -1.0, 0.0]\nvoxel_m = 0.025\nnx = 80\nny = 80\nnz = 90\n", "");
   const RigConfig c = parse(rig, no_grid);
   EXPECT_EQ(c.grid_source, GridSource::Calibration);
   EXPECT_DOUBLE_EQ(c.grid.voxel_m, 0.02);

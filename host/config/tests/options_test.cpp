@@ -29,8 +29,8 @@ TEST(Endpoint, ParsesHostAndPort) {
 TEST(Endpoint, RejectsMalformedText) {
   Endpoint e;
   std::string why;
-  for (const char* bad : {"", "7700", ":7700", "127.0.0.1:", "127.0.0.1:0", "127.0.0.1:65536", "127.0.0.1:77x",
-                          "host.example:7700", "300.1.1.1:7700"}) {
+  for (const char* bad : {"", "7700", ":7700", "127.0.0.1:", "127.0.0.1:0", "127.0.0.1:65536",
+                          "127.0.0.1:77x", "host.example:7700", "300.1.1.1:7700"}) {
     EXPECT_FALSE(Endpoint::parse(bad, &e, &why)) << bad;
     EXPECT_FALSE(why.empty());
   }

@@ -5,8 +5,8 @@
 #include <unistd.h>
 
 #include <cmath>
-#include <numbers>
 #include <filesystem>
+#include <numbers>
 #include <string>
 
 #include "voxcap/rig/calibration.hpp"

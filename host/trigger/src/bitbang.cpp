@@ -35,8 +35,8 @@ std::optional<BitbangClock> plan_bitbang_clock(uint32_t wanted_hz, std::string* 
   BitbangClock clock;
   // The UART baud whose 5x is the wanted sample rate, expressed as what libftdi expects (it
   // multiplies by 4 in bit-bang mode).
-  clock.libftdi_baudrate =
-      static_cast<int>(std::lround(static_cast<double>(wanted_hz) / (kBitbangPerBaud * kLibftdiBitbangFactor)));
+  clock.libftdi_baudrate = static_cast<int>(
+      std::lround(static_cast<double>(wanted_hz) / (kBitbangPerBaud * kLibftdiBitbangFactor)));
   const uint64_t baud = static_cast<uint64_t>(clock.libftdi_baudrate) * kLibftdiBitbangFactor;
   // Mirror of libftdi's ftdi_to_clkbits(baud, 120 MHz, 10): divisor in 1/16 steps, rounded half up
   // to 1/8 steps. Our range keeps baud between 2 kHz and 200 kHz: the general branch, far from the
@@ -50,7 +50,8 @@ std::optional<BitbangClock> plan_bitbang_clock(uint32_t wanted_hz, std::string* 
 
 bool PatternOptions::valid(std::string* why) const {
   if (fs_num == 0 || fs_den == 0) return fail(why, "sample rate: must be > 0");
-  if (!(rate_hz > 0.0 && rate_hz <= 1000.0)) return fail(why, fmt::format("rate_hz: must be in (0, 1000], got {}", rate_hz));
+  if (!(rate_hz > 0.0 && rate_hz <= 1000.0))
+    return fail(why, fmt::format("rate_hz: must be in (0, 1000], got {}", rate_hz));
   if (!(pulse_width_us > 0.0) || !std::isfinite(pulse_width_us))
     return fail(why, fmt::format("pulse_width_us: must be > 0, got {}", pulse_width_us));
   if (pin_mask == 0 || (pin_mask & (pin_mask - 1)) != 0)

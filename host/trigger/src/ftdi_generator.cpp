@@ -38,15 +38,24 @@ bool is_h_series(ftdi_chip_type type) {
 
 std::string chip_name(ftdi_chip_type type) {
   switch (type) {
-    case TYPE_AM: return "FT8U232AM";
-    case TYPE_BM: return "FT232BM";
-    case TYPE_2232C: return "FT2232C/D";
-    case TYPE_R: return "FT232R";
-    case TYPE_2232H: return "FT2232H";
-    case TYPE_4232H: return "FT4232H";
-    case TYPE_232H: return "FT232H";
-    case TYPE_230X: return "FT230X";
-    default: return "unknown FTDI chip";
+    case TYPE_AM:
+      return "FT8U232AM";
+    case TYPE_BM:
+      return "FT232BM";
+    case TYPE_2232C:
+      return "FT2232C/D";
+    case TYPE_R:
+      return "FT232R";
+    case TYPE_2232H:
+      return "FT2232H";
+    case TYPE_4232H:
+      return "FT4232H";
+    case TYPE_232H:
+      return "FT232H";
+    case TYPE_230X:
+      return "FT230X";
+    default:
+      return "unknown FTDI chip";
   }
 }
 
@@ -116,22 +125,25 @@ void FtdiGenerator::prepare(const PulseTrain& train) {
                      ftdi_.serial.empty() ? "" : " with serial " + ftdi_.serial,
                      ftdi_.description.empty() ? "" : " named \"" + ftdi_.description + "\""));
   if (rc == -4 || rc == -8 || rc == -9 || rc == -10)
-    fail(fmt::format("ftdi: cannot open {}: {} (permissions? install hw/udev/60-voxcap.rules and join the "
-                     "plugdev group)",
-                     dev, ftdi_get_error_string(ctx_)));
+    fail(
+        fmt::format("ftdi: cannot open {}: {} (permissions? install hw/udev/60-voxcap.rules and join the "
+                    "plugdev group)",
+                    dev, ftdi_get_error_string(ctx_)));
   if (rc == -5 || rc == -6)
     fail(fmt::format("ftdi: {} is busy: {} (another program holds it)", dev, ftdi_get_error_string(ctx_)));
   if (rc < 0) fail(fmt::format("ftdi: opening {} failed: {}", dev, ftdi_get_error_string(ctx_)));
 
   if (!is_h_series(ctx_->type))
-    fail(fmt::format("ftdi: {} is an {}; the trigger box needs an H-series chip (FT232H, FT2232H, FT4232H), "
-                     "whose synchronous bit-bang clock is exact",
-                     dev, chip_name(ctx_->type)));
+    fail(
+        fmt::format("ftdi: {} is an {}; the trigger box needs an H-series chip (FT232H, FT2232H, FT4232H), "
+                    "whose synchronous bit-bang clock is exact",
+                    dev, chip_name(ctx_->type)));
   const uint8_t out_mask = static_cast<uint8_t>(1u << ftdi_.pin);
   if (ftdi_tcioflush(ctx_) < 0 || ftdi_set_latency_timer(ctx_, 2) < 0 ||
       ftdi_set_bitmode(ctx_, out_mask, BITMODE_SYNCBB) < 0 ||
       ftdi_set_baudrate(ctx_, clock->libftdi_baudrate) < 0)
-    fail(fmt::format("ftdi: configuring {} for synchronous bit-bang failed: {}", dev, ftdi_get_error_string(ctx_)));
+    fail(fmt::format("ftdi: configuring {} for synchronous bit-bang failed: {}", dev,
+                     ftdi_get_error_string(ctx_)));
   spdlog::info("trigger: {} ({}) in synchronous bit-bang at {:.6g} Hz, trigger on ADBUS{}", dev,
                chip_name(ctx_->type), clock->sample_rate_hz(), ftdi_.pin);
 }
@@ -151,7 +163,8 @@ void FtdiGenerator::run(const PulseTrain& train) {
 
   const double fs = static_cast<double>(fs_num_) / static_cast<double>(fs_den_);
   const size_t chunk = std::max<size_t>(64, static_cast<size_t>(fs * kChunkSeconds));
-  const uint64_t max_queued = std::max<uint64_t>(2 * chunk, static_cast<uint64_t>(fs * ftdi_.buffer_ms / 1000.0));
+  const uint64_t max_queued =
+      std::max<uint64_t>(2 * chunk, static_cast<uint64_t>(fs * ftdi_.buffer_ms / 1000.0));
   const size_t max_writes = static_cast<size_t>(max_queued / chunk) + 1;
   std::vector<std::vector<uint8_t>> buffers(max_writes + 1, std::vector<uint8_t>(chunk));
   std::vector<uint8_t> echo(chunk);
@@ -180,7 +193,9 @@ void FtdiGenerator::run(const PulseTrain& train) {
         const size_t n = pattern.fill(buf.data(), buf.size());
         if (n == 0) break;
         ftdi_transfer_control* tc = ftdi_write_data_submit(ctx_, buf.data(), static_cast<int>(n));
-        if (!tc) throw TriggerError(fmt::format("ftdi: submitting a USB write failed: {}", ftdi_get_error_string(ctx_)));
+        if (!tc)
+          throw TriggerError(
+              fmt::format("ftdi: submitting a USB write failed: {}", ftdi_get_error_string(ctx_)));
         writes.push_back({tc, next_buffer, static_cast<int>(n)});
         next_buffer = (next_buffer + 1) % buffers.size();
         ledger.on_submitted(n);
@@ -189,7 +204,9 @@ void FtdiGenerator::run(const PulseTrain& train) {
       if (!read && ledger.queued() > 0) {
         const int size = static_cast<int>(std::min<uint64_t>(ledger.queued(), echo.size()));
         read = ftdi_read_data_submit(ctx_, echo.data(), size);
-        if (!read) throw TriggerError(fmt::format("ftdi: submitting a USB read failed: {}", ftdi_get_error_string(ctx_)));
+        if (!read)
+          throw TriggerError(
+              fmt::format("ftdi: submitting a USB read failed: {}", ftdi_get_error_string(ctx_)));
       }
       if (!read && writes.empty()) break;  // pattern finished and fully echoed
 
@@ -207,8 +224,8 @@ void FtdiGenerator::run(const PulseTrain& train) {
           last_progress = now;
           ledger.on_echoed(static_cast<uint64_t>(n));
           timebase.observe(now, ledger.echoed());
-          const uint64_t edges = count_leading_edges(echo.data(), static_cast<size_t>(n), po.pin_mask,
-                                                     active_low_, &pin_active);
+          const uint64_t edges =
+              count_leading_edges(echo.data(), static_cast<size_t>(n), po.pin_mask, active_low_, &pin_active);
           const double rate = timebase.measured_rate_hz();
           update_stats([&](Stats& s) {
             s.pin_edges += edges;
@@ -227,15 +244,18 @@ void FtdiGenerator::run(const PulseTrain& train) {
         const InFlight w = writes.front();
         writes.pop_front();
         const int n = ftdi_transfer_data_done(w.tc);
-        if (n != w.size) throw TriggerError(fmt::format("ftdi: USB write failed ({} of {} bytes)", n, w.size));
+        if (n != w.size)
+          throw TriggerError(fmt::format("ftdi: USB write failed ({} of {} bytes)", n, w.size));
       }
       if (ledger.check_underrun(pattern.finished())) {
         update_stats([](Stats& s) { ++s.underruns; });
-        spdlog::warn("trigger: ftdi pattern underrun: the chip paused, pulses after it are late (raise "
-                     "trigger.ftdi.buffer_ms or the thread's priority)");
+        spdlog::warn(
+            "trigger: ftdi pattern underrun: the chip paused, pulses after it are late (raise "
+            "trigger.ftdi.buffer_ms or the thread's priority)");
       }
       if (ledger.queued() > 0 && now - last_progress > kStallTimeoutNs)
-        throw TriggerError(fmt::format("ftdi: {} stopped echoing bit-bang samples (unplugged?)", ftdi_.device_str()));
+        throw TriggerError(
+            fmt::format("ftdi: {} stopped echoing bit-bang samples (unplugged?)", ftdi_.device_str()));
     }
   } catch (...) {
     cancel_all();

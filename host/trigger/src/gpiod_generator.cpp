@@ -18,7 +18,8 @@ template <typename T, void (*Free)(T*)>
 struct Deleter {
   void operator()(T* p) const { Free(p); }
 };
-using LineSettings = std::unique_ptr<gpiod_line_settings, Deleter<gpiod_line_settings, gpiod_line_settings_free>>;
+using LineSettings =
+    std::unique_ptr<gpiod_line_settings, Deleter<gpiod_line_settings, gpiod_line_settings_free>>;
 using LineConfig = std::unique_ptr<gpiod_line_config, Deleter<gpiod_line_config, gpiod_line_config_free>>;
 using RequestConfig =
     std::unique_ptr<gpiod_request_config, Deleter<gpiod_request_config, gpiod_request_config_free>>;
@@ -28,14 +29,16 @@ using LineInfo = std::unique_ptr<gpiod_line_info, Deleter<gpiod_line_info, gpiod
 std::string open_error(const std::string& path, int err) {
   switch (err) {
     case ENOENT:
-      return fmt::format("gpiod: no GPIO chip at {} (see `ls /dev/gpiochip*`; on a Raspberry Pi 5 the "
-                         "header's chip is gpiochip0 on recent kernels, gpiochip4 on older ones)",
-                         path);
+      return fmt::format(
+          "gpiod: no GPIO chip at {} (see `ls /dev/gpiochip*`; on a Raspberry Pi 5 the "
+          "header's chip is gpiochip0 on recent kernels, gpiochip4 on older ones)",
+          path);
     case EACCES:
     case EPERM:
-      return fmt::format("gpiod: permission denied opening {} (install hw/udev/60-voxcap.rules and join the "
-                         "plugdev group)",
-                         path);
+      return fmt::format(
+          "gpiod: permission denied opening {} (install hw/udev/60-voxcap.rules and join the "
+          "plugdev group)",
+          path);
     case ENOTTY:
     case ENODEV:
     case EINVAL:
@@ -85,7 +88,8 @@ void GpiodGenerator::prepare(const PulseTrain& /*train*/) {
   try {
     if (gpio_.line_name.empty()) {
       ChipInfo info(gpiod_chip_get_info(chip_));
-      if (!info) throw TriggerError(fmt::format("gpiod: cannot read chip info of {}: {}", path, std::strerror(errno)));
+      if (!info)
+        throw TriggerError(fmt::format("gpiod: cannot read chip info of {}: {}", path, std::strerror(errno)));
       const size_t lines = gpiod_chip_info_get_num_lines(info.get());
       if (static_cast<size_t>(gpio_.line_offset) >= lines)
         throw TriggerError(fmt::format("gpiod: {} ({}) has {} lines; line {} does not exist", path,
@@ -97,8 +101,8 @@ void GpiodGenerator::prepare(const PulseTrain& /*train*/) {
       if (offset < 0)
         throw TriggerError(errno == ENOENT || errno == 0
                                ? fmt::format("gpiod: no line named \"{}\" on {}", gpio_.line_name, path)
-                               : fmt::format("gpiod: looking up line \"{}\" on {} failed: {}", gpio_.line_name,
-                                             path, std::strerror(errno)));
+                               : fmt::format("gpiod: looking up line \"{}\" on {} failed: {}",
+                                             gpio_.line_name, path, std::strerror(errno)));
       offset_ = static_cast<unsigned>(offset);
     }
 
@@ -141,12 +145,14 @@ void GpiodGenerator::prepare(const PulseTrain& /*train*/) {
 void GpiodGenerator::leading_edge(Pulse& pulse) {
   pulse.t_ns = monotonic_ns();
   if (gpiod_line_request_set_value(request_, offset_, GPIOD_LINE_VALUE_ACTIVE) < 0)
-    throw TriggerError(fmt::format("gpiod: setting line {} failed: {}", gpio_.line_str(), std::strerror(errno)));
+    throw TriggerError(
+        fmt::format("gpiod: setting line {} failed: {}", gpio_.line_str(), std::strerror(errno)));
 }
 
 void GpiodGenerator::trailing_edge() {
   if (gpiod_line_request_set_value(request_, offset_, GPIOD_LINE_VALUE_INACTIVE) < 0)
-    throw TriggerError(fmt::format("gpiod: clearing line {} failed: {}", gpio_.line_str(), std::strerror(errno)));
+    throw TriggerError(
+        fmt::format("gpiod: clearing line {} failed: {}", gpio_.line_str(), std::strerror(errno)));
 }
 
 }  // namespace vc::trigger::detail

@@ -20,9 +20,11 @@ bool ScheduleOptions::valid(std::string* why) const {
     if (why) *why = std::move(m);
     return false;
   };
-  if (!(rate_hz > 0.0 && rate_hz <= 1000.0)) return fail(fmt::format("rate_hz: must be in (0, 1000], got {}", rate_hz));
+  if (!(rate_hz > 0.0 && rate_hz <= 1000.0))
+    return fail(fmt::format("rate_hz: must be in (0, 1000], got {}", rate_hz));
   if (std::llround(rate_hz * 1e6) < 1) return fail(fmt::format("rate_hz: below 1 uHz, got {}", rate_hz));
-  if (late_threshold_ns < 0) return fail(fmt::format("late_threshold_ns: must be >= 0, got {}", late_threshold_ns));
+  if (late_threshold_ns < 0)
+    return fail(fmt::format("late_threshold_ns: must be >= 0, got {}", late_threshold_ns));
   const double half_period_ns = 0.5e9 / rate_hz;
   if (max_lateness_ns != -1 && (max_lateness_ns < 0 || static_cast<double>(max_lateness_ns) > half_period_ns))
     return fail(fmt::format("max_lateness_ns: must be -1 (half a period) or in [0, {:.0f}], got {}",

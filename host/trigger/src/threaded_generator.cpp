@@ -28,8 +28,10 @@ bool PulseTrain::valid(std::string* why) const {
     if (why) *why = std::move(m);
     return false;
   };
-  if (!(rate_hz > 0.0 && rate_hz <= 1000.0)) return fail(fmt::format("rate: must be in (0, 1000] Hz, got {}", rate_hz));
-  if (!(pulse_width_us > 0.0)) return fail(fmt::format("pulse width: must be > 0 us, got {}", pulse_width_us));
+  if (!(rate_hz > 0.0 && rate_hz <= 1000.0))
+    return fail(fmt::format("rate: must be in (0, 1000] Hz, got {}", rate_hz));
+  if (!(pulse_width_us > 0.0))
+    return fail(fmt::format("pulse width: must be > 0 us, got {}", pulse_width_us));
   const double half_period_us = 0.5e6 / rate_hz;
   if (pulse_width_us >= half_period_us)
     return fail(fmt::format("pulse width: must be less than half the period ({:.6g} us at {} Hz), got {}",
@@ -73,9 +75,10 @@ bool try_realtime(int priority) {
   }
   static std::once_flag noted;
   std::call_once(noted, [&] {
-    spdlog::info("trigger: real-time priority SCHED_FIFO {} not permitted ({}); pulses are timed on a "
-                 "normal thread (grant CAP_SYS_NICE or an rtprio limit for tighter timing)",
-                 param.sched_priority, std::strerror(rc));
+    spdlog::info(
+        "trigger: real-time priority SCHED_FIFO {} not permitted ({}); pulses are timed on a "
+        "normal thread (grant CAP_SYS_NICE or an rtprio limit for tighter timing)",
+        param.sched_priority, std::strerror(rc));
   });
   return false;
 }

@@ -39,9 +39,10 @@ void UdpGenerator::prepare(const PulseTrain& /*train*/) {
   addrs_.clear();
   for (const config::Endpoint& t : targets_) {
     if (!t.is_loopback())
-      throw TriggerError(fmt::format("udp: {} is not a loopback address; the udp trigger is for the "
-                                     "emulated rig on one machine",
-                                     t.str()));
+      throw TriggerError(
+          fmt::format("udp: {} is not a loopback address; the udp trigger is for the "
+                      "emulated rig on one machine",
+                      t.str()));
     sockaddr_in sa{};
     sa.sin_family = AF_INET;
     sa.sin_port = htons(t.port);
@@ -62,11 +63,12 @@ void UdpGenerator::leading_edge(Pulse& pulse) {
   if (rc < 0) throw TriggerError(fmt::format("udp: encoding the trigger datagram failed ({})", rc));
   uint64_t failed = 0;
   for (size_t i = 0; i < addrs_.size(); ++i) {
-    const ssize_t n = sendto(fd_, dgram, sizeof dgram, 0, reinterpret_cast<const sockaddr*>(&addrs_[i]),
-                             sizeof addrs_[i]);
+    const ssize_t n =
+        sendto(fd_, dgram, sizeof dgram, 0, reinterpret_cast<const sockaddr*>(&addrs_[i]), sizeof addrs_[i]);
     if (n == static_cast<ssize_t>(sizeof dgram)) continue;
     const int err = n < 0 ? errno : EMSGSIZE;
-    if (err == EBADF || err == ENOTSOCK) throw TriggerError(fmt::format("udp: socket lost: {}", std::strerror(err)));
+    if (err == EBADF || err == ENOTSOCK)
+      throw TriggerError(fmt::format("udp: socket lost: {}", std::strerror(err)));
     ++failed;
     if (!warned_[i]) {
       warned_[i] = true;

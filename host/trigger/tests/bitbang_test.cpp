@@ -180,10 +180,10 @@ TEST(BitbangPattern, FinishWhileIdleEndsAtOnce) {
 
 TEST(BitbangPattern, RejectsAWidthThatLeavesNoIdleSample) {
   PatternOptions o;
-  o.rate_hz = 1000;            // 100 samples per period at 100 kHz
-  o.pulse_width_us = 995;      // 100 samples (rounded)
+  o.rate_hz = 1000;        // 100 samples per period at 100 kHz
+  o.pulse_width_us = 995;  // 100 samples (rounded)
   EXPECT_THROW(BitbangPattern{o}, std::invalid_argument);
-  o.pulse_width_us = 2;        // below one sample: rounds up to one sample
+  o.pulse_width_us = 2;  // below one sample: rounds up to one sample
   BitbangPattern p(o);
   EXPECT_EQ(p.width_samples(), 1u);
   o.pin_mask = 0x03;
@@ -232,9 +232,9 @@ TEST(StreamTimebase, EstimatesTheOriginFromTheLeastDelayedEcho) {
     tb.observe(clocked + delay(rng), echoed);
   }
   ASSERT_TRUE(tb.ready());
-  const int64_t t = tb.host_time_of(100000);  // 1 s of samples after the origin
-  EXPECT_GE(t, origin + 1'000'000'000);               // never earlier than the truth (upper bounds)
-  EXPECT_LE(t, origin + 1'000'000'000 + 3'000'000);   // within the worst echo delay
+  const int64_t t = tb.host_time_of(100000);         // 1 s of samples after the origin
+  EXPECT_GE(t, origin + 1'000'000'000);              // never earlier than the truth (upper bounds)
+  EXPECT_LE(t, origin + 1'000'000'000 + 3'000'000);  // within the worst echo delay
   EXPECT_NEAR(tb.measured_rate_hz(), 100000.0, 100000.0 * 0.002);
 }
 

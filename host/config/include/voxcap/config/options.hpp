@@ -15,7 +15,7 @@ namespace vc::config {
 
 // A UDP endpoint given as "host:port" with a numeric IPv4 host or "localhost".
 struct Endpoint {
-  std::string host;    // as written ("127.0.0.1", "localhost")
+  std::string host;  // as written ("127.0.0.1", "localhost")
   uint16_t port = 0;
 
   // Parses "host:port"; returns false and says why for anything else.
@@ -27,11 +27,11 @@ struct Endpoint {
 
 // Background subtraction on the edges (paper sec. 5, eq. 1-2).
 struct SubtractionOptions {
-  double t_upper = 4.0;            // T_u: foreground when |p - mu| > T_u * sigma in any channel
-  double t_lower = 2.0;            // T_l: surely background when below T_l * sigma in all channels
-  double shadow_angle_deg = 5.0;   // T_angular: in-between pixels with a smaller colour angle are shadow
-  int cleanup_radius_px = 1;       // speckle removal / hole filling size; 0 = no clean-up
-  int background_frames = 30;      // empty-scene frames learnt for mu and sigma
+  double t_upper = 4.0;           // T_u: foreground when |p - mu| > T_u * sigma in any channel
+  double t_lower = 2.0;           // T_l: surely background when below T_l * sigma in all channels
+  double shadow_angle_deg = 5.0;  // T_angular: in-between pixels with a smaller colour angle are shadow
+  int cleanup_radius_px = 1;      // speckle removal / hole filling size; 0 = no clean-up
+  int background_frames = 30;     // empty-scene frames learnt for mu and sigma
 
   bool valid(std::string* why) const;
 };
@@ -61,13 +61,13 @@ struct GpiodTriggerOptions {
 
 struct FtdiTriggerOptions {
   uint16_t vid = 0x0403;
-  uint16_t pid = 0x6014;                // FT232H
-  std::string serial;                   // empty: the first matching device
-  std::string description;              // USB product string to match; empty: any
-  char interface = 'A';                 // A for FT232H; A-D on FT2232H/FT4232H
-  int pin = 3;                          // ADBUS bit driving the trigger buffer (hw/triggerbox)
-  uint32_t sample_rate_hz = 100000;     // bit-bang clock: pulse timing resolution is 1 / this
-  int buffer_ms = 50;                   // pattern queued ahead of the chip (underrun margin)
+  uint16_t pid = 0x6014;             // FT232H
+  std::string serial;                // empty: the first matching device
+  std::string description;           // USB product string to match; empty: any
+  char interface = 'A';              // A for FT232H; A-D on FT2232H/FT4232H
+  int pin = 3;                       // ADBUS bit driving the trigger buffer (hw/triggerbox)
+  uint32_t sample_rate_hz = 100000;  // bit-bang clock: pulse timing resolution is 1 / this
+  int buffer_ms = 50;                // pattern queued ahead of the chip (underrun margin)
 
   bool valid(std::string* why) const;
   std::string device_str() const;  // "0403:6014" (+ " serial X")
@@ -75,11 +75,11 @@ struct FtdiTriggerOptions {
 
 struct TriggerOptions {
   TriggerBackend backend = TriggerBackend::Udp;
-  double rate_hz = 60.0;               // pulses per second, (0, 1000]
-  double pulse_width_us = 100.0;       // active time of each pulse, less than half the period
-  bool active_low = false;             // the line idles high and pulses low
-  int rt_priority = 50;                // SCHED_FIFO priority of the pulse thread; 0 = normal thread
-  double late_threshold_us = 500.0;    // a pulse emitted later than this after its slot counts as late
+  double rate_hz = 60.0;             // pulses per second, (0, 1000]
+  double pulse_width_us = 100.0;     // active time of each pulse, less than half the period
+  bool active_low = false;           // the line idles high and pulses low
+  int rt_priority = 50;              // SCHED_FIFO priority of the pulse thread; 0 = normal thread
+  double late_threshold_us = 500.0;  // a pulse emitted later than this after its slot counts as late
   UdpTriggerOptions udp;
   GpiodTriggerOptions gpiod;
   FtdiTriggerOptions ftdi;
@@ -93,7 +93,7 @@ enum class MissingNodePolicy { Drop, Degraded };
 std::string_view to_string(MissingNodePolicy policy);
 
 struct AssemblyOptions {
-  double deadline_ms = 50.0;  // after the pulse; (0, 10000]
+  double deadline_ms = 50.0;                                        // after the pulse; (0, 10000]
   MissingNodePolicy missing_node_policy = MissingNodePolicy::Drop;  // drop the frame, or merge what came
 
   bool valid(std::string* why) const;

@@ -33,9 +33,9 @@
 namespace vc::trigger {
 
 struct BitbangClock {
-  int libftdi_baudrate = 0;   // argument for ftdi_set_baudrate() AFTER ftdi_set_bitmode(SYNCBB)
-  uint32_t divisor8 = 0;      // the chip's baud divisor, in 1/8 steps of the 12 MHz reference
-  uint64_t fs_num = 0;        // effective sample rate = fs_num / fs_den Hz, exactly
+  int libftdi_baudrate = 0;  // argument for ftdi_set_baudrate() AFTER ftdi_set_bitmode(SYNCBB)
+  uint32_t divisor8 = 0;     // the chip's baud divisor, in 1/8 steps of the 12 MHz reference
+  uint64_t fs_num = 0;       // effective sample rate = fs_num / fs_den Hz, exactly
   uint64_t fs_den = 1;
 
   double sample_rate_hz() const { return static_cast<double>(fs_num) / static_cast<double>(fs_den); }
@@ -46,7 +46,7 @@ struct BitbangClock {
 std::optional<BitbangClock> plan_bitbang_clock(uint32_t wanted_hz, std::string* why);
 
 struct PatternOptions {
-  uint64_t fs_num = 100000;   // sample rate = fs_num / fs_den Hz
+  uint64_t fs_num = 100000;  // sample rate = fs_num / fs_den Hz
   uint64_t fs_den = 1;
   double rate_hz = 60.0;
   double pulse_width_us = 100.0;
@@ -85,7 +85,7 @@ class BitbangPattern {
 
  private:
   PatternOptions options_;
-  unsigned __int128 a_ = 0;   // samples per period = a_ / b_ = fs_num * 1e6 / (fs_den * rate_uhz)
+  unsigned __int128 a_ = 0;  // samples per period = a_ / b_ = fs_num * 1e6 / (fs_den * rate_uhz)
   unsigned __int128 b_ = 1;
   uint64_t width_ = 1;
   uint8_t idle_ = 0;

@@ -32,18 +32,18 @@ struct TriggerError : std::runtime_error {
 
 // One emitted pulse.
 struct Pulse {
-  uint64_t seq = 0;          // pulse counter; every frame of this pulse carries it
-  int64_t t_ns = 0;          // CLOCK_MONOTONIC time of the leading edge as this host knows it
-                             // (ftdi: estimated from the echo stream, within about a USB frame)
-  int64_t lateness_ns = 0;   // host-timed backends: how late against the schedule; ftdi: 0
+  uint64_t seq = 0;         // pulse counter; every frame of this pulse carries it
+  int64_t t_ns = 0;         // CLOCK_MONOTONIC time of the leading edge as this host knows it
+                            // (ftdi: estimated from the echo stream, within about a USB frame)
+  int64_t lateness_ns = 0;  // host-timed backends: how late against the schedule; ftdi: 0
 };
 
 struct Stats {
   uint64_t pulses_sent = 0;
-  uint64_t late = 0;          // host-timed: emitted more than late_threshold after the slot
-  uint64_t missed = 0;        // host-timed: slots skipped because the thread was far too late
-  uint64_t underruns = 0;     // ftdi: the chip ran out of pattern and paused
-  uint64_t errors = 0;        // udp: datagrams that failed to send
+  uint64_t late = 0;       // host-timed: emitted more than late_threshold after the slot
+  uint64_t missed = 0;     // host-timed: slots skipped because the thread was far too late
+  uint64_t underruns = 0;  // ftdi: the chip ran out of pattern and paused
+  uint64_t errors = 0;     // udp: datagrams that failed to send
   int64_t max_lateness_ns = 0;
   uint64_t pin_edges = 0;     // ftdi: leading edges seen on the pin in the echo (0 on other backends)
   double sample_rate_hz = 0;  // ftdi: measured bit-bang rate (echoed samples / host time)
@@ -53,8 +53,8 @@ struct Stats {
 struct PulseTrain {
   double rate_hz = 60.0;
   double pulse_width_us = 100.0;
-  uint64_t count = 0;          // 0: until stop()
-  uint64_t first_seq = 0;      // seq of the first pulse
+  uint64_t count = 0;      // 0: until stop()
+  uint64_t first_seq = 0;  // seq of the first pulse
 
   bool valid(std::string* why) const;
   static PulseTrain from(const config::TriggerOptions& options, uint64_t count = 0);

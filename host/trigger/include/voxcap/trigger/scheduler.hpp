@@ -24,29 +24,29 @@
 namespace vc::trigger {
 
 struct ScheduleOptions {
-  int64_t start_ns = 0;             // CLOCK_MONOTONIC time of slot 0
-  double rate_hz = 60.0;            // (0, 1000]
-  uint64_t first_seq = 0;           // seq of the first emitted pulse
-  uint64_t count = 0;               // pulses to emit; 0 = unlimited
+  int64_t start_ns = 0;                // CLOCK_MONOTONIC time of slot 0
+  double rate_hz = 60.0;               // (0, 1000]
+  uint64_t first_seq = 0;              // seq of the first emitted pulse
+  uint64_t count = 0;                  // pulses to emit; 0 = unlimited
   int64_t late_threshold_ns = 500000;  // emitted later than this: counted as late
-  int64_t max_lateness_ns = -1;     // later than this: slot skipped (missed); -1 = half a period
+  int64_t max_lateness_ns = -1;        // later than this: slot skipped (missed); -1 = half a period
 
   bool valid(std::string* why) const;
 };
 
 // What take() decided to emit now.
 struct Due {
-  uint64_t seq = 0;           // pulse counter of this pulse
-  uint64_t slot = 0;          // grid index k (>= the number of pulses emitted: slots can be skipped)
-  int64_t slot_ns = 0;        // scheduled time t_k
-  int64_t lateness_ns = 0;    // now - t_k, >= 0
-  uint64_t skipped = 0;       // slots skipped (missed) just before this one
+  uint64_t seq = 0;         // pulse counter of this pulse
+  uint64_t slot = 0;        // grid index k (>= the number of pulses emitted: slots can be skipped)
+  int64_t slot_ns = 0;      // scheduled time t_k
+  int64_t lateness_ns = 0;  // now - t_k, >= 0
+  uint64_t skipped = 0;     // slots skipped (missed) just before this one
 };
 
 struct ScheduleStats {
   uint64_t emitted = 0;
-  uint64_t late = 0;          // emitted with lateness > late_threshold_ns
-  uint64_t missed = 0;        // slots skipped because they were more than max_lateness_ns overdue
+  uint64_t late = 0;    // emitted with lateness > late_threshold_ns
+  uint64_t missed = 0;  // slots skipped because they were more than max_lateness_ns overdue
   int64_t max_lateness_ns = 0;
 };
 
