@@ -1,0 +1,171 @@
+// Micro-benchmarks of the per-frame protocol work, on human-shaped partial hulls (tests/hull_shapes):
+// RLE encode (the edge, every frame), decode, AND of two partial hulls and popcount (the host, every
+// frame and node), CRC32C, a whole HULL encoded from a bitset and decoded by the stream decoder.
+// Time per iteration is time per frame. Run: proto_bench [--benchmark_filter=...].
+#include <benchmark/benchmark.h>
+
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "hull_shapes.hpp"
+#include "voxcap/crc32c.h"
+#include "voxcap/proto.h"
+#include "voxcap/rle.h"
+
+namespace {
+
+using vc::proto::testing::Bitset;
+using Bytes = std::vector<uint8_t>;
+
+// Two partial hulls of one pose (the body extruded along x and along y, as two nodes at right angles
+// would see it), cached per grid size.
+struct Hulls {
+  Bitset a, b;
+  Bytes rle_a, rle_b;
+};
+
+Bytes encode(const Bitset& bits) {
+  Bytes out(vc_rle_max_encoded_size(bits.nbits));
+  size_t len = 0;
+  if (vc_rle_encode(bits.bytes.data(), bits.nbits, out.data(), out.size(), &len) != 0) std::abort();
+  out.resize(len);
+  return out;
+}
+
+const Hulls& hulls(int n) {
+  static std::map<int, std::unique_ptr<Hulls>> cache;
+  auto& h = cache[n];
+  if (!h) {
+    h = std::make_unique<Hulls>();
+    const Bitset body = vc::proto::testing::human_hull(n, 7);
+    h->a = vc::proto::testing::extrude(body, n, 0);
+    h->b = vc::proto::testing::extrude(body, n, 1);
+    h->rle_a = encode(h->a);
+    h->rle_b = encode(h->b);
+  }
+  return *h;
+}
+
+void set_counters(benchmark::State& state, const Hulls& h) {
+  vc_rle_info info{};
+  vc_rle_inspect(h.rle_a.data(), h.rle_a.size(), &info);
+  state.counters["voxels"] = static_cast<double>(h.a.nbits);
+  state.counters["runs"] = static_cast<double>(info.runs);
+  state.counters["rle_bytes"] = static_cast<double>(h.rle_a.size());
+}
+
+void BM_RleEncode(benchmark::State& state) {
+  const Hulls& h = hulls(static_cast<int>(state.range(0)));
+  Bytes out(vc_rle_max_encoded_size(h.a.nbits));
+  for (auto _ : state) {
+    size_t len = 0;
+    benchmark::DoNotOptimize(vc_rle_encode(h.a.bytes.data(), h.a.nbits, out.data(), out.size(), &len));
+    benchmark::DoNotOptimize(out.data());
+  }
+  set_counters(state, h);
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * h.a.bytes.size()));
+}
+BENCHMARK(BM_RleEncode)->Arg(128)->Arg(256)->Unit(benchmark::kMicrosecond);
+
+void BM_RleDecode(benchmark::State& state) {
+  const Hulls& h = hulls(static_cast<int>(state.range(0)));
+  Bytes bits(h.a.bytes.size());
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(vc_rle_decode(h.rle_a.data(), h.rle_a.size(), bits.data(), h.a.nbits));
+    benchmark::DoNotOptimize(bits.data());
+  }
+  set_counters(state, h);
+}
+BENCHMARK(BM_RleDecode)->Arg(128)->Arg(256)->Unit(benchmark::kMicrosecond);
+
+void BM_RleAnd(benchmark::State& state) {
+  const Hulls& h = hulls(static_cast<int>(state.range(0)));
+  Bytes out(h.rle_a.size() + h.rle_b.size() + 16);
+  for (auto _ : state) {
+    size_t len = 0;
+    benchmark::DoNotOptimize(
+        vc_rle_and(h.rle_a.data(), h.rle_a.size(), h.rle_b.data(), h.rle_b.size(), out.data(), out.size(), &len));
+    benchmark::DoNotOptimize(out.data());
+  }
+  set_counters(state, h);
+}
+BENCHMARK(BM_RleAnd)->Arg(128)->Arg(256)->Unit(benchmark::kMicrosecond);
+
+// The same intersection the plain way, for comparison: AND of the two bitsets, then encode.
+void BM_BitsetAndThenEncode(benchmark::State& state) {
+  const Hulls& h = hulls(static_cast<int>(state.range(0)));
+  Bytes both(h.a.bytes.size()), out(vc_rle_max_encoded_size(h.a.nbits));
+  for (auto _ : state) {
+    for (size_t i = 0; i < both.size(); i++) both[i] = h.a.bytes[i] & h.b.bytes[i];
+    size_t len = 0;
+    benchmark::DoNotOptimize(vc_rle_encode(both.data(), h.a.nbits, out.data(), out.size(), &len));
+  }
+}
+BENCHMARK(BM_BitsetAndThenEncode)->Arg(128)->Arg(256)->Unit(benchmark::kMicrosecond);
+
+void BM_RlePopcount(benchmark::State& state) {
+  const Hulls& h = hulls(static_cast<int>(state.range(0)));
+  for (auto _ : state) {
+    uint64_t occ = 0, total = 0;
+    benchmark::DoNotOptimize(vc_rle_popcount(h.rle_a.data(), h.rle_a.size(), &occ, &total));
+    benchmark::DoNotOptimize(occ);
+  }
+}
+BENCHMARK(BM_RlePopcount)->Arg(128)->Arg(256)->Unit(benchmark::kMicrosecond);
+
+void BM_Crc32c(benchmark::State& state) {
+  Bytes data(static_cast<size_t>(state.range(0)), 0x5A);
+  for (auto _ : state) benchmark::DoNotOptimize(vc_crc32c(0, data.data(), data.size()));
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * data.size()));
+  state.SetLabel(vc_crc32c_impl());
+}
+BENCHMARK(BM_Crc32c)->Arg(64 << 10)->Arg(1 << 20);
+
+void BM_Crc32cPortable(benchmark::State& state) {
+  Bytes data(static_cast<size_t>(state.range(0)), 0x5A);
+  for (auto _ : state) benchmark::DoNotOptimize(vc_crc32c_portable(0, data.data(), data.size()));
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * data.size()));
+}
+BENCHMARK(BM_Crc32cPortable)->Arg(64 << 10)->Arg(1 << 20);
+
+// The edge's whole per-frame protocol cost: HULL message from the carved bitset (RLE + both CRCs).
+void BM_EncodeHullFromBits(benchmark::State& state) {
+  const Hulls& h = hulls(static_cast<int>(state.range(0)));
+  Bytes msg(VC_PROTO_HEADER_SIZE + 24 + vc_rle_max_encoded_size(h.a.nbits));
+  vc_header hdr{};
+  hdr.node_id = 1;
+  for (auto _ : state) {
+    size_t len = 0;
+    hdr.seq++;
+    benchmark::DoNotOptimize(
+        vc_encode_hull_bits(msg.data(), msg.size(), &len, &hdr, 1, h.a.bytes.data(), h.a.nbits));
+  }
+}
+BENCHMARK(BM_EncodeHullFromBits)->Arg(128)->Arg(256)->Unit(benchmark::kMicrosecond);
+
+// The host's per-node, per-frame receive cost: feed one HULL in 64 KiB chunks, decode and validate.
+void BM_DecodeHullStream(benchmark::State& state) {
+  const Hulls& h = hulls(static_cast<int>(state.range(0)));
+  Bytes msg(VC_PROTO_HEADER_SIZE + 24 + h.rle_a.size());
+  vc_header hdr{};
+  size_t len = 0;
+  if (vc_encode_hull_bits(msg.data(), msg.size(), &len, &hdr, 1, h.a.bytes.data(), h.a.nbits) != 0) std::abort();
+  vc_decoder* dec = vc_decoder_new(0);
+  auto out = std::make_unique<vc_msg>();
+  for (auto _ : state) {
+    for (size_t off = 0; off < len;) {
+      size_t used = 0;
+      vc_decoder_feed(dec, msg.data() + off, std::min<size_t>(len - off, 64 << 10), &used);
+      off += used;
+      while (vc_decoder_next(dec, out.get()) > 0) benchmark::DoNotOptimize(out->u.hull.occupied_count);
+    }
+  }
+  vc_decoder_free(dec);
+  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * len));
+}
+BENCHMARK(BM_DecodeHullStream)->Arg(128)->Arg(256)->Unit(benchmark::kMicrosecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
