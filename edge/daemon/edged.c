@@ -21,7 +21,6 @@
 #define PEND 32
 #define WORK 8
 #define INBOUND 8
-#define MAILBOX 32
 
 enum { SLOT_FREE = 0, SLOT_FILLED, SLOT_MATCHED, SLOT_WORK };
 
@@ -43,9 +42,12 @@ typedef struct camthread {
   bool started;
   atomic_bool run;
   slot slots[MAX_SLOTS];
-  /* Emulated cameras: pulses to soft-trigger, handed over by the trigger thread (under d->mu). */
-  vc_pulse mbox[MAILBOX];
-  unsigned mbox_head, mbox_count;
+  /* Emulated cameras: the pulse to expose next, handed over by the trigger thread (under d->mu). Like
+   * a real sensor still busy with its last frame, a camera that has not taken the previous pulse
+   * when the next one comes misses it (counted): stale pulses are never queued. */
+  vc_pulse pending;
+  bool has_pending;
+  uint64_t missed_pulses;
   pthread_cond_t mbox_cv;
   uint64_t last_frame_ms;
   uint64_t frames, errors, slot_drops;
@@ -216,7 +218,7 @@ static void* cam_main(void* arg) {
     if (ct->emulated) {
       /* An emulated camera exposes a frame only when "triggered": wait for the next pulse. */
       pthread_mutex_lock(&d->mu);
-      if (ct->mbox_count == 0) {
+      if (!ct->has_pending) {
         struct timespec dl;
         clock_gettime(CLOCK_MONOTONIC, &dl);
         dl.tv_nsec += 50 * 1000000L;
@@ -226,13 +228,12 @@ static void* cam_main(void* arg) {
         }
         pthread_cond_timedwait(&ct->mbox_cv, &d->mu, &dl);
       }
-      if (ct->mbox_count == 0) {
+      if (!ct->has_pending) {
         pthread_mutex_unlock(&d->mu);
         continue;
       }
-      vc_pulse p = ct->mbox[ct->mbox_head];
-      ct->mbox_head = (ct->mbox_head + 1) % MAILBOX;
-      ct->mbox_count--;
+      vc_pulse p = ct->pending;
+      ct->has_pending = false;
       pthread_mutex_unlock(&d->mu);
       int rc = vc_camera_soft_trigger(ct->cam, p.seq, p.t_ns);
       if (rc < 0) {
@@ -309,12 +310,9 @@ static void* trig_main(void* arg) {
       for (int c = 0; c < 2; c++) {
         camthread* ct = &d->cams[c];
         if (!ct->emulated) continue;
-        if (ct->mbox_count == MAILBOX) { /* camera thread behind: forget the oldest pulse */
-          ct->mbox_head = (ct->mbox_head + 1) % MAILBOX;
-          ct->mbox_count--;
-        }
-        ct->mbox[(ct->mbox_head + ct->mbox_count) % MAILBOX] = p;
-        ct->mbox_count++;
+        if (ct->has_pending) ct->missed_pulses++; /* still busy with the previous one */
+        ct->pending = p;
+        ct->has_pending = true;
         pthread_cond_signal(&ct->mbox_cv);
       }
     }
@@ -385,7 +383,7 @@ static int cams_enter_phase(edged* d, phase ph, uint64_t seq_base) {
   vc_pairer_flush(d->pairer); /* frames and pulses of the previous phase are no use now */
   d->work_head = d->work_count = 0;
   for (int c = 0; c < 2; c++) {
-    d->cams[c].mbox_count = 0;
+    d->cams[c].has_pending = false;
     for (unsigned s = 0; s < d->nslots; s++) d->cams[c].slots[s].state = SLOT_FREE;
   }
   memset(d->pend, 0, sizeof(d->pend));
@@ -746,7 +744,16 @@ int vc_edged_run(const vc_edged_options* opt) {
     }
   }
   rc = 0;
-  logm(2, "stopping");
+  {
+    vc_pairing_stats ps;
+    vc_pairer_get_stats(d->pairer, &ps);
+    logm(2, "stopping: frames %llu + %llu, pulses %llu (complete %llu, incomplete %llu), emulated exposures "
+            "missed %llu + %llu, hulls sent %llu",
+         (unsigned long long)d->cams[0].frames, (unsigned long long)d->cams[1].frames,
+         (unsigned long long)ps.pulses, (unsigned long long)ps.complete, (unsigned long long)ps.incomplete,
+         (unsigned long long)d->cams[0].missed_pulses, (unsigned long long)d->cams[1].missed_pulses,
+         (unsigned long long)d->hulls_sent);
+  }
 out:
   teardown(d);
   free(d);

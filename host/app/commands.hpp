@@ -17,6 +17,7 @@ struct UsageError : std::runtime_error {
 void add_config_commands(CLI::App& app);   // cmd_config.cpp: voxcap config check
 void add_trigger_commands(CLI::App& app);  // cmd_trigger.cpp: voxcap trigger test|listen
 void add_proto_commands(CLI::App& app);    // cmd_proto.cpp: voxcap proto dump
+void add_rig_commands(CLI::App& app);     // cmd_rig.cpp: voxcap rig [--emulated]
 
 // `voxcap bench ...` (cmd_bench.cpp).
 void add_bench_commands(CLI::App& app);

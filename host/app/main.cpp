@@ -16,6 +16,7 @@ int main(int argc, char** argv) {
   vc::cli::add_config_commands(app);
   vc::cli::add_trigger_commands(app);
   vc::cli::add_proto_commands(app);
+  vc::cli::add_rig_commands(app);
   vc::cli::add_bench_commands(app);
 
   try {

@@ -1,0 +1,138 @@
+// The host aggregator: runs the rig. It owns the session server (edges connect), the trigger
+// generator, and the frame assembler, and drives every node through its session on its own:
+//
+//   HELLO (checked: node in the rig, two cameras of the calibrated sizes)  → CONFIG
+//   node reports CONFIGURED (HEARTBEAT)                                     → BACKGROUND
+//   node reports READY: the run starts when every node is READY; START(origin) carries the run's
+//   origin seq (the first pulse streamed; emulated cameras show motion frame seq − origin), and a
+//   node that (re)joins later gets the same origin, so it rejoins in step with the others.
+//   node reports RUNNING                                                     → the assembler waits for it
+//   connection lost                                                           → frames go on without it
+//
+// Merged frames go to the Sink (recording, fitting, live view). Per-stage latency (trigger → hull at
+// edge → received → merged), fps and per-node drops are kept for report() and the log.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "voxcap/assemble/assembler.hpp"
+#include "voxcap/config/rig_config.hpp"
+#include "voxcap/proto.h"
+#include "voxcap/session/server.hpp"
+#include "voxcap/trigger/generator.hpp"
+
+namespace vc::aggregator {
+
+// Where assembled data goes. Called on the server thread: keep it short or queue.
+class Sink {
+ public:
+  virtual ~Sink() = default;
+  virtual void frame(const assemble::MergedFrame& f) = 0;
+  virtual void features(uint16_t node_id, uint64_t seq, const vc_features& f) { (void)node_id, (void)seq, (void)f; }
+  virtual void stats(uint16_t node_id, const vc_stats& s) { (void)node_id, (void)s; }
+};
+
+// The protocol's node id of a rig node: its `id` ("3", or "node3": the trailing number). Throws
+// config::ConfigError naming nodes[k].id when there is none.
+uint16_t node_number(const config::NodeConfig& node, size_t k, const std::string& file);
+
+// The CONFIG message body for one node, from the rig configuration.
+vc_config make_config_message(const config::RigConfig& rig, const config::NodeConfig& node, uint32_t grid_id);
+// A stable id for the rig's grid (CRC32C of its parameters).
+uint32_t grid_id(const rig::VoxelGrid& grid);
+
+struct Options {
+  int start_margin_pulses = 6;  // origin = last pulse + this (time for START to reach every node)
+  bool start_trigger = true;    // false: tests drive pulses themselves via note_pulse()
+  std::function<void(int level, const std::string&)> log;  // 0 info, 1 warning, 2 error
+};
+
+struct Latency {  // nanoseconds
+  uint64_t n = 0;
+  double sum = 0;
+  std::vector<uint64_t> samples;  // bounded reservoir for percentiles
+  void add(uint64_t v);
+  double mean_ms() const { return n ? sum / double(n) / 1e6 : 0; }
+  double percentile_ms(double p) const;
+};
+
+struct NodeReport {
+  uint16_t id = 0;
+  std::string name;
+  bool connected = false;
+  uint32_t state = VC_STATE_IDLE;
+  uint64_t joins = 0, leaves = 0;
+  uint64_t hulls = 0, late = 0, missing = 0, rejected = 0;
+  uint64_t edge_queue_drops = 0, edge_frames_without_pulse = 0, edge_pulses_without_frame = 0;
+  uint64_t errors = 0;
+  std::string last_error;
+  double edge_frame_ms = 0;  // trigger edge → HULL queued, as the edge's STATS say (mean)
+  std::map<std::string, double> edge_stage_ms;  // mean per stage from the last STATS
+  Latency rx;                // trigger → HULL received at the host
+};
+
+struct Report {
+  uint64_t pulses = 0;
+  uint64_t frames = 0, complete = 0, degraded = 0, dropped = 0, evicted = 0;
+  uint64_t first_seq = 0, last_seq = 0;
+  double seconds = 0;   // from the first merged frame to the last
+  double fps = 0;
+  Latency merged;       // trigger → merged
+  std::vector<NodeReport> nodes;
+  bool running = false; // the run has started (every node was READY once)
+  uint64_t origin = 0;
+};
+
+class Aggregator : public session::Handler {
+ public:
+  Aggregator(config::RigConfig rig, Options options, Sink* sink = nullptr);
+  ~Aggregator() override;
+
+  void start();  // listens and starts the trigger; throws on failure
+  void stop();   // STOP to every node, trigger off, pending frames flushed
+  uint16_t port() const;
+
+  Report report() const;
+  bool all_running() const;
+  // The pulse observer (the trigger thread calls it; tests may call it directly).
+  void note_pulse(uint64_t seq, uint64_t t_ns);
+
+  // session::Handler (server thread)
+  std::string on_hello(session::ConnId conn, const vc_msg& hello, const std::string& peer) override;
+  void on_message(session::ConnId conn, const vc_msg& msg, uint64_t t_rx_ns) override;
+  void on_disconnect(session::ConnId conn, const std::string& reason) override;
+  void on_tick(uint64_t now_ns) override;
+
+ private:
+  struct Node;
+  Node* by_conn(session::ConnId conn);
+  void send(Node& n, const std::vector<uint8_t>& msg);
+  void advance(Node& n);
+  void deliver(std::vector<assemble::MergedFrame>& frames);
+  void log(int level, const std::string& line) const;
+
+  config::RigConfig rig_;
+  Options opt_;
+  Sink* sink_;
+  uint32_t grid_id_;
+  std::unique_ptr<session::Server> server_;
+  std::unique_ptr<trigger::Generator> trigger_;
+  std::unique_ptr<assemble::Assembler> assembler_;
+  mutable std::mutex mu_;
+  std::vector<std::unique_ptr<Node>> nodes_;
+  std::atomic<uint64_t> last_pulse_seq_{0}, pulses_{0};
+  bool run_started_ = false;
+  uint64_t origin_ = 0;
+  uint64_t first_merged_ns_ = 0, last_merged_ns_ = 0, frames_ = 0, first_seq_ = 0, last_seq_ = 0;
+  Latency merged_;
+  std::vector<assemble::MergedFrame> out_;
+};
+
+}  // namespace vc::aggregator

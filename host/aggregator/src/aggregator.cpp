@@ -1,0 +1,407 @@
+#include "voxcap/aggregator/aggregator.hpp"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+
+#include "voxcap/crc32c.h"
+
+namespace vc::aggregator {
+
+uint16_t node_number(const config::NodeConfig& node, size_t k, const std::string& file) {
+  const std::string& id = node.id;
+  size_t end = id.size(), begin = end;
+  while (begin > 0 && std::isdigit(static_cast<unsigned char>(id[begin - 1]))) begin--;
+  if (begin == end || end - begin > 5)
+    throw config::ConfigError(file, fmt::format("nodes[{}].id", k),
+                              fmt::format("'{}' must be or end in the node's number (0..65535)", id));
+  unsigned long v = std::stoul(id.substr(begin));
+  if (v > 65535)
+    throw config::ConfigError(file, fmt::format("nodes[{}].id", k), fmt::format("node number {} is over 65535", v));
+  return static_cast<uint16_t>(v);
+}
+
+uint32_t grid_id(const rig::VoxelGrid& g) {
+  double d[4] = {g.min_m[0], g.min_m[1], g.min_m[2], g.voxel_m};
+  int32_t n[3] = {g.nx, g.ny, g.nz};
+  uint32_t crc = vc_crc32c(0, d, sizeof(d));
+  return vc_crc32c(crc, n, sizeof(n));
+}
+
+vc_config make_config_message(const config::RigConfig& rig, const config::NodeConfig& node, uint32_t gid) {
+  vc_config c{};
+  c.grid_id = gid;
+  c.nx = static_cast<uint32_t>(rig.grid.nx);
+  c.ny = static_cast<uint32_t>(rig.grid.ny);
+  c.nz = static_cast<uint32_t>(rig.grid.nz);
+  for (int i = 0; i < 3; i++) c.min_m[i] = rig.grid.min_m[i];
+  c.voxel_m = rig.grid.voxel_m;
+  c.t_upper = static_cast<float>(rig.subtraction.t_upper);
+  c.t_lower = static_cast<float>(rig.subtraction.t_lower);
+  c.shadow_angle_deg = static_cast<float>(rig.subtraction.shadow_angle_deg);
+  // The edge's clean-up removes speckles and fills holes of about (2r)^2 pixels.
+  uint32_t px = static_cast<uint32_t>(4 * rig.subtraction.cleanup_radius_px * rig.subtraction.cleanup_radius_px);
+  c.speckle_px = c.hole_px = px;
+  c.background_frames = static_cast<uint32_t>(rig.subtraction.background_frames);
+  c.feature_role = node.is_front() && rig.features.enabled ? VC_ROLE_FRONT : VC_ROLE_NONE;
+  c.camera_count = static_cast<uint16_t>(node.cameras.size());
+  for (size_t k = 0; k < node.cameras.size() && k < VC_PROTO_MAX_CAMERAS; k++) {
+    int idx = rig.camera_index(node.cameras[k]);
+    const rig::Camera& cam = rig.calibration.cameras.at(static_cast<size_t>(idx));
+    vc_config_camera& cc = c.cameras[k];
+    cc.width = static_cast<uint32_t>(cam.width);
+    cc.height = static_cast<uint32_t>(cam.height);
+    for (int r = 0; r < 3; r++)
+      for (int q = 0; q < 3; q++) {
+        cc.K[r * 3 + q] = cam.K(r, q);
+        cc.R_cam_from_world[r * 3 + q] = cam.R_cam_from_world(r, q);
+      }
+    for (int i = 0; i < 5; i++) cc.dist[i] = cam.dist[i];
+    for (int i = 0; i < 3; i++) cc.t_cam_from_world[i] = cam.t_cam_from_world[i];
+  }
+  return c;
+}
+
+void Latency::add(uint64_t v) {
+  n++;
+  sum += double(v);
+  if (samples.size() < 20000) {
+    samples.push_back(v);
+  } else {  // reservoir: keep a uniform sample of everything seen (deterministic stride)
+    samples[n % samples.size()] = v;
+  }
+}
+
+double Latency::percentile_ms(double p) const {
+  if (samples.empty()) return 0;
+  std::vector<uint64_t> s = samples;
+  size_t k = static_cast<size_t>(std::clamp(p, 0.0, 1.0) * double(s.size() - 1) + 0.5);
+  std::nth_element(s.begin(), s.begin() + static_cast<std::ptrdiff_t>(k), s.end());
+  return double(s[k]) / 1e6;
+}
+
+struct Aggregator::Node {
+  uint16_t id = 0;
+  const config::NodeConfig* cfg = nullptr;
+  std::vector<uint8_t> config_msg;
+  session::ConnId conn = 0;
+  bool connected = false;
+  uint32_t state = VC_STATE_IDLE;
+  bool background_sent = false, start_sent = false;
+  NodeReport rep;
+};
+
+Aggregator::Aggregator(config::RigConfig rig, Options options, Sink* sink)
+    : rig_(std::move(rig)), opt_(std::move(options)), sink_(sink), grid_id_(grid_id(rig_.grid)) {
+  std::string why;
+  if (!rig_.valid(&why)) throw config::ConfigError(rig_.source.string(), "", why);
+  assemble::AssemblerOptions ao;
+  ao.grid_id = grid_id_;
+  ao.voxel_count = static_cast<uint64_t>(rig_.grid.nx) * static_cast<uint64_t>(rig_.grid.ny) *
+                   static_cast<uint64_t>(rig_.grid.nz);
+  ao.deadline_ns = static_cast<uint64_t>(rig_.assembly.deadline_ms * 1e6);
+  ao.policy = rig_.assembly.missing_node_policy == config::MissingNodePolicy::Drop ? assemble::MissingPolicy::Drop
+                                                                                   : assemble::MissingPolicy::Degraded;
+  for (size_t k = 0; k < rig_.nodes.size(); k++) {
+    auto n = std::make_unique<Node>();
+    n->cfg = &rig_.nodes[k];
+    n->id = node_number(rig_.nodes[k], k, rig_.source.string());
+    for (const auto& other : nodes_)
+      if (other->id == n->id)
+        throw config::ConfigError(rig_.source.string(), fmt::format("nodes[{}].id", k),
+                                  fmt::format("node number {} is used twice", n->id));
+    vc_config c = make_config_message(rig_, *n->cfg, grid_id_);
+    n->config_msg.resize(VC_PROTO_HEADER_SIZE + 4096);
+    size_t len = 0;
+    vc_header hdr{};
+    int rc = vc_encode_config(n->config_msg.data(), n->config_msg.size(), &len, &hdr, &c);
+    if (rc < 0)
+      throw config::ConfigError(rig_.source.string(), fmt::format("nodes[{}]", k),
+                                fmt::format("cannot encode its CONFIG: {}", vc_proto_strerror(rc)));
+    n->config_msg.resize(len);
+    n->rep.id = n->id;
+    n->rep.name = n->cfg->id;
+    ao.nodes.push_back(n->id);
+    nodes_.push_back(std::move(n));
+  }
+  assembler_ = std::make_unique<assemble::Assembler>(ao);
+  for (const auto& n : nodes_) assembler_->set_running(n->id, false);
+  session::ServerOptions so;
+  so.listen = rig_.network.listen;
+  so.port = rig_.network.port;
+  server_ = std::make_unique<session::Server>(so, *this, opt_.log);
+  if (opt_.start_trigger) {
+    trigger_ = trigger::make_generator(rig_.trigger);
+    trigger_->set_observer([this](const trigger::Pulse& p) { note_pulse(p.seq, static_cast<uint64_t>(p.t_ns)); });
+  }
+}
+
+Aggregator::~Aggregator() { stop(); }
+
+void Aggregator::log(int level, const std::string& line) const {
+  if (opt_.log)
+    opt_.log(level, line);
+  else
+    fmt::print(stderr, "voxcap-host: {}\n", line);
+}
+
+uint16_t Aggregator::port() const { return server_->port(); }
+
+void Aggregator::start() {
+  server_->start();
+  log(0, fmt::format("listening on {}:{} for {} nodes", rig_.network.listen, server_->port(), nodes_.size()));
+  if (trigger_) {
+    trigger_->start(trigger::PulseTrain::from(rig_.trigger));
+    log(0, fmt::format("trigger: {} at {} Hz", trigger_->describe(), rig_.trigger.rate_hz));
+  }
+}
+
+void Aggregator::stop() {
+  if (!server_) return;
+  {
+    std::lock_guard<std::mutex> g(mu_);
+    std::vector<uint8_t> buf(VC_PROTO_HEADER_SIZE);
+    size_t len = 0;
+    vc_header hdr{};
+    if (vc_encode_stop(buf.data(), buf.size(), &len, &hdr) == 0)
+      for (auto& n : nodes_)
+        if (n->connected) server_->send(n->conn, buf.data(), len);
+  }
+  if (trigger_) trigger_->stop();
+  server_->stop();  // after the STOPs were flushed by the server thread's last rounds
+  std::lock_guard<std::mutex> g(mu_);
+  out_.clear();
+  assembler_->flush(session::monotonic_ns(), out_);
+  deliver(out_);
+  server_.reset();
+}
+
+void Aggregator::note_pulse(uint64_t seq, uint64_t t_ns) {
+  (void)t_ns;
+  last_pulse_seq_ = seq;
+  pulses_++;
+}
+
+Aggregator::Node* Aggregator::by_conn(session::ConnId conn) {
+  for (auto& n : nodes_)
+    if (n->connected && n->conn == conn) return n.get();
+  return nullptr;
+}
+
+void Aggregator::send(Node& n, const std::vector<uint8_t>& msg) { server_->send(n.conn, msg); }
+
+std::string Aggregator::on_hello(session::ConnId conn, const vc_msg& m, const std::string& peer) {
+  std::lock_guard<std::mutex> g(mu_);
+  const vc_hello& h = m.u.hello;
+  Node* n = nullptr;
+  for (auto& x : nodes_)
+    if (x->id == h.node_id) n = x.get();
+  if (!n) return fmt::format("node {} is not in rig '{}'", h.node_id, rig_.name);
+  if (h.camera_count != n->cfg->cameras.size())
+    return fmt::format("node {} has {} cameras, the rig gives it {}", h.node_id, h.camera_count, n->cfg->cameras.size());
+  for (size_t k = 0; k < n->cfg->cameras.size(); k++) {
+    const rig::Camera& cam = rig_.calibration.cameras.at(static_cast<size_t>(rig_.camera_index(n->cfg->cameras[k])));
+    if (h.cameras[k].width != cam.width || h.cameras[k].height != cam.height)
+      return fmt::format("node {} camera {} delivers {}x{}, {} is calibrated at {}x{}", h.node_id, k,
+                         h.cameras[k].width, h.cameras[k].height, cam.name, cam.width, cam.height);
+  }
+  if (n->connected) {  // a restarted edge came back before we noticed the old connection die
+    server_->close(n->conn, "replaced by a new connection of the same node");
+    assembler_->set_running(n->id, false);
+    n->rep.leaves++;
+  }
+  n->conn = conn;
+  n->connected = true;
+  n->state = VC_STATE_IDLE;
+  n->background_sent = n->start_sent = false;
+  n->rep.joins++;
+  log(0, fmt::format("node {} ({}) joined from {}", n->id, n->cfg->id, peer));
+  // The server delivers HELLO's acceptance after this returns; the CONFIG is queued behind nothing.
+  send(*n, n->config_msg);
+  return "";
+}
+
+void Aggregator::advance(Node& n) {
+  if (n.state == VC_STATE_CONFIGURED && !n.background_sent) {
+    std::vector<uint8_t> buf(VC_PROTO_HEADER_SIZE + 16);
+    size_t len = 0;
+    vc_header hdr{};
+    vc_background b{static_cast<uint32_t>(rig_.subtraction.background_frames)};
+    if (vc_encode_background(buf.data(), buf.size(), &len, &hdr, &b) == 0) {
+      buf.resize(len);
+      send(n, buf);
+      n.background_sent = true;
+      log(0, fmt::format("node {}: learning the background ({} frames)", n.id, b.frame_count));
+    }
+  }
+  if (n.state == VC_STATE_READY && !n.start_sent) {
+    if (!run_started_) {
+      bool all = std::all_of(nodes_.begin(), nodes_.end(),
+                             [](const auto& x) { return x->connected && x->state == VC_STATE_READY; });
+      if (!all) return;
+      run_started_ = true;
+      origin_ = last_pulse_seq_ + static_cast<uint64_t>(opt_.start_margin_pulses);
+      log(0, fmt::format("every node is ready: the run starts at seq {}", origin_));
+      for (auto& x : nodes_) {
+        x->start_sent = false;
+        if (x.get() != &n) advance(*x);
+      }
+    }
+    std::vector<uint8_t> buf(VC_PROTO_HEADER_SIZE);
+    size_t len = 0;
+    vc_header hdr{};
+    hdr.seq = origin_;
+    if (vc_encode_start(buf.data(), buf.size(), &len, &hdr) == 0) {
+      buf.resize(len);
+      send(n, buf);
+      n.start_sent = true;
+    }
+  }
+  assembler_->set_running(n.id, n.connected && n.state == VC_STATE_RUNNING);
+}
+
+void Aggregator::on_message(session::ConnId conn, const vc_msg& m, uint64_t t_rx_ns) {
+  std::lock_guard<std::mutex> g(mu_);
+  Node* n = by_conn(conn);
+  if (!n) return;
+  switch (m.hdr.type) {
+    case VC_MSG_HEARTBEAT:
+      if (n->state != m.u.heartbeat.state) {
+        n->state = m.u.heartbeat.state;
+        advance(*n);
+      }
+      break;
+    case VC_MSG_HULL: {
+      if (m.hdr.node_id != n->id) {
+        n->rep.rejected++;
+        break;
+      }
+      assemble::PartialHull h;
+      h.node_id = n->id;
+      h.seq = m.hdr.seq;
+      h.t_trigger_ns = m.hdr.t_trigger_ns;
+      h.t_received_ns = t_rx_ns;
+      h.grid_id = m.u.hull.grid_id;
+      h.voxel_count = m.u.hull.voxel_count;
+      h.occupied = m.u.hull.occupied_count;
+      h.rle.assign(m.u.hull.rle, m.u.hull.rle + m.u.hull.rle_len);
+      if (t_rx_ns > h.t_trigger_ns) n->rep.rx.add(t_rx_ns - h.t_trigger_ns);
+      n->rep.hulls++;
+      out_.clear();
+      assembler_->add(std::move(h), t_rx_ns, out_);
+      deliver(out_);
+      break;
+    }
+    case VC_MSG_FEATURES:
+      if (sink_) sink_->features(n->id, m.hdr.seq, m.u.features);
+      break;
+    case VC_MSG_STATS: {
+      const vc_stats& s = m.u.stats;
+      for (int i = 0; i < s.stage_count; i++) {
+        const char* name = vc_stage_name(s.stages[i].stage_id);
+        double ms = s.stages[i].mean_ns / 1e6;
+        n->rep.edge_stage_ms[name ? name : fmt::format("stage{}", s.stages[i].stage_id)] = ms;
+        if (s.stages[i].stage_id == VC_STAGE_FRAME) n->rep.edge_frame_ms = ms;
+      }
+      for (int i = 0; i < s.counter_count; i++) {
+        uint64_t v = s.counters[i].value;
+        switch (s.counters[i].counter_id) {
+          case VC_COUNTER_SEND_QUEUE_DROPS: n->rep.edge_queue_drops = v; break;
+          case VC_COUNTER_FRAMES_WITHOUT_PULSE: n->rep.edge_frames_without_pulse = v; break;
+          case VC_COUNTER_PULSES_WITHOUT_FRAME: n->rep.edge_pulses_without_frame = v; break;
+          default: break;
+        }
+      }
+      if (sink_) sink_->stats(n->id, s);
+      break;
+    }
+    case VC_MSG_ERROR: {
+      const vc_error& e = m.u.error;
+      n->rep.errors++;
+      n->rep.last_error.assign(e.text, e.text_len);
+      log(e.severity == VC_SEVERITY_WARNING ? 1 : 2,
+          fmt::format("node {} {}: {}", n->id, vc_error_severity_name(e.severity) ? vc_error_severity_name(e.severity) : "?",
+                      n->rep.last_error));
+      break;
+    }
+    default:
+      log(1, fmt::format("node {}: unexpected {}", n->id,
+                         vc_msg_type_name(m.hdr.type) ? vc_msg_type_name(m.hdr.type) : "message"));
+      break;
+  }
+}
+
+void Aggregator::on_disconnect(session::ConnId conn, const std::string& reason) {
+  std::lock_guard<std::mutex> g(mu_);
+  Node* n = by_conn(conn);
+  if (!n) return;
+  n->connected = false;
+  n->state = VC_STATE_IDLE;
+  n->rep.leaves++;
+  assembler_->set_running(n->id, false);
+  log(1, fmt::format("node {} ({}) left: {}", n->id, n->cfg->id, reason));
+}
+
+void Aggregator::on_tick(uint64_t now_ns) {
+  std::lock_guard<std::mutex> g(mu_);
+  out_.clear();
+  assembler_->poll(now_ns, out_);
+  deliver(out_);
+}
+
+void Aggregator::deliver(std::vector<assemble::MergedFrame>& frames) {
+  for (const auto& f : frames) {
+    if (frames_ == 0) {
+      first_merged_ns_ = f.t_merged_ns;
+      first_seq_ = f.seq;
+    }
+    frames_++;
+    last_merged_ns_ = f.t_merged_ns;
+    last_seq_ = f.seq;
+    if (f.t_merged_ns > f.t_trigger_ns) merged_.add(f.t_merged_ns - f.t_trigger_ns);
+    if (sink_) sink_->frame(f);
+  }
+  frames.clear();
+}
+
+bool Aggregator::all_running() const {
+  std::lock_guard<std::mutex> g(mu_);
+  return std::all_of(nodes_.begin(), nodes_.end(),
+                     [](const auto& n) { return n->connected && n->state == VC_STATE_RUNNING; });
+}
+
+Report Aggregator::report() const {
+  std::lock_guard<std::mutex> g(mu_);
+  Report r;
+  r.pulses = pulses_;
+  const assemble::AssemblerStats& st = assembler_->stats();
+  r.frames = frames_;
+  r.complete = st.complete;
+  r.degraded = st.degraded;
+  r.dropped = st.dropped;
+  r.evicted = st.evicted;
+  r.first_seq = first_seq_;
+  r.last_seq = last_seq_;
+  r.seconds = frames_ > 1 ? double(last_merged_ns_ - first_merged_ns_) / 1e9 : 0;
+  r.fps = r.seconds > 0 ? double(frames_ - 1) / r.seconds : 0;
+  r.merged = merged_;
+  r.running = run_started_;
+  r.origin = origin_;
+  for (const auto& n : nodes_) {
+    NodeReport nr = n->rep;
+    nr.connected = n->connected;
+    nr.state = n->state;
+    auto it = st.nodes.find(n->id);
+    if (it != st.nodes.end()) {
+      nr.late = it->second.late;
+      nr.missing = it->second.missing;
+      nr.rejected += it->second.rejected;
+    }
+    r.nodes.push_back(std::move(nr));
+  }
+  return r;
+}
+
+}  // namespace vc::aggregator

@@ -1,0 +1,288 @@
+// The aggregator's session state machine against fake edges on 127.0.0.1 (no trigger: pulses are
+// noted by the test). Loops are bounded in time.
+#include "voxcap/aggregator/aggregator.hpp"
+
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <thread>
+
+#include "voxcap/rig/calibration.hpp"
+#include "voxcap/rle.h"
+
+namespace vc::aggregator {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct TmpDir {
+  fs::path p;
+  TmpDir() {
+    char t[] = "/tmp/voxcap-agg-XXXXXX";
+    p = mkdtemp(t);
+  }
+  ~TmpDir() { fs::remove_all(p); }
+};
+
+// A port nobody listens on right now (the config wants a fixed port; tests run in parallel).
+int free_port() {
+  int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a));
+  socklen_t len = sizeof(a);
+  getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+  close(fd);
+  return ntohs(a.sin_port);
+}
+
+config::RigConfig make_rig(const fs::path& dir) {
+  rig::Calibration cal;
+  for (int k = 0; k < 4; k++) {
+    rig::Camera c;
+    c.name = "cam" + std::to_string(k);
+    c.width = 64;
+    c.height = 48;
+    c.K = cv::Matx33d(60, 0, 32, 0, 60, 24, 0, 0, 1);
+    c.t_cam_from_world = cv::Vec3d(0, 0, 3);
+    cal.cameras.push_back(c);
+  }
+  rig::write_calibration((dir / "cal.yaml").string(), cal);
+  std::string toml = R"(
+version = 1
+name = "test"
+calibration = "cal.yaml"
+[grid]
+min_m = [-0.5, -0.5, 0.0]
+voxel_m = 0.25
+nx = 4
+ny = 4
+nz = 4
+[[nodes]]
+id = "node1"
+cameras = ["cam0", "cam1"]
+role = "front"
+[[nodes]]
+id = "node2"
+cameras = ["cam2", "cam3"]
+[trigger]
+backend = "udp"
+rate_hz = 60
+[trigger.udp]
+targets = ["127.0.0.1:7801", "127.0.0.1:7802"]
+[assembly]
+deadline_ms = 500
+missing_node_policy = "degraded"
+[network]
+listen = "127.0.0.1"
+port = )" + std::to_string(free_port()) + "\n";
+  std::ofstream(dir / "rig.toml") << toml;
+  return config::load_rig_config(dir / "rig.toml");
+}
+
+struct FakeEdge {
+  int fd = -1;
+  uint16_t id;
+  vc_decoder* dec = vc_decoder_new(0);
+  FakeEdge(uint16_t port, uint16_t node, int w = 64) : id(node) {
+    fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(port);
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    EXPECT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)), 0);
+    vc_hello h{};
+    h.node_id = node;
+    h.camera_count = 2;
+    for (int c = 0; c < 2; c++) {
+      h.cameras[c].width = static_cast<uint16_t>(w);
+      h.cameras[c].height = 48;
+    }
+    uint8_t buf[256];
+    size_t len = 0;
+    vc_header hdr{};
+    hdr.node_id = node;
+    EXPECT_EQ(vc_encode_hello(buf, sizeof(buf), &len, &hdr, &h), 0);
+    write_all(buf, len);
+  }
+  ~FakeEdge() {
+    vc_decoder_free(dec);
+    close(fd);
+  }
+  void write_all(const uint8_t* b, size_t n) { ASSERT_EQ(send(fd, b, n, MSG_NOSIGNAL), (ssize_t)n); }
+  void state(uint32_t s) {
+    uint8_t buf[128];
+    size_t len = 0;
+    vc_header hdr{};
+    hdr.node_id = id;
+    vc_heartbeat hb{1, s};
+    ASSERT_EQ(vc_encode_heartbeat(buf, sizeof(buf), &len, &hdr, &hb), 0);
+    write_all(buf, len);
+  }
+  void hull(uint64_t seq, uint64_t t, uint32_t grid, const std::vector<uint8_t>& bits) {
+    std::vector<uint8_t> buf(1024);
+    size_t len = 0;
+    vc_header hdr{};
+    hdr.node_id = id;
+    hdr.seq = seq;
+    hdr.t_trigger_ns = t;
+    ASSERT_EQ(vc_encode_hull_bits(buf.data(), buf.size(), &len, &hdr, grid, bits.data(), 64), 0);
+    write_all(buf.data(), len);
+  }
+  // Waits for a message of `type`; returns its header seq, or -1.
+  int64_t expect(uint16_t type, int ms = 3000) {
+    auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
+    uint8_t b[8192];
+    while (std::chrono::steady_clock::now() < end) {
+      vc_msg m;
+      int rc;
+      while ((rc = vc_decoder_next(dec, &m)) > 0)
+        if (m.hdr.type == type) return (int64_t)m.hdr.seq;
+      pollfd p{fd, POLLIN, 0};
+      if (poll(&p, 1, 20) <= 0) continue;
+      ssize_t n = recv(fd, b, sizeof(b), 0);
+      if (n <= 0) return -2;
+      size_t used = 0;
+      for (size_t off = 0; off < (size_t)n; off += used) vc_decoder_feed(dec, b + off, n - off, &used);
+    }
+    return -1;
+  }
+};
+
+struct FrameSink : Sink {
+  std::mutex mu;
+  std::vector<assemble::MergedFrame> frames;
+  void frame(const assemble::MergedFrame& f) override {
+    std::lock_guard<std::mutex> g(mu);
+    frames.push_back(f);
+  }
+};
+
+TEST(Aggregator, NodeNumbers) {
+  config::NodeConfig n;
+  n.id = "node12";
+  EXPECT_EQ(node_number(n, 0, "r.toml"), 12);
+  n.id = "7";
+  EXPECT_EQ(node_number(n, 0, "r.toml"), 7);
+  n.id = "front";
+  EXPECT_THROW(node_number(n, 3, "r.toml"), config::ConfigError);
+}
+
+TEST(Aggregator, ConfigMessageCarriesTheCalibrationOfTheNodesCameras) {
+  TmpDir tmp;
+  config::RigConfig rig = make_rig(tmp.p);
+  vc_config c = make_config_message(rig, rig.nodes[1], 42);
+  EXPECT_EQ(c.grid_id, 42u);
+  EXPECT_EQ(c.camera_count, 2);
+  EXPECT_EQ(c.nx, 4u);
+  EXPECT_DOUBLE_EQ(c.voxel_m, 0.25);
+  EXPECT_EQ(c.cameras[0].width, 64u);
+  EXPECT_DOUBLE_EQ(c.cameras[1].K[0], 60.0);
+  EXPECT_DOUBLE_EQ(c.cameras[1].t_cam_from_world[2], 3.0);
+  EXPECT_NE(grid_id(rig.grid), 0u);
+}
+
+TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
+  TmpDir tmp;
+  Options o;
+  o.start_trigger = false;
+  o.log = [](int, const std::string&) {};
+  FrameSink sink;
+  Aggregator agg(make_rig(tmp.p), o, &sink);
+  agg.start();
+  agg.note_pulse(100, 0);
+
+  FakeEdge e1(agg.port(), 1), e2(agg.port(), 2);
+  ASSERT_EQ(e1.expect(VC_MSG_CONFIG), 0);
+  ASSERT_EQ(e2.expect(VC_MSG_CONFIG), 0);
+  e1.state(VC_STATE_CONFIGURED);
+  e2.state(VC_STATE_CONFIGURED);
+  ASSERT_GE(e1.expect(VC_MSG_BACKGROUND), 0);
+  ASSERT_GE(e2.expect(VC_MSG_BACKGROUND), 0);
+  e1.state(VC_STATE_READY);
+  EXPECT_EQ(e1.expect(VC_MSG_START, 300), -1);  // not before every node is ready
+  e2.state(VC_STATE_READY);
+  int64_t origin = e2.expect(VC_MSG_START);
+  ASSERT_EQ(e1.expect(VC_MSG_START), origin);
+  EXPECT_EQ(origin, 106);  // last pulse + the margin
+  e1.state(VC_STATE_RUNNING);
+  e2.state(VC_STATE_RUNNING);
+  for (int i = 0; i < 100 && !agg.all_running(); i++) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_TRUE(agg.all_running());
+
+  uint32_t gid = grid_id(make_rig(tmp.p).grid);
+  std::vector<uint8_t> a(8, 0xF0), b(8, 0x3C);
+  uint64_t t106 = session::monotonic_ns();
+  e1.hull(106, t106, gid, a);
+  e2.hull(106, t106, gid, b);
+  for (int i = 0; i < 200; i++) {
+    {
+      std::lock_guard<std::mutex> g(sink.mu);
+      if (!sink.frames.empty()) break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  {
+    std::lock_guard<std::mutex> g(sink.mu);
+    ASSERT_EQ(sink.frames.size(), 1u);
+    EXPECT_EQ(sink.frames[0].seq, 106u);
+    EXPECT_EQ(sink.frames[0].occupied, 8u * 2);  // 0xF0 & 0x3C = 0x30: two bits a byte
+    EXPECT_FALSE(sink.frames[0].degraded);
+  }
+
+  // Node 2 leaves: the next frame is merged without it (degraded) at the deadline.
+  close(e2.fd);
+  e2.fd = socket(AF_INET, SOCK_STREAM, 0);
+  for (int i = 0; i < 200 && agg.report().nodes[1].connected; i++) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  e1.hull(107, session::monotonic_ns(), gid, a);
+  for (int i = 0; i < 400; i++) {
+    {
+      std::lock_guard<std::mutex> g(sink.mu);
+      if (sink.frames.size() == 2) break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  {
+    std::lock_guard<std::mutex> g(sink.mu);
+    ASSERT_EQ(sink.frames.size(), 2u);
+    EXPECT_TRUE(sink.frames[1].degraded);
+    EXPECT_EQ(sink.frames[1].missing, std::vector<uint16_t>{2});
+  }
+  // It rejoins: CONFIG again, and the same origin once it is ready.
+  FakeEdge e2b(agg.port(), 2);
+  ASSERT_EQ(e2b.expect(VC_MSG_CONFIG), 0);
+  e2b.state(VC_STATE_CONFIGURED);
+  ASSERT_GE(e2b.expect(VC_MSG_BACKGROUND), 0);
+  e2b.state(VC_STATE_READY);
+  EXPECT_EQ(e2b.expect(VC_MSG_START), origin);
+  Report r = agg.report();
+  EXPECT_EQ(r.nodes[1].joins, 2u);
+  EXPECT_EQ(r.nodes[1].leaves, 1u);
+  agg.stop();
+}
+
+TEST(Aggregator, RejectsUnknownNodesAndWrongCameras) {
+  TmpDir tmp;
+  Options o;
+  o.start_trigger = false;
+  o.log = [](int, const std::string&) {};
+  Aggregator agg(make_rig(tmp.p), o);
+  agg.start();
+  FakeEdge stranger(agg.port(), 9);
+  EXPECT_EQ(stranger.expect(VC_MSG_CONFIG, 1000), -2);  // closed without CONFIG
+  FakeEdge wrong(agg.port(), 1, 320);
+  EXPECT_EQ(wrong.expect(VC_MSG_CONFIG, 1000), -2);
+  agg.stop();
+}
+
+}  // namespace
+}  // namespace vc::aggregator

@@ -1,0 +1,174 @@
+// `voxcap rig`: run a rig. `--emulated` runs the whole rig on this machine (the host in this process,
+// one voxcap-edge process per node with sim cameras and the udp trigger, on loopback) and prints
+// per-node and overall figures; without it, the host aggregator runs the rig described by rig.toml
+// until Ctrl-C or --seconds.
+#include <csignal>
+#include <thread>
+
+#include <fmt/core.h>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "voxcap/aggregator/aggregator.hpp"
+#include "voxcap/config/rig_config.hpp"
+#include "voxcap/emulated/emulated_rig.hpp"
+
+namespace vc::cli {
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+void on_sigint(int) { g_interrupted = true; }
+
+nlohmann::json report_json(const aggregator::Report& r) {
+  nlohmann::json j;
+  j["pulses"] = r.pulses;
+  j["frames"] = r.frames;
+  j["complete"] = r.complete;
+  j["degraded"] = r.degraded;
+  j["dropped"] = r.dropped;
+  j["evicted"] = r.evicted;
+  j["first_seq"] = r.first_seq;
+  j["last_seq"] = r.last_seq;
+  j["fps"] = r.fps;
+  j["trigger_to_merged_ms"] = {{"mean", r.merged.mean_ms()},
+                               {"p50", r.merged.percentile_ms(0.5)},
+                               {"p99", r.merged.percentile_ms(0.99)}};
+  for (const auto& n : r.nodes) {
+    nlohmann::json s;
+    for (const auto& [k, v] : n.edge_stage_ms) s[k] = v;
+    j["nodes"].push_back({{"id", n.id},
+                          {"name", n.name},
+                          {"connected", n.connected},
+                          {"state", vc_node_state_name(n.state) ? vc_node_state_name(n.state) : "?"},
+                          {"joins", n.joins},
+                          {"leaves", n.leaves},
+                          {"hulls", n.hulls},
+                          {"late", n.late},
+                          {"missing", n.missing},
+                          {"rejected", n.rejected},
+                          {"errors", n.errors},
+                          {"last_error", n.last_error},
+                          {"edge_queue_drops", n.edge_queue_drops},
+                          {"edge_frames_without_pulse", n.edge_frames_without_pulse},
+                          {"edge_pulses_without_frame", n.edge_pulses_without_frame},
+                          {"edge_stage_ms", s},
+                          {"trigger_to_received_ms",
+                           {{"mean", n.rx.mean_ms()}, {"p50", n.rx.percentile_ms(0.5)}, {"p99", n.rx.percentile_ms(0.99)}}}});
+  }
+  return j;
+}
+
+void print_report(const aggregator::Report& r) {
+  fmt::print("nodes:\n");
+  for (const auto& n : r.nodes) {
+    auto st = [&](const char* k) {
+      auto it = n.edge_stage_ms.find(k);
+      return it == n.edge_stage_ms.end() ? 0.0 : it->second;
+    };
+    fmt::print(
+        "  {:<8} hulls {:>6}  late {:>4}  missing {:>4}  edge: subtract {:.2f} ms  carve {:.2f} ms  "
+        "trigger->hull {:.2f} ms  trigger->host p50 {:.2f} ms p99 {:.2f} ms  drops {}  joins {}{}\n",
+        n.name, n.hulls, n.late, n.missing, st("subtract"), st("carve"), n.edge_frame_ms, n.rx.percentile_ms(0.5),
+        n.rx.percentile_ms(0.99), n.edge_queue_drops + n.edge_pulses_without_frame, n.joins,
+        n.last_error.empty() ? "" : "  last error: " + n.last_error);
+  }
+  fmt::print("frames: {} merged ({} complete, {} degraded, {} dropped) of {} pulses, seq {}..{}\n", r.frames,
+             r.complete, r.degraded, r.dropped, r.pulses, r.first_seq, r.last_seq);
+  fmt::print("fps: {:.1f}   trigger->merged hull: mean {:.2f} ms  p50 {:.2f} ms  p99 {:.2f} ms\n", r.fps,
+             r.merged.mean_ms(), r.merged.percentile_ms(0.5), r.merged.percentile_ms(0.99));
+}
+
+}  // namespace
+
+void add_rig_commands(CLI::App& app) {
+  auto* cmd = app.add_subcommand("rig", "Run a rig: the host aggregator (and with --emulated, the edges too)");
+  auto opt = std::make_shared<emulated::Options>();
+  auto emulated = std::make_shared<bool>(false);
+  auto frames = std::make_shared<uint64_t>(600);
+  auto seconds = std::make_shared<double>(0);
+  auto json = std::make_shared<bool>(false);
+  auto config = std::make_shared<std::string>();
+  auto size = std::make_shared<std::string>("640x480");
+  cmd->add_flag("--emulated", *emulated,
+                "Run the whole rig on this machine: voxcap-edge processes with sim cameras, udp trigger, loopback");
+  cmd->add_option("--config", *config, "rig.toml of a real rig (without --emulated; default $VOXCAP_RIG or ./rig.toml)");
+  cmd->add_option("--nodes", opt->nodes, "emulated: edge nodes, two cameras each")->capture_default_str();
+  cmd->add_option("--motion", opt->motion, "emulated: built-in motion (tpose wave walk squat turn arms-close cross) or a BVH file")
+      ->capture_default_str();
+  cmd->add_option("--frames", *frames, "emulated: merged frames to run for")->capture_default_str();
+  cmd->add_option("--seconds", *seconds, "run this long instead (0: --frames; a real rig: until Ctrl-C)");
+  cmd->add_option("--size", *size, "emulated: camera size WxH")->capture_default_str();
+  cmd->add_option("--rate", opt->rate_hz, "emulated: trigger rate, Hz")->capture_default_str();
+  cmd->add_option("--grid", opt->grid, "emulated: voxels per axis over the 2.24 m volume")->capture_default_str();
+  cmd->add_option("--noise", opt->noise, "emulated: sensor noise sigma (8-bit levels)")->capture_default_str();
+  cmd->add_option("--seed", opt->seed, "emulated: simulator seed")->capture_default_str();
+  cmd->add_option("--policy", opt->missing_policy, "emulated: missing-node policy, drop | degraded")->capture_default_str();
+  cmd->add_option("--truth-every", opt->truth_every, "emulated: score every k-th frame against ground truth (0: off)")
+      ->capture_default_str();
+  cmd->add_option("--workdir", opt->workdir, "emulated: keep rig.yaml, rig.toml and edge logs here");
+  cmd->add_flag("--verbose", [opt](int64_t) { opt->quiet = false; }, "emulated: info logs from host and edges");
+  cmd->add_flag("--json", *json,
+                "print the figures as JSON: frames, complete, degraded, dropped, pulses, fps, trigger_to_merged_ms "
+                "{mean,p50,p99}, nodes[] {id, name, hulls, late, missing, edge_stage_ms, trigger_to_received_ms, ...}, "
+                "accuracy {frames, agree, min_agree, iou_silhouette_hull, body_recall} (emulated)");
+  cmd->callback([=] {
+    std::signal(SIGINT, on_sigint);
+    std::signal(SIGTERM, on_sigint);
+    if (*emulated) {
+      if (std::sscanf(size->c_str(), "%dx%d", &opt->width, &opt->height) != 2)
+        throw UsageError("--size: expected WxH, got '" + *size + "'");
+      std::string why;
+      if (!opt->valid(&why)) throw UsageError(why);
+      emulated::EmulatedRig rig(*opt);
+      if (!*json) fmt::print("starting {} edge nodes ({} cameras, {}), motion '{}'...\n", opt->nodes, 2 * opt->nodes, *size, opt->motion);
+      rig.start();
+      if (*seconds > 0) {
+        auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(*seconds);
+        while (!g_interrupted && std::chrono::steady_clock::now() < end)
+          std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      } else {
+        // Generous: a loaded machine runs below the trigger rate.
+        double timeout = double(*frames) / opt->rate_hz * 20 + 30;
+        auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout);
+        while (!g_interrupted && rig.merged_frames() < *frames && std::chrono::steady_clock::now() < end)
+          std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      }
+      emulated::Result r = rig.stop();
+      if (*json) {
+        nlohmann::json j = report_json(r.report);
+        j["accuracy"] = {{"frames", r.accuracy.frames},
+                         {"agree", r.accuracy.agree},
+                         {"min_agree", r.accuracy.min_agree},
+                         {"iou_silhouette_hull", r.accuracy.iou_silhouette_hull},
+                         {"body_recall", r.accuracy.body_recall}};
+        j["wall_seconds"] = r.wall_seconds;
+        j["host_rss_kb"] = {{"start", r.host_rss_start_kb}, {"end", r.host_rss_end_kb}};
+        fmt::print("{}\n", j.dump(2));
+      } else {
+        print_report(r.report);
+        fmt::print(
+            "accuracy ({} frames scored): merged hull vs hull of the true silhouettes: {:.3f} % of voxels agree "
+            "(min {:.3f} %), IoU {:.3f}; true body voxels inside the hull: {:.2f} %\n",
+            r.accuracy.frames, 100 * r.accuracy.agree, 100 * r.accuracy.min_agree, r.accuracy.iou_silhouette_hull,
+            100 * r.accuracy.body_recall);
+      }
+      if (r.report.frames == 0) throw std::runtime_error("no frame was merged");
+      return;
+    }
+    // A real rig: the aggregator alone; the edges are on their boards.
+    std::filesystem::path path = config->empty() ? config::default_rig_config_path() : std::filesystem::path(*config);
+    config::RigConfig rig = config::load_rig_config(path);
+    aggregator::Aggregator agg(rig, {});
+    agg.start();
+    auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(*seconds > 0 ? *seconds : 1e12);
+    while (!g_interrupted && std::chrono::steady_clock::now() < end)
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    agg.stop();
+    if (*json)
+      fmt::print("{}\n", report_json(agg.report()).dump(2));
+    else
+      print_report(agg.report());
+  });
+}
+
+}  // namespace vc::cli

@@ -1,0 +1,154 @@
+#include "voxcap/assemble/assembler.hpp"
+
+#include <gtest/gtest.h>
+
+#include <random>
+
+#include "voxcap/rle.h"
+
+namespace vc::assemble {
+namespace {
+
+constexpr uint64_t kVoxels = 4096 + 13;  // not a multiple of 8 on purpose
+
+std::vector<uint8_t> random_bits(uint32_t seed, double density) {
+  std::mt19937 rng(seed);
+  std::bernoulli_distribution bit(density);
+  std::vector<uint8_t> b((kVoxels + 7) / 8, 0);
+  for (uint64_t i = 0; i < kVoxels; i++)
+    if (bit(rng)) b[i / 8] |= uint8_t(1u << (i % 8));
+  return b;
+}
+
+std::vector<uint8_t> encode(const std::vector<uint8_t>& bits) {
+  std::vector<uint8_t> out(vc_rle_max_encoded_size(kVoxels));
+  size_t len = 0;
+  EXPECT_EQ(vc_rle_encode(bits.data(), kVoxels, out.data(), out.size(), &len), 0);
+  out.resize(len);
+  return out;
+}
+
+PartialHull hull(uint16_t node, uint64_t seq, const std::vector<uint8_t>& bits, uint64_t t = 1000) {
+  PartialHull h;
+  h.node_id = node;
+  h.seq = seq;
+  h.t_trigger_ns = t;
+  h.t_received_ns = t + 100;
+  h.grid_id = 5;
+  h.voxel_count = kVoxels;
+  h.rle = encode(bits);
+  return h;
+}
+
+AssemblerOptions opts(MissingPolicy policy = MissingPolicy::Drop) {
+  AssemblerOptions o;
+  o.nodes = {1, 2, 3};
+  o.grid_id = 5;
+  o.voxel_count = kVoxels;
+  o.deadline_ns = 50'000;
+  o.policy = policy;
+  o.max_pending = 4;
+  return o;
+}
+
+TEST(Assembler, MergesWhenEveryNodeReportedAndEqualsTheBitsetAnd) {
+  Assembler a(opts());
+  auto b1 = random_bits(1, 0.7), b2 = random_bits(2, 0.6), b3 = random_bits(3, 0.8);
+  std::vector<MergedFrame> out;
+  a.add(hull(1, 10, b1), 0, out);
+  a.add(hull(3, 10, b3), 0, out);
+  EXPECT_TRUE(out.empty());
+  a.add(hull(2, 10, b2), 0, out);
+  ASSERT_EQ(out.size(), 1u);
+  std::vector<uint8_t> expect(b1.size());
+  for (size_t i = 0; i < expect.size(); i++) expect[i] = b1[i] & b2[i] & b3[i];
+  EXPECT_EQ(out[0].rle, encode(expect));
+  uint64_t pop = 0;
+  for (uint64_t i = 0; i < kVoxels; i++) pop += (expect[i / 8] >> (i % 8)) & 1;
+  EXPECT_EQ(out[0].occupied, pop);
+  EXPECT_FALSE(out[0].degraded);
+  EXPECT_EQ(out[0].present, (std::vector<uint16_t>{1, 2, 3}));
+  EXPECT_EQ(a.stats().complete, 1u);
+  EXPECT_EQ(a.pending(), 0u);
+}
+
+TEST(Assembler, DeadlineDropsOrDegradesByPolicy) {
+  for (MissingPolicy policy : {MissingPolicy::Drop, MissingPolicy::Degraded}) {
+    Assembler a(opts(policy));
+    std::vector<MergedFrame> out;
+    a.add(hull(1, 7, random_bits(1, 0.5)), 0, out);
+    a.add(hull(2, 7, random_bits(2, 0.5)), 0, out);
+    a.poll(1000 + 49'999, out);
+    EXPECT_TRUE(out.empty());
+    a.poll(1000 + 50'000, out);
+    if (policy == MissingPolicy::Drop) {
+      EXPECT_TRUE(out.empty());
+      EXPECT_EQ(a.stats().dropped, 1u);
+    } else {
+      ASSERT_EQ(out.size(), 1u);
+      EXPECT_TRUE(out[0].degraded);
+      EXPECT_EQ(out[0].missing, (std::vector<uint16_t>{3}));
+      EXPECT_EQ(a.stats().degraded, 1u);
+    }
+    EXPECT_EQ(a.stats().nodes.at(3).missing, 1u);
+  }
+}
+
+TEST(Assembler, StoppedNodeIsNotWaitedForButMarksTheFrame) {
+  Assembler a(opts(MissingPolicy::Degraded));
+  a.set_running(2, false);
+  std::vector<MergedFrame> out;
+  a.add(hull(1, 3, random_bits(1, 0.5)), 0, out);
+  a.add(hull(3, 3, random_bits(3, 0.5)), 0, out);
+  ASSERT_EQ(out.size(), 1u);  // no deadline wait
+  EXPECT_TRUE(out[0].degraded);
+  EXPECT_EQ(out[0].missing, (std::vector<uint16_t>{2}));
+}
+
+TEST(Assembler, LateAndDuplicateAndForeignHullsAreCounted) {
+  Assembler a(opts(MissingPolicy::Degraded));
+  std::vector<MergedFrame> out;
+  auto bits = random_bits(9, 0.5);
+  a.add(hull(1, 20, bits), 0, out);
+  EXPECT_FALSE(a.add(hull(1, 20, bits), 0, out));  // duplicate
+  a.poll(1'000'000, out);                            // frame 20 resolved
+  EXPECT_FALSE(a.add(hull(2, 20, bits), 0, out));  // late
+  EXPECT_FALSE(a.add(hull(2, 19, bits), 0, out));  // older than resolved: late
+  PartialHull wrong = hull(3, 21, bits);
+  wrong.grid_id = 6;
+  EXPECT_FALSE(a.add(wrong, 0, out));
+  EXPECT_FALSE(a.add(hull(9, 21, bits), 0, out));  // not configured
+  EXPECT_EQ(a.stats().nodes.at(1).rejected, 1u);
+  EXPECT_EQ(a.stats().nodes.at(2).late, 2u);
+  EXPECT_EQ(a.stats().nodes.at(3).rejected, 1u);
+}
+
+TEST(Assembler, MemoryIsBoundedWhenANodeStalls) {
+  Assembler a(opts(MissingPolicy::Degraded));
+  std::vector<MergedFrame> out;
+  auto bits = random_bits(4, 0.5);
+  // Node 3 never reports and time does not advance: pending frames are capped at max_pending.
+  for (uint64_t seq = 0; seq < 1000; seq++) {
+    a.add(hull(1, seq, bits), 0, out);
+    a.add(hull(2, seq, bits), 0, out);
+    ASSERT_LE(a.pending(), 4u);
+  }
+  EXPECT_EQ(a.stats().evicted, 996u);
+  EXPECT_EQ(out.size(), 996u);
+  for (size_t i = 1; i < out.size(); i++) EXPECT_LT(out[i - 1].seq, out[i].seq);
+  a.flush(0, out);
+  EXPECT_EQ(out.size(), 1000u);
+  EXPECT_EQ(a.pending(), 0u);
+}
+
+TEST(Assembler, InvalidOptionsThrow) {
+  AssemblerOptions o = opts();
+  o.nodes = {1, 1};
+  EXPECT_THROW(Assembler{o}, std::invalid_argument);
+  o = opts();
+  o.voxel_count = 0;
+  EXPECT_THROW(Assembler{o}, std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace vc::assemble

@@ -1,0 +1,421 @@
+#include "voxcap/emulated/emulated_rig.hpp"
+
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <fmt/core.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <deque>
+#include <fstream>
+#include <mutex>
+#include <sstream>
+#include <stdexcept>
+#include <thread>
+
+#include "voxcap/edge/carver.h"
+#include "voxcap/rig/calibration.hpp"
+#include "voxcap/rle.h"
+#include "voxcap/sim/rig_layout.hpp"
+#include "voxcap/sim/scene.hpp"
+
+extern char** environ;
+
+namespace vc::emulated {
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+bool Options::valid(std::string* why) const {
+  auto fail = [&](std::string m) {
+    if (why) *why = std::move(m);
+    return false;
+  };
+  if (nodes < 1 || nodes > 16) return fail(fmt::format("nodes: must be in 1..16, got {}", nodes));
+  if (width < 32 || height < 32 || width > 4096 || height > 4096) return fail("size: must be 32..4096 per side");
+  if (rate_hz <= 0 || rate_hz > 240) return fail("rate: must be in (0, 240] Hz");
+  if (grid < 8 || grid > 512) return fail("grid: must be in 8..512 voxels per axis");
+  if (missing_policy != "drop" && missing_policy != "degraded") return fail("missing policy: drop or degraded");
+  if (deadline_ms <= 0) return fail("deadline: must be > 0");
+  if (truth_every < 0) return fail("truth_every: must be >= 0");
+  if (motion.empty()) return fail("motion: must be set");
+  return true;
+}
+
+static long status_kb(const char* key) {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  size_t n = std::strlen(key);
+  while (std::getline(f, line))
+    if (line.compare(0, n, key) == 0) return std::stol(line.substr(n + 1));
+  return 0;
+}
+long rss_kb() { return status_kb("VmRSS"); }
+long peak_rss_kb() { return status_kb("VmHWM"); }
+
+static int free_port(int type) {
+  int fd = socket(AF_INET, type, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)) < 0) {
+    close(fd);
+    throw std::runtime_error("cannot find a free port on 127.0.0.1");
+  }
+  socklen_t len = sizeof(a);
+  getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+  close(fd);
+  return ntohs(a.sin_port);
+}
+
+static vc_camera_model to_model(const rig::Camera& c) {
+  vc_camera_model m{};
+  m.width = c.width;
+  m.height = c.height;
+  for (int r = 0; r < 3; r++)
+    for (int q = 0; q < 3; q++) {
+      m.K[r * 3 + q] = c.K(r, q);
+      m.R[r * 3 + q] = c.R_cam_from_world(r, q);
+    }
+  for (int i = 0; i < 5; i++) m.dist[i] = c.dist[i];
+  for (int i = 0; i < 3; i++) m.t[i] = c.t_cam_from_world[i];
+  return m;
+}
+
+// Scores merged frames against the simulator's truth on its own thread (a bounded queue: when it
+// falls behind, frames are skipped from scoring, never from the rig).
+class TruthScorer : public aggregator::Sink {
+ public:
+  TruthScorer(const Options& opt, const rig::Calibration& cal, const rig::VoxelGrid& grid, const std::string& spec_cal)
+      : opt_(opt), grid_(grid) {
+    sim::SceneOptions so;
+    so.motion.source = opt.motion;
+    so.motion.fps = opt.rate_hz;
+    so.seed = opt.seed;
+    so.noise_sigma = opt.noise;
+    so.calibration = rig::read_calibration(spec_cal);
+    scene_ = std::make_unique<sim::Scene>(so);
+    vc_voxel_grid g{{grid.min_m[0], grid.min_m[1], grid.min_m[2]}, grid.voxel_m, grid.nx, grid.ny, grid.nz};
+    for (int k = 0; k < opt.nodes; k++) {
+      vc_camera_model a = to_model(cal.cameras[static_cast<size_t>(2 * k)]);
+      vc_camera_model b = to_model(cal.cameras[static_cast<size_t>(2 * k + 1)]);
+      vc_carver* c = vc_carver_new(&g, &a, &b);
+      if (!c) throw std::runtime_error("truth: cannot build a carver for the rig");
+      carvers_.push_back(c);
+    }
+    voxels_ = static_cast<uint64_t>(grid.nx) * grid.ny * grid.nz;
+    if (opt.truth_every > 0) worker_ = std::thread([this] { loop(); });
+  }
+  ~TruthScorer() override {
+    {
+      std::lock_guard<std::mutex> g(mu_);
+      done_ = true;
+    }
+    cv_.notify_all();
+    if (worker_.joinable()) worker_.join();
+    for (auto* c : carvers_) vc_carver_free(c);
+  }
+  void set_origin(uint64_t origin) { origin_ = origin; }
+  void frame(const assemble::MergedFrame& f) override {
+    uint64_t n = merged_++;
+    if (opt_.truth_every <= 0 || n % static_cast<uint64_t>(opt_.truth_every) != 0 || f.seq < origin_) return;
+    std::lock_guard<std::mutex> g(mu_);
+    if (queue_.size() >= 8) return;
+    queue_.push_back({f.seq - origin_, f.rle});
+    cv_.notify_one();
+  }
+  uint64_t merged() const { return merged_; }
+  Accuracy accuracy() {
+    std::unique_lock<std::mutex> l(mu_);
+    cv_.wait_for(l, std::chrono::seconds(30), [&] { return queue_.empty() && !busy_; });
+    return acc_;
+  }
+
+ private:
+  void loop() {
+    size_t bytes = (voxels_ + 7) / 8;
+    std::vector<uint8_t> merged(bytes), truth(bytes), part(bytes), body;
+    std::vector<cv::Mat> sil(2);
+    cv::Mat rgb;
+    for (;;) {
+      std::pair<uint64_t, std::vector<uint8_t>> job;
+      {
+        std::unique_lock<std::mutex> l(mu_);
+        cv_.wait(l, [&] { return done_ || !queue_.empty(); });
+        if (done_) return;
+        job = std::move(queue_.front());
+        queue_.pop_front();
+        busy_ = true;
+      }
+      int frame = static_cast<int>(job.first);
+      vc_rle_decode(job.second.data(), job.second.size(), merged.data(), voxels_);
+      std::fill(truth.begin(), truth.end(), 0xFF);
+      for (int k = 0; k < opt_.nodes; k++) {
+        for (int c = 0; c < 2; c++) scene_->render_clean(frame, 2 * k + c, rgb, &sil[static_cast<size_t>(c)]);
+        vc_carver_run(carvers_[static_cast<size_t>(k)], sil[0].ptr<uint8_t>(), sil[1].ptr<uint8_t>(), part.data(),
+                      nullptr);
+        for (size_t i = 0; i < bytes; i++) truth[i] &= part[i];
+      }
+      scene_->occupancy(grid_, frame, &body);
+      uint64_t same = 0, inter = 0, uni = 0, body_n = 0, body_in = 0;
+      for (uint64_t v = 0; v < voxels_; v++) {
+        bool m = (merged[v / 8] >> (v % 8)) & 1, t = (truth[v / 8] >> (v % 8)) & 1;
+        bool b = (body[v / 8] >> (v % 8)) & 1;
+        same += m == t;
+        inter += m && t;
+        uni += m || t;
+        body_n += b;
+        body_in += b && m;
+      }
+      std::lock_guard<std::mutex> g(mu_);
+      double agree = double(same) / double(voxels_);
+      double n = double(acc_.frames);
+      acc_.agree = (acc_.agree * n + agree) / (n + 1);
+      acc_.min_agree = std::min(acc_.min_agree, agree);
+      double iou = uni ? double(inter) / double(uni) : 1.0;
+      acc_.iou_silhouette_hull = (acc_.iou_silhouette_hull * n + iou) / (n + 1);
+      double rec = body_n ? double(body_in) / double(body_n) : 1.0;
+      acc_.body_recall = (acc_.body_recall * n + rec) / (n + 1);
+      acc_.frames++;
+      busy_ = false;
+      cv_.notify_all();
+    }
+  }
+
+  const Options& opt_;
+  rig::VoxelGrid grid_;
+  std::unique_ptr<sim::Scene> scene_;
+  std::vector<vc_carver*> carvers_;
+  uint64_t voxels_ = 0;
+  std::atomic<uint64_t> origin_{0}, merged_{0};
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::deque<std::pair<uint64_t, std::vector<uint8_t>>> queue_;
+  bool done_ = false, busy_ = false;
+  Accuracy acc_;
+  std::thread worker_;
+};
+
+struct EmulatedRig::Impl {
+  Options opt;
+  fs::path dir;
+  bool own_dir = false;
+  fs::path edge_bin;
+  std::string sim_spec;
+  int host_port = 0;
+  std::vector<int> trigger_ports;
+  std::vector<pid_t> pids;
+  std::unique_ptr<TruthScorer> scorer;
+  std::unique_ptr<aggregator::Aggregator> agg;
+  Clock::time_point t_start;
+  long rss_start = 0;
+  bool stopped = false;
+
+  void spawn(int k) {
+    std::vector<std::string> args = {
+        edge_bin.string(), "--node-id", std::to_string(k), "--host", "127.0.0.1", "--port", std::to_string(host_port),
+        "--trigger", "udp", "--trigger-port", std::to_string(trigger_ports[static_cast<size_t>(k)]),
+        "--camera0", "sim:" + sim_spec, "--camera1", "sim:" + sim_spec,
+        "--size", fmt::format("{}x{}", opt.width, opt.height), "--verbosity", opt.quiet ? "0" : "1"};
+    std::vector<char*> argv;
+    for (auto& a : args) argv.push_back(a.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t fa;
+    posix_spawn_file_actions_init(&fa);
+    std::string log = (dir / fmt::format("edge{}.log", k)).string();
+    posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    posix_spawn_file_actions_adddup2(&fa, 1, 2);
+    pid_t pid = 0;
+    int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
+    posix_spawn_file_actions_destroy(&fa);
+    if (rc != 0) throw std::runtime_error(fmt::format("cannot start {}: {}", argv[0], std::strerror(rc)));
+    pids[static_cast<size_t>(k)] = pid;
+  }
+
+  std::string edge_log_tail(int k) const {
+    std::ifstream f(dir / fmt::format("edge{}.log", k));
+    std::deque<std::string> lines;
+    std::string l;
+    while (std::getline(f, l)) {
+      lines.push_back(l);
+      if (lines.size() > 5) lines.pop_front();
+    }
+    std::string out;
+    for (auto& s : lines) out += "\n  edge" + std::to_string(k) + ": " + s;
+    return out;
+  }
+
+  void reap(int k, int sig, double grace_s) {
+    pid_t pid = pids[static_cast<size_t>(k)];
+    if (pid <= 0) return;
+    kill(pid, sig);
+    auto end = Clock::now() + std::chrono::duration<double>(grace_s);
+    int st = 0;
+    while (waitpid(pid, &st, WNOHANG) == 0) {
+      if (Clock::now() > end) {
+        kill(pid, SIGKILL);
+        waitpid(pid, &st, 0);
+        break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    pids[static_cast<size_t>(k)] = 0;
+  }
+};
+
+EmulatedRig::EmulatedRig(Options options) : impl_(std::make_unique<Impl>()) {
+  std::string why;
+  if (!options.valid(&why)) throw std::invalid_argument("emulated rig: " + why);
+  impl_->opt = std::move(options);
+}
+
+EmulatedRig::~EmulatedRig() {
+  if (!impl_->stopped) {
+    try {
+      stop();
+    } catch (...) {
+    }
+  }
+  if (impl_->own_dir) {
+    std::error_code ec;
+    fs::remove_all(impl_->dir, ec);
+  }
+}
+
+void EmulatedRig::start(double timeout_s) {
+  Impl& m = *impl_;
+  const Options& o = m.opt;
+  m.rss_start = rss_kb();
+  if (o.workdir.empty()) {
+    char t[] = "/tmp/voxcap-rig-XXXXXX";
+    if (!mkdtemp(t)) throw std::runtime_error("cannot create a temporary folder");
+    m.dir = t;
+    m.own_dir = true;
+  } else {
+    m.dir = o.workdir;
+    fs::create_directories(m.dir);
+  }
+  m.edge_bin = o.edge_binary.empty() ? fs::read_symlink("/proc/self/exe").parent_path() / "voxcap-edge" : o.edge_binary;
+  if (!fs::exists(m.edge_bin))
+    throw std::runtime_error(fmt::format("edge binary {} not found (build the voxcap-edge target)", m.edge_bin.string()));
+
+  // The virtual rig: the simulator's ring of 2 cameras per node, and a grid over the volume.
+  sim::RigLayout layout;
+  layout.cameras = 2 * o.nodes;
+  layout.width = o.width;
+  layout.height = o.height;
+  rig::Calibration cal = sim::default_rig(layout);
+  rig::VoxelGrid grid;
+  grid.min_m = cv::Vec3d(-1.12, -1.12, 0.0);
+  grid.voxel_m = 2.24 / o.grid;
+  grid.nx = grid.ny = grid.nz = o.grid;
+  cal.grid = grid;
+  fs::path cal_path = m.dir / "rig.yaml";
+  rig::write_calibration(cal_path.string(), cal);
+
+  m.host_port = free_port(SOCK_STREAM);
+  m.trigger_ports.clear();
+  for (int k = 0; k < o.nodes; k++) m.trigger_ports.push_back(free_port(SOCK_DGRAM));
+  std::ostringstream t;
+  t << "# Written by voxcap's emulated rig.\nversion = 1\nname = \"emulated\"\ncalibration = \"rig.yaml\"\n\n";
+  t << fmt::format("[grid]\nmin_m = [-1.12, -1.12, 0.0]\nvoxel_m = {}\nnx = {}\nny = {}\nnz = {}\n\n", grid.voxel_m,
+                   o.grid, o.grid, o.grid);
+  for (int k = 0; k < o.nodes; k++)
+    t << fmt::format("[[nodes]]\nid = \"node{}\"\naddress = \"127.0.0.1\"\ncameras = [\"cam{}\", \"cam{}\"]\n{}\n", k,
+                     2 * k, 2 * k + 1, k == 0 ? "role = \"front\"\n" : "");
+  // The simulator's floor shadow darkens by up to ~40 % (~90 levels) while its sensor noise is ~2
+  // levels: T_u * sigma must exceed the shadow's depth so shadows reach the colour test (eq. 2), and the
+  // noise of a darkened pixel tilts its colour by a few degrees. The edge's sim-truth tests use these.
+  t << "[subtraction]\nt_upper = 60.0\nt_lower = 3.5\nshadow_angle_deg = 8.0\ncleanup_radius_px = 1\n"
+       "background_frames = 20\n\n";
+  t << "[trigger]\nbackend = \"udp\"\n" << fmt::format("rate_hz = {}\nrt_priority = 0\n", o.rate_hz);
+  t << "[trigger.udp]\ntargets = [";
+  for (int k = 0; k < o.nodes; k++) t << (k ? ", " : "") << fmt::format("\"127.0.0.1:{}\"", m.trigger_ports[k]);
+  t << "]\n\n";
+  t << fmt::format("[assembly]\ndeadline_ms = {}\nmissing_node_policy = \"{}\"\n\n", o.deadline_ms, o.missing_policy);
+  t << fmt::format("[network]\nlisten = \"127.0.0.1\"\nport = {}\n", m.host_port);
+  fs::path toml = m.dir / "rig.toml";
+  std::ofstream(toml) << t.str();
+  config::RigConfig rig = config::load_rig_config(toml);
+
+  m.sim_spec = fmt::format("motion={},fps={},seed={},noise={},calibration={}", o.motion, o.rate_hz, o.seed, o.noise,
+                           cal_path.string());
+  m.scorer = std::make_unique<TruthScorer>(o, cal, grid, cal_path.string());
+  aggregator::Options ao;
+  if (o.quiet) ao.log = [](int level, const std::string& line) {
+    if (level >= 2) fmt::print(stderr, "voxcap-host: {}\n", line);
+  };
+  m.agg = std::make_unique<aggregator::Aggregator>(rig, ao, m.scorer.get());
+  m.agg->start();
+  m.pids.assign(static_cast<size_t>(o.nodes), 0);
+  for (int k = 0; k < o.nodes; k++) m.spawn(k);
+  auto end = Clock::now() + std::chrono::duration<double>(timeout_s);
+  while (!m.agg->all_running()) {
+    for (int k = 0; k < o.nodes; k++) {
+      int st = 0;
+      if (m.pids[static_cast<size_t>(k)] > 0 && waitpid(m.pids[static_cast<size_t>(k)], &st, WNOHANG) > 0) {
+        m.pids[static_cast<size_t>(k)] = 0;
+        throw std::runtime_error(fmt::format("edge {} exited during start-up:{}", k, m.edge_log_tail(k)));
+      }
+    }
+    if (Clock::now() > end) {
+      std::string logs;
+      for (int k = 0; k < o.nodes; k++) logs += m.edge_log_tail(k);
+      throw std::runtime_error(fmt::format("the rig did not start within {} s:{}", timeout_s, logs));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  m.scorer->set_origin(m.agg->report().origin);
+  m.t_start = Clock::now();
+}
+
+uint64_t EmulatedRig::merged_frames() const { return impl_->scorer ? impl_->scorer->merged() : 0; }
+aggregator::Report EmulatedRig::report() const { return impl_->agg->report(); }
+uint16_t EmulatedRig::host_port() const { return static_cast<uint16_t>(impl_->host_port); }
+const fs::path& EmulatedRig::workdir() const { return impl_->dir; }
+
+void EmulatedRig::run_frames(uint64_t frames, double timeout_s) {
+  auto end = Clock::now() + std::chrono::duration<double>(timeout_s);
+  while (merged_frames() < frames && Clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+}
+
+void EmulatedRig::run_seconds(double seconds) {
+  std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
+}
+
+void EmulatedRig::kill_node(int k, int sig) { impl_->reap(k, sig, 2.0); }
+
+void EmulatedRig::restart_node(int k) {
+  if (impl_->pids.at(static_cast<size_t>(k)) > 0) impl_->reap(k, SIGTERM, 2.0);
+  impl_->spawn(k);
+}
+
+bool EmulatedRig::node_running(int k) const {
+  for (const auto& n : impl_->agg->report().nodes)
+    if (n.name == fmt::format("node{}", k)) return n.connected && n.state == VC_STATE_RUNNING;
+  return false;
+}
+
+Result EmulatedRig::stop() {
+  Impl& m = *impl_;
+  Result r;
+  if (m.stopped || !m.agg) return r;
+  m.stopped = true;
+  r.wall_seconds = std::chrono::duration<double>(Clock::now() - m.t_start).count();
+  r.report = m.agg->report();
+  for (int k = 0; k < static_cast<int>(m.pids.size()); k++) m.reap(k, SIGTERM, 3.0);
+  m.agg->stop();
+  r.accuracy = m.scorer->accuracy();
+  r.host_rss_start_kb = m.rss_start;
+  r.host_rss_end_kb = rss_kb();
+  r.workdir = m.dir;
+  return r;
+}
+
+}  // namespace vc::emulated

@@ -1,0 +1,114 @@
+// The host's side of the edge links: a TCP server that accepts edge connections, decodes their
+// messages (any chunking, proto/'s streaming decoder), and hands them to a Handler on its one thread.
+//
+// Per connection: the first message must be HELLO, which the handler accepts or rejects (the reason
+// goes back as a fatal ERROR and the connection is closed). Afterwards every message goes to
+// on_message. A connection is dropped — with the reason logged and given to on_disconnect, the others
+// unaffected — when its bytes cannot be decoded (bad magic, CRC, oversize, truncated at EOF), when it
+// has said nothing for heartbeat_timeout, when its outgoing queue overflows (the edge stopped
+// reading), or when it closes. A decodable but invalid message (non-fatal decoder error) is answered
+// with ERROR and skipped. The server sends HEARTBEAT to every connection each heartbeat_interval.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "voxcap/proto.h"
+
+namespace vc::session {
+
+using ConnId = uint64_t;
+
+class Handler {
+ public:
+  virtual ~Handler() = default;
+  // HELLO arrived on conn. Return "" to accept it, or why not (sent to the edge, then closed).
+  virtual std::string on_hello(ConnId conn, const vc_msg& hello, const std::string& peer) = 0;
+  // Any later message; views in msg are valid during the call only. t_rx_ns: CLOCK_MONOTONIC.
+  virtual void on_message(ConnId conn, const vc_msg& msg, uint64_t t_rx_ns) = 0;
+  // The connection is gone (after an accepted HELLO only).
+  virtual void on_disconnect(ConnId conn, const std::string& reason) = 0;
+  // Called on the server thread about every poll_interval (for deadlines and timers).
+  virtual void on_tick(uint64_t now_ns) { (void)now_ns; }
+};
+
+struct ServerOptions {
+  std::string listen = "127.0.0.1";  // IPv4 address, or "any"
+  uint16_t port = 7600;              // 0: any free port (see Server::port())
+  int heartbeat_interval_ms = 250;
+  int heartbeat_timeout_ms = 2000;
+  int hello_timeout_ms = 2000;       // a connection that does not say HELLO in time is dropped
+  size_t max_out_bytes = 16u << 20;  // per-connection outgoing queue
+  int poll_interval_ms = 5;
+
+  bool valid(std::string* why) const;
+};
+
+struct ConnectionStats {
+  ConnId id = 0;
+  uint16_t node_id = 0;
+  std::string peer;
+  bool hello = false;
+  uint64_t bytes_in = 0, bytes_out = 0, messages_in = 0, rejected = 0;
+};
+
+struct ServerStats {
+  uint64_t accepted = 0, closed = 0, hello_rejected = 0, decode_drops = 0, timeouts = 0, overflow_drops = 0;
+};
+
+class Server {
+ public:
+  using LogFn = std::function<void(int level, const std::string&)>;  // 0 info, 1 warning, 2 error
+
+  Server(ServerOptions options, Handler& handler, LogFn log = {});
+  ~Server();  // stops
+  Server(const Server&) = delete;
+  Server& operator=(const Server&) = delete;
+
+  // Binds and starts the thread; throws std::runtime_error (address in use, ...).
+  void start();
+  void stop();
+  uint16_t port() const { return port_; }
+
+  // Queues bytes for a connection (thread-safe; from the handler too). false if it is gone.
+  bool send(ConnId conn, const uint8_t* data, size_t len);
+  bool send(ConnId conn, const std::vector<uint8_t>& bytes) { return send(conn, bytes.data(), bytes.size()); }
+  // Closes a connection after flushing what is queued (thread-safe).
+  void close(ConnId conn, const std::string& reason);
+
+  std::vector<ConnectionStats> connections() const;
+  ServerStats stats() const;
+
+ private:
+  struct Conn;
+  void run();
+  void drop(Conn& c, const std::string& reason, bool notify);
+  void handle_readable(Conn& c, uint64_t now_ns);
+  void flush(Conn& c);
+  void log(int level, const std::string& line) const;
+
+  ServerOptions opt_;
+  Handler& handler_;
+  LogFn log_;
+  int listen_fd_ = -1;
+  int wake_fd_ = -1;
+  uint16_t port_ = 0;
+  std::thread thread_;
+  std::atomic<bool> running_{false};
+  mutable std::mutex mu_;  // guards conns_' out queues and closing flags, stats_
+  std::map<ConnId, std::unique_ptr<Conn>> conns_;
+  ConnId next_id_ = 1;
+  ServerStats stats_;
+};
+
+uint64_t monotonic_ns();
+
+}  // namespace vc::session

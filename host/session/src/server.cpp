@@ -1,0 +1,378 @@
+#include "voxcap/session/server.hpp"
+
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <fmt/core.h>
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <poll.h>
+#include <sys/eventfd.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <ctime>
+#include <stdexcept>
+
+namespace vc::session {
+
+uint64_t monotonic_ns() {
+  timespec ts{};
+  clock_gettime(CLOCK_MONOTONIC, &ts);
+  return static_cast<uint64_t>(ts.tv_sec) * 1'000'000'000u + static_cast<uint64_t>(ts.tv_nsec);
+}
+
+bool ServerOptions::valid(std::string* why) const {
+  auto fail = [&](const char* m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (heartbeat_interval_ms < 10) return fail("heartbeat_interval_ms: must be >= 10");
+  if (heartbeat_timeout_ms <= heartbeat_interval_ms) return fail("heartbeat_timeout_ms: must exceed the interval");
+  if (hello_timeout_ms < 10) return fail("hello_timeout_ms: must be >= 10");
+  if (max_out_bytes < 4096) return fail("max_out_bytes: must be >= 4096");
+  if (poll_interval_ms < 1 || poll_interval_ms > 1000) return fail("poll_interval_ms: must be in 1..1000");
+  return true;
+}
+
+struct Server::Conn {
+  int fd = -1;
+  ConnId id = 0;
+  std::string peer;
+  vc_decoder* dec = nullptr;
+  bool hello = false;
+  uint16_t node_id = 0;
+  uint64_t created_ns = 0, last_rx_ns = 0, last_hb_ns = 0;
+  std::deque<std::vector<uint8_t>> out;  // under mu_
+  size_t out_off = 0, out_bytes = 0;     // under mu_
+  bool overflow = false;                 // under mu_
+  std::string closing;                   // under mu_: close after flushing
+  ConnectionStats st;
+  ~Conn() {
+    vc_decoder_free(dec);
+    if (fd >= 0) ::close(fd);
+  }
+};
+
+Server::Server(ServerOptions options, Handler& handler, LogFn log)
+    : opt_(std::move(options)), handler_(handler), log_(std::move(log)) {
+  std::string why;
+  if (!opt_.valid(&why)) throw std::invalid_argument("session server: " + why);
+}
+
+Server::~Server() { stop(); }
+
+void Server::log(int level, const std::string& line) const {
+  if (log_)
+    log_(level, line);
+  else
+    fmt::print(stderr, "voxcap-host: {}\n", line);
+}
+
+void Server::start() {
+  if (running_) return;
+  listen_fd_ = socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+  if (listen_fd_ < 0) throw std::runtime_error(std::string("socket: ") + std::strerror(errno));
+  int one = 1;
+  setsockopt(listen_fd_, SOL_SOCKET, SO_REUSEADDR, &one, sizeof(one));
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(opt_.port);
+  std::string addr = opt_.listen == "any" ? "0.0.0.0" : opt_.listen;
+  if (inet_pton(AF_INET, addr.c_str(), &a.sin_addr) != 1)
+    throw std::runtime_error(fmt::format("listen address '{}' is not an IPv4 address", opt_.listen));
+  if (bind(listen_fd_, reinterpret_cast<sockaddr*>(&a), sizeof(a)) < 0 || listen(listen_fd_, 16) < 0) {
+    int e = errno;
+    ::close(listen_fd_);
+    listen_fd_ = -1;
+    throw std::runtime_error(fmt::format("cannot listen on {}:{}: {}", addr, opt_.port, std::strerror(e)));
+  }
+  socklen_t len = sizeof(a);
+  getsockname(listen_fd_, reinterpret_cast<sockaddr*>(&a), &len);
+  port_ = ntohs(a.sin_port);
+  wake_fd_ = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
+  running_ = true;
+  thread_ = std::thread([this] { run(); });
+}
+
+void Server::stop() {
+  if (!running_.exchange(false)) return;
+  uint64_t one = 1;
+  if (write(wake_fd_, &one, sizeof(one)) < 0) {
+  }
+  thread_.join();
+  {
+    std::lock_guard<std::mutex> g(mu_);
+    conns_.clear();
+  }
+  ::close(listen_fd_);
+  ::close(wake_fd_);
+  listen_fd_ = wake_fd_ = -1;
+}
+
+bool Server::send(ConnId id, const uint8_t* data, size_t len) {
+  std::lock_guard<std::mutex> g(mu_);
+  auto it = conns_.find(id);
+  if (it == conns_.end() || !it->second->closing.empty()) return false;
+  Conn& c = *it->second;
+  if (c.out_bytes + len > opt_.max_out_bytes) {
+    c.overflow = true;
+  } else {
+    c.out.emplace_back(data, data + len);
+    c.out_bytes += len;
+  }
+  uint64_t one = 1;
+  if (write(wake_fd_, &one, sizeof(one)) < 0) {
+  }
+  return !c.overflow;
+}
+
+void Server::close(ConnId id, const std::string& reason) {
+  std::lock_guard<std::mutex> g(mu_);
+  auto it = conns_.find(id);
+  if (it != conns_.end() && it->second->closing.empty()) it->second->closing = reason.empty() ? "closed" : reason;
+  uint64_t one = 1;
+  if (write(wake_fd_, &one, sizeof(one)) < 0) {
+  }
+}
+
+std::vector<ConnectionStats> Server::connections() const {
+  std::lock_guard<std::mutex> g(mu_);
+  std::vector<ConnectionStats> v;
+  for (const auto& [id, c] : conns_) v.push_back(c->st);
+  return v;
+}
+
+ServerStats Server::stats() const {
+  std::lock_guard<std::mutex> g(mu_);
+  return stats_;
+}
+
+void Server::drop(Conn& c, const std::string& reason, bool notify) {
+  log(c.hello ? 1 : 0, fmt::format("connection {} ({}{}) dropped: {}", c.id, c.peer,
+                                   c.hello ? fmt::format(", node {}", c.node_id) : "", reason));
+  if (notify && c.hello) handler_.on_disconnect(c.id, reason);
+  std::lock_guard<std::mutex> g(mu_);
+  stats_.closed++;
+  conns_.erase(c.id);
+}
+
+static void send_error_now(int fd, uint16_t code, uint16_t severity, const std::string& text) {
+  std::vector<uint8_t> buf(VC_PROTO_HEADER_SIZE + 32 + text.size());
+  size_t len = 0;
+  vc_header hdr{};
+  vc_error e{};
+  e.code = code;
+  e.severity = severity;
+  e.text_len = static_cast<uint16_t>(std::min<size_t>(text.size(), VC_PROTO_MAX_ERROR_TEXT));
+  e.text = text.data();
+  if (vc_encode_error(buf.data(), buf.size(), &len, &hdr, &e) == 0) {
+    if (::send(fd, buf.data(), len, MSG_NOSIGNAL | MSG_DONTWAIT) < 0) {
+    }
+  }
+}
+
+void Server::handle_readable(Conn& c, uint64_t now_ns) {
+  uint8_t chunk[65536];
+  for (int rounds = 0; rounds < 16; rounds++) {  // bounded per poll so one node cannot starve the rest
+    ssize_t n = recv(c.fd, chunk, sizeof(chunk), MSG_DONTWAIT);
+    if (n == 0) {
+      int rc = vc_decoder_finish(c.dec);
+      drop(c, rc < 0 ? "closed inside a message (truncated)" : "closed by the edge", true);
+      return;
+    }
+    if (n < 0) {
+      if (errno == EAGAIN || errno == EINTR) return;
+      drop(c, std::string("receive failed: ") + std::strerror(errno), true);
+      return;
+    }
+    c.last_rx_ns = now_ns;
+    c.st.bytes_in += static_cast<uint64_t>(n);
+    size_t used = 0;
+    for (size_t off = 0; off < static_cast<size_t>(n); off += used) {
+      int rc = vc_decoder_feed(c.dec, chunk + off, static_cast<size_t>(n) - off, &used);
+      if (rc < 0) {
+        const vc_proto_diag* d = vc_decoder_diag(c.dec);
+        std::lock_guard<std::mutex> g(mu_);
+        stats_.decode_drops++;
+        c.closing = fmt::format("{} at byte {}: {}", vc_proto_error_name(rc), d->offset, d->detail);
+        return;
+      }
+      vc_msg m;
+      while ((rc = vc_decoder_next(c.dec, &m)) != 0) {
+        if (rc < 0) {
+          const vc_proto_diag* d = vc_decoder_diag(c.dec);
+          std::string why = fmt::format("{} at byte {}: {}", vc_proto_error_name(rc), d->offset, d->detail);
+          c.st.rejected++;
+          if (vc_proto_error_is_fatal(rc)) {
+            std::lock_guard<std::mutex> g(mu_);
+            stats_.decode_drops++;
+            c.closing = why;
+            return;
+          }
+          log(1, fmt::format("connection {}: rejected a message: {}", c.id, why));
+          send_error_now(c.fd, VC_ERR_PROTOCOL, VC_SEVERITY_ERROR, why);
+          continue;
+        }
+        c.st.messages_in++;
+        if (!c.hello) {
+          if (m.hdr.type != VC_MSG_HELLO) {
+            std::string why = fmt::format("first message was {} instead of HELLO",
+                                          vc_msg_type_name(m.hdr.type) ? vc_msg_type_name(m.hdr.type) : "unknown");
+            send_error_now(c.fd, VC_ERR_STATE, VC_SEVERITY_FATAL, why);
+            std::lock_guard<std::mutex> g(mu_);
+            stats_.hello_rejected++;
+            c.closing = why;
+            return;
+          }
+          std::string why = handler_.on_hello(c.id, m, c.peer);
+          if (!why.empty()) {
+            send_error_now(c.fd, VC_ERR_STATE, VC_SEVERITY_FATAL, why);
+            std::lock_guard<std::mutex> g(mu_);
+            stats_.hello_rejected++;
+            c.closing = "HELLO rejected: " + why;
+            return;
+          }
+          c.hello = true;
+          c.node_id = m.u.hello.node_id;
+          c.st.hello = true;
+          c.st.node_id = c.node_id;
+          continue;
+        }
+        handler_.on_message(c.id, m, now_ns);
+      }
+    }
+  }
+}
+
+void Server::flush(Conn& c) {
+  std::lock_guard<std::mutex> g(mu_);
+  while (!c.out.empty()) {
+    const std::vector<uint8_t>& b = c.out.front();
+    ssize_t n = ::send(c.fd, b.data() + c.out_off, b.size() - c.out_off, MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (n < 0) return;  // EAGAIN or an error that the next recv/poll reports
+    c.out_off += static_cast<size_t>(n);
+    c.st.bytes_out += static_cast<uint64_t>(n);
+    if (c.out_off < b.size()) return;
+    c.out_bytes -= b.size();
+    c.out.pop_front();
+    c.out_off = 0;
+  }
+}
+
+void Server::run() {
+  std::vector<pollfd> fds;
+  std::vector<ConnId> ids;
+  uint64_t next_hb = monotonic_ns();
+  while (running_) {
+    fds.clear();
+    ids.clear();
+    fds.push_back({listen_fd_, POLLIN, 0});
+    fds.push_back({wake_fd_, POLLIN, 0});
+    {
+      std::lock_guard<std::mutex> g(mu_);
+      for (auto& [id, c] : conns_) {
+        fds.push_back({c->fd, static_cast<short>(POLLIN | (c->out.empty() ? 0 : POLLOUT)), 0});
+        ids.push_back(id);
+      }
+    }
+    poll(fds.data(), fds.size(), opt_.poll_interval_ms);
+    uint64_t now = monotonic_ns();
+    if (fds[1].revents & POLLIN) {
+      uint64_t v;
+      if (read(wake_fd_, &v, sizeof(v)) < 0) {
+      }
+    }
+    if (fds[0].revents & POLLIN) {
+      for (int k = 0; k < 8; k++) {
+        sockaddr_in peer{};
+        socklen_t pl = sizeof(peer);
+        int fd = accept4(listen_fd_, reinterpret_cast<sockaddr*>(&peer), &pl, SOCK_CLOEXEC | SOCK_NONBLOCK);
+        if (fd < 0) break;
+        int one = 1;
+        setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof(one));
+        auto c = std::make_unique<Conn>();
+        c->fd = fd;
+        char ip[INET_ADDRSTRLEN] = "?";
+        inet_ntop(AF_INET, &peer.sin_addr, ip, sizeof(ip));
+        c->peer = fmt::format("{}:{}", ip, ntohs(peer.sin_port));
+        c->dec = vc_decoder_new(0);
+        c->created_ns = c->last_rx_ns = now;
+        std::lock_guard<std::mutex> g(mu_);
+        c->id = next_id_++;
+        c->st.id = c->id;
+        c->st.peer = c->peer;
+        stats_.accepted++;
+        conns_.emplace(c->id, std::move(c));
+      }
+    }
+    bool hb = now >= next_hb;
+    if (hb) next_hb = now + static_cast<uint64_t>(opt_.heartbeat_interval_ms) * 1'000'000u;
+    for (size_t i = 0; i < ids.size(); i++) {
+      Conn* c = nullptr;
+      {
+        std::lock_guard<std::mutex> g(mu_);
+        auto it = conns_.find(ids[i]);
+        if (it == conns_.end()) continue;
+        c = it->second.get();
+      }
+      short re = fds[i + 2].revents;
+      if (re & POLLIN) {
+        handle_readable(*c, now);
+        std::lock_guard<std::mutex> g(mu_);
+        if (!conns_.count(ids[i])) continue;  // dropped inside
+      } else if (re & (POLLERR | POLLHUP)) {
+        drop(*c, "connection reset", true);
+        continue;
+      }
+      std::string closing, timeout;
+      bool overflow;
+      {
+        std::lock_guard<std::mutex> g(mu_);
+        closing = c->closing;
+        overflow = c->overflow;
+      }
+      if (overflow) {
+        {
+          std::lock_guard<std::mutex> g(mu_);
+          stats_.overflow_drops++;
+        }
+        drop(*c, "outgoing queue overflow: the edge stopped reading", true);
+        continue;
+      }
+      if (!c->hello && now - c->created_ns > static_cast<uint64_t>(opt_.hello_timeout_ms) * 1'000'000u)
+        closing = closing.empty() ? "no HELLO in time" : closing;
+      if (c->hello && now - c->last_rx_ns > static_cast<uint64_t>(opt_.heartbeat_timeout_ms) * 1'000'000u) {
+        timeout = fmt::format("silent for {} ms (heartbeat timeout)", (now - c->last_rx_ns) / 1'000'000u);
+        std::lock_guard<std::mutex> g(mu_);
+        stats_.timeouts++;
+      }
+      if (!timeout.empty()) {
+        drop(*c, timeout, true);
+        continue;
+      }
+      if (hb && c->hello) {
+        uint8_t buf[VC_PROTO_HEADER_SIZE + 32];
+        size_t len = 0;
+        vc_header hdr{};
+        vc_heartbeat h{now, VC_STATE_HOST};
+        if (vc_encode_heartbeat(buf, sizeof(buf), &len, &hdr, &h) == 0) {
+          std::lock_guard<std::mutex> g(mu_);
+          if (c->out_bytes + len <= opt_.max_out_bytes) {
+            c->out.emplace_back(buf, buf + len);
+            c->out_bytes += len;
+          }
+        }
+      }
+      flush(*c);
+      if (!closing.empty()) {
+        drop(*c, closing, true);
+        continue;
+      }
+    }
+    handler_.on_tick(now);
+  }
+}
+
+}  // namespace vc::session
