@@ -245,7 +245,11 @@ bool Primitive::contains(const cv::Vec3d& p_world) const {
 
 bool Primitive::intersect(const cv::Vec3d& o_world, const cv::Vec3d& d_world, double t_min,
                           double* t_hit) const {
-  const cv::Vec3d o = to_local * (o_world - center);
+  return intersect_from_local(to_local_point(o_world), d_world, t_min, t_hit);
+}
+
+bool Primitive::intersect_from_local(const cv::Vec3d& o, const cv::Vec3d& d_world, double t_min,
+                                     double* t_hit) const {
   const cv::Vec3d d = to_local * d_world;
   double best = HUGE_VAL;
   // Side of the infinite elliptic cylinder; the capsule lies inside it, so a miss is final.
@@ -272,8 +276,11 @@ bool Primitive::intersect(const cv::Vec3d& o_world, const cv::Vec3d& d_world, do
 }
 
 bool Primitive::touches_segment(const cv::Vec3d& a, const cv::Vec3d& b) const {
-  const cv::Vec3d la = to_local * (a - center), lb = to_local * (b - center);
-  return segment_distance2(la, lb, {0, 0, -core}, {0, 0, core}) <= 1.0;
+  return touches_segment_from_local(to_local_point(a), b);
+}
+
+bool Primitive::touches_segment_from_local(const cv::Vec3d& la, const cv::Vec3d& b) const {
+  return segment_distance2(la, to_local_point(b), {0, 0, -core}, {0, 0, core}) <= 1.0;
 }
 
 cv::Vec3d Primitive::normal(const cv::Vec3d& p_world) const {

@@ -49,6 +49,7 @@ struct CameraCache {
   cv::Vec3d center;
   cv::Matx33d R;
   std::vector<cv::Vec3f> ray;   // unit world direction per pixel
+  std::vector<cv::Vec2f> xy;    // its normalized image coordinates (x/z, y/z in the camera)
   std::vector<float> room_t;    // distance to the room surface along the ray
   std::vector<std::uint8_t> is_floor;
   cv::Mat room;                 // CV_8UC3, RGB, clean
@@ -191,20 +192,37 @@ void Scene::Impl::build_cache(int cam_index, CameraCache& cc) const {
   const cv::Matx33d Rt = cam.R_cam_from_world.t();
   const std::size_t npix = static_cast<std::size_t>(w) * static_cast<std::size_t>(h);
   cc.ray.resize(npix);
+  cc.xy.resize(npix);
   cc.room_t.resize(npix);
   cc.is_floor.resize(npix);
   cc.room.create(h, w, CV_8UC3);
   cc.tiles_x = (w + kTile - 1) / kTile;
   cc.tiles_y = (h + kTile - 1) / kTile;
   cc.tiles.assign(static_cast<std::size_t>(cc.tiles_x * cc.tiles_y), TileInfo{});
+  // Undistorted coordinates of every pixel centre (one Newton solve each); the room's 2x2
+  // supersamples interpolate between them (the distortion is smooth at this scale).
+  std::vector<cv::Vec2d> und(npix);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) und[static_cast<std::size_t>(y * w + x)] = cam.undistort(cv::Point2d(x, y));
+  }
+  auto und_at = [&](double fx, double fy) {
+    // Bilinear (extrapolating at the border) in the grid of pixel centres.
+    const int x0 = std::clamp(static_cast<int>(std::floor(fx)), 0, std::max(0, w - 2));
+    const int y0 = std::clamp(static_cast<int>(std::floor(fy)), 0, std::max(0, h - 2));
+    const int x1 = std::min(x0 + 1, w - 1), y1 = std::min(y0 + 1, h - 1);
+    const double ax = fx - x0, ay = fy - y0;
+    auto U = [&](int xx, int yy) { return und[static_cast<std::size_t>(yy * w + xx)]; };
+    return (U(x0, y0) * (1 - ax) + U(x1, y0) * ax) * (1 - ay) + (U(x0, y1) * (1 - ax) + U(x1, y1) * ax) * ay;
+  };
   static const double kSub[4][2] = {{-0.25, -0.25}, {0.25, -0.25}, {-0.25, 0.25}, {0.25, 0.25}};
   for (int y = 0; y < h; ++y) {
     auto* row = cc.room.ptr<cv::Vec3b>(y);
     for (int x = 0; x < w; ++x) {
       const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
-      const cv::Vec2d xy = cam.undistort(cv::Point2d(x, y));
+      const cv::Vec2d xy = und[i];
       const cv::Vec3d d = cv::normalize(Rt * cv::Vec3d(xy[0], xy[1], 1.0));
       cc.ray[i] = cv::Vec3f(static_cast<float>(d[0]), static_cast<float>(d[1]), static_cast<float>(d[2]));
+      cc.xy[i] = cv::Vec2f(static_cast<float>(xy[0]), static_cast<float>(xy[1]));
       // The ray as stored (float) is the one every later test uses.
       const cv::Vec3d df(cc.ray[i][0], cc.ray[i][1], cc.ray[i][2]);
       double t = 0;
@@ -220,7 +238,7 @@ void Scene::Impl::build_cache(int cam_index, CameraCache& cc) const {
       }
       cv::Vec3d sum(0, 0, 0);
       for (const auto& s : kSub) {
-        const cv::Vec2d sxy = cam.undistort(cv::Point2d(x + s[0], y + s[1]));
+        const cv::Vec2d sxy = und_at(x + s[0], y + s[1]);
         const cv::Vec3d sd = Rt * cv::Vec3d(sxy[0], sxy[1], 1.0);
         double st = 0;
         int sface = 0;
@@ -264,7 +282,12 @@ void Scene::Impl::render_clean(int frame, int cam_index, cv::Mat& out, cv::Mat* 
     }
   }
   cv::Vec3d albedo[kPartCount];
-  for (std::size_t k = 0; k < np; ++k) albedo[k] = look.albedo(part_material(prims[k].part));
+  cv::Vec3d eye_local[kPartCount], light_local[kPartCount];
+  for (std::size_t k = 0; k < np; ++k) {
+    albedo[k] = look.albedo(part_material(prims[k].part));
+    eye_local[k] = prims[k].to_local_point(cc.center);
+    light_local[k] = prims[k].to_local_point(L);
+  }
   const double factor = opt.shadow_factor;
   std::vector<int> body_cand, shadow_cand;
   body_cand.reserve(np);
@@ -285,11 +308,14 @@ void Scene::Impl::render_clean(int frame, int cam_index, cv::Mat& out, cv::Mat* 
         for (int x = tx * kTile; x < x_end; ++x) {
           const std::size_t i = static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x);
           const cv::Vec3d d(cc.ray[i][0], cc.ray[i][1], cc.ray[i][2]);
+          const double nx = cc.xy[i][0], ny = cc.xy[i][1];
           double best = cc.room_t[i];
           int hit = -1;
           for (int k : body_cand) {
+            const Rect2& r = screen[static_cast<std::size_t>(k)];
+            if (nx < r.x0 || nx > r.x1 || ny < r.y0 || ny > r.y1) continue;
             double t;
-            if (prims[static_cast<std::size_t>(k)].intersect(cc.center, d, 0.0, &t) && t < best) {
+            if (prims[static_cast<std::size_t>(k)].intersect_from_local(eye_local[k], d, 0.0, &t) && t < best) {
               best = t;
               hit = k;
             }
@@ -308,7 +334,9 @@ void Scene::Impl::render_clean(int frame, int cam_index, cv::Mat& out, cv::Mat* 
           const cv::Vec3d P = cc.center + d * static_cast<double>(cc.room_t[i]);
           bool dark = false;
           for (int k : shadow_cand) {
-            if (prims[static_cast<std::size_t>(k)].touches_segment(P, L)) {
+            const Rect2& r = footprint[static_cast<std::size_t>(k)];
+            if (P[0] < r.x0 || P[0] > r.x1 || P[1] < r.y0 || P[1] > r.y1) continue;
+            if (prims[static_cast<std::size_t>(k)].touches_segment_from_local(light_local[k], P)) {
               dark = true;
               break;
             }
@@ -324,11 +352,7 @@ void Scene::Impl::render_clean(int frame, int cam_index, cv::Mat& out, cv::Mat* 
 }
 
 void Scene::Impl::add_noise(cv::Mat& img, std::uint64_t key, double gain) const {
-  if (gain != 1.0) {
-    cv::Mat lut(1, 256, CV_8U);
-    for (int v = 0; v < 256; ++v) lut.at<std::uint8_t>(v) = to_u8(v * gain);
-    cv::LUT(img, lut, img);
-  }
+  if (gain != 1.0) img.convertTo(img, CV_8U, gain);  // saturate_cast(v * gain)
   if (opt.noise_sigma <= 0) return;
   const int n = static_cast<int>(img.total() * img.channels());
   const int off = static_cast<int>(key % kNoiseSlack);

@@ -135,6 +135,11 @@ struct Primitive {
   bool touches_segment(const cv::Vec3d& a, const cv::Vec3d& b) const;
   // Outward unit normal at a surface point.
   cv::Vec3d normal(const cv::Vec3d& p_world) const;
+  // The same with one end already mapped to scaled-local coordinates (to_local(p)), for loops that
+  // cast many rays from one camera centre or towards one light.
+  cv::Vec3d to_local_point(const cv::Vec3d& p_world) const { return to_local * (p_world - center); }
+  bool intersect_from_local(const cv::Vec3d& o_local, const cv::Vec3d& d_world, double t_min, double* t_hit) const;
+  bool touches_segment_from_local(const cv::Vec3d& a_local, const cv::Vec3d& b_world) const;
   // Axis-aligned world bounding box corners (the 8 corners of the local box, in world).
   std::array<cv::Vec3d, 8> box_corners() const;
 };
