@@ -1,0 +1,12 @@
+# Runs the BVH fuzz target for SECONDS from a corpus seeded with fuzz/seeds/*.bvh (copied into the
+# build tree; the source tree is never written). -D: FUZZER, SEEDS, WORK, SECONDS, DICT.
+file(MAKE_DIRECTORY ${WORK}/corpus ${WORK}/seeds ${WORK}/artifacts)
+file(GLOB seeds ${SEEDS}/*.bvh)
+file(COPY ${seeds} DESTINATION ${WORK}/seeds)
+execute_process(
+  COMMAND ${FUZZER} -max_total_time=${SECONDS} -timeout=10 -rss_limit_mb=2560 -max_len=8192
+          -print_final_stats=1 -dict=${DICT} -artifact_prefix=${WORK}/artifacts/ ${WORK}/corpus ${WORK}/seeds
+  RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "${FUZZER} failed (exit ${rc}); the input that broke it is in ${WORK}/artifacts/")
+endif()
