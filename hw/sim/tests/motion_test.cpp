@@ -168,6 +168,7 @@ TEST(SimBvhMotion, RenderedJointsEqualTheFilesForwardKinematics) {
     }
     EXPECT_GT(compared, 1000);
     EXPECT_LT(worst, 1e-3) << "worst joint error " << worst * 1000 << " mm";
+    RecordProperty(path.stem().string() + "_worst_mm", std::to_string(worst * 1000));
     expect_init_pose(m, path.filename().string());
   }
 }
