@@ -210,10 +210,14 @@ void FtdiGenerator::run(const PulseTrain& train) {
       }
       if (!read && writes.empty()) break;  // pattern finished and fully echoed
 
-      timeval tv{0, 20000};
-      const int rc = libusb_handle_events_timeout_completed(ctx_->usb_ctx, &tv, nullptr);
-      if (rc < 0 && rc != LIBUSB_ERROR_INTERRUPTED && rc != LIBUSB_ERROR_TIMEOUT)
-        throw TriggerError(fmt::format("ftdi: USB event handling failed: {}", libusb_error_name(rc)));
+      // A read can complete at submission (libftdi had echo bytes left over from a larger USB
+      // transfer): then take it at once rather than wait for an event with no read pending.
+      if (!(read && read->completed)) {
+        timeval tv{0, 20000};
+        const int rc = libusb_handle_events_timeout_completed(ctx_->usb_ctx, &tv, nullptr);
+        if (rc < 0 && rc != LIBUSB_ERROR_INTERRUPTED && rc != LIBUSB_ERROR_TIMEOUT)
+          throw TriggerError(fmt::format("ftdi: USB event handling failed: {}", libusb_error_name(rc)));
+      }
       const int64_t now = monotonic_ns();
 
       if (read && read->completed) {
