@@ -102,7 +102,17 @@ int vc_decoder_finish(vc_decoder* dec) {
   size_t pending = dec->wr - dec->rd;
   if (pending == 0) return 0;
   dec->diag.offset = dec->stream_rd;
-  dec->fatal = vc_diag_set(&dec->diag, VC_PROTO_EEOF, "stream ended %zu bytes into a message", pending);
+  if (pending >= VC_PROTO_HEADER_SIZE) { /* next() validated this header already */
+    const uint8_t* h = dec->buf + dec->rd;
+    uint16_t type = (uint16_t)(h[6] | h[7] << 8);
+    uint32_t plen = (uint32_t)h[12] | (uint32_t)h[13] << 8 | (uint32_t)h[14] << 16 | (uint32_t)h[15] << 24;
+    const char* name = vc_msg_type_name(type);
+    dec->fatal = vc_diag_set(&dec->diag, VC_PROTO_EEOF, "stream ended %zu of %zu bytes into a %s message",
+                             pending, (size_t)VC_PROTO_HEADER_SIZE + plen, name ? name : "unknown-type");
+  } else {
+    dec->fatal =
+        vc_diag_set(&dec->diag, VC_PROTO_EEOF, "stream ended %zu bytes into a message header", pending);
+  }
   return dec->fatal;
 }
 

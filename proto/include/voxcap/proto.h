@@ -345,7 +345,7 @@ int vc_frame_encode(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr,
  * bytes needed, nothing consumed); or an error code. After a non-fatal error *consumed is the whole
  * message (skip it and go on), out->hdr and out->payload are filled and out->known tells whether the
  * body was being parsed; after a fatal one *consumed is 0. Views in *out point into buf. diag may be
- * NULL; its offset is 0 (the start of buf). max_payload: 0 means VC_PROTO_MAX_PAYLOAD.
+ * NULL; its offset is 0 (the start of buf). max_payload: 0 means VC_PROTO_MAX_PAYLOAD; larger is -EINVAL.
  * A message of an unknown type with valid framing is returned (1) with out->known = false. */
 int vc_msg_decode(const uint8_t* buf, size_t len, size_t max_payload, vc_msg* out, size_t* consumed,
                   vc_proto_diag* diag);
