@@ -381,7 +381,7 @@ std::string inline_object(const Json& o) {
   for (const auto& [k, v] : o.items()) {
     if (!s.empty()) s += ' ';
     if (v.is_number_unsigned() && shown_in_hex(k))
-      s += fmt::format("{}=0x{:08x}", k, v.get<uint64_t>());
+      s += fmt::format("{}=0x{:0{}x}", k, v.get<uint64_t>(), k == "flags" ? 4 : 8);
     else
       s += k + '=' + scalar_text(v);
   }
