@@ -4,6 +4,7 @@
 // and trigger-datagram vectors hold for the library.
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <cerrno>
 #include <filesystem>
 #include <fstream>
@@ -96,7 +97,8 @@ TEST(Vectors, CoverEveryMessageTypeAndEveryErrorCode) {
 }
 
 TEST(Vectors, RegeneratingGivesByteIdenticalFiles) {
-  const fs::path out = fs::path(testing::TempDir()) / "voxcap_proto_vectors_regen";
+  // Unique per process: several build trees may run this test at once.
+  const fs::path out = fs::path(testing::TempDir()) / ("voxcap_proto_vectors_" + std::to_string(getpid()));
   fs::remove_all(out);
   const auto written = vc::proto::vectors::write_all(out);
   std::vector<std::string> committed;
