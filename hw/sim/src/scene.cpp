@@ -256,8 +256,15 @@ void Scene::Impl::render_clean(int frame, int cam_index, cv::Mat& out, cv::Mat* 
   const rig::Camera& cam = calib.cameras[static_cast<std::size_t>(cam_index)];
   const int w = cam.width, h = cam.height;
   cc.room.copyTo(out);
-  if (sil) *sil = cv::Mat::zeros(h, w, CV_8UC1);
-  if (shadow) *shadow = cv::Mat::zeros(h, w, CV_8UC1);
+  // Reuse the caller's buffers (create() keeps them when the size and type already match).
+  if (sil) {
+    sil->create(h, w, CV_8UC1);
+    sil->setTo(0);
+  }
+  if (shadow) {
+    shadow->create(h, w, CV_8UC1);
+    shadow->setTo(0);
+  }
 
   std::vector<Primitive> prims;
   build_primitives(motion.body_pose(frame), motion.body(), motion.feet(), &prims);
@@ -302,6 +309,7 @@ void Scene::Impl::render_clean(int frame, int cam_index, cv::Mat& out, cv::Mat* 
         if (opt.shadows && !tile.floor.empty() && footprint[k].overlaps(tile.floor)) shadow_cand.push_back(static_cast<int>(k));
       }
       if (body_cand.empty() && shadow_cand.empty()) continue;
+      int last_caster = -1;
       const int y_end = std::min(h, (ty + 1) * kTile), x_end = std::min(w, (tx + 1) * kTile);
       for (int y = ty * kTile; y < y_end; ++y) {
         auto* orow = out.ptr<cv::Vec3b>(y);
@@ -332,13 +340,17 @@ void Scene::Impl::render_clean(int frame, int cam_index, cv::Mat& out, cv::Mat* 
           }
           if (shadow_cand.empty() || !cc.is_floor[i]) continue;
           const cv::Vec3d P = cc.center + d * static_cast<double>(cc.room_t[i]);
-          bool dark = false;
-          for (int k : shadow_cand) {
+          auto casts = [&](int k) {
             const Rect2& r = footprint[static_cast<std::size_t>(k)];
-            if (P[0] < r.x0 || P[0] > r.x1 || P[1] < r.y0 || P[1] > r.y1) continue;
-            if (prims[static_cast<std::size_t>(k)].touches_segment_from_local(light_local[k], P)) {
+            if (P[0] < r.x0 || P[0] > r.x1 || P[1] < r.y0 || P[1] > r.y1) return false;
+            return prims[static_cast<std::size_t>(k)].touches_segment_from_local(light_local[k], P);
+          };
+          // Neighbouring pixels are usually shadowed by the same part: try it first.
+          bool dark = last_caster >= 0 && casts(last_caster);
+          for (std::size_t c = 0; !dark && c < shadow_cand.size(); ++c) {
+            if (shadow_cand[c] != last_caster && casts(shadow_cand[c])) {
               dark = true;
-              break;
+              last_caster = shadow_cand[c];
             }
           }
           if (!dark) continue;
@@ -354,11 +366,21 @@ void Scene::Impl::render_clean(int frame, int cam_index, cv::Mat& out, cv::Mat* 
 void Scene::Impl::add_noise(cv::Mat& img, std::uint64_t key, double gain) const {
   if (gain != 1.0) img.convertTo(img, CV_8U, gain);  // saturate_cast(v * gain)
   if (opt.noise_sigma <= 0) return;
-  const int n = static_cast<int>(img.total() * img.channels());
+  const int row_values = img.cols * img.channels();
   const int off = static_cast<int>(key % kNoiseSlack);
-  cv::Mat flat = img.reshape(1, 1);
-  cv::add(flat, noise_pos.colRange(off, off + n), flat);
-  cv::subtract(flat, noise_neg.colRange(off, off + n), flat);
+  if (img.isContinuous()) {
+    const int n = row_values * img.rows;
+    cv::Mat flat = img.reshape(1, 1);
+    cv::add(flat, noise_pos.colRange(off, off + n), flat);
+    cv::subtract(flat, noise_neg.colRange(off, off + n), flat);
+    return;
+  }
+  for (int y = 0; y < img.rows; ++y) {  // e.g. a caller's ROI: same values, row by row
+    cv::Mat row(1, row_values, CV_8U, img.ptr(y));
+    const int o = off + y * row_values;
+    cv::add(row, noise_pos.colRange(o, o + row_values), row);
+    cv::subtract(row, noise_neg.colRange(o, o + row_values), row);
+  }
 }
 
 double Scene::flicker_gain(int frame) const {

@@ -241,6 +241,21 @@ TEST(SimScene, RenderingIsDeterministicAndSeeded) {
   EXPECT_EQ(cv::countNonZero(differs(t2, ia)), 0);
 }
 
+TEST(SimScene, RendersIntoACallersRegionOfInterest) {
+  SceneOptions o = small("walk");
+  o.noise_sigma = 2;
+  const Scene s(o);
+  cv::Mat whole, sil;
+  s.render(40, 1, whole, &sil);
+  cv::Mat big(200, 300, CV_8UC3, cv::Scalar(1, 2, 3));
+  cv::Mat roi = big(cv::Rect(50, 40, 160, 120));
+  const uchar* data = roi.data;
+  s.render(40, 1, roi);
+  EXPECT_EQ(roi.data, data);  // rendered in place
+  EXPECT_EQ(cv::countNonZero(differs(roi, whole)), 0);
+  EXPECT_EQ(big.at<cv::Vec3b>(0, 0), cv::Vec3b(1, 2, 3));
+}
+
 TEST(SimScene, NoiseHasTheConfiguredSigmaAndFlickerTheConfiguredRange) {
   SceneOptions o = small("tpose");
   o.noise_sigma = 4;
