@@ -16,6 +16,7 @@ struct UsageError : std::runtime_error {
 
 void add_config_commands(CLI::App& app);   // cmd_config.cpp: voxcap config check
 void add_trigger_commands(CLI::App& app);  // cmd_trigger.cpp: voxcap trigger test|listen
+void add_session_commands(CLI::App& app);  // cmd_session.cpp: voxcap session info|dump
 void add_proto_commands(CLI::App& app);    // cmd_proto.cpp: voxcap proto dump
 void add_rig_commands(CLI::App& app);     // cmd_rig.cpp: voxcap rig [--emulated]
 void add_sim_commands(CLI::App& app);     // cmd_sim.cpp: voxcap sim (the virtual rig, hw/sim)

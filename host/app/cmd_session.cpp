@@ -1,0 +1,189 @@
+// `voxcap session info DIR [--json] [--strict]`: what a recorded session holds (host/record).
+// `voxcap session dump DIR [--type T] [--limit N] [--json]`: its records, one line each.
+// A cut session is not an error: it is read up to its last complete record and says so.
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "voxcap/record/recorder.hpp"
+#include "voxcap/record/session_info.hpp"
+
+namespace vc::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using record::Reader;
+
+Reader open_session(const std::string& dir) {
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) throw UsageError(fmt::format("{}: no such session folder", dir));
+  if (!fs::exists(fs::path(dir) / "records.vcr", ec))
+    throw UsageError(fmt::format("{}: not a voxcap session (no records.vcr)", dir));
+  return Reader::open(dir);
+}
+
+struct InfoArgs {
+  std::string dir;
+  bool json = false;
+  bool strict = false;
+};
+
+void run_info(const InfoArgs& a) {
+  const Reader reader = open_session(a.dir);
+  const Reader::Summary& s = reader.summary_ref();
+  const std::string out = a.json ? record::summary_json(s, a.dir) : record::summary_text(s, a.dir);
+  std::fputs(out.c_str(), stdout);
+  if (a.strict) {
+    if (!s.closed_cleanly || s.truncated_bytes > 0)
+      throw std::runtime_error(
+          fmt::format("{}: session is {} ({})", a.dir, to_string(s.stop), s.stop_detail));
+    if (!s.rig_toml_ok || !s.calibration_ok)
+      throw std::runtime_error(fmt::format("{}: rig.toml or calibration.yaml does not verify", a.dir));
+  }
+}
+
+struct DumpArgs {
+  std::string dir;
+  std::string type;
+  uint64_t limit = 0;
+  bool json = false;
+};
+
+nlohmann::json to_json(const record::Record& r) {
+  using nlohmann::json;
+  return std::visit(
+      [](const auto& x) -> json {
+        using T = std::decay_t<decltype(x)>;
+        if constexpr (std::is_same_v<T, record::FrameRecord>) {
+          return {{"type", "frame"},
+                  {"seq", x.seq},
+                  {"t_trigger_ns", x.t_trigger_ns},
+                  {"t_merged_ns", x.t_merged_ns},
+                  {"grid_id", x.grid_id},
+                  {"voxel_count", x.voxel_count},
+                  {"occupied", x.occupied},
+                  {"degraded", x.degraded},
+                  {"nodes_present", x.nodes_present},
+                  {"nodes_missing", x.nodes_missing},
+                  {"rle_bytes", x.rle.size()}};
+        } else if constexpr (std::is_same_v<T, record::FeatureRecord>) {
+          json fs_json = json::array();
+          for (const auto& f : x.features)
+            fs_json.push_back(
+                {{"id", f.id}, {"state", f.state}, {"u", f.u}, {"v", f.v}, {"confidence", f.confidence}});
+          return {{"type", "features"},
+                  {"seq", x.seq},
+                  {"node_id", x.node_id},
+                  {"camera", x.camera},
+                  {"features", fs_json}};
+        } else if constexpr (std::is_same_v<T, record::PoseRecord>) {
+          return {{"type", "pose"},
+                  {"seq", x.seq},
+                  {"layout", x.layout},
+                  {"joint_names", x.joint_names},
+                  {"values", x.values}};
+        } else {
+          json body = json::parse(x.json, nullptr, false);
+          if (body.is_discarded()) body = x.json;
+          return {{"type", "stats"}, {"t_ns", x.t_ns}, {"node_id", x.node_id}, {"stats", body}};
+        }
+      },
+      r);
+}
+
+std::string to_text(const record::Record& r) {
+  return std::visit(
+      [](const auto& x) -> std::string {
+        using T = std::decay_t<decltype(x)>;
+        if constexpr (std::is_same_v<T, record::FrameRecord>) {
+          return fmt::format(
+              "frame    seq {:<8} trigger {} ns  merged +{:.2f} ms  {} of {} voxels occupied{}  nodes {} "
+              "missing {}  rle {} B",
+              x.seq, x.t_trigger_ns,
+              x.t_merged_ns >= x.t_trigger_ns ? static_cast<double>(x.t_merged_ns - x.t_trigger_ns) / 1e6
+                                              : -1.0,
+              x.occupied, x.voxel_count, x.degraded ? " (degraded)" : "", fmt::join(x.nodes_present, ","),
+              x.nodes_missing.empty() ? "-" : fmt::format("{}", fmt::join(x.nodes_missing, ",")),
+              x.rle.size());
+        } else if constexpr (std::is_same_v<T, record::FeatureRecord>) {
+          std::string fs_text;
+          for (const auto& f : x.features)
+            fs_text +=
+                fmt::format("  #{} ({:.1f}, {:.1f}) s{} c{:.2f}", f.id, f.u, f.v, f.state, f.confidence);
+          return fmt::format("features seq {:<8} node {} camera {}:{}", x.seq, x.node_id, x.camera, fs_text);
+        } else if constexpr (std::is_same_v<T, record::PoseRecord>) {
+          return fmt::format(
+              "pose     seq {:<8} {} values ({}){}", x.seq, x.values.size(), x.layout,
+              x.joint_names.empty() ? "" : fmt::format(", joints {}", fmt::join(x.joint_names, " ")));
+        } else {
+          return fmt::format(
+              "stats    t {} ns node {}: {}", x.t_ns,
+              x.node_id == record::kHostNodeId ? std::string("host") : std::to_string(x.node_id), x.json);
+        }
+      },
+      r);
+}
+
+const char* type_name(const record::Record& r) {
+  static const char* const kNames[] = {"frame", "features", "pose", "stats"};
+  return kNames[r.index()];
+}
+
+void run_dump(const DumpArgs& a) {
+  if (!a.type.empty() && a.type != "frame" && a.type != "features" && a.type != "pose" && a.type != "stats")
+    throw UsageError(fmt::format("--type: must be frame, features, pose or stats, got \"{}\"", a.type));
+  Reader reader = open_session(a.dir);
+  record::Record r;
+  uint64_t printed = 0;
+  while ((a.limit == 0 || printed < a.limit) && reader.next(r)) {
+    if (!a.type.empty() && a.type != type_name(r)) continue;
+    const std::string line = a.json ? to_json(r).dump() : to_text(r);
+    std::fputs(line.c_str(), stdout);
+    std::fputc('\n', stdout);
+    ++printed;
+  }
+  const Reader::Summary& s = reader.summary_ref();
+  if (!a.json && !s.closed_cleanly && (a.limit == 0 || printed < a.limit))
+    fmt::print(stderr, "voxcap: {}: session {} ({}); {} bytes ignored\n", a.dir, to_string(s.stop),
+               s.stop_detail, s.truncated_bytes);
+}
+
+}  // namespace
+
+void add_session_commands(CLI::App& app) {
+  CLI::App* session =
+      app.add_subcommand("session", "Inspect recorded sessions (folders written by voxcap-host)");
+  session->require_subcommand(1, 1);
+
+  auto info_args = std::make_shared<InfoArgs>();
+  CLI::App* info = session->add_subcommand(
+      "info",
+      "Print what a session holds: rig, start time, frames (degraded, seq range, gaps), duration, features, "
+      "poses, stats, nodes, and whether it was closed cleanly or cut (torn bytes ignored)");
+  info->add_option("DIR", info_args->dir, "Session folder (holds records.vcr and session.json)")->required();
+  info->add_flag("--json", info_args->json,
+                 "Print one JSON object instead of text (keys: host/record/README.md)");
+  info->add_flag("--strict", info_args->strict,
+                 "Exit 1 unless the session was closed cleanly with no ignored bytes and its rig.toml and "
+                 "calibration.yaml copies match their checksums");
+  info->callback([info_args] { run_info(*info_args); });
+
+  auto dump_args = std::make_shared<DumpArgs>();
+  CLI::App* dump = session->add_subcommand("dump",
+                                           "Print a session's records in file order, one line each "
+                                           "(up to its last complete record)");
+  dump->add_option("DIR", dump_args->dir, "Session folder")->required();
+  dump->add_option("--type", dump_args->type, "Only records of this type: frame, features, pose or stats");
+  dump->add_option("--limit", dump_args->limit, "Stop after printing this many records (0: all)");
+  dump->add_flag("--json", dump_args->json,
+                 "One JSON object per line (hull RLE given as its size, rle_bytes)");
+  dump->callback([dump_args] { run_dump(*dump_args); });
+}
+
+}  // namespace vc::cli

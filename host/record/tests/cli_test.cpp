@@ -1,0 +1,134 @@
+// `voxcap session info|dump` end to end: the real binary on sessions written by the library —
+// closed, cut (torn tail), and not a session at all — checking what it prints and its exit codes.
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <string>
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "session_fixture.hpp"
+#include "voxcap/record/recorder.hpp"
+
+namespace vc::record {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+struct CliRun {
+  int code = -1;
+  std::string out;
+};
+
+// Runs voxcap with `args` (stderr merged into stdout when `merge`), returns exit code and output.
+CliRun voxcap(const std::string& args, bool merge = false) {
+  const std::string cmd = std::string("'") + VOXCAP_CLI + "' " + args + (merge ? " 2>&1" : " 2>/dev/null");
+  CliRun r;
+  FILE* p = ::popen(cmd.c_str(), "r");
+  if (!p) return r;
+  char buf[4096];
+  size_t n;
+  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
+  const int status = ::pclose(p);
+  r.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return r;
+}
+
+class RecordCli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const testing::RigFiles rig = testing::write_rig_files(tmp.path(), "studio");
+    closed = tmp.path() / "closed";
+    Recorder rec = Recorder::create(closed, rig.rig_toml, rig.calibration_yaml, R"({"take": 7})");
+    for (const Record& r : testing::make_session_records(10, 20)) testing::append(rec, r);
+    rec.close();
+
+    cut = tmp.path() / "cut";
+    Recorder rec2 = Recorder::create(cut, rig.rig_toml, rig.calibration_yaml, "");
+    for (const Record& r : testing::make_session_records(0, 5)) testing::append(rec2, r);
+    const uint64_t size = rec2.bytes();
+    ::truncate((cut / "records.vcr").c_str(), static_cast<off_t>(size - 10));  // tear the last record
+  }
+  testing::TempDir tmp;
+  fs::path closed, cut;
+};
+
+TEST_F(RecordCli, InfoJsonOfAClosedSession) {
+  const CliRun r = voxcap("session info --json '" + closed.string() + "'");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto j = nlohmann::json::parse(r.out);
+  EXPECT_EQ(j["rig_name"], "studio");
+  EXPECT_EQ(j["frames"], 20);
+  EXPECT_EQ(j["first_seq"], 10);
+  EXPECT_EQ(j["last_seq"], 29);
+  EXPECT_EQ(j["degraded_frames"], 3);  // seqs 10, 17, 24
+  EXPECT_EQ(j["features"], 40);
+  EXPECT_EQ(j["poses"], 20);
+  EXPECT_EQ(j["stats"], 2);  // seqs 19, 29
+  EXPECT_NEAR(j["duration_s"].get<double>(), 19 * 0.016666667, 1e-6);
+  EXPECT_EQ(j["nodes"].size(), 3u);
+  EXPECT_EQ(j["closed_cleanly"], true);
+  EXPECT_EQ(j["stop"], "closed");
+  EXPECT_EQ(j["truncated_bytes"], 0);
+  EXPECT_EQ(j["rig_toml_ok"], true);
+  EXPECT_EQ(j["meta"]["take"], 7);
+  EXPECT_EQ(j["joint_names"].size(), 11u);
+  EXPECT_EQ(voxcap("session info --strict '" + closed.string() + "'").code, 0);
+}
+
+TEST_F(RecordCli, InfoTextOfACutSession) {
+  const CliRun r = voxcap("session info '" + cut.string() + "'");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("rig       studio"));
+  EXPECT_THAT(r.out, HasSubstr("frames    5 (1 degraded), seq 0 .. 4"));
+  EXPECT_THAT(r.out, HasSubstr("poses     4 records"));  // the torn last record was the pose of seq 4
+  EXPECT_THAT(r.out, HasSubstr("cut, torn tail of"));
+  EXPECT_THAT(r.out, HasSubstr("bytes ignored"));
+  // --strict turns a cut session into exit code 1, after printing.
+  const CliRun strict = voxcap("session info --strict '" + cut.string() + "'", true);
+  EXPECT_EQ(strict.code, 1);
+  EXPECT_THAT(strict.out, HasSubstr("session is torn"));
+
+  const auto j = nlohmann::json::parse(voxcap("session info --json '" + cut.string() + "'").out);
+  EXPECT_EQ(j["closed_cleanly"], false);
+  EXPECT_EQ(j["stop"], "torn");
+  EXPECT_GT(j["truncated_bytes"].get<int>(), 0);
+}
+
+TEST_F(RecordCli, DumpPrintsRecordsInOrder) {
+  const CliRun r = voxcap("session dump --type frame --json '" + closed.string() + "'");
+  ASSERT_EQ(r.code, 0);
+  std::vector<nlohmann::json> lines;
+  size_t start = 0;
+  for (size_t nl; (nl = r.out.find('\n', start)) != std::string::npos; start = nl + 1)
+    lines.push_back(nlohmann::json::parse(r.out.substr(start, nl - start)));
+  ASSERT_EQ(lines.size(), 20u);
+  for (size_t i = 0; i < lines.size(); ++i) {
+    EXPECT_EQ(lines[i]["type"], "frame");
+    EXPECT_EQ(lines[i]["seq"], 10 + i);
+  }
+  const CliRun text = voxcap("session dump --limit 3 '" + closed.string() + "'");
+  EXPECT_EQ(text.code, 0);
+  EXPECT_THAT(text.out, HasSubstr("frame    seq 10"));
+  EXPECT_THAT(text.out, HasSubstr("features seq 10"));
+  EXPECT_EQ(std::count(text.out.begin(), text.out.end(), '\n'), 3);
+}
+
+TEST_F(RecordCli, BadInputIsExitCode2) {
+  CliRun r = voxcap("session info '" + (tmp.path() / "nothing").string() + "'", true);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_THAT(r.out, HasSubstr("no such session folder"));
+  r = voxcap("session info '" + tmp.path().string() + "'", true);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_THAT(r.out, HasSubstr("not a voxcap session"));
+  EXPECT_EQ(voxcap("session dump --type hull '" + closed.string() + "'").code, 2);
+  EXPECT_NE(voxcap("session info").code, 0);
+}
+
+}  // namespace
+}  // namespace vc::record
