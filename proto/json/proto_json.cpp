@@ -127,8 +127,8 @@ Json hull_json(const vc_hull& m, const JsonOptions& opt) {
   j["run_count"] = m.run_count;
   put_hex(j, "rle", m.rle, m.rle_len, opt);
   if (opt.max_runs > 0 && m.rle) {
-    // The first runs, read with the library's own validator over growing prefixes would be
-    // quadratic; a direct LEB128 walk is enough here since the decoder already validated the RLE.
+    // The first max_runs runs. A plain LEB128 walk: the decoder has already validated the RLE, and
+    // the walk is bounded by rle_len and 64-bit values anyway.
     Json runs = Json::array();
     const uint8_t* p = m.rle;
     const uint8_t* end = m.rle + m.rle_len;
