@@ -164,9 +164,9 @@ void run_test(const TestArgs& a) {
       last_t_ns = p.t_ns;
     }
     if (print_pulses) {
-      std::fprintf(stdout, "pulse seq=%llu t_ns=%lld late_us=%.1f\n", static_cast<unsigned long long>(p.seq),
-                   static_cast<long long>(p.t_ns), static_cast<double>(p.lateness_ns) / 1e3);
-      std::fflush(stdout);
+      // Line-buffered so a pipe (| head, a log) sees each pulse as it goes out.
+      fmt::print("pulse seq={} t_ns={} late_us={:.1f}\n", p.seq, p.t_ns, static_cast<double>(p.lateness_ns) / 1e3);
+      (void)std::fflush(stdout);
     }
   });
   if (!a.json)
@@ -201,6 +201,7 @@ void run_test(const TestArgs& a) {
                         {"late", s.late},
                         {"missed", s.missed},
                         {"underruns", s.underruns},
+                        {"paused_ms", static_cast<double>(s.paused_ns) / 1e6},
                         {"errors", s.errors},
                         {"max_lateness_us", static_cast<double>(s.max_lateness_ns) / 1e3},
                         {"lateness_p50_us", percentile(0.5)},
@@ -220,8 +221,8 @@ void run_test(const TestArgs& a) {
         static_cast<double>(s.max_lateness_ns) / 1e3, interval_error_max_us);
     if (options.backend == config::TriggerBackend::Udp) fmt::print(", send errors {}", s.errors);
     if (options.backend == config::TriggerBackend::Ftdi)
-      fmt::print(", underruns {}, pin edges {}, bit-bang {:.1f} Hz", s.underruns, s.pin_edges,
-                 s.sample_rate_hz);
+      fmt::print(", underruns {} ({:.1f} ms), pin edges {}, bit-bang {:.1f} Hz", s.underruns,
+                 static_cast<double>(s.paused_ns) / 1e6, s.pin_edges, s.sample_rate_hz);
     fmt::print(")\n");
   }
   if (!error.empty()) throw std::runtime_error(error);
@@ -280,7 +281,7 @@ void run_listen(const ListenArgs& a) {
     if (!a.quiet)
       fmt::print("pulse seq={} t_ns={} delivery_us={:.1f}\n", seq, t_ns,
                  static_cast<double>(now - static_cast<int64_t>(t_ns)) / 1e3);
-    std::fflush(stdout);
+    (void)std::fflush(stdout);
   }
   fmt::print("received {} pulses ({} missing, {} invalid datagrams)\n", received, missing, invalid);
 }
@@ -324,7 +325,8 @@ void add_trigger_commands(CLI::App& app) {
   test->add_flag(
       "--json", t->json,
       "Print only a JSON summary: backend, target, rate_hz, pulse_width_us, pulses_sent, late, missed, "
-      "underruns, errors, max_lateness_us, lateness_p50_us, lateness_p99_us, interval_error_max_us "
+      "underruns, paused_ms, errors, max_lateness_us, lateness_p50_us, lateness_p99_us, "
+      "interval_error_max_us "
       "(largest distance of a pulse interval from a whole number of periods), pin_edges, sample_rate_hz "
       "(ftdi: measured bit-bang clock), elapsed_s, error (empty when none)");
   test->callback([t] { run_test(*t); });

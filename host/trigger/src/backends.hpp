@@ -9,11 +9,11 @@
 #include <string>
 #include <vector>
 
+#include "bitbang_io.hpp"
 #include "threaded_generator.hpp"
 
 struct gpiod_chip;
 struct gpiod_line_request;
-struct ftdi_context;
 
 namespace vc::trigger::detail {
 
@@ -63,7 +63,8 @@ class GpiodGenerator final : public ScheduledGenerator {
 
 class FtdiGenerator final : public ThreadedGenerator {
  public:
-  explicit FtdiGenerator(const config::TriggerOptions& options);
+  // `open_io` opens the device (default: libftdi); the tests pass a simulated chip.
+  explicit FtdiGenerator(const config::TriggerOptions& options, BitbangIoFactory open_io = open_libftdi_io);
   ~FtdiGenerator() override;
 
   std::string_view backend() const override { return "ftdi"; }
@@ -74,13 +75,11 @@ class FtdiGenerator final : public ThreadedGenerator {
   void run(const PulseTrain& train) override;
 
  private:
-  void close_device();
-
   config::FtdiTriggerOptions ftdi_;
   bool active_low_ = false;
-  ftdi_context* ctx_ = nullptr;
-  uint64_t fs_num_ = 0;  // the planned bit-bang clock (bitbang.hpp), exact
-  uint64_t fs_den_ = 1;
+  BitbangIoFactory open_io_;
+  std::unique_ptr<BitbangIo> io_;  // open between a successful prepare() and a failure or destruction
+  BitbangClock clock_;             // the planned bit-bang clock (bitbang.hpp), exact
 };
 
 }  // namespace vc::trigger::detail

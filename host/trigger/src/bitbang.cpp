@@ -154,8 +154,11 @@ bool StreamLedger::check_underrun(bool pattern_finished) {
   return true;
 }
 
-StreamTimebase::StreamTimebase(uint64_t fs_num, uint64_t fs_den, size_t window)
-    : fs_num_(fs_num), fs_den_(fs_den), window_size_(std::max<size_t>(1, window)) {
+StreamTimebase::StreamTimebase(uint64_t fs_num, uint64_t fs_den, size_t window, int64_t pause_threshold_ns)
+    : fs_num_(fs_num),
+      fs_den_(fs_den),
+      window_size_(std::max<size_t>(2 * kRecent, window)),
+      pause_threshold_ns_(pause_threshold_ns) {
   if (fs_num == 0 || fs_den == 0) throw std::invalid_argument("stream timebase: sample rate must be > 0");
 }
 
@@ -168,12 +171,22 @@ int64_t StreamTimebase::origin_bound(int64_t host_ns, uint64_t echoed) const {
   return echoed == 0 ? host_ns : host_ns - sample_ns(echoed - 1);
 }
 
-void StreamTimebase::observe(int64_t host_ns, uint64_t echoed) {
-  if (echoed == 0) return;
+int64_t StreamTimebase::observe(int64_t host_ns, uint64_t echoed) {
+  if (echoed == 0) return 0;
   window_.push_back(origin_bound(host_ns, echoed));
   if (window_.size() > window_size_) window_.pop_front();
   if (!first_) first_ = {host_ns, echoed};
   last_ = {host_ns, echoed};
+  if (window_.size() <= kRecent) return 0;
+  const auto split = window_.end() - static_cast<std::ptrdiff_t>(kRecent);
+  const int64_t before = *std::min_element(window_.begin(), split);
+  const int64_t recent = *std::min_element(split, window_.end());
+  if (recent - before <= pause_threshold_ns_) return 0;
+  // The chip's timeline moved on by the pause: forget the bounds from before it.
+  window_.erase(window_.begin(), split);
+  ++pauses_;
+  paused_ns_ += recent - before;
+  return recent - before;
 }
 
 int64_t StreamTimebase::host_time_of(uint64_t sample) const {
@@ -183,8 +196,9 @@ int64_t StreamTimebase::host_time_of(uint64_t sample) const {
 
 double StreamTimebase::measured_rate_hz() const {
   if (!first_ || !last_ || last_->first <= first_->first) return 0.0;
-  return static_cast<double>(last_->second - first_->second) * 1e9 /
-         static_cast<double>(last_->first - first_->first);
+  const int64_t running_ns = last_->first - first_->first - paused_ns_;
+  if (running_ns <= 0) return 0.0;
+  return static_cast<double>(last_->second - first_->second) * 1e9 / static_cast<double>(running_ns);
 }
 
 }  // namespace vc::trigger

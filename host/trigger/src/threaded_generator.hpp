@@ -20,6 +20,7 @@ class ThreadedGenerator : public Generator {
   // Derived destructors must call stop() first: the thread calls their virtual functions.
   ~ThreadedGenerator() override;
 
+  using Generator::start;  // start(rate_hz, pulse_width_us) too
   void start(const PulseTrain& train) final;
   void stop() final;
   bool wait_done(std::chrono::milliseconds timeout) final;

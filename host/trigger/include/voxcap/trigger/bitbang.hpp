@@ -20,7 +20,11 @@
 // - StreamLedger: bytes queued vs bytes echoed; all queued bytes echoed while the pattern goes on means
 //   the FIFO ran dry and the chip paused (an underrun: the pulses after it are late by the gap).
 // - StreamTimebase: host CLOCK_MONOTONIC time of sample 0, from (read completion time, bytes echoed)
-//   pairs: each gives an upper bound, the minimum over a sliding window follows crystal drift.
+//   pairs: each gives an upper bound, the minimum over a sliding window follows crystal drift. A pause
+//   of the chip (its FIFO ran dry, or its echo buffer filled because the host did not read in time)
+//   lifts every later bound by the pause's length: when even the smallest of the latest few bounds sits
+//   more than a threshold above the earlier minimum, that is a pause, measured and counted. Pauses
+//   shorter than the threshold (USB delivery jitter is of that order) go unseen here.
 #pragma once
 
 #include <cstddef>
@@ -123,23 +127,33 @@ class StreamLedger {
 
 class StreamTimebase {
  public:
-  StreamTimebase(uint64_t fs_num, uint64_t fs_den, size_t window = 32);
+  StreamTimebase(uint64_t fs_num, uint64_t fs_den, size_t window = 32,
+                 int64_t pause_threshold_ns = 5'000'000);
 
-  // At a read completion: `echoed` samples had been clocked out by host time `host_ns`.
-  void observe(int64_t host_ns, uint64_t echoed);
+  // At a read completion: `echoed` samples had been clocked out by host time `host_ns`. Returns the
+  // length of a chip pause this observation revealed, else 0.
+  int64_t observe(int64_t host_ns, uint64_t echoed);
   bool ready() const { return !window_.empty(); }
   // Estimated CLOCK_MONOTONIC time at which the chip clocked out `sample` (requires ready()).
   int64_t host_time_of(uint64_t sample) const;
-  // Samples per second of host time between the first and the latest observation (0 if unknown).
+  // Samples per second of host time between the first and the latest observation, pauses excluded
+  // (0 if unknown): the chip's bit-bang clock as the host measures it.
   double measured_rate_hz() const;
+  uint64_t pauses() const { return pauses_; }
+  int64_t paused_ns() const { return paused_ns_; }
 
  private:
   int64_t origin_bound(int64_t host_ns, uint64_t echoed) const;
   int64_t sample_ns(uint64_t sample) const;
 
+  static constexpr size_t kRecent = 4;  // a pause must show in this many consecutive bounds
+
   uint64_t fs_num_;
   uint64_t fs_den_;
   size_t window_size_;
+  int64_t pause_threshold_ns_;
+  uint64_t pauses_ = 0;
+  int64_t paused_ns_ = 0;
   std::deque<int64_t> window_;  // origin upper bounds, newest last
   std::optional<std::pair<int64_t, uint64_t>> first_, last_;
 };

@@ -42,7 +42,9 @@ struct Stats {
   uint64_t pulses_sent = 0;
   uint64_t late = 0;       // host-timed: emitted more than late_threshold after the slot
   uint64_t missed = 0;     // host-timed: slots skipped because the thread was far too late
-  uint64_t underruns = 0;  // ftdi: the chip ran out of pattern and paused
+  uint64_t underruns = 0;  // ftdi: pauses of the chip (its queue ran dry, or its echo was not read in
+                           // time) long enough to see (>= 5 ms); pulses after one are late by it
+  int64_t paused_ns = 0;   // ftdi: total length of those pauses
   uint64_t errors = 0;     // udp: datagrams that failed to send
   int64_t max_lateness_ns = 0;
   uint64_t pin_edges = 0;     // ftdi: leading edges seen on the pin in the echo (0 on other backends)
