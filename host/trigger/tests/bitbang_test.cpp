@@ -252,5 +252,43 @@ TEST(StreamTimebase, FollowsAClockThatRunsSlow) {
   EXPECT_NEAR(static_cast<double>(tb.host_time_of(2'000'000)), static_cast<double>(truth), 1.0e6);
 }
 
+TEST(StreamTimebase, APauseOfTheChipIsMeasuredAndCountedOnce) {
+  // 100 kHz, echoes every 5 ms with 0.2..4 ms of delivery jitter (below the 5 ms threshold); after
+  // 1 s the chip pauses 30 ms, so every later sample comes 30 ms late.
+  StreamTimebase tb(100000, 1);
+  std::mt19937 rng(3);
+  std::uniform_int_distribution<int64_t> delay(200'000, 4'000'000);
+  const int64_t origin = 5'000'000'000;
+  int64_t detected = 0;
+  int detections = 0;
+  for (uint64_t echoed = 500; echoed <= 300'000; echoed += 500) {
+    const int64_t pause = echoed > 100'000 ? 30'000'000 : 0;
+    const int64_t clocked = origin + static_cast<int64_t>((echoed - 1) * 10'000) + pause;
+    const int64_t p = tb.observe(clocked + delay(rng), echoed);
+    if (p > 0) {
+      detected = p;
+      ++detections;
+    }
+  }
+  EXPECT_EQ(detections, 1);
+  EXPECT_EQ(tb.pauses(), 1u);
+  EXPECT_NEAR(static_cast<double>(detected), 30e6, 4e6);
+  EXPECT_EQ(tb.paused_ns(), detected);
+  // Times after the pause are on the new timeline; the measured rate leaves the pause out.
+  const int64_t t = tb.host_time_of(250'000);
+  EXPECT_GE(t, origin + 2'500'000'000 + 30'000'000 - 10'000);
+  EXPECT_LE(t, origin + 2'500'000'000 + 30'000'000 + 4'000'000);
+  EXPECT_NEAR(tb.measured_rate_hz(), 100000.0, 100.0);
+}
+
+TEST(StreamTimebase, DeliveryJitterAloneIsNoPause) {
+  StreamTimebase tb(100000, 1);
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int64_t> delay(0, 4'900'000);  // just below the threshold
+  for (uint64_t echoed = 500; echoed <= 1'000'000; echoed += 500)
+    tb.observe(static_cast<int64_t>((echoed - 1) * 10'000) + delay(rng), echoed);
+  EXPECT_EQ(tb.pauses(), 0u);
+}
+
 }  // namespace
 }  // namespace vc::trigger
