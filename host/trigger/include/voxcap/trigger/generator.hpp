@@ -10,7 +10,8 @@
 // Lifecycle: construct (cheap, no device access) -> start(train) opens the device on first use and
 // starts the pulse thread -> stop() (or a finite train ends by itself) -> start() again is allowed.
 // Errors: start() throws TriggerError with a message naming the backend and the device; a failure
-// while running stops the pulses, and last_error() says why. Every backend counts pulses_sent().
+// while running stops the pulses, and last_error() says why. Every backend counts pulses_sent();
+// counts and stats restart with each start().
 // Thread-safety: start/stop/wait_done from one controlling thread; the getters from any thread.
 #pragma once
 
@@ -34,7 +35,8 @@ struct TriggerError : std::runtime_error {
 struct Pulse {
   uint64_t seq = 0;         // pulse counter; every frame of this pulse carries it
   int64_t t_ns = 0;         // CLOCK_MONOTONIC time of the leading edge as this host knows it
-                            // (ftdi: estimated from the echo stream, within about a USB frame)
+                            // (ftdi: estimated from the echo stream, late by at most the echo's
+                            // USB delivery delay, about a millisecond)
   int64_t lateness_ns = 0;  // host-timed backends: how late against the schedule; ftdi: 0
 };
 
@@ -62,7 +64,8 @@ struct PulseTrain {
   static PulseTrain from(const config::TriggerOptions& options, uint64_t count = 0);
 };
 
-// Called on the generator's thread after each pulse's leading edge; keep it short.
+// Called on the generator's thread for each pulse, in seq order (udp: after the sends; gpiod: after
+// the trailing edge; ftdi: once the chip's echo shows the pulse); keep it short.
 using PulseObserver = std::function<void(const Pulse&)>;
 
 class Generator {
@@ -73,7 +76,7 @@ class Generator {
   Generator& operator=(const Generator&) = delete;
 
   virtual std::string_view backend() const = 0;
-  // Human-readable target ("udp 127.0.0.1:7700, 127.0.0.1:7701", "gpiod /dev/gpiochip0:18", ...).
+  // Human-readable target ("udp 127.0.0.1:7700, 127.0.0.1:7701", "gpiod /dev/gpiochip0 line 18", ...).
   virtual std::string describe() const = 0;
 
   // Starts emitting; throws TriggerError (device missing or busy, train invalid, already running).
