@@ -3,8 +3,9 @@
 // holds what was written, the frame seqs run consecutively from the first, and nothing the child's
 // append() had returned from is lost (write(2) put it in the page cache, which outlives the process).
 //
-// Frame sizes vary from a few hundred bytes to 2 MiB so that the kill sometimes lands inside a large
-// write (SIGKILL can cut a write to a regular file short: a torn tail). Three rounds, different delays.
+// Frame sizes vary from a few hundred bytes to 2 MiB, three rounds with different delays. A second
+// test appends 8 MiB records back to back, so that the kill often lands inside a write: SIGKILL can
+// cut a write(2) to a regular file short, leaving a torn record that the reader must drop.
 #include <signal.h>
 #include <sys/mman.h>
 #include <sys/wait.h>
@@ -71,8 +72,8 @@ struct Shared {
     Recorder rec = Recorder::create(dir, rig.rig_toml, rig.calibration_yaml, R"({"test": "kill -9"})");
     auto last_flush = std::chrono::steady_clock::now();
     uint64_t appended = 0;
-    // Bounded: ~1.5 GB of records at most; the parent kills us long before.
-    for (uint64_t seq = first_seq; seq < first_seq + 200'000; ++seq) {
+    // Bounded (~1 GB at most); the parent kills us long before.
+    for (uint64_t seq = first_seq; seq < first_seq + 100'000; ++seq) {
       rec.append(kill_frame(seq, pool));
       shared->appended.store(++appended, std::memory_order_release);
       rec.append(testing::make_features(seq, 0, 0));
@@ -168,6 +169,85 @@ TEST(RecordKill, SessionKilledWithSigkillReopensUpToItsLastCompleteRecord) {
     std::error_code ec;
     fs::remove_all(dir, ec);  // keep the temp folder small between rounds
   }
+  shared->~Shared();
+  ::munmap(mem, sizeof(Shared));
+}
+
+// An 8 MiB pose record that is cheap to encode (128 joint names of 64 KiB: a few memcpy), so most of
+// an append is the write(2) itself and the kill usually lands inside one.
+PoseRecord big_pose(uint64_t seq) {
+  PoseRecord p;
+  p.seq = seq;
+  p.layout = "kill-test";
+  for (int i = 0; i < 128; ++i) p.joint_names.emplace_back(65535, static_cast<char>('a' + i % 26));
+  p.joint_names[0][0] = static_cast<char>('A' + seq % 26);
+  p.values = {static_cast<double>(seq)};
+  return p;
+}
+
+TEST(RecordKill, KillInsideLargeWritesLeavesATornTailThatIsIgnored) {
+  testing::TempDir tmp;
+  const testing::RigFiles rig = testing::write_rig_files(tmp.path());
+  void* mem = ::mmap(nullptr, sizeof(Shared), PROT_READ | PROT_WRITE, MAP_SHARED | MAP_ANONYMOUS, -1, 0);
+  ASSERT_NE(mem, MAP_FAILED);
+  auto* shared = new (mem) Shared;
+  int torn = 0, attempts = 0;
+  for (int attempt = 0; attempt < 6 && torn < 2; ++attempt, ++attempts) {
+    SCOPED_TRACE("attempt " + std::to_string(attempt));
+    const fs::path dir = tmp.path() / ("big" + std::to_string(attempt));
+    shared->appended.store(0);
+    const pid_t pid = ::fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      try {
+        Recorder rec = Recorder::create(dir, rig.rig_toml, rig.calibration_yaml, "");
+        PoseRecord p = big_pose(0);
+        for (uint64_t seq = 0; seq < 48; ++seq) {  // 384 MiB at most; killed long before
+          p.seq = seq;                             // == big_pose(seq), without rebuilding 8 MiB
+          p.joint_names[0][0] = static_cast<char>('A' + seq % 26);
+          p.values[0] = static_cast<double>(seq);
+          rec.append(p);
+          shared->appended.store(seq + 1, std::memory_order_release);
+        }
+        ::_exit(3);
+      } catch (...) {
+        ::_exit(2);
+      }
+    }
+    for (int i = 0; i < 10'000 && shared->appended.load() < 1; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    std::this_thread::sleep_for(std::chrono::milliseconds(3 + 7 * attempt));
+    ASSERT_EQ(::kill(pid, SIGKILL), 0);
+    int status = 0;
+    ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+    ASSERT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == SIGKILL) << "exit code " << WEXITSTATUS(status);
+    const uint64_t appended = shared->appended.load(std::memory_order_acquire);
+
+    Reader reader = Reader::open(dir);
+    const Reader::Summary s = reader.summary();
+    EXPECT_NE(s.stop, Reader::Stop::Corrupt) << s.stop_detail;
+    EXPECT_GE(s.records, appended);
+    EXPECT_LE(s.records, appended + 1);
+    EXPECT_EQ(s.valid_bytes + s.truncated_bytes, s.file_bytes);
+    if (s.stop == Reader::Stop::TornTail) ++torn;
+    Record r;
+    uint64_t seq = 0;
+    while (reader.next(r)) {
+      ASSERT_TRUE(std::holds_alternative<PoseRecord>(r));
+      ASSERT_TRUE(testing::same_record(r, big_pose(seq))) << "pose " << seq << " differs";
+      ++seq;
+    }
+    EXPECT_EQ(seq, s.records);
+    std::printf(
+        "[ kill -9 ] 8 MiB records, attempt %d: %llu whole (%llu appended), end: %s, %llu bytes ignored\n",
+        attempt, static_cast<unsigned long long>(s.records), static_cast<unsigned long long>(appended),
+        to_string(s.stop), static_cast<unsigned long long>(s.truncated_bytes));
+    std::error_code ec;
+    fs::remove_all(dir, ec);
+  }
+  std::printf("[ kill -9 ] torn tails in %d of %d attempts (timing-dependent; not asserted)\n", torn,
+              attempts);
+  ::testing::Test::RecordProperty("torn_attempts", torn);
   shared->~Shared();
   ::munmap(mem, sizeof(Shared));
 }
