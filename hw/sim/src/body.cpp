@@ -316,13 +316,11 @@ void build_primitives(const BodyPose& pose, const BodyDescription& body, const F
   out->push_back(segment(Part::abdomen, P(Joint::hips), P(Joint::spine), abdomen_x, body.abdomen_radii_m));
   const cv::Vec3d chest_dir = safe_normalize(P(Joint::neck) - P(Joint::spine), axis(Joint::spine, 2));
   const double chest_len = std::max(0.0, cv::norm(P(Joint::neck) - P(Joint::spine)) - 0.8 * body.chest_radii_m[2]);
-  const cv::Vec3d shoulder_x = P(Joint::l_shoulder) - P(Joint::r_shoulder);
   out->push_back(segment(Part::chest, P(Joint::spine), P(Joint::spine) + chest_dir * chest_len,
                          axis(Joint::spine, 0), body.chest_radii_m));
   const double rs = body.shoulder_radius_m;
   out->push_back(segment(Part::shoulders, P(Joint::r_shoulder), P(Joint::l_shoulder), axis(Joint::spine, 1),
                          {rs, rs, rs}));
-  (void)shoulder_x;
 
   // Neck and head.
   const double rn = body.neck_radius_m;
