@@ -66,8 +66,9 @@ void load_edge_toml(const std::string& path, EdgeSettings& s) {
     throw ConfigError(fmt::format("{}:{}:{}: {}", path, e.source().begin.line, e.source().begin.column,
                                   e.description()));
   }
-  r.check_keys(root, "", {"node_id", "host", "cameras", "trigger", "link", "log"});
+  r.check_keys(root, "", {"node_id", "state_dir", "host", "cameras", "trigger", "link", "log"});
   r.get(root, "", "node_id", s.node_id);
+  r.get(root, "", "state_dir", s.state_dir);
   if (auto* h = r.table(root, "host")) {
     r.check_keys(*h, "host.", {"address", "port"});
     r.get(*h, "host.", "address", s.host);
@@ -223,6 +224,7 @@ vc_edged_options to_options(const EdgeSettings& s) {
   o.stats_ms = s.stats_ms;
   o.camera_timeout_ms = s.camera_timeout_ms;
   o.verbosity = s.verbosity;
+  o.state_dir = s.state_dir.empty() ? nullptr : s.state_dir.c_str();
   return o;
 }
 

@@ -54,6 +54,7 @@ struct EdgeSettings {
   int stats_ms = 1000;
   int camera_timeout_ms = 2000;
   int verbosity = 1;
+  std::string state_dir;  // where the learnt background model is kept across restarts ("" = not kept)
 
   // Throws ConfigError naming the key.
   void validate() const;

@@ -461,6 +461,19 @@ static void link_log(void* user, int level, const char* line) {
 
 /* ---- the pipeline thread ------------------------------------------------------------------------- */
 
+/* Publishes the node state and, when it changed, tells the host at once (a HEARTBEAT out of turn):
+ * the host drives the session on these changes, and waiting for the periodic heartbeat would add up
+ * to a heartbeat period to every step of a (re)join. */
+static void publish_state(edged* d) {
+  uint32_t st = vc_node_state(d->node);
+  if (atomic_exchange(&d->node_state, st) == st || !d->link) return;
+  uint8_t buf[VC_PROTO_HEADER_SIZE + 32];
+  size_t len = 0;
+  vc_header hdr = {.node_id = d->opt->node_id};
+  vc_heartbeat hb = {.sender_time_ns = vc_clock_monotonic_ns(), .state = st};
+  if (vc_encode_heartbeat(buf, sizeof(buf), &len, &hdr, &hb) == 0) vc_link_send(d->link, buf, len);
+}
+
 static void handle_ctl(edged* d, ctl* c) {
   char why[256] = "", warn[256] = "";
   int rc;
@@ -502,7 +515,7 @@ static void handle_ctl(edged* d, ctl* c) {
       logm(2, "stopped");
       break;
   }
-  atomic_store(&d->node_state, vc_node_state(d->node));
+  publish_state(d);
 }
 
 static void handle_work(edged* d, const work_item* w) {
@@ -513,6 +526,10 @@ static void handle_work(edged* d, const work_item* w) {
     int rc = vc_node_background_add(d->node, rgb, stride);
     if (rc == 1) {
       logm(2, "background learnt");
+      if (d->opt->state_dir) {
+        int src = vc_node_save_background(d->node, d->opt->state_dir);
+        if (src < 0) logm(1, "cannot keep the background model in %s: %s", d->opt->state_dir, strerror(-src));
+      }
       cams_enter_phase(d, PH_IDLE, 0);
     } else if (rc < 0) {
       send_error(d, VC_ERR_INTERNAL, VC_SEVERITY_ERROR, VC_MSG_BACKGROUND, "background learning failed: %s",
@@ -533,7 +550,7 @@ static void handle_work(edged* d, const work_item* w) {
                  (unsigned long long)w->seq, vc_proto_strerror(rc));
     }
   }
-  atomic_store(&d->node_state, vc_node_state(d->node));
+  publish_state(d);
 }
 
 static void send_stats(edged* d) {
@@ -679,6 +696,13 @@ int vc_edged_run(const vc_edged_options* opt) {
     rc = -errno;
     logm(0, "node: %s", strerror(errno));
     goto out;
+  }
+  if (opt->state_dir) {
+    int lrc = vc_node_load_background(d->node, opt->state_dir, why, sizeof(why));
+    if (lrc == 0)
+      logm(2, "restored the background model kept in %s", opt->state_dir);
+    else if (lrc != -ENOENT)
+      logm(1, "not restoring the background model: %s", why);
   }
   atomic_store(&d->node_state, vc_node_state(d->node));
   uint8_t hello[VC_PROTO_HEADER_SIZE + 256];

@@ -38,6 +38,7 @@ typedef struct vc_edged_options {
   int camera_timeout_ms;         /* a camera that delivers nothing this long is reported, 0 = 2000 */
   unsigned frame_slots;          /* copied frames per camera, 0 = 4 */
   int verbosity;                 /* 0 warnings, 1 info, 2 debug */
+  const char* state_dir;         /* keep the learnt background here and restore it at start (NULL: off) */
 } vc_edged_options;
 
 /* Opens cameras and trigger once to check the configuration and the devices; prints what it found

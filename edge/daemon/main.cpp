@@ -31,7 +31,7 @@ int main(int argc, char** argv) {
   std::string config_path;
   bool check = false;
   int node_id = -1, port = -1, trigger_port = -1, gpio_line = -1, verbosity = -1;
-  std::string host, trigger, gpio_chip, camera0, camera1, size;
+  std::string host, trigger, gpio_chip, camera0, camera1, size, state_dir;
   app.add_option("-c,--config", config_path, "edge.toml to read (keys not given keep their defaults)");
   app.add_option("--node-id", node_id, "this node's id (overrides node_id)");
   app.add_option("--host", host, "host address (overrides host.address)");
@@ -44,6 +44,8 @@ int main(int argc, char** argv) {
   app.add_option("--camera1", camera1, "second camera as BACKEND[:DEVICE]");
   app.add_option("--size", size, "both cameras' size WxH (overrides cameras[].width/height)");
   app.add_option("-v,--verbosity", verbosity, "0 warnings, 1 info, 2 debug");
+  app.add_option("--state-dir", state_dir,
+                 "keep the learnt background model here and restore it after a restart (overrides state_dir)");
   app.add_flag("--check", check, "validate the configuration, open the cameras and the trigger, report, and exit");
   CLI11_PARSE(app, argc, argv);
 
@@ -66,6 +68,7 @@ int main(int argc, char** argv) {
       for (auto& c : s.cameras) c.width = w, c.height = h;
     }
     if (verbosity >= 0) s.verbosity = verbosity;
+    if (!state_dir.empty()) s.state_dir = state_dir;
     s.validate();
   } catch (const std::exception& e) {
     fmt::print(stderr, "voxcap-edge: {}\n", e.what());

@@ -13,6 +13,7 @@
 #include "voxcap/edge/bgmodel.h"
 #include "voxcap/edge/carver.h"
 #include "voxcap/edge/cleanup.h"
+#include "voxcap/crc32c.h"
 #include "voxcap/rle.h"
 
 enum { ST_SUBTRACT, ST_CLEANUP, ST_CARVE, ST_ENCODE, ST_COUNT };
@@ -278,6 +279,109 @@ int vc_node_background_add(vc_node* n, const uint8_t* const rgb[VC_NODE_CAMS],
   n->bg_learnt = true;
   n->state = VC_STATE_READY;
   return 1;
+}
+
+#define BG_MAGIC 0x47424356u /* "VCBG" */
+
+static void put_u32(uint8_t* p, uint32_t v) {
+  for (int i = 0; i < 4; i++) p[i] = (uint8_t)(v >> (8 * i));
+}
+static uint32_t get_u32(const uint8_t* p) {
+  return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
+}
+
+int vc_node_save_background(const vc_node* n, const char* dir) {
+  if (!n->bg_learnt) return -EAGAIN;
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
+    size_t px = (size_t)n->cams[c].width * (size_t)n->cams[c].height * 3;
+    size_t len = 24 + px + 2 * px;
+    uint8_t* buf = malloc(len);
+    if (!buf) return -ENOMEM;
+    memcpy(buf + 24, vc_bgmodel_mean(n->bg[c]), px);
+    const uint16_t* sg = vc_bgmodel_sigma_q8(n->bg[c]);
+    for (size_t i = 0; i < px; i++) {
+      buf[24 + px + 2 * i] = (uint8_t)sg[i];
+      buf[24 + px + 2 * i + 1] = (uint8_t)(sg[i] >> 8);
+    }
+    put_u32(buf, BG_MAGIC);
+    put_u32(buf + 4, 1);
+    put_u32(buf + 8, (uint32_t)n->cams[c].width);
+    put_u32(buf + 12, (uint32_t)n->cams[c].height);
+    put_u32(buf + 16, (uint32_t)vc_bgmodel_frames(n->bg[c]));
+    put_u32(buf + 20, vc_crc32c(0, buf + 24, len - 24));
+    char path[4096], tmp[4200];
+    snprintf(path, sizeof(path), "%s/background-cam%d.vcbg", dir, c);
+    snprintf(tmp, sizeof(tmp), "%s.tmp", path);
+    FILE* f = fopen(tmp, "wb");
+    int rc = 0;
+    if (!f || fwrite(buf, 1, len, f) != len) rc = -EIO;
+    if (f && fclose(f) != 0) rc = -EIO;
+    if (rc == 0 && rename(tmp, path) != 0) rc = -errno; /* atomic: a crash leaves the old file */
+    free(buf);
+    if (rc < 0) return rc;
+  }
+  return 0;
+}
+
+int vc_node_load_background(vc_node* n, const char* dir, char* why, size_t why_len) {
+  vc_bgmodel* models[VC_NODE_CAMS] = {NULL, NULL};
+  uint8_t* buf = NULL;
+  int rc = 0;
+  for (int c = 0; c < VC_NODE_CAMS && rc == 0; c++) {
+    char path[4096];
+    snprintf(path, sizeof(path), "%s/background-cam%d.vcbg", dir, c);
+    FILE* f = fopen(path, "rb");
+    if (!f) {
+      rc = errno == ENOENT ? -ENOENT : -errno;
+      snprintf(why, why_len, "%s: %s", path, strerror(errno));
+      break;
+    }
+    size_t px = (size_t)n->cams[c].width * (size_t)n->cams[c].height * 3;
+    size_t len = 24 + 3 * px;
+    buf = malloc(len + 1);
+    size_t got = buf ? fread(buf, 1, len + 1, f) : 0;
+    fclose(f);
+    if (!buf) {
+      rc = -ENOMEM;
+      break;
+    }
+    if (got < 24 || get_u32(buf) != BG_MAGIC || get_u32(buf + 4) != 1) {
+      snprintf(why, why_len, "%s: not a background model", path);
+      rc = -EINVAL;
+    } else if ((int)get_u32(buf + 8) != n->cams[c].width || (int)get_u32(buf + 12) != n->cams[c].height ||
+               got != len) {
+      snprintf(why, why_len, "%s: learnt at %ux%u, camera %d delivers %dx%d", path, get_u32(buf + 8),
+               get_u32(buf + 12), c, n->cams[c].width, n->cams[c].height);
+      rc = -EINVAL;
+    } else if (vc_crc32c(0, buf + 24, len - 24) != get_u32(buf + 20)) {
+      snprintf(why, why_len, "%s: checksum mismatch (corrupt file)", path);
+      rc = -EINVAL;
+    } else {
+      uint16_t* sg = malloc(px * sizeof(uint16_t));
+      models[c] = vc_bgmodel_new(n->cams[c].width, n->cams[c].height);
+      if (!sg || !models[c]) {
+        rc = -ENOMEM;
+      } else {
+        for (size_t i = 0; i < px; i++) sg[i] = (uint16_t)(buf[24 + px + 2 * i] | buf[24 + px + 2 * i + 1] << 8);
+        rc = vc_bgmodel_restore(models[c], buf + 24, sg, (int)get_u32(buf + 16));
+      }
+      free(sg);
+    }
+    free(buf);
+    buf = NULL;
+  }
+  if (rc < 0) {
+    for (int c = 0; c < VC_NODE_CAMS; c++) vc_bgmodel_free(models[c]);
+    return rc;
+  }
+  free_models(n);
+  for (int c = 0; c < VC_NODE_CAMS; c++) n->bg[c] = models[c];
+  n->bg_learnt = true;
+  if (n->have_cfg) {
+    for (int c = 0; c < VC_NODE_CAMS; c++) vc_bgmodel_set_params(n->bg[c], &n->sub);
+    n->state = VC_STATE_READY;
+  }
+  return 0;
 }
 
 int vc_node_start(vc_node* n, uint64_t first_seq) {

@@ -56,6 +56,16 @@ int vc_node_background_begin(vc_node* node, uint32_t frames);
 int vc_node_background_add(vc_node* node, const uint8_t* const rgb[VC_NODE_CAMS],
                            const size_t stride[VC_NODE_CAMS]);
 
+/* Background persistence. An edge that restarts mid-session cannot learn the empty scene again with
+ * the performer in it, so the learnt model is kept in dir/background-cam<k>.vcbg (little-endian:
+ * "VCBG", u32 version 1, u32 width, u32 height, u32 frames, u32 CRC32C of what follows, then the mean
+ * (u8) and sigma (u16 Q8.8) images, RGB interleaved). save: 0 or a negative errno (-EAGAIN when no
+ * model is learnt). load: 0 when both cameras' models were restored (a later CONFIG then makes the node
+ * READY without BACKGROUND), -ENOENT when there is none, -EINVAL when a file is corrupt or its size does
+ * not match the camera (why says which), other negative errno on I/O errors. */
+int vc_node_save_background(const vc_node* node, const char* dir);
+int vc_node_load_background(vc_node* node, const char* dir, char* why, size_t why_len);
+
 /* START: stream frames with seq >= first_seq. -EAGAIN unless READY (or already RUNNING). */
 int vc_node_start(vc_node* node, uint64_t first_seq);
 /* STOP: back to READY. */

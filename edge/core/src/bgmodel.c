@@ -165,6 +165,29 @@ err_nomem:
   return -ENOMEM;
 }
 
+int vc_bgmodel_restore(vc_bgmodel *m, const uint8_t *mean, const uint16_t *sigma_q8, int frames) {
+  if (m == NULL || mean == NULL || sigma_q8 == NULL || frames < 2) return -EINVAL;
+  if (m->finished || m->frames != 0) return -EBUSY;
+  const size_t n = (size_t)m->width * (size_t)m->height * 3;
+  uint8_t *mu = malloc(n);
+  uint16_t *sg = malloc(n * sizeof(*sg));
+  if (mu == NULL || sg == NULL) {
+    free(mu);
+    free(sg);
+    return -ENOMEM;
+  }
+  memcpy(mu, mean, n);
+  memcpy(sg, sigma_q8, n * sizeof(*sg));
+  free(m->sum);
+  free(m->sumsq);
+  m->sum = m->sumsq = NULL;
+  m->mean = mu;
+  m->sigma_q8 = sg;
+  m->frames = frames;
+  m->finished = true;
+  return 0;
+}
+
 int vc_bgmodel_set_params(vc_bgmodel *m, const vc_subtract_params *p) {
   if (m == NULL || vc_subtract_params_check(p, NULL) != 0) return -EINVAL;
   if (!m->finished) return -EAGAIN;

@@ -4,7 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <string>
+#include <unistd.h>
 #include <vector>
 
 #include "voxcap/edge/carver.h"
@@ -226,6 +229,65 @@ TEST(Node, WarnsWhenPartOfTheGridIsUnseen) {
   ASSERT_EQ(vc_node_configure(n, &cfg, why, sizeof(why), warn, sizeof(warn)), 0);
   EXPECT_NE(std::strstr(warn, "not seen"), nullptr) << warn;
   vc_node_free(n);
+}
+
+}  // namespace
+
+namespace {
+
+TEST(Node, KeptBackgroundIsRestoredAfterARestart) {
+  char dir[] = "/tmp/voxcap-node-XXXXXX";
+  ASSERT_NE(mkdtemp(dir), nullptr);
+  vc_config cfg = make_config();
+  char why[256], warn[256];
+  {
+    vc_node* n = make_node();
+    ASSERT_EQ(vc_node_configure(n, &cfg, why, sizeof(why), warn, sizeof(warn)), 0);
+    EXPECT_EQ(vc_node_save_background(n, dir), -EAGAIN);  // nothing learnt yet
+    learn_background(n);
+    ASSERT_EQ(vc_node_save_background(n, dir), 0);
+    vc_node_free(n);
+  }
+  vc_node* n = make_node();  // "restarted"
+  ASSERT_EQ(vc_node_load_background(n, dir, why, sizeof(why)), 0) << why;
+  EXPECT_EQ(vc_node_state(n), (uint32_t)VC_STATE_IDLE);
+  ASSERT_EQ(vc_node_configure(n, &cfg, why, sizeof(why), warn, sizeof(warn)), 0);
+  EXPECT_EQ(vc_node_state(n), (uint32_t)VC_STATE_READY);  // no BACKGROUND needed
+  ASSERT_EQ(vc_node_start(n, 0), 0);
+  auto fg = frame(230, 30, 30, 1);
+  const uint8_t* rgb[2] = {fg.data(), fg.data()};
+  size_t stride[2] = {W * 3, W * 3};
+  const uint8_t* msg;
+  size_t len;
+  ASSERT_EQ(vc_node_process(n, 1, 0, rgb, stride, &msg, &len), 0);
+  EXPECT_EQ(vc_node_mask(n, 0)[0], 255);  // the restored model classifies
+  vc_node_free(n);
+
+  // A camera of another size does not take it; a flipped byte is caught.
+  vc_node_camera small[2] = {{W / 2, H, 0, 0}, {W / 2, H, 0, 0}};
+  vc_node* other = vc_node_new(3, small);
+  EXPECT_EQ(vc_node_load_background(other, dir, why, sizeof(why)), -EINVAL);
+  EXPECT_NE(std::strstr(why, "learnt at 160x120"), nullptr) << why;
+  vc_node_free(other);
+  std::string path = std::string(dir) + "/background-cam1.vcbg";
+  FILE* f = std::fopen(path.c_str(), "r+b");
+  ASSERT_NE(f, nullptr);
+  std::fseek(f, 1000, SEEK_SET);
+  std::fputc(0x5A, f);
+  std::fclose(f);
+  vc_node* again = make_node();
+  EXPECT_EQ(vc_node_load_background(again, dir, why, sizeof(why)), -EINVAL);
+  EXPECT_NE(std::strstr(why, "checksum"), nullptr) << why;
+  vc_node_free(again);
+  char empty[] = "/tmp/voxcap-node-none-XXXXXX";
+  ASSERT_NE(mkdtemp(empty), nullptr);
+  vc_node* fresh = make_node();
+  EXPECT_EQ(vc_node_load_background(fresh, empty, why, sizeof(why)), -ENOENT);
+  vc_node_free(fresh);
+  std::remove((std::string(dir) + "/background-cam0.vcbg").c_str());
+  std::remove(path.c_str());
+  rmdir(dir);
+  rmdir(empty);
 }
 
 }  // namespace

@@ -242,7 +242,7 @@ void Aggregator::advance(Node& n) {
                              [](const auto& x) { return x->connected && x->state == VC_STATE_READY; });
       if (!all) return;
       run_started_ = true;
-      origin_ = last_pulse_seq_ + static_cast<uint64_t>(opt_.start_margin_pulses);
+      origin_ = last_pulse_seq_ + std::max<uint64_t>(6, static_cast<uint64_t>(std::ceil(opt_.start_margin_s * rig_.trigger.rate_hz)));
       log(0, fmt::format("every node is ready: the run starts at seq {}", origin_));
       for (auto& x : nodes_) {
         x->start_sent = false;
@@ -388,6 +388,8 @@ Report Aggregator::report() const {
   r.fps = r.seconds > 0 ? double(frames_ - 1) / r.seconds : 0;
   r.merged = merged_;
   r.running = run_started_;
+  if (server_) r.server = server_->stats();
+  r.pending_frames = assembler_->pending();
   r.origin = origin_;
   for (const auto& n : nodes_) {
     NodeReport nr = n->rep;

@@ -213,7 +213,7 @@ TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
   e2.state(VC_STATE_READY);
   int64_t origin = e2.expect(VC_MSG_START);
   ASSERT_EQ(e1.expect(VC_MSG_START), origin);
-  EXPECT_EQ(origin, 106);  // last pulse + the margin
+  EXPECT_EQ(origin, 118);  // last pulse + the margin (0.3 s at 60 Hz)
   e1.state(VC_STATE_RUNNING);
   e2.state(VC_STATE_RUNNING);
   for (int i = 0; i < 100 && !agg.all_running(); i++) std::this_thread::sleep_for(std::chrono::milliseconds(10));
@@ -222,8 +222,8 @@ TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
   uint32_t gid = grid_id(make_rig(tmp.p).grid);
   std::vector<uint8_t> a(8, 0xF0), b(8, 0x3C);
   uint64_t t106 = session::monotonic_ns();
-  e1.hull(106, t106, gid, a);
-  e2.hull(106, t106, gid, b);
+  e1.hull(118, t106, gid, a);
+  e2.hull(118, t106, gid, b);
   for (int i = 0; i < 200; i++) {
     {
       std::lock_guard<std::mutex> g(sink.mu);
@@ -234,7 +234,7 @@ TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
   {
     std::lock_guard<std::mutex> g(sink.mu);
     ASSERT_EQ(sink.frames.size(), 1u);
-    EXPECT_EQ(sink.frames[0].seq, 106u);
+    EXPECT_EQ(sink.frames[0].seq, 118u);
     EXPECT_EQ(sink.frames[0].occupied, 8u * 2);  // 0xF0 & 0x3C = 0x30: two bits a byte
     EXPECT_FALSE(sink.frames[0].degraded);
   }
@@ -243,7 +243,7 @@ TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
   close(e2.fd);
   e2.fd = socket(AF_INET, SOCK_STREAM, 0);
   for (int i = 0; i < 200 && agg.report().nodes[1].connected; i++) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  e1.hull(107, session::monotonic_ns(), gid, a);
+  e1.hull(119, session::monotonic_ns(), gid, a);
   for (int i = 0; i < 400; i++) {
     {
       std::lock_guard<std::mutex> g(sink.mu);

@@ -222,7 +222,9 @@ struct EmulatedRig::Impl {
         edge_bin.string(), "--node-id", std::to_string(k), "--host", "127.0.0.1", "--port", std::to_string(host_port),
         "--trigger", "udp", "--trigger-port", std::to_string(trigger_ports[static_cast<size_t>(k)]),
         "--camera0", "sim:" + sim_spec, "--camera1", "sim:" + sim_spec,
-        "--size", fmt::format("{}x{}", opt.width, opt.height), "--verbosity", opt.quiet ? "0" : "1"};
+        "--size", fmt::format("{}x{}", opt.width, opt.height), "--verbosity", opt.quiet ? "0" : "1",
+        "--state-dir", (dir / fmt::format("node{}", k)).string()};
+    fs::create_directories(dir / fmt::format("node{}", k));
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
@@ -390,6 +392,11 @@ void EmulatedRig::run_seconds(double seconds) {
 }
 
 void EmulatedRig::kill_node(int k, int sig) { impl_->reap(k, sig, 2.0); }
+
+void EmulatedRig::signal_node(int k, int sig) {
+  pid_t pid = impl_->pids.at(static_cast<size_t>(k));
+  if (pid > 0) kill(pid, sig);
+}
 
 void EmulatedRig::restart_node(int k) {
   if (impl_->pids.at(static_cast<size_t>(k)) > 0) impl_->reap(k, SIGTERM, 2.0);

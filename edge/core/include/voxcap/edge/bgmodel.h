@@ -72,6 +72,12 @@ int vc_bgmodel_learn(vc_bgmodel *model, const uint8_t *rgb, size_t stride);
  * accumulators. Returns 0, -ENODATA if fewer than 2 frames were learnt, -EBUSY if already finished. */
 int vc_bgmodel_finish(vc_bgmodel *model);
 
+/* Restores a finished model from a saved mean and sigma (as vc_bgmodel_mean()/vc_bgmodel_sigma_q8()
+ * returned them, both copied) learnt from `frames` frames: an edge that restarts mid-session cannot
+ * learn the empty scene again with a person in it. Only on a new model (no frame learnt). Returns 0,
+ * -EINVAL, -EBUSY (frames learnt or finished already) or -ENOMEM. */
+int vc_bgmodel_restore(vc_bgmodel *model, const uint8_t *mean, const uint16_t *sigma_q8, int frames);
+
 /* Derives the per-pixel integer thresholds from `params` (floats are used here, not per frame).
  * Returns 0, -EINVAL for bad parameters, -EAGAIN before vc_bgmodel_finish(). */
 int vc_bgmodel_set_params(vc_bgmodel *model, const vc_subtract_params *params);

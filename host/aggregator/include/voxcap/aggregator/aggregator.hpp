@@ -49,7 +49,9 @@ vc_config make_config_message(const config::RigConfig& rig, const config::NodeCo
 uint32_t grid_id(const rig::VoxelGrid& grid);
 
 struct Options {
-  int start_margin_pulses = 6;  // origin = last pulse + this (time for START to reach every node)
+  // origin = last pulse + this much time in pulses (at least 6): START must reach every node, and each
+  // must be streaming (emulated cameras reopen for the run) before the origin pulse.
+  double start_margin_s = 0.3;
   bool start_trigger = true;    // false: tests drive pulses themselves via note_pulse()
   std::function<void(int level, const std::string&)> log;  // 0 info, 1 warning, 2 error
 };
@@ -86,6 +88,8 @@ struct Report {
   double fps = 0;
   Latency merged;       // trigger → merged
   std::vector<NodeReport> nodes;
+  session::ServerStats server;  // connections accepted, dropped for undecodable bytes, timeouts, ...
+  size_t pending_frames = 0;    // frames waiting in the assembler now
   bool running = false; // the run has started (every node was READY once)
   uint64_t origin = 0;
 };

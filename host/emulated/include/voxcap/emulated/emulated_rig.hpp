@@ -71,7 +71,8 @@ class EmulatedRig {
   Result stop();  // STOP, edges terminated (SIGTERM, then SIGKILL), host stopped
 
   // Fault injection.
-  void kill_node(int k, int signal = 9);  // the edge process of node k
+  void kill_node(int k, int signal = 9);  // the edge process of node k (waits until it is gone)
+  void signal_node(int k, int signal);     // e.g. SIGSTOP / SIGCONT: a stalled node
   void restart_node(int k);
   bool node_running(int k) const;
   uint64_t merged_frames() const;
