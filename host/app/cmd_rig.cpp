@@ -10,6 +10,7 @@
 
 #include "commands.hpp"
 #include "voxcap/aggregator/aggregator.hpp"
+#include "voxcap/aggregator/sinks.hpp"
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/emulated/emulated_rig.hpp"
 
@@ -106,6 +107,10 @@ void add_rig_commands(CLI::App& app) {
   cmd->add_option("--truth-every", opt->truth_every, "emulated: score every k-th frame against ground truth (0: off)")
       ->capture_default_str();
   cmd->add_option("--workdir", opt->workdir, "emulated: keep rig.yaml, rig.toml and edge logs here");
+  auto record = std::make_shared<std::string>();
+  cmd->add_option("--record", *record,
+                  "record the session (merged hulls, features, stats, rig.toml, calibration) in a new folder "
+                  "below this one; a real rig records to rig.toml's recording.dir unless this is given");
   cmd->add_flag("--verbose", [opt](int64_t) { opt->quiet = false; }, "emulated: info logs from host and edges");
   cmd->add_flag("--json", *json,
                 "print the figures as JSON: frames, complete, degraded, dropped, pulses, fps, trigger_to_merged_ms "
@@ -117,6 +122,7 @@ void add_rig_commands(CLI::App& app) {
     if (*emulated) {
       if (std::sscanf(size->c_str(), "%dx%d", &opt->width, &opt->height) != 2)
         throw UsageError("--size: expected WxH, got '" + *size + "'");
+      opt->record_dir = *record;
       std::string why;
       if (!opt->valid(&why)) throw UsageError(why);
       emulated::EmulatedRig rig(*opt);
@@ -142,6 +148,7 @@ void add_rig_commands(CLI::App& app) {
                          {"iou_silhouette_hull", r.accuracy.iou_silhouette_hull},
                          {"body_recall", r.accuracy.body_recall}};
         j["wall_seconds"] = r.wall_seconds;
+        if (!r.session_dir.empty()) j["session_dir"] = r.session_dir.string();
         j["host_rss_kb"] = {{"start", r.host_rss_start_kb}, {"end", r.host_rss_end_kb}};
         fmt::print("{}\n", j.dump(2));
       } else {
@@ -158,7 +165,9 @@ void add_rig_commands(CLI::App& app) {
     // A real rig: the aggregator alone; the edges are on their boards.
     std::filesystem::path path = config->empty() ? config::default_rig_config_path() : std::filesystem::path(*config);
     config::RigConfig rig = config::load_rig_config(path);
-    aggregator::Aggregator agg(rig, {});
+    aggregator::RecordingSink recording(rig, record->empty() ? rig.recording.dir : std::filesystem::path(*record));
+    fmt::print("recording to {}\n", recording.dir().string());
+    aggregator::Aggregator agg(rig, {}, &recording);
     agg.start();
     auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(*seconds > 0 ? *seconds : 1e12);
     while (!g_interrupted && std::chrono::steady_clock::now() < end)

@@ -10,6 +10,7 @@
 #include <fmt/core.h>
 
 #include "voxcap/aggregator/aggregator.hpp"
+#include "voxcap/aggregator/sinks.hpp"
 #include "voxcap/config/rig_config.hpp"
 
 namespace {
@@ -27,7 +28,10 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   try {
     std::filesystem::path path = config.empty() ? vc::config::default_rig_config_path() : std::filesystem::path(config);
-    vc::aggregator::Aggregator agg(vc::config::load_rig_config(path), {});
+    vc::config::RigConfig rig = vc::config::load_rig_config(path);
+    vc::aggregator::RecordingSink recording(rig, rig.recording.dir);
+    fmt::print("voxcap-host: recording to {}\n", recording.dir().string());
+    vc::aggregator::Aggregator agg(rig, {}, &recording);
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     agg.start();

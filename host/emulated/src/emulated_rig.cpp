@@ -20,6 +20,7 @@
 #include <stdexcept>
 #include <thread>
 
+#include "voxcap/aggregator/sinks.hpp"
 #include "voxcap/edge/carver.h"
 #include "voxcap/rig/calibration.hpp"
 #include "voxcap/rle.h"
@@ -212,6 +213,8 @@ struct EmulatedRig::Impl {
   std::vector<int> trigger_ports;
   std::vector<pid_t> pids;
   std::unique_ptr<TruthScorer> scorer;
+  std::unique_ptr<aggregator::RecordingSink> recorder;  // sinks outlive the aggregator (declared first)
+  std::unique_ptr<aggregator::FanoutSink> fanout;
   std::unique_ptr<aggregator::Aggregator> agg;
   Clock::time_point t_start;
   long rss_start = 0;
@@ -353,7 +356,13 @@ void EmulatedRig::start(double timeout_s) {
   if (o.quiet) ao.log = [](int level, const std::string& line) {
     if (level >= 2) fmt::print(stderr, "voxcap-host: {}\n", line);
   };
-  m.agg = std::make_unique<aggregator::Aggregator>(rig, ao, m.scorer.get());
+  aggregator::Sink* sink = m.scorer.get();
+  if (!o.record_dir.empty()) {
+    m.recorder = std::make_unique<aggregator::RecordingSink>(rig, o.record_dir);
+    m.fanout = std::make_unique<aggregator::FanoutSink>(std::vector<aggregator::Sink*>{m.scorer.get(), m.recorder.get()});
+    sink = m.fanout.get();
+  }
+  m.agg = std::make_unique<aggregator::Aggregator>(rig, ao, sink);
   m.agg->start();
   m.pids.assign(static_cast<size_t>(o.nodes), 0);
   for (int k = 0; k < o.nodes; k++) m.spawn(k);
@@ -422,6 +431,10 @@ Result EmulatedRig::stop() {
   r.host_rss_start_kb = m.rss_start;
   r.host_rss_end_kb = rss_kb();
   r.workdir = m.dir;
+  if (m.recorder) {
+    r.session_dir = m.recorder->dir();
+    m.recorder.reset();  // closes the session cleanly
+  }
   return r;
 }
 

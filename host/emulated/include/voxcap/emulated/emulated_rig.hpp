@@ -34,7 +34,7 @@ struct Options {
   int truth_every = 10;           // score every k-th merged frame against ground truth (0: never)
   std::filesystem::path workdir;  // rig.yaml, rig.toml, edge logs; empty: a fresh temp folder
   std::filesystem::path edge_binary;  // empty: voxcap-edge beside this executable
-  std::filesystem::path record_dir;   // empty: no recording
+  std::filesystem::path record_dir;   // record the session in a new folder below this; empty: no recording
   bool quiet = true;              // edges log warnings only, host info lines suppressed
 
   bool valid(std::string* why) const;
@@ -55,6 +55,7 @@ struct Result {
   double wall_seconds = 0;
   long host_rss_start_kb = 0, host_rss_end_kb = 0;
   std::filesystem::path workdir;
+  std::filesystem::path session_dir;  // the recorded session (with Options::record_dir)
 };
 
 class EmulatedRig {
