@@ -10,6 +10,7 @@
 
 #include "commands.hpp"
 #include "edge_bench.hpp"
+#include "host_bench.hpp"
 
 namespace vc::cli {
 namespace {
@@ -117,6 +118,52 @@ void add_bench_commands(CLI::App& app) {
       all.push_back(std::move(j));
     }
     if (args->json) fmt::print("{}\n", (all.size() == 1 ? all[0] : all).dump(2));
+  });
+
+  auto hopt = std::make_shared<vc::bench::HostBenchOptions>();
+  auto hjson = std::make_shared<bool>(false);
+  auto hsize = std::make_shared<std::string>("640x480");
+  auto grids = std::make_shared<std::vector<int>>();
+  auto nodes = std::make_shared<std::vector<int>>();
+  auto* host = bench->add_subcommand(
+      "host", "Host: merge cost per frame (3/4/8 nodes, 64^3..256^3), the emulated rig's fps, latency and memory");
+  host->footer(
+      "JSON keys: merge[] {nodes, grid, voxels, rle_bytes_per_node, merged_occupied, merge_ns_per_frame (median), "
+      "merge_ns_p99}; rig {nodes, size, grid, seconds, pulses, frames, complete, degraded, fps, "
+      "trigger_to_merged_ms {p50, p99}, host_rss_kb {start, end}}. Keys also in tests/bench/README.md.");
+  host->add_option("--grid", *grids, "merge: voxels per axis; repeat for several (default 64 128 256)");
+  host->add_option("--nodes", *nodes, "merge: node counts; repeat for several (default 3 4 8)");
+  host->add_option("--repeats", hopt->repeats, "merge: timed merges per configuration")->capture_default_str();
+  host->add_option("--minutes", hopt->rig_minutes, "rig: how long the emulated rig runs (memory at start and end)")
+      ->capture_default_str();
+  host->add_option("--size", *hsize, "rig: camera size WxH")->capture_default_str();
+  host->add_option("--rig-grid", hopt->rig_grid, "rig: voxels per axis")->capture_default_str();
+  host->add_option("--rig-nodes", hopt->rig_nodes, "rig: edge nodes")->capture_default_str();
+  host->add_flag("--no-rig", [hopt](int64_t) { hopt->rig = false; }, "merge figures only");
+  host->add_flag("--json", *hjson, "Print JSON (keys below) instead of text");
+  host->callback([=] {
+    vc::bench::HostBenchOptions o = *hopt;
+    if (!grids->empty()) o.grids = *grids;
+    if (!nodes->empty()) o.nodes = *nodes;
+    if (std::sscanf(hsize->c_str(), "%dx%d", &o.width, &o.height) != 2) throw UsageError("--size: expected WxH");
+    nlohmann::json j = vc::bench::run_host_bench(o);
+    if (*hjson) {
+      fmt::print("{}\n", j.dump(2));
+      return;
+    }
+    for (const auto& m : j["merge"])
+      fmt::print("merge {} nodes at {}^3: {:.1f} us per frame (p99 {:.1f} us), {} B RLE per node\n",
+                 m["nodes"].get<int>(), m["grid"].get<int>(), m["merge_ns_per_frame"].get<double>() / 1e3,
+                 m["merge_ns_p99"].get<double>() / 1e3, m["rle_bytes_per_node"].get<uint64_t>());
+    if (j.contains("rig")) {
+      const auto& r = j["rig"];
+      fmt::print("rig {} nodes {} {}^3 for {:.0f} s: {:.1f} fps, {} frames ({} complete), trigger->merged p50 {:.2f} ms "
+                 "p99 {:.2f} ms, host RSS {} -> {} kB\n",
+                 r["nodes"].get<int>(), r["size"].get<std::string>(), r["grid"].get<int>(), r["seconds"].get<double>(),
+                 r["fps"].get<double>(), r["frames"].get<uint64_t>(), r["complete"].get<uint64_t>(),
+                 r["trigger_to_merged_ms"]["p50"].get<double>(), r["trigger_to_merged_ms"]["p99"].get<double>(),
+                 r["host_rss_kb"]["start"].get<long>(), r["host_rss_kb"]["end"].get<long>());
+    }
   });
 }
 

@@ -1,0 +1,134 @@
+#include "host_bench.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numeric>
+
+#include "voxcap/assemble/assembler.hpp"
+#include "voxcap/emulated/emulated_rig.hpp"
+#include "voxcap/rle.h"
+#include "voxcap/sim/scene.hpp"
+
+namespace vc::bench {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// Body occupancy of the wave motion at a pose with the arms out, on an n^3 grid over the volume.
+std::vector<uint8_t> body(int n) {
+  sim::SceneOptions so;
+  so.motion.source = "wave";
+  so.rig.cameras = 2;
+  so.rig.width = 64;
+  so.rig.height = 48;
+  sim::Scene scene(so);
+  rig::VoxelGrid g;
+  g.min_m = cv::Vec3d(-1.12, -1.12, 0);
+  g.voxel_m = 2.24 / n;
+  g.nx = g.ny = g.nz = n;
+  std::vector<uint8_t> bits;
+  scene.occupancy(g, 100, &bits);
+  return bits;
+}
+
+// The body extruded along direction angle (radians, horizontal): every voxel within `reach` metres of
+// the body along +-d. Computed by OR-ing shifted copies, one voxel step at a time.
+std::vector<uint8_t> extrude(const std::vector<uint8_t>& b, int n, double angle, double reach_m) {
+  std::vector<uint8_t> out = b;
+  double vox = 2.24 / n;
+  int steps = static_cast<int>(reach_m / vox);
+  double dx = std::cos(angle), dy = std::sin(angle);
+  auto get = [&](int i, int j, int k) {
+    size_t v = static_cast<size_t>(i) + static_cast<size_t>(n) * (static_cast<size_t>(j) + static_cast<size_t>(n) * k);
+    return (b[v / 8] >> (v % 8)) & 1;
+  };
+  for (int k = 0; k < n; k++)
+    for (int j = 0; j < n; j++)
+      for (int i = 0; i < n; i++) {
+        if (!get(i, j, k)) continue;
+        for (int s = -steps; s <= steps; s++) {
+          int ii = i + static_cast<int>(std::lround(s * dx)), jj = j + static_cast<int>(std::lround(s * dy));
+          if (ii < 0 || jj < 0 || ii >= n || jj >= n) continue;
+          size_t v = static_cast<size_t>(ii) + static_cast<size_t>(n) * (static_cast<size_t>(jj) + static_cast<size_t>(n) * k);
+          out[v / 8] |= static_cast<uint8_t>(1u << (v % 8));
+        }
+      }
+  return out;
+}
+
+std::vector<uint8_t> encode(const std::vector<uint8_t>& bits, size_t nbits) {
+  std::vector<uint8_t> out(vc_rle_max_encoded_size(nbits));
+  size_t len = 0;
+  vc_rle_encode(bits.data(), nbits, out.data(), out.size(), &len);
+  out.resize(len);
+  return out;
+}
+
+}  // namespace
+
+nlohmann::json run_host_bench(const HostBenchOptions& o) {
+  nlohmann::json j;
+  j["merge"] = nlohmann::json::array();
+  for (int n : o.grids) {
+    size_t nbits = static_cast<size_t>(n) * n * n;
+    std::vector<uint8_t> b = body(n);
+    int max_nodes = *std::max_element(o.nodes.begin(), o.nodes.end());
+    std::vector<std::vector<uint8_t>> parts;
+    for (int k = 0; k < max_nodes; k++) parts.push_back(encode(extrude(b, n, M_PI * k / max_nodes, 1.0), nbits));
+    for (int nodes : o.nodes) {
+      std::vector<const std::vector<uint8_t>*> in;
+      size_t rle_bytes = 0;
+      for (int k = 0; k < nodes; k++) {
+        in.push_back(&parts[static_cast<size_t>(k * max_nodes / nodes)]);
+        rle_bytes += in.back()->size();
+      }
+      std::vector<uint8_t> out, scratch;
+      assemble::intersect(in, out, scratch);  // warm-up: buffers sized
+      std::vector<double> ns;
+      for (int r = 0; r < o.repeats; r++) {
+        auto t0 = Clock::now();
+        assemble::intersect(in, out, scratch);
+        ns.push_back(std::chrono::duration<double, std::nano>(Clock::now() - t0).count());
+      }
+      std::sort(ns.begin(), ns.end());
+      uint64_t occ = 0, total = 0;
+      vc_rle_popcount(out.data(), out.size(), &occ, &total);
+      j["merge"].push_back({{"nodes", nodes},
+                            {"grid", n},
+                            {"voxels", nbits},
+                            {"rle_bytes_per_node", rle_bytes / static_cast<size_t>(nodes)},
+                            {"merged_occupied", occ},
+                            {"merge_ns_per_frame", ns[ns.size() / 2]},
+                            {"merge_ns_p99", ns[std::min(ns.size() - 1, ns.size() * 99 / 100)]}});
+    }
+  }
+  if (o.rig) {
+    emulated::Options eo;
+    eo.nodes = o.rig_nodes;
+    eo.width = o.width;
+    eo.height = o.height;
+    eo.grid = o.rig_grid;
+    eo.truth_every = 0;
+    emulated::EmulatedRig rig(eo);
+    rig.start(120);
+    long rss_start = emulated::rss_kb();
+    rig.run_seconds(o.rig_minutes * 60);
+    emulated::Result r = rig.stop();
+    j["rig"] = {{"nodes", o.rig_nodes},
+                {"size", std::to_string(o.width) + "x" + std::to_string(o.height)},
+                {"grid", o.rig_grid},
+                {"seconds", r.wall_seconds},
+                {"pulses", r.report.pulses},
+                {"frames", r.report.frames},
+                {"complete", r.report.complete},
+                {"degraded", r.report.degraded},
+                {"fps", r.report.fps},
+                {"trigger_to_merged_ms",
+                 {{"p50", r.report.merged.percentile_ms(0.5)}, {"p99", r.report.merged.percentile_ms(0.99)}}},
+                {"host_rss_kb", {{"start", rss_start}, {"end", r.host_rss_end_kb}}}};
+  }
+  return j;
+}
+
+}  // namespace vc::bench

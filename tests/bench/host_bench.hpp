@@ -1,0 +1,29 @@
+// `voxcap bench host`: the host's figures.
+//   merge:  cost per frame of intersecting N partial hulls in the RLE domain (the assembler's merge),
+//           for 3, 4 and 8 nodes at 64^3, 128^3 and 256^3, on human-shaped partial hulls: the simulator's
+//           true body occupancy extruded along each node's horizontal viewing direction (what two nearby
+//           views leave of a body: a prism around it), so run counts are those of real hulls.
+//   rig:    the emulated rig's sustained fps, trigger -> merged-hull latency (p50, p99), frames complete,
+//           and the host's resident memory at the start and at the end of the run (default 10 minutes).
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <vector>
+
+namespace vc::bench {
+
+struct HostBenchOptions {
+  std::vector<int> grids{64, 128, 256};
+  std::vector<int> nodes{3, 4, 8};
+  int repeats = 50;          // merges timed per configuration
+  bool rig = true;           // run the emulated rig part
+  double rig_minutes = 10;   // how long the emulated rig runs
+  int rig_nodes = 3;
+  int width = 640, height = 480;
+  int rig_grid = 128;
+};
+
+// Runs the benchmark and returns the figures (keys documented in tests/bench/README.md).
+nlohmann::json run_host_bench(const HostBenchOptions& o);
+
+}  // namespace vc::bench
