@@ -11,6 +11,8 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "voxcap/aggregator/aggregator.hpp"
+#include "voxcap/config/rig_config.hpp"
 #include "voxcap/record/recorder.hpp"
 #include "voxcap/record/session_info.hpp"
 
@@ -28,6 +30,21 @@ Reader open_session(const std::string& dir) {
   return Reader::open(dir);
 }
 
+// The rig's names of the node ids, from the [[nodes]] of the session's copy of rig.toml and the
+// aggregator's numbering rule. A name that does not map is left out: the ids alone are still right.
+record::NodeNames node_names(const Reader::Summary& s) {
+  record::NodeNames names;
+  for (size_t k = 0; k < s.rig_node_ids.size(); ++k) {
+    config::NodeConfig node;
+    node.id = s.rig_node_ids[k];
+    try {
+      names[aggregator::node_number(node, k, "rig.toml")] = node.id;
+    } catch (const std::exception&) {
+    }
+  }
+  return names;
+}
+
 struct InfoArgs {
   std::string dir;
   bool json = false;
@@ -37,7 +54,9 @@ struct InfoArgs {
 void run_info(const InfoArgs& a) {
   const Reader reader = open_session(a.dir);
   const Reader::Summary& s = reader.summary_ref();
-  const std::string out = a.json ? record::summary_json(s, a.dir) : record::summary_text(s, a.dir);
+  const record::NodeNames names = node_names(s);
+  const std::string out =
+      a.json ? record::summary_json(s, a.dir, names) : record::summary_text(s, a.dir, names);
   std::fputs(out.c_str(), stdout);
   if (a.strict) {
     if (!s.closed_cleanly || s.truncated_bytes > 0)

@@ -16,6 +16,7 @@
 #include <stdexcept>
 
 #include <fmt/format.h>
+#include <toml++/toml.h>
 #include <nlohmann/json.hpp>
 
 #include "io.hpp"
@@ -278,6 +279,7 @@ struct Reader::Impl {
   void scan();
   void apply_manifest(const std::string& text, const char* origin);
   void check_copies(const fs::path& dir, const nlohmann::json& manifest);
+  void read_rig_nodes(const fs::path& dir);
 };
 
 void Reader::Impl::scan() {
@@ -407,6 +409,18 @@ void Reader::Impl::check_copies(const fs::path& dir, const nlohmann::json& manif
   check("calibration", io::kCalibrationFile, &summary.calibration_ok);
 }
 
+void Reader::Impl::read_rig_nodes(const fs::path& dir) {
+  try {
+    const toml::table rig = toml::parse_file((dir / io::kRigFile).string());
+    if (const toml::array* nodes = rig["nodes"].as_array())
+      for (const toml::node& n : *nodes)
+        if (const toml::table* t = n.as_table())
+          summary.rig_node_ids.push_back((*t)["id"].value_or(std::string()));
+  } catch (const std::exception&) {
+    summary.rig_node_ids.clear();  // the names are a convenience; the ids in the records stand alone
+  }
+}
+
 Reader::Reader(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {
   impl_->it_off = impl_->data_begin;
   impl_->it_index = 1;
@@ -465,6 +479,7 @@ Reader Reader::open(const fs::path& dir) {
     impl->apply_manifest(text, io::kManifestFile);
     impl->check_copies(dir, manifest);
   }
+  impl->read_rig_nodes(dir);
   return Reader(std::move(impl));
 }
 

@@ -37,7 +37,8 @@ std::string ending(const Reader::Summary& s) {
 
 }  // namespace
 
-std::string summary_text(const Reader::Summary& s, const std::filesystem::path& dir) {
+std::string summary_text(const Reader::Summary& s, const std::filesystem::path& dir,
+                         const NodeNames& node_names) {
   std::string out;
   auto line = [&out](const char* key, const std::string& value) {
     out += fmt::format("{:<10}{}\n", key, value);
@@ -72,9 +73,14 @@ std::string summary_text(const Reader::Summary& s, const std::filesystem::path& 
     line("nodes", "none");
   } else {
     line("nodes", fmt::format("{}", s.nodes.size()));
-    for (const auto& [id, c] : s.nodes)
-      out += fmt::format("  node {:<5} in {} frames, missing from {}, {} feature records, {} stats records\n",
-                         id, c.frames_present, c.frames_missing, c.feature_records, c.stats_records);
+    for (const auto& [id, c] : s.nodes) {
+      const auto name = node_names.find(id);
+      const std::string label =
+          name == node_names.end() ? std::to_string(id) : fmt::format("{} ({})", id, name->second);
+      out +=
+          fmt::format("  node {:<12} in {} frames, missing from {}, {} feature records, {} stats records\n",
+                      label, c.frames_present, c.frames_missing, c.feature_records, c.stats_records);
+    }
   }
   line("records", fmt::format("{} data records, {} of {} valid", s.records, human_bytes(s.valid_bytes),
                               human_bytes(s.file_bytes)));
@@ -83,15 +89,19 @@ std::string summary_text(const Reader::Summary& s, const std::filesystem::path& 
   return out;
 }
 
-std::string summary_json(const Reader::Summary& s, const std::filesystem::path& dir) {
+std::string summary_json(const Reader::Summary& s, const std::filesystem::path& dir,
+                         const NodeNames& node_names) {
   using nlohmann::json;
   json nodes = json::array();
-  for (const auto& [id, c] : s.nodes)
+  for (const auto& [id, c] : s.nodes) {
+    const auto name = node_names.find(id);
     nodes.push_back({{"id", id},
+                     {"name", name == node_names.end() ? json(nullptr) : json(name->second)},
                      {"frames_present", c.frames_present},
                      {"frames_missing", c.frames_missing},
                      {"feature_records", c.feature_records},
                      {"stats_records", c.stats_records}});
+  }
   json meta = json::parse(s.meta_json, nullptr, false);
   if (meta.is_discarded()) meta = nullptr;
   const bool any = s.frames > 0;

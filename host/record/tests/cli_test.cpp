@@ -71,7 +71,10 @@ TEST_F(RecordCli, InfoJsonOfAClosedSession) {
   EXPECT_EQ(j["poses"], 20);
   EXPECT_EQ(j["stats"], 2);  // seqs 19, 29
   EXPECT_NEAR(j["duration_s"].get<double>(), 19 * 0.016666667, 1e-6);
-  EXPECT_EQ(j["nodes"].size(), 3u);
+  ASSERT_EQ(j["nodes"].size(), 3u);
+  EXPECT_EQ(j["nodes"][1]["id"], 1);
+  EXPECT_EQ(j["nodes"][1]["name"], "side1");  // from the session's copy of rig.toml
+  EXPECT_EQ(j["nodes"][2]["frames_missing"], 3);
   EXPECT_EQ(j["closed_cleanly"], true);
   EXPECT_EQ(j["stop"], "closed");
   EXPECT_EQ(j["truncated_bytes"], 0);
@@ -88,6 +91,7 @@ TEST_F(RecordCli, InfoTextOfACutSession) {
   EXPECT_THAT(r.out, HasSubstr("frames    5 (1 degraded), seq 0 .. 4"));
   EXPECT_THAT(r.out, HasSubstr("poses     4 records"));  // the torn last record was the pose of seq 4
   EXPECT_THAT(r.out, HasSubstr("cut, torn tail of"));
+  EXPECT_THAT(r.out, HasSubstr("node 0 (front0)"));
   EXPECT_THAT(r.out, HasSubstr("bytes ignored"));
   // --strict turns a cut session into exit code 1, after printing.
   const CliRun strict = voxcap("session info --strict '" + cut.string() + "'", true);

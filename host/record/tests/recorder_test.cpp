@@ -142,6 +142,7 @@ TEST_F(RecordSession, ClosedSessionRoundTrips) {
   EXPECT_EQ(s.rig_name, "testrig");
   EXPECT_TRUE(s.rig_toml_ok);
   EXPECT_TRUE(s.calibration_ok);
+  EXPECT_THAT(s.rig_node_ids, ::testing::ElementsAre("front0", "side1", "side2"));
   EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
   EXPECT_EQ(s.format_version, 1u);
   EXPECT_EQ(nlohmann::json::parse(s.meta_json)["take"], 1);

@@ -28,8 +28,12 @@ TempDir::~TempDir() {
 
 RigFiles write_rig_files(const fs::path& dir, const std::string& name) {
   RigFiles f{dir / (name + ".toml"), dir / (name + ".yaml")};
-  std::ofstream(f.rig_toml) << "# test rig\nversion = 1\nname = \"" << name << "\"\ncalibration = \"" << name
-                            << ".yaml\"\n\n[[nodes]]\nid = \"node0\"\ncameras = [\"cam0\", \"cam1\"]\n";
+  std::ofstream(f.rig_toml)
+      << "# test rig\nversion = 1\nname = \"" << name << "\"\ncalibration = \"" << name
+      << ".yaml\"\n\n[grid]\nmin_m = [-1.0, -1.0, 0.0]\nvoxel_m = 0.125\nnx = 16\nny = 16\nnz = 16\n"
+      << "\n[[nodes]]\nid = \"front0\"\ncameras = [\"cam0\", \"cam1\"]\nrole = \"front\"\n"
+      << "\n[[nodes]]\nid = \"side1\"\ncameras = [\"cam2\", \"cam3\"]\n"
+      << "\n[[nodes]]\nid = \"side2\"\ncameras = [\"cam4\", \"cam5\"]\n";
   std::ofstream(f.calibration_yaml) << "%YAML:1.0\n---\nformat: voxcap-rig\nversion: 1\ncameras: []\n";
   return f;
 }

@@ -30,7 +30,8 @@ struct RigFiles {
   std::filesystem::path rig_toml;
   std::filesystem::path calibration_yaml;
 };
-// Writes <dir>/<name>.toml (with `name = "<name>"`) and <dir>/<name>.yaml.
+// Writes <dir>/<name>.toml (`name = "<name>"`, a 16^3 grid, nodes front0, side1, side2) and
+// <dir>/<name>.yaml (a stub: the recorder copies it, nothing here loads it).
 RigFiles write_rig_files(const std::filesystem::path& dir, const std::string& name = "testrig");
 
 // Human-shaped hull in a grid_n^3 grid, RLE-encoded; *occupied receives its occupied voxel count.

@@ -131,7 +131,8 @@ class Recorder {
 
 // Opens a possibly cut session: up to its last complete, valid record. open() scans and validates the
 // whole file once (computing the Summary); next() then iterates the same records again, each decoded
-// and validated in full. A session still being recorded reads as cut at its current end.
+// and validated in full. A session still being recorded reads as cut at its current end. Not
+// thread-safe: one Reader per thread.
 class Reader {
  public:
   enum class Stop : uint8_t {
@@ -165,25 +166,26 @@ class Reader {
     uint64_t first_trigger_ns = 0, last_trigger_ns = 0;  // of the first and last frame record
     uint64_t max_merge_latency_ns = 0;                   // max over frames of t_merged_ns - t_trigger_ns
     double mean_merge_latency_ns = 0;
-    std::map<uint16_t, NodeCounts>
-        nodes;  // every node id seen in frames, features or stats (not kHostNodeId)
+    // Every node id seen in frames, features or stats (not kHostNodeId).
+    std::map<uint16_t, NodeCounts> nodes;
     std::vector<std::string> joint_names;  // the last joint names recorded
     std::string pose_layout;               // the last pose layout recorded
 
     Stop stop = Stop::EndOfFile;
-    std::string
-        stop_detail;  // why reading stopped, with the byte offset ("bad CRC in record 57 at byte 1234")
+    // Why reading stopped, with the record number and byte offset: "record 57 (frame): bad CRC at byte 1234".
+    std::string stop_detail;
     uint64_t file_bytes = 0;   // size of records.vcr when opened
     uint64_t valid_bytes = 0;  // bytes up to the end of the last valid record
 
-    uint32_t format_version = 0;        // from the BEGIN record (0: no valid BEGIN)
-    int64_t created_unix_ns = 0;        // CLOCK_REALTIME when the session was created
-    uint64_t created_mono_ns = 0;       // CLOCK_MONOTONIC at the same instant (the clock of trigger times)
-    std::string software_version;       // voxcap version that wrote it
-    std::string meta_json;              // the caller's meta object, as JSON text ("{}" when none)
-    bool rig_toml_ok = false;           // DIR/rig.toml exists and matches the manifest's CRC32C
-    bool calibration_ok = false;        // DIR/calibration.yaml likewise
-    std::vector<std::string> warnings;  // problems that do not stop reading (manifest unreadable, ...)
+    uint32_t format_version = 0;   // from the BEGIN record (0: no valid BEGIN)
+    int64_t created_unix_ns = 0;   // CLOCK_REALTIME when the session was created
+    uint64_t created_mono_ns = 0;  // CLOCK_MONOTONIC at the same instant (the clock of trigger times)
+    std::string software_version;  // voxcap version that wrote it
+    std::string meta_json;         // the caller's meta object, as JSON text ("{}" when none)
+    bool rig_toml_ok = false;      // DIR/rig.toml exists and matches the manifest's CRC32C
+    bool calibration_ok = false;   // DIR/calibration.yaml likewise
+    std::vector<std::string> rig_node_ids;  // `id` of each [[nodes]] in DIR/rig.toml, in file order
+    std::vector<std::string> warnings;      // problems that do not stop reading (manifest unreadable, ...)
 
     double duration_s() const;  // (last_trigger_ns - first_trigger_ns) / 1e9
   };
