@@ -349,6 +349,29 @@ void Aggregator::on_tick(uint64_t now_ns) {
   out_.clear();
   assembler_->poll(now_ns, out_);
   deliver(out_);
+  if (opt_.log_every_s <= 0) return;
+  if (last_log_ns_ == 0) last_log_ns_ = now_ns;
+  double dt = double(now_ns - last_log_ns_) / 1e9;
+  if (dt < opt_.log_every_s) return;
+  // The observability line: fps, trigger -> merged latency, and per node what its STATS and the
+  // assembler say (edge frame time, late and missing hulls, the edge's own drops).
+  const assemble::AssemblerStats& st = assembler_->stats();
+  std::string nodes;
+  for (const auto& n : nodes_) {
+    auto it = st.nodes.find(n->id);
+    nodes += fmt::format(" | {} {} edge {:.2f} ms late {} missing {} drops {}", n->cfg->id,
+                         n->connected ? (vc_node_state_name(n->state) ? vc_node_state_name(n->state) : "?") : "gone",
+                         n->rep.edge_frame_ms, it != st.nodes.end() ? it->second.late : 0,
+                         it != st.nodes.end() ? it->second.missing : 0,
+                         n->rep.edge_queue_drops + n->rep.edge_pulses_without_frame);
+  }
+  log(0, fmt::format("{:.1f} fps, trigger->merged p50 {:.2f} ms p99 {:.2f} ms, frames {} ({} complete, {} degraded, "
+                     "{} dropped){}",
+                     double(frames_ - frames_at_log_) / dt, window_.percentile_ms(0.5), window_.percentile_ms(0.99),
+                     frames_, st.complete, st.degraded, st.dropped, nodes));
+  window_ = Latency{};
+  frames_at_log_ = frames_;
+  last_log_ns_ = now_ns;
 }
 
 void Aggregator::deliver(std::vector<assemble::MergedFrame>& frames) {
@@ -360,7 +383,10 @@ void Aggregator::deliver(std::vector<assemble::MergedFrame>& frames) {
     frames_++;
     last_merged_ns_ = f.t_merged_ns;
     last_seq_ = f.seq;
-    if (f.t_merged_ns > f.t_trigger_ns) merged_.add(f.t_merged_ns - f.t_trigger_ns);
+    if (f.t_merged_ns > f.t_trigger_ns) {
+      merged_.add(f.t_merged_ns - f.t_trigger_ns);
+      window_.add(f.t_merged_ns - f.t_trigger_ns);
+    }
     if (sink_) sink_->frame(f);
   }
   frames.clear();

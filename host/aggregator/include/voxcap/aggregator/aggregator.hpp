@@ -54,6 +54,7 @@ struct Options {
   double start_margin_s = 0.3;
   bool start_trigger = true;    // false: tests drive pulses themselves via note_pulse()
   std::function<void(int level, const std::string&)> log;  // 0 info, 1 warning, 2 error
+  double log_every_s = 5;       // a line of figures (fps, latency, per-node drops) this often; 0: never
 };
 
 struct Latency {  // nanoseconds
@@ -135,6 +136,8 @@ class Aggregator : public session::Handler {
   bool run_started_ = false;
   uint64_t origin_ = 0;
   uint64_t first_merged_ns_ = 0, last_merged_ns_ = 0, frames_ = 0, first_seq_ = 0, last_seq_ = 0;
+  uint64_t last_log_ns_ = 0, frames_at_log_ = 0;
+  Latency window_;  // trigger -> merged since the last figures line
   Latency merged_;
   std::vector<assemble::MergedFrame> out_;
 };
