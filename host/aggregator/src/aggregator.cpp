@@ -170,7 +170,8 @@ void Aggregator::stop() {
         if (n->connected) server_->send(n->conn, buf.data(), len);
   }
   if (trigger_) trigger_->stop();
-  server_->stop();  // after the STOPs were flushed by the server thread's last rounds
+  if (!server_->drain(500)) log(1, "some nodes did not take their STOP within 0.5 s");
+  server_->stop();
   std::lock_guard<std::mutex> g(mu_);
   out_.clear();
   assembler_->flush(session::monotonic_ns(), out_);

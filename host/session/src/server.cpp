@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <chrono>
 #include <cstring>
 #include <ctime>
 #include <stdexcept>
@@ -126,6 +127,20 @@ bool Server::send(ConnId id, const uint8_t* data, size_t len) {
   if (write(wake_fd_, &one, sizeof(one)) < 0) {
   }
   return !c.overflow;
+}
+
+bool Server::drain(int timeout_ms) {
+  uint64_t end = monotonic_ns() + static_cast<uint64_t>(timeout_ms) * 1'000'000u;
+  for (;;) {
+    {
+      std::lock_guard<std::mutex> g(mu_);
+      bool empty = true;
+      for (const auto& [id, c] : conns_) empty = empty && c->out.empty();
+      if (empty || !running_) return empty;
+    }
+    if (monotonic_ns() >= end) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
 }
 
 void Server::close(ConnId id, const std::string& reason) {

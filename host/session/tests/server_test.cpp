@@ -220,6 +220,7 @@ TEST(SessionServer, SendReachesTheEdge) {
   hdr.seq = 1234;
   ASSERT_EQ(vc_encode_start(buf, sizeof(buf), &len, &hdr), 0);
   EXPECT_TRUE(s.send(conns[0].id, buf, len));
+  EXPECT_TRUE(s.drain(2000)) << "the queued START was written";
   vc_decoder* dec = vc_decoder_new(0);
   bool got = false;
   auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(2000);

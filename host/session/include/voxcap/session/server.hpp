@@ -81,6 +81,8 @@ class Server {
   // Queues bytes for a connection (thread-safe; from the handler too). false if it is gone.
   bool send(ConnId conn, const uint8_t* data, size_t len);
   bool send(ConnId conn, const std::vector<uint8_t>& bytes) { return send(conn, bytes.data(), bytes.size()); }
+  // Waits until every connection's queued bytes were written (or timeout_ms passed); true if all were.
+  bool drain(int timeout_ms);
   // Closes a connection after flushing what is queued (thread-safe).
   void close(ConnId conn, const std::string& reason);
 
