@@ -48,6 +48,24 @@ int vc_rle_decode(const uint8_t* rle, size_t len, uint8_t* bits, size_t nbits);
 int vc_rle_and(const uint8_t* a, size_t alen, const uint8_t* b, size_t blen, uint8_t* out, size_t cap,
                size_t* out_len);
 
+/* Most streams vc_rle_and_n takes in one call (its cursors live on the stack). */
+#define VC_RLE_AND_MAX_STREAMS 64
+
+/* Intersection of n RLE streams in one pass: streams[i] holds lens[i] bytes (NULL allowed when
+ * lens[i] == 0). The output is byte for byte what the chain
+ * vc_rle_and(...vc_rle_and(s0, s1)..., s[n-1]) writes; n == 1 validates the stream and copies it,
+ * n == 2 is vc_rle_and. `out` must not overlap the inputs.
+ * Errors: -EINVAL for n == 0, n > VC_RLE_AND_MAX_STREAMS, NULL arrays or buffers, or streams of
+ * different totals; -EBADMSG for a malformed stream (when one stream is malformed and another of a
+ * different total, either code, as with vc_rle_and); -ENOSPC with *out_len the needed size (out's
+ * contents are then unspecified). As with the chain, only canonical streams of one total succeed.
+ * Cost: every input run is read once, plus O(n) per occupied run of the output; the chain reads and
+ * writes every intermediate result as well. On partial hulls (a few long runs per grid row) that
+ * makes it faster from n = 3 on. On dense inputs with many short empty runs (about one output run
+ * per input run) the chain is as fast, and faster for n >= 8 (proto_bench BM_MergeChain, BM_MergeN). */
+int vc_rle_and_n(const uint8_t* const* streams, const size_t* lens, size_t n, uint8_t* out, size_t cap,
+                 size_t* out_len);
+
 /* Validates `rle` and counts its occupied bits and total bits (either pointer may be NULL). */
 int vc_rle_popcount(const uint8_t* rle, size_t len, uint64_t* occupied, uint64_t* total);
 
