@@ -1,11 +1,16 @@
 // Micro-benchmarks of the per-frame protocol work, on human-shaped partial hulls (tests/hull_shapes):
 // RLE encode (the edge, every frame), decode, AND of two partial hulls and popcount (the host, every
-// frame and node), CRC32C, a whole HULL encoded from a bitset and decoded by the stream decoder.
+// frame and node), the host's merge of N partial hulls (a chain of pairwise ANDs vs vc_rle_and_n),
+// CRC32C, a whole HULL encoded from a bitset and decoded by the stream decoder.
 // Time per iteration is time per frame. Run: proto_bench [--benchmark_filter=...].
 #include <benchmark/benchmark.h>
 
+#include <cmath>
 #include <map>
 #include <memory>
+#include <numeric>
+#include <random>
+#include <tuple>
 #include <vector>
 
 #include "hull_shapes.hpp"
@@ -103,6 +108,107 @@ void BM_BitsetAndThenEncode(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_BitsetAndThenEncode)->Arg(128)->Arg(256)->Unit(benchmark::kMicrosecond);
+
+// N streams of one size for the merge benchmarks, cached per (kind, grid, nodes):
+//   kind 0: a ring of nodes, the body extruded from horizontal directions pi*k/nodes (real hulls);
+//   kind 1: independent bitsets, 97 % occupied in runs of mean 32 (many runs survive the AND: the
+//           worst case for the N-way walk's O(nodes) work per output run).
+struct Streams {
+  std::vector<Bytes> rle;
+  std::vector<const uint8_t*> ptrs;
+  std::vector<size_t> lens;
+  size_t nbits = 0, in_runs = 0, out_bytes = 0;
+};
+
+const Streams& streams(int kind, int grid, int nodes) {
+  static std::map<std::tuple<int, int, int>, std::unique_ptr<Streams>> cache;
+  auto& st = cache[{kind, grid, nodes}];
+  if (!st) {
+    st = std::make_unique<Streams>();
+    const Bitset body = vc::proto::testing::human_hull(grid, 7);
+    std::mt19937_64 rng(static_cast<uint64_t>(grid * 100 + nodes));
+    std::geometric_distribution<size_t> empty_len(1.0), occ_len(1.0 / 32);
+    for (int k = 0; k < nodes; k++) {
+      Bitset b(body.nbits);
+      if (kind == 0) {
+        b = vc::proto::testing::extrude_horizontal(body, grid, M_PI * k / nodes);
+      } else {
+        for (size_t pos = 0; pos < b.nbits;) {
+          pos += empty_len(rng) + 1;
+          for (size_t end = std::min(b.nbits, pos + occ_len(rng) + 1); pos < end; pos++) b.set(pos);
+        }
+      }
+      st->rle.push_back(encode(b));
+      vc_rle_info info{};
+      vc_rle_inspect(st->rle.back().data(), st->rle.back().size(), &info);
+      st->in_runs += info.runs;
+    }
+    for (const Bytes& r : st->rle) {
+      st->ptrs.push_back(r.data());
+      st->lens.push_back(r.size());
+    }
+    st->nbits = body.nbits;
+    Bytes out(vc_rle_max_encoded_size(st->nbits));
+    if (vc_rle_and_n(st->ptrs.data(), st->lens.data(), st->ptrs.size(), out.data(), out.size(),
+                     &st->out_bytes))
+      std::abort();
+  }
+  return *st;
+}
+
+void merge_counters(benchmark::State& state, const Streams& st) {
+  state.counters["in_runs"] = static_cast<double>(st.in_runs);
+  state.counters["in_bytes"] =
+      static_cast<double>(std::accumulate(st.lens.begin(), st.lens.end(), size_t{0}));
+  state.counters["out_bytes"] = static_cast<double>(st.out_bytes);
+}
+
+// The merge as host/assemble did it before vc_rle_and_n: vc_rle_and over the running result,
+// ping-ponging between two buffers (no copies, so this is the chain at its best).
+void BM_MergeChain(benchmark::State& state) {
+  const Streams& st = streams(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)),
+                              static_cast<int>(state.range(2)));
+  const size_t cap = vc_rle_max_encoded_size(st.nbits);
+  Bytes bufs[2] = {Bytes(cap), Bytes(cap)};
+  for (auto _ : state) {
+    const uint8_t* acc = st.ptrs[0];
+    size_t acc_len = st.lens[0];
+    for (size_t i = 1; i < st.ptrs.size(); i++) {
+      Bytes& dst = bufs[i & 1];
+      size_t len = 0;
+      if (vc_rle_and(acc, acc_len, st.ptrs[i], st.lens[i], dst.data(), dst.size(), &len)) std::abort();
+      acc = dst.data();
+      acc_len = len;
+    }
+    benchmark::DoNotOptimize(acc_len);
+    benchmark::ClobberMemory();
+  }
+  merge_counters(state, st);
+}
+
+void BM_MergeN(benchmark::State& state) {
+  const Streams& st = streams(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)),
+                              static_cast<int>(state.range(2)));
+  Bytes out(vc_rle_max_encoded_size(st.nbits));
+  for (auto _ : state) {
+    size_t len = 0;
+    if (vc_rle_and_n(st.ptrs.data(), st.lens.data(), st.ptrs.size(), out.data(), out.size(), &len))
+      std::abort();
+    benchmark::DoNotOptimize(len);
+    benchmark::ClobberMemory();
+  }
+  merge_counters(state, st);
+}
+
+// Args: kind (0 ring of nodes, 1 dense random), grid n (n^3 voxels), nodes.
+void merge_args(benchmark::internal::Benchmark* b) {
+  b->ArgNames({"kind", "grid", "nodes"});
+  for (int grid : {128, 256})
+    for (int nodes : {2, 3, 4, 8, 16}) b->Args({0, grid, nodes});
+  for (int nodes : {2, 3, 4, 8, 16}) b->Args({1, 128, nodes});
+}
+BENCHMARK(BM_MergeChain)->Apply(merge_args)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_MergeN)->Apply(merge_args)->Unit(benchmark::kMicrosecond);
 
 void BM_RlePopcount(benchmark::State& state) {
   const Hulls& h = hulls(static_cast<int>(state.range(0)));

@@ -139,6 +139,34 @@ Bitset extrude(const Bitset& body, int n, int axis) {
   return out;
 }
 
+Bitset extrude_horizontal(const Bitset& body, int n, double angle_rad) {
+  Bitset out(body.nbits);
+  const double c = std::cos(angle_rad), s = std::sin(angle_rad);
+  const size_t plane = static_cast<size_t>(n) * n;
+  // Per voxel of a slice: its line (across coordinate, offset to be >= 0) and its place along it.
+  std::vector<int> line(plane);
+  std::vector<double> along(plane);
+  for (int j = 0; j < n; j++)
+    for (int i = 0; i < n; i++) {
+      line[i + static_cast<size_t>(n) * j] = static_cast<int>(std::lround(-i * s + j * c)) + 2 * n;
+      along[i + static_cast<size_t>(n) * j] = i * c + j * s;
+    }
+  std::vector<double> lo(4 * static_cast<size_t>(n) + 1), hi(lo.size());
+  for (int k = 0; k < n; k++) {
+    const size_t base = plane * k;
+    std::fill(lo.begin(), lo.end(), 1e30);
+    std::fill(hi.begin(), hi.end(), -1e30);
+    for (size_t v = 0; v < plane; v++)
+      if (body.get(base + v)) {
+        lo[line[v]] = std::min(lo[line[v]], along[v]);
+        hi[line[v]] = std::max(hi[line[v]], along[v]);
+      }
+    for (size_t v = 0; v < plane; v++)
+      if (along[v] >= lo[line[v]] && along[v] <= hi[line[v]]) out.set(base + v);
+  }
+  return out;
+}
+
 std::vector<uint8_t> reference_rle(const Bitset& b) {
   std::vector<uint64_t> runs;
   if (b.nbits > 0) {

@@ -39,6 +39,12 @@ Bitset human_hull(int n, uint64_t seed);
 // that axis is filled between its first and last occupied voxel. A superset of `body`.
 Bitset extrude(const Bitset& body, int n, int axis);
 
+// The body extruded along the horizontal direction (cos a, sin a, 0), as `extrude` does along an axis:
+// in every z slice, each line of that direction (voxel centres binned by their rounded distance across
+// it) is filled between its first and last occupied voxel. What a node looking from angle a leaves of
+// the body; several angles give the partial hulls of a ring of nodes.
+Bitset extrude_horizontal(const Bitset& body, int n, double angle_rad);
+
 // Reference (bit by bit) RLE encoder, independent of the library: the oracle of the property tests.
 std::vector<uint8_t> reference_rle(const Bitset& b);
 
