@@ -3,6 +3,8 @@
 #include <fmt/core.h>
 
 #include <algorithm>
+#include <array>
+#include <cerrno>
 #include <stdexcept>
 
 #include "voxcap/rle.h"
@@ -47,17 +49,36 @@ bool Assembler::complete(const Pending& p) const {
 void intersect(const std::vector<const std::vector<uint8_t>*>& hulls, std::vector<uint8_t>& out,
                std::vector<uint8_t>& scratch) {
   if (hulls.empty()) throw std::runtime_error("intersect: no hulls");
-  out.assign(hulls[0]->begin(), hulls[0]->end());
-  for (size_t i = 1; i < hulls.size(); i++) {
-    const std::vector<uint8_t>& b = *hulls[i];
-    // The AND has at most runs(a) + runs(b) runs; a run takes at most 4 bytes below 2^28 voxels while
-    // every input run takes at least one byte, so this capacity always suffices (checked anyway).
-    size_t cap = 5 * (out.size() + b.size()) + 16;
-    if (scratch.size() < cap) scratch.resize(cap);
+  // One vc_rle_and_n pass over all hulls; beyond VC_RLE_AND_MAX_STREAMS (never in a real rig) the
+  // result so far is one of the streams of the next pass.
+  std::array<const uint8_t*, VC_RLE_AND_MAX_STREAMS> ptrs{};
+  std::array<size_t, VC_RLE_AND_MAX_STREAMS> lens{};
+  size_t next = 0;
+  bool have_result = false;
+  while (next < hulls.size()) {
+    size_t n = 0, in_bytes = 0;
+    if (have_result) {
+      ptrs[n] = out.data();
+      lens[n++] = out.size();
+      in_bytes += out.size();
+    }
+    for (; n < ptrs.size() && next < hulls.size(); n++, next++) {
+      ptrs[n] = hulls[next]->data();
+      lens[n] = hulls[next]->size();
+      in_bytes += lens[n];
+    }
+    // Every run of the AND ends where some input run ends, so in practice it is no longer than its
+    // inputs together; should it be, vc_rle_and_n reports the size it needs and the second call fits.
+    if (scratch.size() < in_bytes + 16) scratch.resize(in_bytes + 16);
     size_t len = 0;
-    int rc = vc_rle_and(out.data(), out.size(), b.data(), b.size(), scratch.data(), scratch.size(), &len);
-    if (rc < 0) throw std::runtime_error(fmt::format("intersect: vc_rle_and failed ({})", rc));
+    int rc = vc_rle_and_n(ptrs.data(), lens.data(), n, scratch.data(), scratch.size(), &len);
+    if (rc == -ENOSPC) {
+      scratch.resize(len);
+      rc = vc_rle_and_n(ptrs.data(), lens.data(), n, scratch.data(), scratch.size(), &len);
+    }
+    if (rc < 0) throw std::runtime_error(fmt::format("intersect: vc_rle_and_n failed ({})", rc));
     out.assign(scratch.begin(), scratch.begin() + static_cast<std::ptrdiff_t>(len));
+    have_result = true;
   }
 }
 

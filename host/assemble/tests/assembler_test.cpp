@@ -150,5 +150,42 @@ TEST(Assembler, InvalidOptionsThrow) {
   EXPECT_THROW(Assembler{o}, std::invalid_argument);
 }
 
+TEST(Intersect, AnyNumberOfHullsEqualsTheBitsetAnd) {
+  // 70 hulls: more than one vc_rle_and_n pass takes (VC_RLE_AND_MAX_STREAMS).
+  std::vector<std::vector<uint8_t>> bits, rles;
+  for (uint32_t k = 0; k < 70; k++) {
+    bits.push_back(random_bits(100 + k, 0.995));
+    rles.push_back(encode(bits.back()));
+  }
+  std::vector<uint8_t> out, scratch;
+  for (size_t n : {size_t{1}, size_t{2}, size_t{3}, size_t{8}, size_t{VC_RLE_AND_MAX_STREAMS},
+                   size_t{VC_RLE_AND_MAX_STREAMS + 1}, size_t{70}}) {
+    SCOPED_TRACE(n);
+    std::vector<const std::vector<uint8_t>*> in;
+    std::vector<uint8_t> expect = bits[0];
+    for (size_t k = 0; k < n; k++) {
+      in.push_back(&rles[k]);
+      for (size_t i = 0; i < expect.size(); i++) expect[i] &= bits[k][i];
+    }
+    intersect(in, out, scratch);
+    EXPECT_EQ(out, encode(expect));
+  }
+  // Worst-case streams (every voxel its own run), with a fresh scratch buffer.
+  std::vector<uint8_t> alt((kVoxels + 7) / 8, 0x55);
+  std::vector<uint8_t> alt_rle = encode(alt), fresh;
+  intersect({&alt_rle, &alt_rle, &alt_rle}, out, fresh);
+  EXPECT_EQ(out, alt_rle);
+}
+
+TEST(Intersect, RejectsNoHullsMalformedAndMismatchedStreams) {
+  std::vector<uint8_t> out, scratch;
+  EXPECT_THROW(intersect({}, out, scratch), std::runtime_error);
+  const std::vector<uint8_t> ok = encode(random_bits(1, 0.5));
+  const std::vector<uint8_t> bad{0x02, 0x00, 0x03}, shorter{0x05};
+  EXPECT_THROW(intersect({&bad}, out, scratch), std::runtime_error);
+  EXPECT_THROW(intersect({&ok, &bad}, out, scratch), std::runtime_error);
+  EXPECT_THROW(intersect({&ok, &ok, &shorter}, out, scratch), std::runtime_error);
+}
+
 }  // namespace
 }  // namespace vc::assemble

@@ -2,8 +2,9 @@
 //
 // A frame is merged as soon as every node that is currently running has sent its HULL for that seq,
 // or when its deadline (trigger time + deadline) passes. The merge is the AND of the partial hulls,
-// done on the RLE streams directly (vc_rle_and, no bitset in between). When a configured node is
-// missing from a frame, the policy decides: Drop the frame, or merge what came and mark it degraded.
+// done on the RLE streams directly in one pass over all of them (vc_rle_and_n, no bitset in between).
+// When a configured node is missing from a frame, the policy decides: Drop the frame, or merge what
+// came and mark it degraded.
 // A HULL for a frame that was already emitted is late: counted per node and discarded.
 //
 // Memory is bounded whatever the nodes do: at most max_pending frames wait; a newer seq beyond that
@@ -112,8 +113,9 @@ class Assembler {
   std::vector<uint8_t> tmp_;  // merge scratch, reused
 };
 
-// AND of several RLE streams of the same grid into out (reusing its capacity). Throws
-// std::runtime_error on malformed input.
+// AND of several RLE streams of the same grid into out (vc_rle_and_n; `scratch` is its output buffer,
+// kept between calls so that a steady stream of frames does not allocate it again). One hull is
+// validated and copied. Throws std::runtime_error on none, malformed input or different totals.
 void intersect(const std::vector<const std::vector<uint8_t>*>& hulls, std::vector<uint8_t>& out,
                std::vector<uint8_t>& scratch);
 
