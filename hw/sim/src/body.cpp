@@ -250,26 +250,38 @@ bool Primitive::intersect(const cv::Vec3d& o_world, const cv::Vec3d& d_world, do
 
 bool Primitive::intersect_from_local(const cv::Vec3d& o, const cv::Vec3d& d_world, double t_min,
                                      double* t_hit) const {
-  const cv::Vec3d d = to_local * d_world;
-  double best = HUGE_VAL;
+  return intersect_local(o, to_local * d_world, t_min, t_hit);
+}
+
+bool Primitive::intersect_local(const cv::Vec3d& o, const cv::Vec3d& d, double t_min, double* t_hit) const {
   // Side of the infinite elliptic cylinder; the capsule lies inside it, so a miss is final.
   const double A = d[0] * d[0] + d[1] * d[1];
   const double B = o[0] * d[0] + o[1] * d[1];
   const double C = o[0] * o[0] + o[1] * o[1] - 1.0;
+  int caps = 3;  // the cap spheres that may hold the entry: 1 = at z = +core, 2 = at -core
   if (A > 1e-18) {
     const double disc = B * B - A * C;
     if (disc < 0) return false;
     const double t = (-B - std::sqrt(disc)) / A;
-    const double z = o[2] + t * d[2];
-    if (z >= -core && z <= core && t > t_min) best = t;
+    if (t > t_min) {
+      // The line enters the cylinder here. On the core this is the capsule's entry. Above it, the
+      // line can reach the capsule only through the top sphere (going lower inside the cylinder
+      // crosses that sphere's equator disc), below it only through the bottom one.
+      const double z = o[2] + t * d[2];
+      if (z >= -core && z <= core) {
+        *t_hit = t;
+        return true;
+      }
+      caps = z > core ? 1 : 2;
+    }
   } else if (C > 0) {
     return false;  // parallel to the axis and outside the cylinder
   }
-  // The caps (any entry into a cap sphere is inside the capsule; the earliest candidate is the
-  // capsule's entry).
-  double t;
-  if (sphere_entry(o, d, core, &t) && t > t_min) best = std::min(best, t);
-  if (core > 0 && sphere_entry(o, d, -core, &t) && t > t_min) best = std::min(best, t);
+  if (core <= 0) caps = 1;  // a single sphere
+  // The caps: any entry into a cap sphere is inside the capsule; the earliest is the entry.
+  double best = HUGE_VAL, t;
+  if ((caps & 1) && sphere_entry(o, d, core, &t) && t > t_min) best = t;
+  if ((caps & 2) && sphere_entry(o, d, -core, &t) && t > t_min) best = std::min(best, t);
   if (best == HUGE_VAL) return false;
   *t_hit = best;
   return true;

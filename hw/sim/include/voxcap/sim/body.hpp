@@ -139,6 +139,8 @@ struct Primitive {
   // cast many rays from one camera centre or towards one light.
   cv::Vec3d to_local_point(const cv::Vec3d& p_world) const { return to_local * (p_world - center); }
   bool intersect_from_local(const cv::Vec3d& o_local, const cv::Vec3d& d_world, double t_min, double* t_hit) const;
+  // Both ends local: the line o_local + t * d_local (d_local = to_local * d_world, so t is the same).
+  bool intersect_local(const cv::Vec3d& o_local, const cv::Vec3d& d_local, double t_min, double* t_hit) const;
   bool touches_segment_from_local(const cv::Vec3d& a_local, const cv::Vec3d& b_world) const;
   // Axis-aligned world bounding box corners (the 8 corners of the local box, in world).
   std::array<cv::Vec3d, 8> box_corners() const;
