@@ -5,8 +5,10 @@
 // node's cameras) or built from the device string, a spec of key=value pairs separated by ',' or ';':
 //   motion=walk  seed=1  noise=2  flicker=0  appearance=default  fps=60  cameras=6  size=640x480
 //   distortion=0  calibration=/path/rig.yaml  (a calibration replaces cameras/size/distortion)
-// Scenes built from the same spec are shared process-wide (one per spec, freed with its last camera),
-// so a node's two cameras render one performer. cfg->index picks the scene camera. Frame timing is
+// Scenes built from the same spec are shared process-wide (one per spec, kept until the process
+// ends), so a node's two cameras render one performer, and a camera reopened (the edge daemon
+// reopens emulated cameras at every phase) finds its per-camera render caches built (~0.3 s each
+// at 640x480; sim_open builds them). cfg->index picks the scene camera. Frame timing is
 // EmulatedTiming's at the scene's frame rate: free-running frame n, or the frame of pulse seq when
 // triggered, so the image a pulse shows is the simulator's frame (seq − seq_base) — what the ground
 // truth is indexed by. `background` renders the empty room (frame i = the i-th noise draw).
@@ -94,14 +96,13 @@ std::string parse_spec(const std::string& spec, const vc_camera_config& cfg, sim
   return "";
 }
 
-// One scene per spec, shared by the cameras that name it.
+// One scene per spec, shared by the cameras that name it and kept for the process's life.
 std::shared_ptr<const sim::Scene> shared_scene(const std::string& key, const sim::SceneOptions& o) {
   static std::mutex mu;
-  static std::map<std::string, std::weak_ptr<const sim::Scene>> scenes;
+  static std::map<std::string, std::shared_ptr<const sim::Scene>> scenes;
   std::lock_guard<std::mutex> lock(mu);
-  if (auto s = scenes[key].lock()) return s;
-  auto s = std::make_shared<const sim::Scene>(o);  // may throw: reported by the caller
-  scenes[key] = s;
+  std::shared_ptr<const sim::Scene>& s = scenes[key];
+  if (!s) s = std::make_shared<const sim::Scene>(o);  // may throw: reported by the caller
   return s;
 }
 
@@ -154,6 +155,13 @@ int sim_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info, 
   timing_cfg.fps_num = 0;  // the scene's rate
   s->timing.configure(timing_cfg, (uint64_t)(1e9 / fps + 0.5));
   s->background = cfg->background;
+  // Build this camera's render caches now (once per process: the scene is kept), so that the first
+  // exposures after a start are not spent on them.
+  try {
+    s->scene->render_background_clean(s->cam, s->scratch);
+  } catch (const std::exception& e) {
+    return vc_camera_set_error(cam, -EIO, "cannot prepare scene camera %d: %s", s->cam, e.what());
+  }
   info->width = s->width;
   info->height = s->height;
   info->pixfmt = VC_PIXFMT_RGB24;
