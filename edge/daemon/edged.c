@@ -94,6 +94,7 @@ struct edged {
   atomic_uint node_state;
   vc_link* link;
   uint64_t work_drops, hulls_sent, frame_sum_ns, frame_max_ns, frame_n;
+  uint64_t capture_sum_ns, capture_max_ns, capture_n; /* under mu: pulse -> both frames paired, running */
 };
 
 static atomic_bool g_stop;
@@ -183,6 +184,12 @@ static void on_pair(void* user, const vc_pair_event* ev) {
       work_item* w = &d->work[(d->work_head + d->work_count) % WORK];
       w->seq = ev->seq;
       w->t_ns = ev->pulse_t_ns;
+      if (d->ph == PH_RUNNING) { /* the capture stage: trigger edge -> both frames in memory */
+        uint64_t lat = vc_clock_monotonic_ns() - ev->pulse_t_ns;
+        d->capture_sum_ns += lat;
+        if (lat > d->capture_max_ns) d->capture_max_ns = lat;
+        d->capture_n++;
+      }
       for (int c = 0; c < 2; c++) {
         w->slot[c] = d->pend[i].slot[c];
         d->cams[c].slots[w->slot[c]].state = SLOT_WORK;
@@ -556,7 +563,17 @@ static void handle_work(edged* d, const work_item* w) {
 static void send_stats(edged* d) {
   vc_stats s;
   memset(&s, 0, sizeof(s));
-  int k = vc_node_take_stage_times(d->node, s.stages, VC_PROTO_MAX_STAGES - 1, &s.frames);
+  int k = vc_node_take_stage_times(d->node, s.stages, VC_PROTO_MAX_STAGES - 2, &s.frames);
+  pthread_mutex_lock(&d->mu);
+  if (d->capture_n) {
+    uint64_t mean = d->capture_sum_ns / d->capture_n;
+    s.stages[k].stage_id = VC_STAGE_CAPTURE;
+    s.stages[k].mean_ns = mean > UINT32_MAX ? UINT32_MAX : (uint32_t)mean;
+    s.stages[k].max_ns = d->capture_max_ns > UINT32_MAX ? UINT32_MAX : (uint32_t)d->capture_max_ns;
+    k++;
+    d->capture_sum_ns = d->capture_max_ns = d->capture_n = 0;
+  }
+  pthread_mutex_unlock(&d->mu);
   if (d->frame_n) {
     uint64_t mean = d->frame_sum_ns / d->frame_n;
     s.stages[k].stage_id = VC_STAGE_FRAME;

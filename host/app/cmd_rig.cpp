@@ -67,9 +67,10 @@ void print_report(const aggregator::Report& r) {
       return it == n.edge_stage_ms.end() ? 0.0 : it->second;
     };
     fmt::print(
-        "  {:<8} hulls {:>6}  late {:>4}  missing {:>4}  edge: subtract {:.2f} ms  carve {:.2f} ms  "
-        "trigger->hull {:.2f} ms  trigger->host p50 {:.2f} ms p99 {:.2f} ms  drops {}  joins {}{}\n",
-        n.name, n.hulls, n.late, n.missing, st("subtract"), st("carve"), n.edge_frame_ms, n.rx.percentile_ms(0.5),
+        "  {:<8} hulls {:>6}  late {:>4}  missing {:>4}  edge: capture {:.2f} ms  subtract {:.2f} ms  "
+        "carve {:.2f} ms  trigger->hull {:.2f} ms  trigger->host p50 {:.2f} ms p99 {:.2f} ms  drops {}  joins {}{}\n",
+        n.name, n.hulls, n.late, n.missing, st("capture"), st("subtract"), st("carve"), n.edge_frame_ms,
+        n.rx.percentile_ms(0.5),
         n.rx.percentile_ms(0.99), n.edge_queue_drops + n.edge_pulses_without_frame, n.joins,
         n.last_error.empty() ? "" : "  last error: " + n.last_error);
   }
