@@ -495,7 +495,9 @@ TEST(RleAndN, RejectsMalformedStreamsAtAnyPosition) {
           std::vector<Stream> in(nstreams, *other);
           in[k] = c.rle;
           EXPECT_EQ(and_n(in, 64).rc, c.err);
-          if (nstreams == 2) EXPECT_EQ(and_chain(in, 64).rc, c.err);
+          if (nstreams == 2) {
+            EXPECT_EQ(and_chain(in, 64).rc, c.err);
+          }
         }
   }
   // Runs whose total overflows 64 bits.
