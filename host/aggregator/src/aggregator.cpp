@@ -67,11 +67,18 @@ vc_config make_config_message(const config::RigConfig& rig, const config::NodeCo
 void Latency::add(uint64_t v) {
   n++;
   sum += double(v);
-  if (samples.size() < 20000) {
+  if (samples.size() < kReservoir) {
+    samples.reserve(kReservoir);  // allocated once, at the first sample
     samples.push_back(v);
-  } else {  // reservoir: keep a uniform sample of everything seen (deterministic stride)
-    samples[n % samples.size()] = v;
+    return;
   }
+  // Reservoir sampling (Vitter's algorithm R): every value seen so far is in the sample with the same
+  // probability kReservoir / n. The generator is a fixed-seed xorshift: runs are repeatable.
+  rng ^= rng << 13;
+  rng ^= rng >> 7;
+  rng ^= rng << 17;
+  const uint64_t j = rng % n;
+  if (j < kReservoir) samples[j] = v;
 }
 
 double Latency::percentile_ms(double p) const {

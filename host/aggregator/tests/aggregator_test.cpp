@@ -167,6 +167,23 @@ struct FrameSink : Sink {
   }
 };
 
+TEST(Latency, PercentilesComeFromAUniformSampleOfTheWholeRunInBoundedMemory) {
+  Latency l;
+  const uint64_t n = 200000;
+  for (uint64_t v = 0; v < n; v++) l.add(v * 1000);  // rising: a window of recent values would say ~199000
+  EXPECT_EQ(l.n, n);
+  EXPECT_EQ(l.samples.size(), Latency::kReservoir);
+  EXPECT_EQ(l.samples.capacity(), Latency::kReservoir);
+  EXPECT_NEAR(l.mean_ms(), (n - 1) / 2.0 / 1000.0, 1e-6);
+  EXPECT_NEAR(l.percentile_ms(0.5), 100.0, 100.0 * 0.05);   // true median: 100 ms
+  EXPECT_NEAR(l.percentile_ms(0.99), 198.0, 198.0 * 0.01);  // true p99: 198 ms
+  Latency few;
+  for (uint64_t v : {3000000ull, 1000000ull, 2000000ull}) few.add(v);
+  EXPECT_DOUBLE_EQ(few.percentile_ms(0.5), 2.0);
+  EXPECT_DOUBLE_EQ(few.percentile_ms(1.0), 3.0);
+  EXPECT_DOUBLE_EQ(Latency{}.percentile_ms(0.5), 0.0);
+}
+
 TEST(Aggregator, NodeNumbers) {
   config::NodeConfig n;
   n.id = "node12";
