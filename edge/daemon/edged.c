@@ -560,28 +560,25 @@ static void handle_work(edged* d, const work_item* w) {
   publish_state(d);
 }
 
+/* Appends a stage record (mean and max over n frames) and resets the accumulators. */
+static void put_stage(vc_stats* s, int* k, uint32_t id, uint64_t* sum_ns, uint64_t* max_ns, uint64_t* n) {
+  if (*n == 0) return;
+  uint64_t mean = *sum_ns / *n;
+  s->stages[*k].stage_id = id;
+  s->stages[*k].mean_ns = mean > UINT32_MAX ? UINT32_MAX : (uint32_t)mean;
+  s->stages[*k].max_ns = *max_ns > UINT32_MAX ? UINT32_MAX : (uint32_t)*max_ns;
+  (*k)++;
+  *sum_ns = *max_ns = *n = 0;
+}
+
 static void send_stats(edged* d) {
   vc_stats s;
   memset(&s, 0, sizeof(s));
   int k = vc_node_take_stage_times(d->node, s.stages, VC_PROTO_MAX_STAGES - 2, &s.frames);
   pthread_mutex_lock(&d->mu);
-  if (d->capture_n) {
-    uint64_t mean = d->capture_sum_ns / d->capture_n;
-    s.stages[k].stage_id = VC_STAGE_CAPTURE;
-    s.stages[k].mean_ns = mean > UINT32_MAX ? UINT32_MAX : (uint32_t)mean;
-    s.stages[k].max_ns = d->capture_max_ns > UINT32_MAX ? UINT32_MAX : (uint32_t)d->capture_max_ns;
-    k++;
-    d->capture_sum_ns = d->capture_max_ns = d->capture_n = 0;
-  }
+  put_stage(&s, &k, VC_STAGE_CAPTURE, &d->capture_sum_ns, &d->capture_max_ns, &d->capture_n);
   pthread_mutex_unlock(&d->mu);
-  if (d->frame_n) {
-    uint64_t mean = d->frame_sum_ns / d->frame_n;
-    s.stages[k].stage_id = VC_STAGE_FRAME;
-    s.stages[k].mean_ns = mean > UINT32_MAX ? UINT32_MAX : (uint32_t)mean;
-    s.stages[k].max_ns = d->frame_max_ns > UINT32_MAX ? UINT32_MAX : (uint32_t)d->frame_max_ns;
-    k++;
-    d->frame_sum_ns = d->frame_max_ns = d->frame_n = 0;
-  }
+  put_stage(&s, &k, VC_STAGE_FRAME, &d->frame_sum_ns, &d->frame_max_ns, &d->frame_n);
   s.stage_count = (uint16_t)k;
   vc_pairing_stats ps;
   vc_node_counters nc;
