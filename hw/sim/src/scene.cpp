@@ -349,10 +349,6 @@ std::uint8_t to_u8(double v) {
   return cv::saturate_cast<std::uint8_t>(v);
 }
 
-}  // namespace
-
-namespace {
-
 // The last step of every output value: clamp(gain * v + noise). Identity when there is neither.
 // The flicker gain is applied in Q7 (steps of 1/128) so that 16-bit lanes hold the product.
 struct Finish {
