@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "voxcap/edge/rig_models.hpp"
+
 namespace vc::bench {
 namespace {
 
@@ -82,17 +84,7 @@ void EdgeScene::prepare_rays(int c) const {
 }
 
 vc_camera_model EdgeScene::camera_model(int c) const {
-  const vc::rig::Camera& cam = cams_[c];
-  vc_camera_model m{};
-  m.width = cam.width;
-  m.height = cam.height;
-  for (int i = 0; i < 9; i++) {
-    m.K[i] = cam.K.val[i];
-    m.R[i] = cam.R_cam_from_world.val[i];
-  }
-  for (int i = 0; i < 5; i++) m.dist[i] = cam.dist[i];
-  for (int i = 0; i < 3; i++) m.t[i] = cam.t_cam_from_world[i];
-  return m;
+  return vc::edge::camera_model(cams_[c]);
 }
 
 vc_voxel_grid EdgeScene::grid(int n) {

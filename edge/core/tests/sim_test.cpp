@@ -16,23 +16,11 @@
 #include "voxcap/edge/bgmodel.h"
 #include "voxcap/edge/carver.h"
 #include "voxcap/edge/cleanup.h"
+#include "voxcap/edge/rig_models.hpp"
 #include "voxcap/sim/scene.hpp"
 #include <opencv2/imgproc.hpp>
 
 namespace {
-
-vc_camera_model to_model(const vc::rig::Camera& cam) {
-  vc_camera_model m{};
-  m.width = cam.width;
-  m.height = cam.height;
-  for (int i = 0; i < 9; i++) {
-    m.K[i] = cam.K.val[i];
-    m.R[i] = cam.R_cam_from_world.val[i];
-  }
-  for (int i = 0; i < 5; i++) m.dist[i] = cam.dist[i];
-  for (int i = 0; i < 3; i++) m.t[i] = cam.t_cam_from_world[i];
-  return m;
-}
 
 vc::sim::SceneOptions options() {
   vc::sim::SceneOptions o;
@@ -105,8 +93,9 @@ TEST(SimTruth, PartialHullContainsTheBodySeenByBothCameras) {
   const auto& calib = scene.calibration();
   ASSERT_TRUE(calib.grid.has_value());
   const vc::rig::VoxelGrid& g = *calib.grid;
-  vc_voxel_grid grid{{g.min_m[0], g.min_m[1], g.min_m[2]}, g.voxel_m, g.nx, g.ny, g.nz};
-  vc_camera_model cams[2] = {to_model(calib.cameras[0]), to_model(calib.cameras[1])};
+  vc_voxel_grid grid = vc::edge::voxel_grid(g);
+  vc_camera_model cams[2] = {vc::edge::camera_model(calib.cameras[0]),
+                             vc::edge::camera_model(calib.cameras[1])};
   std::unique_ptr<vc_carver, void (*)(vc_carver*)> cv(vc_carver_new(&grid, &cams[0], &cams[1]), vc_carver_free);
   ASSERT_NE(cv, nullptr);
   std::vector<uint8_t> bits(vc_carver_bitset_bytes(cv.get())), grown_bits(bits.size()), body;

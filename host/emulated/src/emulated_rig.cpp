@@ -22,6 +22,7 @@
 
 #include "voxcap/aggregator/sinks.hpp"
 #include "voxcap/edge/carver.h"
+#include "voxcap/edge/rig_models.hpp"
 #include "voxcap/rig/calibration.hpp"
 #include "voxcap/rle.h"
 #include "voxcap/sim/rig_layout.hpp"
@@ -75,20 +76,6 @@ static int free_port(int type) {
   return ntohs(a.sin_port);
 }
 
-static vc_camera_model to_model(const rig::Camera& c) {
-  vc_camera_model m{};
-  m.width = c.width;
-  m.height = c.height;
-  for (int r = 0; r < 3; r++)
-    for (int q = 0; q < 3; q++) {
-      m.K[r * 3 + q] = c.K(r, q);
-      m.R[r * 3 + q] = c.R_cam_from_world(r, q);
-    }
-  for (int i = 0; i < 5; i++) m.dist[i] = c.dist[i];
-  for (int i = 0; i < 3; i++) m.t[i] = c.t_cam_from_world[i];
-  return m;
-}
-
 // Scores merged frames against the simulator's truth on its own thread (a bounded queue: when it
 // falls behind, frames are skipped from scoring, never from the rig).
 class TruthScorer : public aggregator::Sink {
@@ -102,10 +89,10 @@ class TruthScorer : public aggregator::Sink {
     so.noise_sigma = opt.noise;
     so.calibration = rig::read_calibration(spec_cal);
     scene_ = std::make_unique<sim::Scene>(so);
-    vc_voxel_grid g{{grid.min_m[0], grid.min_m[1], grid.min_m[2]}, grid.voxel_m, grid.nx, grid.ny, grid.nz};
+    const vc_voxel_grid g = edge::voxel_grid(grid);
     for (int k = 0; k < opt.nodes; k++) {
-      vc_camera_model a = to_model(cal.cameras[static_cast<size_t>(2 * k)]);
-      vc_camera_model b = to_model(cal.cameras[static_cast<size_t>(2 * k + 1)]);
+      vc_camera_model a = edge::camera_model(cal.cameras[static_cast<size_t>(2 * k)]);
+      vc_camera_model b = edge::camera_model(cal.cameras[static_cast<size_t>(2 * k + 1)]);
       vc_carver* c = vc_carver_new(&g, &a, &b);
       if (!c) throw std::runtime_error("truth: cannot build a carver for the rig");
       carvers_.push_back(c);
