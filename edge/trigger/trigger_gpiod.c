@@ -1,5 +1,5 @@
-/* The "gpiod" trigger backend, libgpiod v2 API (bookworm-backports, current Raspberry Pi OS).
- * (trigger_gpiod_v1.c is its libgpiod 1.x twin; CMake compiles exactly one of them.)
+/* The "gpiod" trigger backend, libgpiod v2 API (bookworm-backports, current Raspberry Pi OS; the
+ * build requires libgpiod >= 2.0).
  *
  * The host's trigger pulse reaches the edge board on a GPIO line. We request that one line as an
  * input with rising-edge detection (falling on the wire when active_low), optional bias and debounce,

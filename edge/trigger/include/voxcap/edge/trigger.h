@@ -2,8 +2,7 @@
  *
  * Backends, chosen by name from the configuration (never by #ifdef):
  *   "gpiod"  a GPIO line wired to the host's trigger output: rising-edge events read through libgpiod
- *            (v2 API; a v1 variant is compiled instead where only libgpiod 1.x exists), kernel
- *            timestamps, pulses counted into seq from the kernel's per-line event counter
+ *            (v2 API), kernel timestamps, pulses counted into seq from the kernel's per-line event counter
  *   "udp"    the emulated trigger: one datagram per pulse (proto's trigger datagram: seq + host
  *            CLOCK_MONOTONIC time), received on a loopback UDP port
  * Every pulse comes out as {seq, t_ns CLOCK_MONOTONIC}. Lost pulses are counted: gaps in the kernel's
