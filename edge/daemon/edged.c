@@ -1,58 +1,21 @@
-/* The edge daemon's run loop (see edged.h for the thread structure). */
+/* The edge daemon's main loop: the host's commands and every complete frame pair, on the pipeline
+ * thread (see edged.h). Capture is capture.c's; pairing and the queues are frameq.c's. */
 #define _GNU_SOURCE
 #include "edged.h"
 
 #include <errno.h>
 #include <pthread.h>
-#include <signal.h>
 #include <stdarg.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
-#include <unistd.h>
 
+#include "capture.h"
 #include "node.h"
 #include "voxcap/edge/clock.h"
-#include "voxcap/edge/pairing.h"
 
-#define MAX_SLOTS 8
-#define PEND 32
-#define WORK 8
 #define INBOUND 8
-
-enum { SLOT_FREE = 0, SLOT_FILLED, SLOT_MATCHED, SLOT_WORK };
-
-typedef struct slot {
-  uint8_t* rgb;
-  size_t stride;
-  int state;
-} slot;
-
-typedef struct edged edged;
-
-typedef struct camthread {
-  edged* d;
-  int idx;
-  vc_camera* cam;
-  bool emulated;
-  int width, height;
-  pthread_t th;
-  bool started;
-  atomic_bool run;
-  slot slots[MAX_SLOTS];
-  /* Emulated cameras: the pulse to expose next, handed over by the trigger thread (under d->mu). Like
-   * a real sensor still busy with its last frame, a camera that has not taken the previous pulse
-   * when the next one comes misses it (counted): stale pulses are never queued. */
-  vc_pulse pending;
-  bool has_pending;
-  uint64_t missed_pulses;
-  pthread_cond_t mbox_cv;
-  uint64_t last_frame_ms;
-  uint64_t frames, errors, slot_drops;
-  char last_error[256];
-} camthread;
 
 typedef struct ctl {
   uint16_t type;
@@ -61,41 +24,17 @@ typedef struct ctl {
   vc_config cfg;
 } ctl;
 
-typedef struct work_item {
-  uint64_t seq, t_ns;
-  int slot[2];
-} work_item;
-
-typedef enum phase { PH_IDLE = 0, PH_BACKGROUND, PH_RUNNING } phase;
-
-struct edged {
+typedef struct edged {
   const vc_edged_options* opt;
-  pthread_mutex_t mu;
-  pthread_cond_t cv;
-  vc_pairer* pairer;
-  camthread cams[2];
-  unsigned nslots;
-  vc_trigger* trig;
-  pthread_t trig_th;
-  atomic_bool trig_run;
-  struct {
-    bool used;
-    uint64_t seq;
-    int slot[2];
-  } pend[PEND];
-  work_item work[WORK];
-  unsigned work_head, work_count;
+  vc_capture* cap;
+  pthread_mutex_t mu; /* the inbound commands */
   ctl inbound[INBOUND];
   unsigned in_head, in_count;
-  phase ph;            /* under mu: which frames and pulses go to the pairer */
-  uint64_t emu_seq_base; /* emulated cameras show frame seq - base; pulses below it are ignored */
-  uint64_t last_pulse_seq;
   vc_node* node;
   atomic_uint node_state;
   vc_link* link;
-  uint64_t work_drops, hulls_sent, frame_sum_ns, frame_max_ns, frame_n;
-  uint64_t capture_sum_ns, capture_max_ns, capture_n; /* under mu: pulse -> both frames paired, running */
-};
+  uint64_t hulls_sent, frame_sum_ns, frame_max_ns, frame_n; /* pipeline thread */
+} edged;
 
 static atomic_bool g_stop;
 void vc_edged_request_stop(void) { atomic_store(&g_stop, true); }
@@ -138,277 +77,15 @@ static void send_error(edged* d, uint32_t code, uint16_t severity, uint16_t abou
   if (vc_encode_error(buf, sizeof(buf), &len, &hdr, &e) == 0) vc_link_send(d->link, buf, len);
 }
 
-/* ---- pairing (callbacks run under d->mu) ------------------------------------------------------ */
+/* ---- the capture's callbacks (capture threads) ---------------------------------------------------- */
 
-static int pend_find(edged* d, uint64_t seq, bool create) {
-  int free_i = -1;
-  for (int i = 0; i < PEND; i++) {
-    if (d->pend[i].used && d->pend[i].seq == seq) return i;
-    if (!d->pend[i].used && free_i < 0) free_i = i;
-  }
-  if (!create || free_i < 0) return -1;
-  d->pend[free_i].used = true;
-  d->pend[free_i].seq = seq;
-  d->pend[free_i].slot[0] = d->pend[free_i].slot[1] = -1;
-  return free_i;
+static void capture_error(void* user, uint32_t code, const char* text) {
+  send_error(user, code, VC_SEVERITY_ERROR, 0, "%s", text);
 }
 
-static void free_slot(edged* d, int cam, int s) {
-  if (s >= 0) d->cams[cam].slots[s].state = SLOT_FREE;
-}
-
-static void on_pair(void* user, const vc_pair_event* ev) {
-  edged* d = user;
-  int i;
-  switch (ev->type) {
-    case VC_PAIR_MATCHED:
-      i = pend_find(d, ev->seq, true);
-      if (i < 0) { /* more pending pulses than the table holds: cannot happen with pulse_slots < PEND */
-        free_slot(d, (int)ev->cam, (int)ev->cookie);
-        break;
-      }
-      d->pend[i].slot[ev->cam] = (int)ev->cookie;
-      d->cams[ev->cam].slots[ev->cookie].state = SLOT_MATCHED;
-      break;
-    case VC_PAIR_COMPLETE: {
-      i = pend_find(d, ev->seq, false);
-      if (i < 0) break;
-      if (d->work_count == WORK) { /* the pipeline is behind: drop the oldest pair */
-        work_item* old = &d->work[d->work_head];
-        free_slot(d, 0, old->slot[0]);
-        free_slot(d, 1, old->slot[1]);
-        d->work_head = (d->work_head + 1) % WORK;
-        d->work_count--;
-        d->work_drops++;
-      }
-      work_item* w = &d->work[(d->work_head + d->work_count) % WORK];
-      w->seq = ev->seq;
-      w->t_ns = ev->pulse_t_ns;
-      if (d->ph == PH_RUNNING) { /* the capture stage: trigger edge -> both frames in memory */
-        uint64_t lat = vc_clock_monotonic_ns() - ev->pulse_t_ns;
-        d->capture_sum_ns += lat;
-        if (lat > d->capture_max_ns) d->capture_max_ns = lat;
-        d->capture_n++;
-      }
-      for (int c = 0; c < 2; c++) {
-        w->slot[c] = d->pend[i].slot[c];
-        d->cams[c].slots[w->slot[c]].state = SLOT_WORK;
-      }
-      d->work_count++;
-      d->pend[i].used = false;
-      pthread_cond_signal(&d->cv);
-      break;
-    }
-    case VC_PAIR_PULSE_UNMATCHED:
-      i = pend_find(d, ev->seq, false);
-      if (i >= 0) {
-        free_slot(d, 0, d->pend[i].slot[0]);
-        free_slot(d, 1, d->pend[i].slot[1]);
-        d->pend[i].used = false;
-      }
-      logm(3, "pulse %llu: no frame from camera mask 0x%x", (unsigned long long)ev->seq, ev->missing_mask);
-      break;
-    case VC_PAIR_FRAME_UNMATCHED:
-      free_slot(d, (int)ev->cam, (int)ev->cookie);
-      break;
-  }
-}
-
-/* ---- camera threads ----------------------------------------------------------------------------- */
-
-static void* cam_main(void* arg) {
-  camthread* ct = arg;
-  edged* d = ct->d;
-  ct->last_frame_ms = mono_ms();
-  bool reported = false;
-  while (atomic_load(&ct->run)) {
-    if (ct->emulated) {
-      /* An emulated camera exposes a frame only when "triggered": wait for the next pulse. */
-      pthread_mutex_lock(&d->mu);
-      if (!ct->has_pending) {
-        struct timespec dl;
-        clock_gettime(CLOCK_MONOTONIC, &dl);
-        dl.tv_nsec += 50 * 1000000L;
-        if (dl.tv_nsec >= 1000000000L) {
-          dl.tv_sec++;
-          dl.tv_nsec -= 1000000000L;
-        }
-        pthread_cond_timedwait(&ct->mbox_cv, &d->mu, &dl);
-      }
-      if (!ct->has_pending) {
-        pthread_mutex_unlock(&d->mu);
-        continue;
-      }
-      vc_pulse p = ct->pending;
-      ct->has_pending = false;
-      pthread_mutex_unlock(&d->mu);
-      int rc = vc_camera_soft_trigger(ct->cam, p.seq, p.t_ns);
-      if (rc < 0) {
-        snprintf(ct->last_error, sizeof(ct->last_error), "%s", vc_camera_last_error(ct->cam));
-        send_error(d, VC_ERR_CAMERA, VC_SEVERITY_ERROR, 0, "camera %d: %s", ct->idx, ct->last_error);
-        continue;
-      }
-    }
-    vc_frame f;
-    int rc = vc_camera_capture(ct->cam, 100, &f);
-    if (rc == -ETIMEDOUT) {
-      int limit = d->opt->camera_timeout_ms ? d->opt->camera_timeout_ms : 2000;
-      pthread_mutex_lock(&d->mu);
-      bool active = d->ph != PH_IDLE;
-      pthread_mutex_unlock(&d->mu);
-      if (active && !reported && mono_ms() - ct->last_frame_ms > (uint64_t)limit) {
-        send_error(d, VC_ERR_CAMERA, VC_SEVERITY_ERROR, 0, "camera %d (%s): stopped delivering frames for %d ms",
-                   ct->idx, d->opt->cameras[ct->idx].device ? d->opt->cameras[ct->idx].device : "?", limit);
-        ct->errors++;
-        reported = true;
-      }
-      continue;
-    }
-    if (rc < 0) {
-      ct->errors++;
-      send_error(d, VC_ERR_CAMERA, VC_SEVERITY_ERROR, 0, "camera %d: %s", ct->idx, vc_camera_last_error(ct->cam));
-      usleep(100 * 1000);
-      continue;
-    }
-    ct->last_frame_ms = mono_ms();
-    reported = false;
-    ct->frames++;
-    pthread_mutex_lock(&d->mu);
-    if (d->ph != PH_IDLE) {
-      int s = -1;
-      for (unsigned i = 0; i < d->nslots; i++)
-        if (ct->slots[i].state == SLOT_FREE) {
-          s = (int)i;
-          break;
-        }
-      if (s < 0) {
-        ct->slot_drops++; /* the pipeline holds every slot: it is behind */
-      } else {
-        slot* sl = &ct->slots[s];
-        size_t row = (size_t)ct->width * 3;
-        for (int y = 0; y < ct->height; y++) memcpy(sl->rgb + (size_t)y * row, f.rgb + (size_t)y * f.stride, row);
-        sl->state = SLOT_FILLED;
-        vc_pairer_add_frame(d->pairer, (unsigned)ct->idx, f.t_ns, (uint64_t)s);
-      }
-    }
-    pthread_mutex_unlock(&d->mu);
-    vc_camera_release(ct->cam, &f);
-  }
-  return NULL;
-}
-
-/* ---- trigger thread ----------------------------------------------------------------------------- */
-
-static void* trig_main(void* arg) {
-  edged* d = arg;
-  while (atomic_load(&d->trig_run)) {
-    vc_pulse p;
-    int rc = vc_trigger_wait(d->trig, 100, &p);
-    if (rc == -ETIMEDOUT) continue;
-    if (rc < 0) {
-      send_error(d, VC_ERR_TRIGGER, VC_SEVERITY_ERROR, 0, "trigger: %s", vc_trigger_last_error(d->trig));
-      usleep(100 * 1000);
-      continue;
-    }
-    pthread_mutex_lock(&d->mu);
-    d->last_pulse_seq = p.seq;
-    if (d->ph != PH_IDLE && p.seq >= d->emu_seq_base) {
-      vc_pairer_add_pulse(d->pairer, p.seq, p.t_ns);
-      for (int c = 0; c < 2; c++) {
-        camthread* ct = &d->cams[c];
-        if (!ct->emulated) continue;
-        if (ct->has_pending) ct->missed_pulses++; /* still busy with the previous one */
-        ct->pending = p;
-        ct->has_pending = true;
-        pthread_cond_signal(&ct->mbox_cv);
-      }
-    }
-    pthread_mutex_unlock(&d->mu);
-  }
-  return NULL;
-}
-
-/* ---- cameras: open, reopen (emulated), threads -------------------------------------------------- */
-
-static bool is_emulated(const vc_camera_config* c) {
-  return c->backend && (strcmp(c->backend, "file") == 0 || strcmp(c->backend, "sim") == 0);
-}
-
-static int open_camera(const vc_camera_config* base, bool background, uint64_t seq_base, vc_camera** out) {
-  vc_camera_config cfg = *base;
-  if (is_emulated(base)) {
-    cfg.external_trigger = true;
-    cfg.background = background;
-    cfg.loop = background;
-    cfg.seq_base = seq_base;
-  }
-  char why[256] = "";
-  int rc = vc_camera_open(&cfg, out, why, sizeof(why));
-  if (rc < 0) {
-    logm(0, "camera %d (%s %s): %s", base->index, base->backend, base->device ? base->device : "", why);
-    return rc;
-  }
-  rc = vc_camera_start(*out);
-  if (rc < 0) {
-    logm(0, "camera %d: cannot start: %s", base->index, vc_camera_last_error(*out));
-    vc_camera_free(*out);
-    *out = NULL;
-  }
-  return rc;
-}
-
-static void cams_stop_threads(edged* d) {
-  for (int c = 0; c < 2; c++) {
-    camthread* ct = &d->cams[c];
-    if (!ct->started) continue;
-    atomic_store(&ct->run, false);
-    pthread_mutex_lock(&d->mu);
-    pthread_cond_broadcast(&ct->mbox_cv);
-    pthread_mutex_unlock(&d->mu);
-    pthread_join(ct->th, NULL);
-    ct->started = false;
-  }
-}
-
-static int cams_start_threads(edged* d) {
-  for (int c = 0; c < 2; c++) {
-    camthread* ct = &d->cams[c];
-    atomic_store(&ct->run, true);
-    int rc = pthread_create(&ct->th, NULL, cam_main, ct);
-    if (rc != 0) return -rc;
-    ct->started = true;
-  }
-  return 0;
-}
-
-/* Emulated cameras: reopen for the phase. Real cameras stay as they are. Pipeline thread only. */
-static int cams_enter_phase(edged* d, phase ph, uint64_t seq_base) {
-  bool any_emulated = d->cams[0].emulated || d->cams[1].emulated;
-  if (any_emulated) cams_stop_threads(d);
-  pthread_mutex_lock(&d->mu);
-  d->ph = ph;
-  vc_pairer_flush(d->pairer); /* frames and pulses of the previous phase are no use now */
-  d->work_head = d->work_count = 0;
-  for (int c = 0; c < 2; c++) {
-    d->cams[c].has_pending = false;
-    for (unsigned s = 0; s < d->nslots; s++) d->cams[c].slots[s].state = SLOT_FREE;
-  }
-  memset(d->pend, 0, sizeof(d->pend));
-  d->emu_seq_base = any_emulated ? seq_base : 0;
-  pthread_mutex_unlock(&d->mu);
-  if (!any_emulated) return 0;
-  for (int c = 0; c < 2; c++) {
-    camthread* ct = &d->cams[c];
-    if (!ct->emulated) continue;
-    vc_camera_free(ct->cam);
-    ct->cam = NULL;
-    int rc = open_camera(&d->opt->cameras[c], ph == PH_BACKGROUND, seq_base, &ct->cam);
-    if (rc < 0) {
-      send_error(d, VC_ERR_CAMERA, VC_SEVERITY_ERROR, 0, "camera %d: cannot reopen", c);
-      return rc;
-    }
-  }
-  return cams_start_threads(d);
+static void capture_log(void* user, int level, const char* text) {
+  (void)user;
+  logm(level, "%s", text);
 }
 
 /* ---- the link's callbacks (link thread) ---------------------------------------------------------- */
@@ -446,8 +123,8 @@ static void on_message(void* user, const vc_msg* m) {
   if (m->hdr.type == VC_MSG_CONFIG) c->cfg = m->u.config;
   if (m->hdr.type == VC_MSG_BACKGROUND) c->frames = m->u.background.frame_count;
   d->in_count++;
-  pthread_cond_signal(&d->cv);
   pthread_mutex_unlock(&d->mu);
+  vc_capture_wake(d->cap);
 }
 
 static void on_connection(void* user, bool up) {
@@ -486,7 +163,7 @@ static void handle_ctl(edged* d, ctl* c) {
   int rc;
   switch (c->type) {
     case VC_MSG_CONFIG:
-      if (d->ph != PH_IDLE) cams_enter_phase(d, PH_IDLE, 0);
+      if (vc_capture_get_phase(d->cap) != VC_CAPTURE_IDLE) vc_capture_set_phase(d->cap, VC_CAPTURE_IDLE, 0);
       rc = vc_node_configure(d->node, &c->cfg, why, sizeof(why), warn, sizeof(warn));
       if (rc < 0) {
         send_error(d, VC_ERR_CONFIG, VC_SEVERITY_ERROR, VC_MSG_CONFIG, "CONFIG rejected: %s", why);
@@ -501,10 +178,7 @@ static void handle_ctl(edged* d, ctl* c) {
         send_error(d, VC_ERR_STATE, VC_SEVERITY_ERROR, VC_MSG_BACKGROUND, "BACKGROUND before CONFIG");
         break;
       }
-      pthread_mutex_lock(&d->mu);
-      uint64_t base = d->last_pulse_seq + 1;
-      pthread_mutex_unlock(&d->mu);
-      cams_enter_phase(d, PH_BACKGROUND, base);
+      vc_capture_set_phase(d->cap, VC_CAPTURE_BACKGROUND, vc_capture_last_pulse_seq(d->cap) + 1);
       logm(2, "learning the background");
       break;
     case VC_MSG_START:
@@ -513,21 +187,22 @@ static void handle_ctl(edged* d, ctl* c) {
         send_error(d, VC_ERR_STATE, VC_SEVERITY_ERROR, VC_MSG_START, "START before the background was learnt");
         break;
       }
-      cams_enter_phase(d, PH_RUNNING, c->seq);
+      vc_capture_set_phase(d->cap, VC_CAPTURE_RUNNING, c->seq);
       logm(2, "running from seq %llu", (unsigned long long)c->seq);
       break;
     case VC_MSG_STOP:
       vc_node_stop(d->node);
-      cams_enter_phase(d, PH_IDLE, 0);
+      vc_capture_set_phase(d->cap, VC_CAPTURE_IDLE, 0);
       logm(2, "stopped");
       break;
   }
   publish_state(d);
 }
 
-static void handle_work(edged* d, const work_item* w) {
-  const uint8_t* rgb[2] = {d->cams[0].slots[w->slot[0]].rgb, d->cams[1].slots[w->slot[1]].rgb};
-  const size_t stride[2] = {d->cams[0].slots[w->slot[0]].stride, d->cams[1].slots[w->slot[1]].stride};
+static void handle_work(edged* d, const vc_capture_pair* p) {
+  const vc_frame_pair* w = &p->pair;
+  const uint8_t* const* rgb = p->rgb;
+  const size_t* stride = p->stride;
   uint32_t st = vc_node_state(d->node);
   if (st == VC_STATE_BACKGROUND) {
     int rc = vc_node_background_add(d->node, rgb, stride);
@@ -537,7 +212,7 @@ static void handle_work(edged* d, const work_item* w) {
         int src = vc_node_save_background(d->node, d->opt->state_dir);
         if (src < 0) logm(1, "cannot keep the background model in %s: %s", d->opt->state_dir, strerror(-src));
       }
-      cams_enter_phase(d, PH_IDLE, 0);
+      vc_capture_set_phase(d->cap, VC_CAPTURE_IDLE, 0);
     } else if (rc < 0) {
       send_error(d, VC_ERR_INTERNAL, VC_SEVERITY_ERROR, VC_MSG_BACKGROUND, "background learning failed: %s",
                  strerror(-rc));
@@ -575,20 +250,19 @@ static void send_stats(edged* d) {
   vc_stats s;
   memset(&s, 0, sizeof(s));
   int k = vc_node_take_stage_times(d->node, s.stages, VC_PROTO_MAX_STAGES - 2, &s.frames);
-  pthread_mutex_lock(&d->mu);
-  put_stage(&s, &k, VC_STAGE_CAPTURE, &d->capture_sum_ns, &d->capture_max_ns, &d->capture_n);
-  pthread_mutex_unlock(&d->mu);
+  uint64_t capture_sum_ns, capture_max_ns, capture_n;
+  vc_capture_take_capture_time(d->cap, &capture_sum_ns, &capture_max_ns, &capture_n);
+  put_stage(&s, &k, VC_STAGE_CAPTURE, &capture_sum_ns, &capture_max_ns, &capture_n);
   put_stage(&s, &k, VC_STAGE_FRAME, &d->frame_sum_ns, &d->frame_max_ns, &d->frame_n);
   s.stage_count = (uint16_t)k;
-  vc_pairing_stats ps;
+  vc_capture_stats cs;
   vc_node_counters nc;
   vc_link_stats ls;
-  pthread_mutex_lock(&d->mu);
-  vc_pairer_get_stats(d->pairer, &ps);
-  uint64_t frames = d->cams[0].frames + d->cams[1].frames;
-  uint64_t cam_errors = d->cams[0].errors + d->cams[1].errors;
-  uint64_t drops = d->work_drops + d->cams[0].slot_drops + d->cams[1].slot_drops;
-  pthread_mutex_unlock(&d->mu);
+  vc_capture_get_stats(d->cap, &cs);
+  const vc_pairing_stats* ps = &cs.queue.pairing;
+  uint64_t frames = cs.frames[0] + cs.frames[1];
+  uint64_t cam_errors = cs.errors[0] + cs.errors[1];
+  uint64_t drops = cs.queue.work_drops + cs.queue.slot_drops[0] + cs.queue.slot_drops[1];
   vc_node_get_counters(d->node, &nc);
   vc_link_get_stats(d->link, &ls);
   struct {
@@ -598,8 +272,8 @@ static void send_stats(edged* d) {
       {VC_COUNTER_FRAMES_CAPTURED, frames},
       {VC_COUNTER_HULLS_SENT, d->hulls_sent},
       {VC_COUNTER_SEND_QUEUE_DROPS, ls.queue_dropped + drops},
-      {VC_COUNTER_FRAMES_WITHOUT_PULSE, ps.frames_without_pulse[0] + ps.frames_without_pulse[1]},
-      {VC_COUNTER_PULSES_WITHOUT_FRAME, ps.pulses_without_frame[0] + ps.pulses_without_frame[1]},
+      {VC_COUNTER_FRAMES_WITHOUT_PULSE, ps->frames_without_pulse[0] + ps->frames_without_pulse[1]},
+      {VC_COUNTER_PULSES_WITHOUT_FRAME, ps->pulses_without_frame[0] + ps->pulses_without_frame[1]},
       {VC_COUNTER_HULLS_OVER_LIMIT, nc.hulls_over_limit},
       {VC_COUNTER_CAMERA_ERRORS, cam_errors},
   };
@@ -625,65 +299,37 @@ static uint32_t fourcc_of(vc_pixfmt f) {
 }
 
 static void teardown(edged* d) {
-  atomic_store(&d->trig_run, false);
-  if (d->trig_th) pthread_join(d->trig_th, NULL);
-  cams_stop_threads(d);
+  vc_capture_free(d->cap); /* its threads report through the link: stopped first */
   vc_link_stop(d->link);
-  for (int c = 0; c < 2; c++) {
-    vc_camera_free(d->cams[c].cam);
-    for (unsigned s = 0; s < MAX_SLOTS; s++) free(d->cams[c].slots[s].rgb);
-    pthread_cond_destroy(&d->cams[c].mbox_cv);
-  }
-  vc_trigger_free(d->trig);
-  vc_pairer_free(d->pairer);
   vc_node_free(d->node);
   pthread_mutex_destroy(&d->mu);
-  pthread_cond_destroy(&d->cv);
 }
 
-int vc_edged_run(const vc_edged_options* opt) {
-  g_verbosity = opt->verbosity;
-  edged* d = calloc(1, sizeof(*d));
-  if (!d) return -ENOMEM;
-  d->opt = opt;
-  d->nslots = opt->frame_slots ? (opt->frame_slots > MAX_SLOTS ? MAX_SLOTS : opt->frame_slots) : 4;
-  pthread_mutex_init(&d->mu, NULL);
-  pthread_condattr_t ca;
-  pthread_condattr_init(&ca);
-  pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
-  pthread_cond_init(&d->cv, &ca);
-  for (int c = 0; c < 2; c++) pthread_cond_init(&d->cams[c].mbox_cv, &ca);
-  pthread_condattr_destroy(&ca);
-  int rc;
-
+/* Opens trigger and cameras (the capture), the node and the link to the host. */
+static int setup(edged* d) {
+  const vc_edged_options* opt = d->opt;
   char why[256] = "";
-  if ((rc = vc_trigger_open(&opt->trigger, &d->trig, why, sizeof(why))) < 0) {
-    logm(0, "trigger: %s", why);
-    goto out;
-  }
+  int rc;
+  vc_capture_options co;
+  memset(&co, 0, sizeof(co));
+  for (int c = 0; c < 2; c++) co.cameras[c] = opt->cameras[c];
+  co.trigger = &opt->trigger;
+  vc_pairing_config_init(&co.pairing);
+  if (opt->pair_tolerance_ns) co.pairing.tolerance_ns = opt->pair_tolerance_ns;
+  if (opt->pair_max_delay_ns) co.pairing.max_delay_ns = opt->pair_max_delay_ns;
+  for (int c = 0; c < 2; c++) co.pairing.latency_ns[c] = opt->camera_latency_ns[c];
+  co.frame_slots = opt->frame_slots;
+  co.camera_timeout_ms = opt->camera_timeout_ms;
+  vc_capture_callbacks ccb = {.error = capture_error, .log = capture_log, .user = d};
+  if ((rc = vc_capture_new(&co, &ccb, &d->cap)) < 0) return rc;
   vc_trigger_info ti;
-  vc_trigger_get_info(d->trig, &ti);
+  vc_capture_get_trigger_info(d->cap, &ti);
   logm(2, "trigger: %s %s", ti.backend, ti.source);
 
   vc_node_camera ncam[2];
   for (int c = 0; c < 2; c++) {
-    camthread* ct = &d->cams[c];
-    ct->d = d;
-    ct->idx = c;
-    ct->emulated = is_emulated(&opt->cameras[c]);
-    if ((rc = open_camera(&opt->cameras[c], false, 0, &ct->cam)) < 0) goto out;
     vc_camera_info ci;
-    vc_camera_get_info(ct->cam, &ci);
-    ct->width = ci.width;
-    ct->height = ci.height;
-    for (unsigned s = 0; s < d->nslots; s++) {
-      ct->slots[s].stride = (size_t)ci.width * 3;
-      ct->slots[s].rgb = malloc(ct->slots[s].stride * (size_t)ci.height);
-      if (!ct->slots[s].rgb) {
-        rc = -ENOMEM;
-        goto out;
-      }
-    }
+    vc_capture_get_camera_info(d->cap, c, &ci);
     ncam[c].width = ci.width;
     ncam[c].height = ci.height;
     ncam[c].pixel_format = fourcc_of(ci.pixfmt);
@@ -691,25 +337,11 @@ int vc_edged_run(const vc_edged_options* opt) {
     logm(2, "camera %d: %s %s %dx%d (%s)", c, ci.backend, ci.device, ci.width, ci.height, ci.driver);
   }
 
-  vc_pairing_config pc;
-  vc_pairing_config_init(&pc);
-  pc.ncams = 2;
-  if (opt->pair_tolerance_ns) pc.tolerance_ns = opt->pair_tolerance_ns;
-  if (opt->pair_max_delay_ns) pc.max_delay_ns = opt->pair_max_delay_ns;
-  pc.pulse_slots = 16;
-  pc.frame_slots = d->nslots;
-  for (int c = 0; c < 2; c++) pc.latency_ns[c] = opt->camera_latency_ns[c];
-  if ((rc = vc_pairing_config_check(&pc, why, sizeof(why))) < 0 ||
-      (rc = vc_pairer_new(&pc, on_pair, d, &d->pairer)) < 0) {
-    logm(0, "pairing: %s", why[0] ? why : strerror(-rc));
-    goto out;
-  }
-
   d->node = vc_node_new(opt->node_id, ncam);
   if (!d->node) {
     rc = -errno;
     logm(0, "node: %s", strerror(errno));
-    goto out;
+    return rc;
   }
   if (opt->state_dir) {
     int lrc = vc_node_load_background(d->node, opt->state_dir, why, sizeof(why));
@@ -722,59 +354,48 @@ int vc_edged_run(const vc_edged_options* opt) {
   uint8_t hello[VC_PROTO_HEADER_SIZE + 256];
   size_t hello_len = 0;
   uint32_t caps = VC_CAP_HULL | (strcmp(opt->trigger.backend, "udp") == 0 ? VC_CAP_UDP_TRIGGER : VC_CAP_GPIO_TRIGGER);
-  if ((rc = vc_node_hello(d->node, caps, hello, sizeof(hello), &hello_len)) < 0) goto out;
+  if ((rc = vc_node_hello(d->node, caps, hello, sizeof(hello), &hello_len)) < 0) return rc;
   vc_link_config lc = opt->link;
   lc.node_id = opt->node_id;
   vc_link_callbacks cb = {.on_message = on_message, .on_connection = on_connection, .state = node_state_cb,
                           .log = link_log, .user = d};
   if ((rc = vc_link_start(&lc, &cb, hello, hello_len, &d->link)) < 0) {
     logm(0, "link: %s", strerror(-rc));
-    goto out;
+    return rc;
   }
-  if ((rc = cams_start_threads(d)) < 0) goto out;
-  atomic_store(&d->trig_run, true);
-  if ((rc = -pthread_create(&d->trig_th, NULL, trig_main, d)) < 0) {
-    d->trig_th = 0;
-    goto out;
-  }
+  return vc_capture_start(d->cap);
+}
+
+int vc_edged_run(const vc_edged_options* opt) {
+  g_verbosity = opt->verbosity;
+  edged* d = calloc(1, sizeof(*d));
+  if (!d) return -ENOMEM;
+  d->opt = opt;
+  pthread_mutex_init(&d->mu, NULL);
+  int rc = setup(d);
+  if (rc < 0) goto out;
 
   int stats_ms = opt->stats_ms ? opt->stats_ms : 1000;
   uint64_t last_stats = mono_ms();
   while (!atomic_load(&g_stop)) {
+    /* The host's commands come first; else the next frame pair (waiting up to 10 ms for one). */
     pthread_mutex_lock(&d->mu);
-    if (d->work_count == 0 && d->in_count == 0) {
-      struct timespec dl;
-      clock_gettime(CLOCK_MONOTONIC, &dl);
-      dl.tv_nsec += 10 * 1000000L;
-      if (dl.tv_nsec >= 1000000000L) {
-        dl.tv_sec++;
-        dl.tv_nsec -= 1000000000L;
-      }
-      pthread_cond_timedwait(&d->cv, &d->mu, &dl);
-    }
-    vc_pairer_advance(d->pairer, vc_clock_monotonic_ns());
-    bool have_ctl = d->in_count > 0, have_work = false;
+    bool have_ctl = d->in_count > 0;
     ctl c;
-    work_item w;
     if (have_ctl) {
       c = d->inbound[d->in_head];
       d->in_head = (d->in_head + 1) % INBOUND;
       d->in_count--;
-    } else if (d->work_count > 0) {
-      w = d->work[d->work_head];
-      d->work_head = (d->work_head + 1) % WORK;
-      d->work_count--;
-      have_work = true;
     }
     pthread_mutex_unlock(&d->mu);
-    if (have_ctl) handle_ctl(d, &c);
-    if (have_work) {
-      handle_work(d, &w);
-      pthread_mutex_lock(&d->mu);
-      /* The phase may have changed (slots reset) while we worked; only free what is still ours. */
-      for (int k = 0; k < 2; k++)
-        if (d->cams[k].slots[w.slot[k]].state == SLOT_WORK) d->cams[k].slots[w.slot[k]].state = SLOT_FREE;
-      pthread_mutex_unlock(&d->mu);
+    if (have_ctl) {
+      handle_ctl(d, &c);
+    } else {
+      vc_capture_pair p;
+      if (vc_capture_next(d->cap, 10, &p)) {
+        handle_work(d, &p);
+        vc_capture_done(d->cap, &p);
+      }
     }
     if (mono_ms() - last_stats >= (uint64_t)stats_ms) {
       if (vc_link_connected(d->link)) send_stats(d);
@@ -783,14 +404,14 @@ int vc_edged_run(const vc_edged_options* opt) {
   }
   rc = 0;
   {
-    vc_pairing_stats ps;
-    vc_pairer_get_stats(d->pairer, &ps);
+    vc_capture_stats cs;
+    vc_capture_get_stats(d->cap, &cs);
     logm(2, "stopping: frames %llu + %llu, pulses %llu (complete %llu, incomplete %llu), emulated exposures "
             "missed %llu + %llu, hulls sent %llu",
-         (unsigned long long)d->cams[0].frames, (unsigned long long)d->cams[1].frames,
-         (unsigned long long)ps.pulses, (unsigned long long)ps.complete, (unsigned long long)ps.incomplete,
-         (unsigned long long)d->cams[0].missed_pulses, (unsigned long long)d->cams[1].missed_pulses,
-         (unsigned long long)d->hulls_sent);
+         (unsigned long long)cs.frames[0], (unsigned long long)cs.frames[1],
+         (unsigned long long)cs.queue.pairing.pulses, (unsigned long long)cs.queue.pairing.complete,
+         (unsigned long long)cs.queue.pairing.incomplete, (unsigned long long)cs.missed_pulses[0],
+         (unsigned long long)cs.missed_pulses[1], (unsigned long long)d->hulls_sent);
   }
 out:
   teardown(d);

@@ -1,16 +1,9 @@
-/* The edge daemon's run loop: cameras + trigger + pairing + node + link, wired together.
+/* The edge daemon: capture (capture.h) + node (node.h) + link (link.h), wired together.
  *
- * Threads: one capture thread per camera (it alone drives its vc_camera: capture, copy the frame into
- * one of a few daemon-owned slots, release the driver buffer at once, hand the slot to the pairer);
- * one trigger thread (pulses into the pairer; for emulated cameras also the soft trigger); the link
- * thread (link.h); and the pipeline thread — the caller of vc_edged_run — which applies the host's
- * commands and processes every complete frame pair (background learning or subtract → carve → HULL).
- * Copying frames costs ~0.1 ms per frame pair at 640x480 and buys a driver buffer that is always free
- * and slots no other thread can release under us.
- *
- * Emulated cameras (file, sim) are reopened when the phase changes: with `background` while the host
- * asks for the empty scene, with seq_base = START's first seq while running, so that every node shows
- * the same motion frame for the same pulse. Real cameras are opened once.
+ * Threads: the capture's (one per camera, one for the trigger input: capture.h), the link thread
+ * (link.h), and the pipeline thread — the caller of vc_edged_run — which applies the host's commands
+ * (each changes the capture's phase) and processes every complete frame pair (background learning, or
+ * subtract → carve → HULL). Frame pairing and the queues are pure logic in frameq.h.
  */
 #ifndef VOXCAP_EDGE_EDGED_H
 #define VOXCAP_EDGE_EDGED_H
