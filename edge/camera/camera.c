@@ -16,6 +16,7 @@ enum cam_state { CAM_OPENING, CAM_OPEN, CAM_STREAMING };
 struct vc_camera {
   const vc_camera_backend* be;
   void* priv;
+  const void* arg; /* vc_camera_open_backend_arg's, during open only */
   enum cam_state state;
   vc_camera_info info;
   vc_camera_stats stats;
@@ -109,6 +110,13 @@ static int check_config(const vc_camera_config* cfg, char* why, size_t why_len) 
 
 int vc_camera_open_backend(const vc_camera_backend* backend, const vc_camera_config* cfg,
                            vc_camera** out, char* why, size_t why_len) {
+  return vc_camera_open_backend_arg(backend, cfg, NULL, out, why, why_len);
+}
+
+const void* vc_camera_backend_arg(const vc_camera* cam) { return cam->arg; }
+
+int vc_camera_open_backend_arg(const vc_camera_backend* backend, const vc_camera_config* cfg, const void* arg,
+                               vc_camera** out, char* why, size_t why_len) {
   int rc;
   vc_camera* cam;
   if (out) *out = NULL;
@@ -132,7 +140,9 @@ int vc_camera_open_backend(const vc_camera_backend* backend, const vc_camera_con
   snprintf(cam->info.device, sizeof cam->info.device, "%s", cam->device);
   cam->info.fps_den = 1;
 
+  cam->arg = arg;
   rc = backend->open(cam, cfg, &cam->info, &cam->priv);
+  cam->arg = NULL;
   if (rc) {
     if (!cam->err) vc_camera_set_error(cam, rc, "open failed: %s", strerror(-rc));
     goto err_msg;
@@ -235,6 +245,22 @@ int vc_camera_soft_trigger(vc_camera* cam, uint64_t seq, uint64_t t_ns) {
     return vc_camera_set_error(cam, -ENOTSUP,
                                "no software trigger: a real camera is triggered by its trigger input");
   return cam->be->soft_trigger(cam, cam->priv, seq, t_ns);
+}
+
+uint32_t vc_camera_caps(const vc_camera* cam) {
+  if (!cam || !cam->be->caps) return 0;
+  return cam->be->caps(cam->priv);
+}
+
+int vc_camera_rewind(vc_camera* cam, uint64_t seq_base, vc_camera_scene scene) {
+  if (!cam) return -EINVAL;
+  clear_error(cam);
+  if (!cam->be->rewind || !(vc_camera_caps(cam) & VC_CAMERA_CAP_REWIND))
+    return vc_camera_set_error(cam, -ENOTSUP, "cannot rewind: a real camera sees the room as it is");
+  if (cam->state == CAM_STREAMING) return vc_camera_set_error(cam, -EBUSY, "rewind while streaming: stop first");
+  int rc = cam->be->rewind(cam, cam->priv, seq_base, scene);
+  if (rc && !cam->err) vc_camera_set_error(cam, rc, "rewind failed: %s", strerror(-rc));
+  return rc;
 }
 
 int vc_camera_stop(vc_camera* cam) {

@@ -4,7 +4,9 @@
 //
 // Frames are ordered by the number in their file name (zero padding or not). Which frame is shown
 // when, free-running or triggered, is EmulatedTiming's (60 Hz unless fps is set). At the end of the
-// sequence: wrap around with `loop`, else -ENODATA.
+// sequence: wrap around with the option loop=1, else -ENODATA. Options (vc_camera_config::options):
+// pace, loop, scene=empty (the background folder), seq_base. vc_camera_rewind switches between the
+// two folders; the background then loops.
 #include <dirent.h>
 #include <sys/stat.h>
 
@@ -27,10 +29,13 @@ namespace vc::edgecam {
 namespace {
 
 struct FileCamera {
+  std::string dir;  // the `voxcap sim --out` folder
+  int index = 0;
   std::string folder;
   std::vector<std::pair<uint64_t, std::string>> frames;  // (number in the name, path), sorted
   int width = 0, height = 0;
-  bool loop = false;
+  bool loop = false, loop_live = false, triggered = false;
+  EmulatedOptions opt;
   EmulatedTiming timing;
 };
 
@@ -68,6 +73,23 @@ int read_rgb(vc_camera* cam, const std::string& path, int w, int h, uint8_t* rgb
   return 0;
 }
 
+// The frames of one scene's folder into f (folder, frames) and the first image's size.
+int load_scene(vc_camera* cam, FileCamera* f, vc_camera_scene scene, int* width, int* height) {
+  std::string folder =
+      f->dir + (scene == VC_CAMERA_SCENE_EMPTY ? "/background" : "") + "/cam" + std::to_string(f->index);
+  if (!is_dir(folder))
+    return vc_camera_set_error(cam, -ENOENT, "no folder %s (is this a `voxcap sim --out` folder?)", folder.c_str());
+  auto frames = list_frames(folder);
+  if (frames.empty()) return vc_camera_set_error(cam, -ENOENT, "no <number>.png frames in %s", folder.c_str());
+  cv::Mat first = cv::imread(frames[0].second, cv::IMREAD_COLOR);
+  if (first.empty()) return vc_camera_set_error(cam, -EIO, "cannot read image %s", frames[0].second.c_str());
+  *width = first.cols;
+  *height = first.rows;
+  f->folder = std::move(folder);
+  f->frames = std::move(frames);
+  return 0;
+}
+
 int file_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info, void** out) {
   *out = nullptr;
   if (!cfg->device || !cfg->device[0])
@@ -75,22 +97,20 @@ int file_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info,
   std::string dir = cfg->device;
   if (!is_dir(dir)) return vc_camera_set_error(cam, -ENOENT, "no such folder");
   auto f = std::make_unique<FileCamera>();
-  f->folder = dir + (cfg->background ? "/background" : "") + "/cam" + std::to_string(cfg->index);
-  if (!is_dir(f->folder))
-    return vc_camera_set_error(cam, -ENOENT, "no folder %s (is this a `voxcap sim --out` folder?)", f->folder.c_str());
-  f->frames = list_frames(f->folder);
-  if (f->frames.empty()) return vc_camera_set_error(cam, -ENOENT, "no <number>.png frames in %s", f->folder.c_str());
-  cv::Mat first = cv::imread(f->frames[0].second, cv::IMREAD_COLOR);
-  if (first.empty()) return vc_camera_set_error(cam, -EIO, "cannot read image %s", f->frames[0].second.c_str());
-  f->width = first.cols;
-  f->height = first.rows;
+  std::string why = f->opt.parse(cfg->options, true);
+  if (!why.empty()) return vc_camera_set_error(cam, -EINVAL, "%s", why.c_str());
+  f->dir = dir;
+  f->index = cfg->index;
+  int rc = load_scene(cam, f.get(), f->opt.scene, &f->width, &f->height);
+  if (rc) return rc;
   if (cfg->width > 0 && (cfg->width != f->width || cfg->height != f->height))
     return vc_camera_set_error(cam, -ENOTSUP, "size %dx%d not supported (the images are %dx%d)", cfg->width,
                                cfg->height, f->width, f->height);
   if (cfg->n_controls) return vc_camera_set_error(cam, -ENOTSUP, "device controls are a v4l2 backend feature");
   const uint32_t fps_num = cfg->fps_num ? cfg->fps_num : 60, fps_den = cfg->fps_num && cfg->fps_den ? cfg->fps_den : 1;
-  f->timing.configure(*cfg, 1000000000ull / 60);
-  f->loop = cfg->loop;
+  f->timing.configure(*cfg, f->opt, 1000000000ull / 60);
+  f->loop = f->loop_live = f->opt.loop;
+  f->triggered = cfg->external_trigger;
   info->width = f->width;
   info->height = f->height;
   info->pixfmt = VC_PIXFMT_RGB24;
@@ -139,6 +159,24 @@ int file_soft_trigger(vc_camera* cam, void* p, uint64_t seq, uint64_t t_ns) {
   return static_cast<FileCamera*>(p)->timing.soft_trigger(cam, seq, t_ns);
 }
 
+uint32_t file_caps(const void* p) {
+  auto* f = static_cast<const FileCamera*>(p);
+  return f->opt.caps(f->triggered);
+}
+
+int file_rewind(vc_camera* cam, void* p, uint64_t seq_base, vc_camera_scene scene) {
+  auto* f = static_cast<FileCamera*>(p);
+  int w = 0, h = 0;
+  int rc = load_scene(cam, f, scene, &w, &h);
+  if (rc) return rc;
+  if (w != f->width || h != f->height)
+    return vc_camera_set_error(cam, -EIO, "the images of %s are %dx%d, the camera's %dx%d", f->folder.c_str(), w, h,
+                               f->width, f->height);
+  f->loop = scene == VC_CAMERA_SCENE_EMPTY ? true : f->loop_live;
+  f->timing.rewind(seq_base);
+  return 0;
+}
+
 void file_free(void* p) { delete static_cast<FileCamera*>(p); }
 
 }  // namespace
@@ -152,4 +190,6 @@ extern "C" const vc_camera_backend vc_camera_backend_file = {
     vc::edgecam::file_stop,
     vc::edgecam::file_free,
     vc::edgecam::file_soft_trigger,
+    vc::edgecam::file_caps,
+    vc::edgecam::file_rewind,
 };

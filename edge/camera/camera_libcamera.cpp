@@ -313,5 +313,5 @@ void lc_free(void* p) { delete static_cast<LcCamera*>(p); }
 
 extern "C" const vc_camera_backend vc_camera_backend_libcamera = {
     "libcamera", vc::edgecam::lc_open, vc::edgecam::lc_start, vc::edgecam::lc_capture, vc::edgecam::lc_stop,
-    vc::edgecam::lc_free, nullptr,
+    vc::edgecam::lc_free, nullptr, nullptr, nullptr,
 };

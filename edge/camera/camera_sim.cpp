@@ -1,17 +1,18 @@
 // The "sim" camera backend: the virtual rig (hw/sim) rendered in-process behind the C
 // vc_camera_backend interface — the emulated rig's default camera.
 //
-// The scene is either borrowed (cfg->sim_scene: a vc::sim::Scene* the caller shares between the
-// node's cameras) or built from the device string, a spec of key=value pairs separated by ',' or ';':
+// The scene is either borrowed (vc_camera_open_sim: a vc::sim::Scene* the caller shares, e.g. with
+// its reference renders) or built from the device string, a spec of key=value pairs separated by ',' or ';':
 //   motion=walk  seed=1  noise=2  flicker=0  appearance=default  fps=60  cameras=6  size=640x480
 //   distortion=0  calibration=/path/rig.yaml  (a calibration replaces cameras/size/distortion)
 // Scenes built from the same spec are shared process-wide (one per spec, kept until the process
-// ends), so a node's two cameras render one performer, and a camera reopened (the edge daemon
-// reopens emulated cameras at every phase) finds its per-camera render caches built (~0.3 s each
-// at 640x480; sim_open builds them). cfg->index picks the scene camera. Frame timing is
-// EmulatedTiming's at the scene's frame rate: free-running frame n, or the frame of pulse seq when
-// triggered, so the image a pulse shows is the simulator's frame (seq − seq_base) — what the ground
-// truth is indexed by. `background` renders the empty room (frame i = the i-th noise draw).
+// ends), so a node's two cameras render one performer, and a camera reopened finds its per-camera
+// render caches built (~0.3 s each at 640x480; sim_open builds them). cfg->index picks the scene
+// camera. Frame timing is EmulatedTiming's at the scene's frame rate: free-running frame n, or the
+// frame of pulse seq when triggered, so the image a pulse shows is the simulator's frame
+// (seq − seq_base) — what the ground truth is indexed by. The empty scene (option scene=empty, or
+// vc_camera_rewind, which the edge daemon calls at every phase) renders the empty room (frame i = the
+// i-th noise draw). Options (vc_camera_config::options): pace, scene, seq_base.
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -26,6 +27,7 @@
 
 #include "emulated_timing.hpp"
 #include "voxcap/edge/camera_backend.h"
+#include "voxcap/edge/camera_sim.h"
 #include "voxcap/rig/calibration.hpp"
 #include "voxcap/sim/scene.hpp"
 
@@ -111,6 +113,8 @@ struct SimCamera {
   const sim::Scene* scene = nullptr;
   int cam = 0;
   bool background = false;
+  bool triggered = false;
+  EmulatedOptions opt;
   int width = 0, height = 0;
   EmulatedTiming timing;
   cv::Mat scratch;
@@ -119,8 +123,10 @@ struct SimCamera {
 int sim_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info, void** out) {
   *out = nullptr;
   auto s = std::make_unique<SimCamera>();
-  if (cfg->sim_scene) {
-    s->scene = static_cast<const sim::Scene*>(cfg->sim_scene);
+  std::string bad = s->opt.parse(cfg->options, false);
+  if (!bad.empty()) return vc_camera_set_error(cam, -EINVAL, "%s", bad.c_str());
+  if (const void* borrowed = vc_camera_backend_arg(cam)) {
+    s->scene = static_cast<const sim::Scene*>(borrowed);
   } else {
     sim::SceneOptions o;
     std::string spec = cfg->device ? cfg->device : "";
@@ -153,8 +159,9 @@ int sim_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info, 
   if (cfg->n_controls) return vc_camera_set_error(cam, -ENOTSUP, "device controls are a v4l2 backend feature");
   vc_camera_config timing_cfg = *cfg;
   timing_cfg.fps_num = 0;  // the scene's rate
-  s->timing.configure(timing_cfg, (uint64_t)(1e9 / fps + 0.5));
-  s->background = cfg->background;
+  s->timing.configure(timing_cfg, s->opt, (uint64_t)(1e9 / fps + 0.5));
+  s->background = s->opt.scene == VC_CAMERA_SCENE_EMPTY;
+  s->triggered = cfg->external_trigger;
   // Build this camera's render caches now (once per process: the scene is kept), so that the first
   // exposures after a start are not spent on them.
   try {
@@ -213,6 +220,18 @@ int sim_soft_trigger(vc_camera* cam, void* p, uint64_t seq, uint64_t t_ns) {
   return static_cast<SimCamera*>(p)->timing.soft_trigger(cam, seq, t_ns);
 }
 
+uint32_t sim_caps(const void* p) {
+  auto* s = static_cast<const SimCamera*>(p);
+  return s->opt.caps(s->triggered);
+}
+
+int sim_rewind(vc_camera*, void* p, uint64_t seq_base, vc_camera_scene scene) {
+  auto* s = static_cast<SimCamera*>(p);
+  s->background = scene == VC_CAMERA_SCENE_EMPTY;
+  s->timing.rewind(seq_base);
+  return 0;
+}
+
 void sim_free(void* p) { delete static_cast<SimCamera*>(p); }
 
 }  // namespace
@@ -226,4 +245,11 @@ extern "C" const vc_camera_backend vc_camera_backend_sim = {
     vc::edgecam::sim_stop,
     vc::edgecam::sim_free,
     vc::edgecam::sim_soft_trigger,
+    vc::edgecam::sim_caps,
+    vc::edgecam::sim_rewind,
 };
+
+extern "C" int vc_camera_open_sim(const vc_camera_config* cfg, const void* scene, vc_camera** out, char* why,
+                                  size_t why_len) {
+  return vc_camera_open_backend_arg(&vc_camera_backend_sim, cfg, scene, out, why, why_len);
+}

@@ -395,5 +395,7 @@ const vc_camera_backend vc_camera_backend_v4l2 = {
     .capture = v4l2_capture,
     .stop = v4l2_stop,
     .free_priv = priv_free,
-    .soft_trigger = NULL,
+    .soft_trigger = NULL, /* a real sensor's trigger is a wire */
+    .caps = NULL,
+    .rewind = NULL,
 };

@@ -5,17 +5,67 @@
 
 #include <cerrno>
 #include <chrono>
+#include <cstdlib>
+#include <sstream>
 
 #include "voxcap/edge/clock.h"
 
 namespace vc::edgecam {
 
-void EmulatedTiming::configure(const vc_camera_config& cfg, uint64_t default_period_ns) {
+std::string EmulatedOptions::parse(const char* options, bool loop_key) {
+  const std::string keys = loop_key ? "pace, loop, scene, seq_base" : "pace, scene, seq_base";
+  std::stringstream ss(options ? options : "");
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    if (item.empty()) continue;
+    size_t eq = item.find('=');
+    if (eq == std::string::npos) return "option '" + item + "' is not key=value";
+    std::string key = item.substr(0, eq), val = item.substr(eq + 1);
+    auto flag = [&](bool* out) {
+      if (val != "0" && val != "1") return false;
+      *out = val == "1";
+      return true;
+    };
+    if (key == "pace") {
+      if (!flag(&pace)) return "option pace must be 0 or 1";
+    } else if (key == "loop" && loop_key) {
+      if (!flag(&loop)) return "option loop must be 0 or 1";
+    } else if (key == "scene") {
+      if (val == "live")
+        scene = VC_CAMERA_SCENE_LIVE;
+      else if (val == "empty")
+        scene = VC_CAMERA_SCENE_EMPTY;
+      else
+        return "option scene must be live or empty";
+    } else if (key == "seq_base") {
+      char* end = nullptr;
+      seq_base = std::strtoull(val.c_str(), &end, 10);
+      if (val.empty() || val[0] == '-' || *end != '\0') return "option seq_base must be a number";
+    } else {
+      return "unknown option '" + key + "' (options: " + keys + ")";
+    }
+  }
+  return "";
+}
+
+uint32_t EmulatedOptions::caps(bool triggered) const {
+  return VC_CAMERA_CAP_REWIND | (triggered ? VC_CAMERA_CAP_SOFT_TRIGGER : 0u);
+}
+
+void EmulatedTiming::configure(const vc_camera_config& cfg, const EmulatedOptions& opt, uint64_t default_period_ns) {
   period_ns_ = cfg.fps_num ? 1000000000ull * (cfg.fps_den ? cfg.fps_den : 1) / cfg.fps_num : default_period_ns;
   triggered_ = cfg.external_trigger;
-  pace_ = cfg.pace;
+  pace_ = opt.pace;
   latency_ns_ = cfg.trigger_latency_ns;
-  seq_base_ = cfg.seq_base;
+  seq_base_ = opt.seq_base;
+}
+
+void EmulatedTiming::rewind(uint64_t seq_base) {
+  seq_base_ = seq_base;
+  next_ = 0;
+  std::lock_guard<std::mutex> lock(mu_);
+  triggers_.clear();
+  sequence_ = 0;
 }
 
 void EmulatedTiming::start() {

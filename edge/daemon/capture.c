@@ -20,16 +20,17 @@ typedef struct camthread {
   int idx;
   vc_camera* cam;
   const vc_camera_config* cfg;
-  bool emulated;
+  bool soft_trigger; /* VC_CAMERA_CAP_SOFT_TRIGGER: exposes only when the trigger thread says so */
+  bool rewind;       /* VC_CAMERA_CAP_REWIND: restarted at every phase */
   int width, height;
   pthread_t th;
   bool started;
   atomic_bool run;
   uint8_t* slot_rgb[VC_FRAMEQ_MAX_SLOTS];
   size_t stride;
-  /* Emulated cameras: the pulse to expose next, handed over by the trigger thread (under cap->mu).
-   * Like a real sensor still busy with its last frame, a camera that has not taken the previous pulse
-   * when the next one comes misses it (counted): stale pulses are never queued. */
+  /* Soft-triggered cameras: the pulse to expose next, handed over by the trigger thread (under
+   * cap->mu). Like a real sensor still busy with its last frame, a camera that has not taken the
+   * previous pulse when the next one comes misses it (counted): stale pulses are never queued. */
   vc_pulse pending;
   bool has_pending;
   uint64_t missed_pulses;
@@ -96,8 +97,8 @@ static void* cam_main(void* arg) {
   ct->last_frame_ms = mono_ms();
   bool reported = false;
   while (atomic_load(&ct->run)) {
-    if (ct->emulated) {
-      /* An emulated camera exposes a frame only when "triggered": wait for the next pulse. */
+    if (ct->soft_trigger) {
+      /* This camera exposes a frame only when triggered: wait for the next pulse. */
       pthread_mutex_lock(&cap->mu);
       if (!ct->has_pending) {
         struct timespec dl;
@@ -175,7 +176,7 @@ static void* trig_main(void* arg) {
       if (vc_frameq_ready(cap->q)) pthread_cond_signal(&cap->cv);
       for (int c = 0; c < VC_FRAMEQ_CAMS; c++) {
         camthread* ct = &cap->cams[c];
-        if (!ct->emulated) continue;
+        if (!ct->soft_trigger) continue;
         if (ct->has_pending) ct->missed_pulses++; /* still busy with the previous one */
         ct->pending = p;
         ct->has_pending = true;
@@ -187,23 +188,11 @@ static void* trig_main(void* arg) {
   return NULL;
 }
 
-/* ---- cameras: open, reopen (emulated), threads -------------------------------------------------- */
+/* ---- cameras: open, rewind, threads ------------------------------------------------------------- */
 
-static bool is_emulated(const vc_camera_config* c) {
-  return c->backend && (strcmp(c->backend, "file") == 0 || strcmp(c->backend, "sim") == 0);
-}
-
-static int open_camera(vc_capture* cap, const vc_camera_config* base, bool background, uint64_t seq_base,
-                       vc_camera** out) {
-  vc_camera_config cfg = *base;
-  if (is_emulated(base)) {
-    cfg.external_trigger = true;
-    cfg.background = background;
-    cfg.loop = background;
-    cfg.seq_base = seq_base;
-  }
+static int open_camera(vc_capture* cap, const vc_camera_config* base, vc_camera** out) {
   char why[256] = "";
-  int rc = vc_camera_open(&cfg, out, why, sizeof(why));
+  int rc = vc_camera_open(base, out, why, sizeof(why));
   if (rc < 0) {
     logf_(cap, 0, "camera %d (%s %s): %s", base->index, base->backend, base->device ? base->device : "", why);
     return rc;
@@ -242,23 +231,27 @@ static int cams_start_threads(vc_capture* cap) {
 }
 
 int vc_capture_set_phase(vc_capture* cap, vc_capture_phase ph, uint64_t seq_base) {
-  bool any_emulated = cap->cams[0].emulated || cap->cams[1].emulated;
-  if (any_emulated) cams_stop_threads(cap);
+  bool any_rewind = cap->cams[0].rewind || cap->cams[1].rewind;
+  if (any_rewind) cams_stop_threads(cap);
   pthread_mutex_lock(&cap->mu);
   cap->ph = ph;
-  vc_frameq_reset(cap->q, ph != VC_CAPTURE_IDLE, any_emulated ? seq_base : 0, ph == VC_CAPTURE_RUNNING);
+  /* a rewound camera shows frame seq − seq_base: earlier pulses have no frame */
+  vc_frameq_reset(cap->q, ph != VC_CAPTURE_IDLE, any_rewind ? seq_base : 0, ph == VC_CAPTURE_RUNNING);
   for (int c = 0; c < VC_FRAMEQ_CAMS; c++) cap->cams[c].has_pending = false;
   pthread_mutex_unlock(&cap->mu);
-  if (!any_emulated) return 0;
-  /* Emulated cameras: reopen for the phase. Real cameras stay as they are. */
+  if (!any_rewind) return 0;
+  /* Cameras that play a sequence (emulated ones) restart it for the phase: the empty scene while the
+   * host learns the background, else the performer from seq_base on, so that every node shows the same
+   * frame for the same pulse. Cameras of the real room stay as they are. */
+  vc_camera_scene scene = ph == VC_CAPTURE_BACKGROUND ? VC_CAMERA_SCENE_EMPTY : VC_CAMERA_SCENE_LIVE;
   for (int c = 0; c < VC_FRAMEQ_CAMS; c++) {
     camthread* ct = &cap->cams[c];
-    if (!ct->emulated) continue;
-    vc_camera_free(ct->cam);
-    ct->cam = NULL;
-    int rc = open_camera(cap, ct->cfg, ph == VC_CAPTURE_BACKGROUND, seq_base, &ct->cam);
+    if (!ct->rewind) continue;
+    int rc = vc_camera_stop(ct->cam);
+    if (rc == 0) rc = vc_camera_rewind(ct->cam, seq_base, scene);
+    if (rc == 0) rc = vc_camera_start(ct->cam);
     if (rc < 0) {
-      errorf(cap, VC_ERR_CAMERA, "camera %d: cannot reopen", c);
+      errorf(cap, VC_ERR_CAMERA, "camera %d: cannot restart its sequence: %s", c, vc_camera_last_error(ct->cam));
       return rc;
     }
   }
@@ -294,8 +287,10 @@ int vc_capture_new(const vc_capture_options* opt, const vc_capture_callbacks* cb
     ct->cap = cap;
     ct->idx = c;
     ct->cfg = &cap->opt.cameras[c];
-    ct->emulated = is_emulated(ct->cfg);
-    if ((rc = open_camera(cap, ct->cfg, false, 0, &ct->cam)) < 0) goto err;
+    if ((rc = open_camera(cap, ct->cfg, &ct->cam)) < 0) goto err;
+    uint32_t caps = vc_camera_caps(ct->cam);
+    ct->soft_trigger = (caps & VC_CAMERA_CAP_SOFT_TRIGGER) != 0;
+    ct->rewind = (caps & VC_CAMERA_CAP_REWIND) != 0;
     vc_camera_info ci;
     vc_camera_get_info(ct->cam, &ci);
     ct->width = ci.width;

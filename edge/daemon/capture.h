@@ -9,9 +9,11 @@
  * buffer that is always free and slots no other thread can release under us.
  *
  * Phases: IDLE (frames and pulses are dropped), BACKGROUND (the host asks for the empty scene),
- * RUNNING. Emulated cameras (file, sim) are reopened when the phase changes: with `background` while
- * the host asks for the empty scene, with seq_base = START's first seq while running, so that every
- * node shows the same motion frame for the same pulse. Real cameras are opened once.
+ * RUNNING. The capture never asks which backend a camera is; it asks what it can do (vc_camera_caps):
+ * a camera that exposes only when triggered in software gets each pulse from the trigger thread; a
+ * camera that plays a sequence is rewound when the phase changes — to the empty scene while the host
+ * learns the background, to seq_base = START's first seq while running, so that every node shows the
+ * same motion frame for the same pulse. Cameras of the real room are opened once and left alone.
  */
 #ifndef VOXCAP_EDGE_CAPTURE_H
 #define VOXCAP_EDGE_CAPTURE_H

@@ -83,7 +83,7 @@ void load_edge_toml(const std::string& path, EdgeSettings& s) {
       if (!c) r.fail(p.substr(0, p.size() - 1), "must be a table");
       r.check_keys(*c, p,
                    {"backend", "device", "index", "width", "height", "format", "fps", "exposure_us",
-                    "external_trigger", "latency_us"});
+                    "external_trigger", "latency_us", "options"});
       CameraSettings& cs = s.cameras[k];
       r.get(*c, p, "backend", cs.backend);
       r.get(*c, p, "device", cs.device);
@@ -95,6 +95,7 @@ void load_edge_toml(const std::string& path, EdgeSettings& s) {
       r.get(*c, p, "exposure_us", cs.exposure_us);
       r.get(*c, p, "external_trigger", cs.external_trigger);
       r.get(*c, p, "latency_us", cs.latency_us);
+      r.get(*c, p, "options", cs.options);
     }
   }
   if (auto* t = r.table(root, "trigger")) {
@@ -195,6 +196,7 @@ vc_edged_options to_options(const EdgeSettings& s) {
     cc.held_frames = 2;
     o.camera_latency_ns[k] = static_cast<int64_t>(c.latency_us * 1000.0);
     cc.trigger_latency_ns = o.camera_latency_ns[k];
+    cc.options = c.options.empty() ? nullptr : c.options.c_str();
   }
   vc_trigger_config_init(&o.trigger);
   o.trigger.backend = s.trigger_backend.c_str();

@@ -26,6 +26,7 @@ struct CameraSettings {
   int64_t exposure_us = 0;
   bool external_trigger = true;
   double latency_us = 0;         // frame timestamp − trigger edge
+  std::string options;           // backend-specific "key=value,..." (file, sim: pace, loop, scene, seq_base)
 };
 
 struct EdgeSettings {

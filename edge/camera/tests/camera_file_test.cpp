@@ -103,7 +103,7 @@ TEST_F(FileBackend, ReplaysFramesInRgbOrderWithSynthesisedTimes) {
 }
 
 TEST_F(FileBackend, LoopsWhenAsked) {
-  cfg_.loop = true;
+  cfg_.options = "loop=1";
   ASSERT_EQ(open(), 0) << why_;
   ASSERT_EQ(vc_camera_start(cam_), 0);
   for (int n = 0; n < 7; n++) {
@@ -116,7 +116,7 @@ TEST_F(FileBackend, LoopsWhenAsked) {
 }
 
 TEST_F(FileBackend, ReadsTheBackgroundFolder) {
-  cfg_.background = true;
+  cfg_.options = "scene=empty";
   ASSERT_EQ(open(), 0) << why_;
   ASSERT_EQ(vc_camera_start(cam_), 0);
   vc_frame f;
@@ -131,7 +131,7 @@ TEST_F(FileBackend, ReadsTheBackgroundFolder) {
 
 TEST_F(FileBackend, TriggeredModeShowsThePulsesFrame) {
   cfg_.external_trigger = true;
-  cfg_.seq_base = 100;
+  cfg_.options = "seq_base=100";
   cfg_.trigger_latency_ns = 3000000;
   ASSERT_EQ(open(), 0) << why_;
   ASSERT_EQ(vc_camera_start(cam_), 0);
@@ -160,7 +160,7 @@ TEST_F(FileBackend, FreeRunningCameraRefusesSoftTriggers) {
 }
 
 TEST_F(FileBackend, PacedCaptureTimesOutBeforeTheFrameIsDue) {
-  cfg_.pace = true;
+  cfg_.options = "pace=1";
   cfg_.fps_num = 1;  // one frame a second
   ASSERT_EQ(open(), 0) << why_;
   ASSERT_EQ(vc_camera_start(cam_), 0);
@@ -168,6 +168,61 @@ TEST_F(FileBackend, PacedCaptureTimesOutBeforeTheFrameIsDue) {
   ASSERT_EQ(vc_camera_capture(cam_, 100, &f), 0);  // frame 0 is due at start
   vc_camera_release(cam_, &f);
   EXPECT_EQ(vc_camera_capture(cam_, 10, &f), -ETIMEDOUT);
+}
+
+TEST_F(FileBackend, CapabilitiesFollowTheTriggerMode) {
+  ASSERT_EQ(open(), 0) << why_;
+  EXPECT_EQ(vc_camera_caps(cam_), VC_CAMERA_CAP_REWIND);
+  vc_camera_free(cam_);
+  cam_ = nullptr;
+  cfg_.external_trigger = true;
+  ASSERT_EQ(open(), 0) << why_;
+  EXPECT_EQ(vc_camera_caps(cam_), VC_CAMERA_CAP_REWIND | VC_CAMERA_CAP_SOFT_TRIGGER);
+}
+
+TEST_F(FileBackend, RewindSwitchesToTheLoopingBackgroundAndBackToThePulsesFrame) {
+  cfg_.external_trigger = true;
+  ASSERT_EQ(open(), 0) << why_;
+  ASSERT_EQ(vc_camera_start(cam_), 0);
+  EXPECT_EQ(vc_camera_rewind(cam_, 0, VC_CAMERA_SCENE_EMPTY), -EBUSY);
+  ASSERT_EQ(vc_camera_soft_trigger(cam_, 9, 1000), 0);  // dropped by the rewind below
+  ASSERT_EQ(vc_camera_stop(cam_), 0);
+  ASSERT_EQ(vc_camera_rewind(cam_, 50, VC_CAMERA_SCENE_EMPTY), 0) << vc_camera_last_error(cam_);
+  ASSERT_EQ(vc_camera_start(cam_), 0);
+  vc_frame f;
+  for (uint64_t seq = 50; seq < 53; seq++) {  // two background frames, looping
+    ASSERT_EQ(vc_camera_soft_trigger(cam_, seq, 2000 + seq), 0);
+    ASSERT_EQ(vc_camera_capture(cam_, 100, &f), 0) << vc_camera_last_error(cam_);
+    EXPECT_EQ(f.index, (seq - 50) % 2);
+    EXPECT_EQ(f.rgb[f.stride + 0], 1);
+    vc_camera_release(cam_, &f);
+  }
+  ASSERT_EQ(vc_camera_stop(cam_), 0);
+  ASSERT_EQ(vc_camera_rewind(cam_, 200, VC_CAMERA_SCENE_LIVE), 0);
+  ASSERT_EQ(vc_camera_start(cam_), 0);
+  ASSERT_EQ(vc_camera_soft_trigger(cam_, 202, 3000), 0);
+  ASSERT_EQ(vc_camera_capture(cam_, 100, &f), 0);
+  EXPECT_EQ(f.index, 2u);
+  EXPECT_EQ(f.sequence, 0u);
+  EXPECT_EQ(f.rgb[f.stride], colour(0, 2)[0]);
+  vc_camera_release(cam_, &f);
+}
+
+TEST_F(FileBackend, RewindToAMissingBackgroundIsAClearError) {
+  fs::remove_all(dir_ / "background");
+  ASSERT_EQ(open(), 0) << why_;
+  EXPECT_EQ(vc_camera_rewind(cam_, 0, VC_CAMERA_SCENE_EMPTY), -ENOENT);
+  EXPECT_EQ(std::string(vc_camera_last_error(cam_)),
+            "file: " + dev_ + ": no folder " + dev_ + "/background/cam0 (is this a `voxcap sim --out` folder?)");
+}
+
+TEST_F(FileBackend, UnknownOptionsAreErrors) {
+  cfg_.options = "loop=1,colour=red";
+  EXPECT_EQ(open(), -EINVAL);
+  EXPECT_EQ(why_, "file: " + dev_ + ": unknown option 'colour' (options: pace, loop, scene, seq_base)");
+  cfg_.options = "scene=full";
+  EXPECT_EQ(open(), -EINVAL);
+  EXPECT_EQ(why_, "file: " + dev_ + ": option scene must be live or empty");
 }
 
 TEST_F(FileBackend, ClearErrors) {

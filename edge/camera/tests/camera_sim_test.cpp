@@ -8,6 +8,7 @@
 #include <string>
 
 #include "voxcap/edge/camera.h"
+#include "voxcap/edge/camera_sim.h"
 #include "voxcap/sim/scene.hpp"
 
 namespace {
@@ -88,7 +89,7 @@ TEST_F(SimBackend, FreeRunningFramesAreTheScenesRenders) {
 TEST_F(SimBackend, TriggeredFrameIsThePulsesSimulatorFrame) {
   vc_camera_config cfg = base(0);
   cfg.external_trigger = true;
-  cfg.seq_base = 1000;
+  cfg.options = "seq_base=1000";
   cfg.trigger_latency_ns = 2000000;
   ASSERT_EQ(open(&cam_, cfg), 0) << why_;
   ASSERT_EQ(vc_camera_start(cam_), 0);
@@ -108,9 +109,9 @@ TEST_F(SimBackend, BackgroundAndBorrowedScene) {
   vc::sim::Scene scene(spec_options());
   vc_camera_config cfg = base(0);
   cfg.device = nullptr;
-  cfg.sim_scene = &scene;
-  cfg.background = true;
-  ASSERT_EQ(open(&cam_, cfg), 0) << why_;
+  cfg.options = "scene=empty";
+  char why[320];
+  ASSERT_EQ(vc_camera_open_sim(&cfg, &scene, &cam_, why, sizeof why), 0) << why;
   ASSERT_EQ(vc_camera_start(cam_), 0);
   for (int i = 0; i < 2; i++) {
     vc_frame f;
@@ -120,6 +121,32 @@ TEST_F(SimBackend, BackgroundAndBorrowedScene) {
     EXPECT_TRUE(same_pixels(f, want)) << "background " << i;
     vc_camera_release(cam_, &f);
   }
+}
+
+TEST_F(SimBackend, RewindRendersTheEmptyRoomThenThePulsesFrame) {
+  vc_camera_config cfg = base(1);
+  cfg.external_trigger = true;
+  ASSERT_EQ(open(&cam_, cfg), 0) << why_;
+  EXPECT_EQ(vc_camera_caps(cam_), VC_CAMERA_CAP_REWIND | VC_CAMERA_CAP_SOFT_TRIGGER);
+  vc::sim::Scene scene(spec_options());
+  ASSERT_EQ(vc_camera_rewind(cam_, 500, VC_CAMERA_SCENE_EMPTY), 0);
+  ASSERT_EQ(vc_camera_start(cam_), 0);
+  ASSERT_EQ(vc_camera_soft_trigger(cam_, 501, 1000), 0);
+  vc_frame f;
+  ASSERT_EQ(vc_camera_capture(cam_, 1000, &f), 0) << vc_camera_last_error(cam_);
+  cv::Mat want;
+  scene.render_background(1, 1, want);
+  EXPECT_TRUE(same_pixels(f, want));
+  vc_camera_release(cam_, &f);
+  ASSERT_EQ(vc_camera_stop(cam_), 0);
+  ASSERT_EQ(vc_camera_rewind(cam_, 2000, VC_CAMERA_SCENE_LIVE), 0);
+  ASSERT_EQ(vc_camera_start(cam_), 0);
+  ASSERT_EQ(vc_camera_soft_trigger(cam_, 2010, 2000), 0);
+  ASSERT_EQ(vc_camera_capture(cam_, 1000, &f), 0) << vc_camera_last_error(cam_);
+  EXPECT_EQ(f.index, 10u);
+  scene.render(10, 1, want);
+  EXPECT_TRUE(same_pixels(f, want));
+  vc_camera_release(cam_, &f);
 }
 
 TEST_F(SimBackend, TwoCamerasOfOneSpecRenderTheirOwnViews) {

@@ -47,7 +47,8 @@ int fake_stop(vc_camera*, void* p) {
 void fake_free(void* p) {
   if (p) static_cast<Script*>(p)->freed++;
 }
-const vc_camera_backend kFake = {"fake", fake_open, fake_start, fake_capture, fake_stop, fake_free, nullptr};
+const vc_camera_backend kFake = {"fake", fake_open, fake_start, fake_capture, fake_stop, fake_free,
+                                 nullptr, nullptr, nullptr};
 
 class CommonLayer : public ::testing::Test {
  protected:
@@ -101,6 +102,9 @@ TEST_F(CommonLayer, CapturesIntoHeldBuffersAndCountsDrops) {
   EXPECT_EQ(st.dropped, 2u);  // 12 and 13
   EXPECT_EQ(st.timeouts, 1u);
   EXPECT_EQ(vc_camera_soft_trigger(cam, 1, 2), -ENOTSUP);
+  EXPECT_EQ(vc_camera_caps(cam), 0u);  // a real camera: triggered by its wire, sees the room
+  EXPECT_EQ(vc_camera_rewind(cam, 0, VC_CAMERA_SCENE_EMPTY), -ENOTSUP);
+  EXPECT_STREQ(vc_camera_last_error(cam), "fake: dev0: cannot rewind: a real camera sees the room as it is");
   vc_camera_free(cam);  // stops
   EXPECT_EQ(script_.stopped, 1);
   EXPECT_EQ(script_.freed, 1);

@@ -75,6 +75,25 @@ queue_messages = 32
   EXPECT_EQ(o.link.queue_msgs, 32u);
 }
 
+TEST(EdgeConfig, CameraOptionsGoToTheBackendAsGiven) {
+  std::string p = write_tmp(R"(
+[[cameras]]
+backend = "file"
+device = "/data/take1"
+options = "pace=1,loop=1"
+[[cameras]]
+backend = "file"
+device = "/data/take1"
+)");
+  vc::edge::EdgeSettings s;
+  vc::edge::load_edge_toml(p, s);
+  s.validate();
+  std::remove(p.c_str());
+  vc_edged_options o = vc::edge::to_options(s);
+  EXPECT_STREQ(o.cameras[0].options, "pace=1,loop=1");
+  EXPECT_EQ(o.cameras[1].options, nullptr);
+}
+
 TEST(EdgeConfig, ErrorsNameTheKey) {
   EXPECT_NE(load_error("nodeid = 1\n").find("nodeid: unknown key"), std::string::npos);
   EXPECT_NE(load_error("[host]\nport = 0\n").find("host.port"), std::string::npos);

@@ -9,7 +9,15 @@
  * driver's frame sequence number. A node runs two cameras: two vc_camera objects, one thread each.
  *
  * Lifecycle: vc_camera_open → vc_camera_start → (vc_camera_capture → vc_camera_release)* →
- * vc_camera_stop [→ vc_camera_start ...] → vc_camera_free.
+ * vc_camera_stop [→ vc_camera_rewind] [→ vc_camera_start ...] → vc_camera_free.
+ *
+ * Capabilities (vc_camera_caps) say what a camera does beyond capturing, so that its user never asks
+ * which backend it is: VC_CAMERA_CAP_SOFT_TRIGGER — it exposes a frame only when told through
+ * vc_camera_soft_trigger (the emulated twin of a sensor on a trigger wire; file and sim in triggered
+ * mode); VC_CAMERA_CAP_REWIND — it plays a recorded or rendered sequence that vc_camera_rewind restarts
+ * at a given pulse, showing the empty scene or the performer (file, sim). Real cameras have neither:
+ * their trigger is a wire and what they see is the room. (libcamera's virtual pipeline and V4L2's vivid
+ * do likewise: the test source is an ordinary camera with extra controls, not a special case.)
  *
  * Errors: every function returns 0 (or a count) or a negative errno-style code and, on failure, leaves
  * a one-line message naming the backend and device in vc_camera_last_error() — what the edge daemon
@@ -71,16 +79,12 @@ typedef struct vc_camera_config {
   bool external_trigger;  /* the sensor is externally triggered (libcamera: fixed frame duration
                              and exposure; file/sim: a frame per vc_camera_soft_trigger) */
   int64_t exposure_us;    /* fixed exposure (libcamera: AeEnable=false + ExposureTime); 0 = auto */
+  int64_t trigger_latency_ns; /* the sensor's frame time minus its trigger edge (what the pairer
+                                 expects); backends that synthesise stamps (file, sim) use it */
   const vc_camera_control* controls; /* borrowed during vc_camera_open only */
   size_t n_controls;
-  /* emulated backends (file, sim) */
-  bool background;            /* file: DIR/background/cam<k>/; sim: empty-room frames */
-  bool loop;                  /* file: wrap around at the end of the sequence */
-  bool pace;                  /* free-running file/sim: deliver in real time at the frame rate */
-  int64_t trigger_latency_ns; /* triggered file/sim: frame time = pulse time + this */
-  uint64_t seq_base;          /* triggered file/sim: the frame shown for pulse seq is seq - seq_base */
-  void* sim_scene;            /* sim: borrowed vc::sim::Scene* shared by the node's cameras (or NULL
-                                 to build one from `device`); must outlive the camera */
+  const char* options;  /* backend-specific "key=value,..." parsed by that backend, NULL = none;
+                           file, sim: pace=0|1, loop=0|1 (file), scene=live|empty, seq_base=N */
 } vc_camera_config;
 
 /* Fills *cfg with the defaults documented above (all zero/NULL except fps_den = 1). */
@@ -135,6 +139,18 @@ int vc_camera_release(vc_camera* cam, vc_frame* frame);
  * next capture returns its frame. -ENOTSUP for real cameras, whose trigger is a wire. The one call
  * that may come from another thread than the capturing one (the trigger input's). */
 int vc_camera_soft_trigger(vc_camera* cam, uint64_t seq, uint64_t t_ns);
+/* What the camera can do beyond capturing: VC_CAMERA_CAP_* (see the top of this file). */
+#define VC_CAMERA_CAP_SOFT_TRIGGER 0x1u /* exposes a frame only per vc_camera_soft_trigger */
+#define VC_CAMERA_CAP_REWIND 0x2u       /* vc_camera_rewind restarts its sequence */
+uint32_t vc_camera_caps(const vc_camera* cam);
+
+/* What a rewound camera shows: the performer, or the empty scene the host's BACKGROUND asks for. */
+typedef enum vc_camera_scene { VC_CAMERA_SCENE_LIVE = 0, VC_CAMERA_SCENE_EMPTY = 1 } vc_camera_scene;
+/* VC_CAMERA_CAP_REWIND: restarts the sequence so that the frame shown for pulse seq is frame
+ * seq − seq_base of `scene` (free-running: from frame 0); the empty scene loops. Triggers not yet
+ * captured are dropped. Call it while the camera is stopped. -ENOTSUP without the capability, -EBUSY
+ * while streaming, -ENOENT when the backend has no such scene (file: no background folder). */
+int vc_camera_rewind(vc_camera* cam, uint64_t seq_base, vc_camera_scene scene);
 /* Stops streaming; held frames stay valid until released or the camera is freed. */
 int vc_camera_stop(vc_camera* cam);
 /* Stops if needed and frees everything. NULL is a no-op. */

@@ -31,6 +31,10 @@ typedef struct vc_camera_backend {
   void (*free_priv)(void* priv);
   /* Optional (NULL: -ENOTSUP): emulated external trigger. */
   int (*soft_trigger)(vc_camera* cam, void* priv, uint64_t seq, uint64_t t_ns);
+  /* Optional (NULL: none): VC_CAMERA_CAP_* of this open camera. */
+  uint32_t (*caps)(const void* priv);
+  /* Optional (NULL: -ENOTSUP): see vc_camera_rewind; called while stopped. */
+  int (*rewind)(vc_camera* cam, void* priv, uint64_t seq_base, vc_camera_scene scene);
 } vc_camera_backend;
 
 extern const vc_camera_backend vc_camera_backend_v4l2;
@@ -41,6 +45,12 @@ extern const vc_camera_backend vc_camera_backend_sim;
 /* Opens a camera on an explicit backend (cfg->backend is ignored). Same contract as vc_camera_open. */
 int vc_camera_open_backend(const vc_camera_backend* backend, const vc_camera_config* cfg,
                            vc_camera** out, char* why, size_t why_len);
+/* The same with an object for the backend (borrowed; the backend's own open function says what it
+ * is), which the backend's open reads with vc_camera_backend_arg. */
+int vc_camera_open_backend_arg(const vc_camera_backend* backend, const vc_camera_config* cfg, const void* arg,
+                               vc_camera** out, char* why, size_t why_len);
+/* For backends, during open: the object given to vc_camera_open_backend_arg (NULL if none). */
+const void* vc_camera_backend_arg(const vc_camera* cam);
 
 /* For backends: records "<backend>: <device>: <message>" as the camera's last error and returns
  * code (a negative errno), so that `return vc_camera_set_error(cam, -ENOENT, "...")` reads well. */
