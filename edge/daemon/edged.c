@@ -218,15 +218,16 @@ static void handle_work(edged* d, const vc_capture_pair* p) {
                  strerror(-rc));
     }
   } else if (st == VC_STATE_RUNNING) {
-    const uint8_t* msg = NULL;
-    size_t len = 0;
-    int rc = vc_node_process(d->node, w->seq, w->t_ns, rgb, stride, &msg, &len);
+    vc_node_output out;
+    int rc = vc_node_process_frame(d->node, w->seq, w->t_ns, rgb, stride, &out);
     if (rc == 0) {
-      if (vc_link_send(d->link, msg, len) == 0) d->hulls_sent++;
-      uint64_t lat = vc_clock_monotonic_ns() - w->t_ns;
+      /* the HULL first, then the frame's FEATURES (tracking nodes), all with this seq */
+      if (vc_link_send(d->link, out.msg[0], out.len[0]) == 0) d->hulls_sent++;
+      uint64_t lat = vc_clock_monotonic_ns() - w->t_ns; /* the frame stage: trigger edge -> HULL queued */
       d->frame_sum_ns += lat;
       if (lat > d->frame_max_ns) d->frame_max_ns = lat;
       d->frame_n++;
+      for (int i = 1; i < out.count; i++) vc_link_send(d->link, out.msg[i], out.len[i]);
     } else if (rc < 0 && rc != -EAGAIN) {
       send_error(d, VC_ERR_OVERLOAD, VC_SEVERITY_WARNING, 0, "frame %llu not sent: %s",
                  (unsigned long long)w->seq, vc_proto_strerror(rc));

@@ -47,6 +47,9 @@ struct vc_node {
   size_t msgcap;
   bool have_frame;
 
+  vc_features_producer producer; /* track == NULL: none */
+  uint8_t featbuf[VC_NODE_CAMS][VC_PROTO_HEADER_SIZE + 6 + 16 * VC_PROTO_MAX_FEATURES];
+
   uint64_t first_seq;
   vc_node_counters counters;
   stage_acc stages[ST_COUNT];
@@ -395,9 +398,56 @@ void vc_node_stop(vc_node* n) {
   if (n->state == VC_STATE_RUNNING) n->state = VC_STATE_READY;
 }
 
+void vc_node_set_features_producer(vc_node* n, const vc_features_producer* producer) {
+  if (producer)
+    n->producer = *producer;
+  else
+    memset(&n->producer, 0, sizeof(n->producer));
+}
+
+/* FEATURES of this frame into out after the HULL; a failing producer costs only these. */
+static void produce_features(vc_node* n, uint64_t seq, uint64_t t_trigger_ns, const uint8_t* const rgb[VC_NODE_CAMS],
+                             const size_t stride[VC_NODE_CAMS], vc_node_output* out) {
+  vc_features feats[VC_NODE_CAMS];
+  memset(feats, 0, sizeof(feats));
+  const uint8_t* const masks[VC_NODE_CAMS] = {n->masks[0], n->masks[1]};
+  int k = n->producer.track(n->producer.user, seq, rgb, stride, masks, n->cams, feats);
+  if (k < 0 || k > VC_NODE_CAMS) {
+    n->counters.features_failed++;
+    return;
+  }
+  vc_header hdr = {.node_id = n->id, .seq = seq, .t_trigger_ns = t_trigger_ns};
+  int first = out->count;
+  for (int c = 0; c < k; c++) {
+    size_t len = 0;
+    if (vc_encode_features(n->featbuf[c], sizeof(n->featbuf[c]), &len, &hdr, &feats[c]) < 0) {
+      out->count = first; /* all of the frame's FEATURES or none */
+      n->counters.features_failed++;
+      return;
+    }
+    out->msg[out->count] = n->featbuf[c];
+    out->len[out->count] = len;
+    out->count++;
+  }
+  n->counters.features_encoded += (uint64_t)k;
+}
+
 int vc_node_process(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
                     const uint8_t* const rgb[VC_NODE_CAMS], const size_t stride[VC_NODE_CAMS],
                     const uint8_t** msg, size_t* len) {
+  vc_node_output out;
+  int rc = vc_node_process_frame(n, seq, t_trigger_ns, rgb, stride, &out);
+  if (rc == 0) {
+    *msg = out.msg[0];
+    *len = out.len[0];
+  }
+  return rc;
+}
+
+int vc_node_process_frame(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
+                          const uint8_t* const rgb[VC_NODE_CAMS], const size_t stride[VC_NODE_CAMS],
+                          vc_node_output* out) {
+  out->count = 0;
   if (n->state != VC_STATE_RUNNING) return -EAGAIN;
   if (seq < n->first_seq) return 1;
   uint64_t t0 = now_ns();
@@ -417,7 +467,8 @@ int vc_node_process(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
   n->have_frame = true;
   uint64_t t3 = now_ns();
   vc_header hdr = {.node_id = n->id, .seq = seq, .t_trigger_ns = t_trigger_ns};
-  rc = vc_encode_hull_bits(n->msgbuf, n->msgcap, len, &hdr, n->cfg.grid_id, n->bitset,
+  size_t hull_len = 0;
+  rc = vc_encode_hull_bits(n->msgbuf, n->msgcap, &hull_len, &hdr, n->cfg.grid_id, n->bitset,
                            (size_t)vc_carver_voxels(n->carver));
   uint64_t t4 = now_ns();
   stage_add(n, ST_SUBTRACT, t0, t1);
@@ -431,7 +482,10 @@ int vc_node_process(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
     return rc;
   }
   n->counters.hulls_encoded++;
-  *msg = n->msgbuf;
+  out->msg[0] = n->msgbuf;
+  out->len[0] = hull_len;
+  out->count = 1;
+  if (n->producer.track && n->cfg.feature_role == VC_ROLE_FRONT) produce_features(n, seq, t_trigger_ns, rgb, stride, out);
   return 0;
 }
 

@@ -71,10 +71,41 @@ int vc_node_start(vc_node* node, uint64_t first_seq);
 /* STOP: back to READY. */
 void vc_node_stop(vc_node* node);
 
+/* Feature tracking on nodes with a tracking role (CONFIG's feature_role FRONT): the tracker (a later
+ * issue) fills this hook, the node runs it on every processed frame after the hull and turns what it
+ * returns into one FEATURES message per camera for the same seq. */
+typedef struct vc_features_producer {
+  /* Tracks head, hands and feet in one frame pair: rgb/stride the frames, mask the node's silhouettes
+   * (cams[c].width x height bytes, 0/255). Fills out[0..n-1] (camera, feature_count, features) and
+   * returns n (0..VC_NODE_CAMS), or a negative errno (the frame's HULL is still sent). Runs on the
+   * pipeline thread; everything it is given is valid during the call only. */
+  int (*track)(void* user, uint64_t seq, const uint8_t* const rgb[VC_NODE_CAMS], const size_t stride[VC_NODE_CAMS],
+               const uint8_t* const mask[VC_NODE_CAMS], const vc_node_camera cams[VC_NODE_CAMS],
+               vc_features out[VC_NODE_CAMS]);
+  void* user;
+} vc_features_producer;
+
+/* Installs (copied) or removes (NULL) the features producer. */
+void vc_node_set_features_producer(vc_node* node, const vc_features_producer* producer);
+
+/* What one frame gives the host, in the order to send: the HULL, then FEATURES per camera. The
+ * messages live in the node's buffers, valid until the next call on the node. */
+#define VC_NODE_MAX_MSGS (1 + VC_NODE_CAMS)
+typedef struct vc_node_output {
+  int count;
+  const uint8_t* msg[VC_NODE_MAX_MSGS];
+  size_t len[VC_NODE_MAX_MSGS];
+} vc_node_output;
+
 /* One frame pair in RUNNING: subtract, clean up, carve, and encode the HULL (header seq and
- * t_trigger_ns as given). On success *msg and *len point at the HULL in the node's buffer, valid until
- * the next call on the node. Returns 0, 1 when the frame was skipped (seq < first_seq), -EAGAIN when
- * not RUNNING, VC_PROTO_ELIMIT when the hull has too many runs (counted, nothing to send). */
+ * t_trigger_ns as given); on a node with a tracking role and a producer, track and encode FEATURES for
+ * the same seq. Returns 0 (out filled, HULL first), 1 when the frame was skipped (seq < first_seq),
+ * -EAGAIN when not RUNNING, VC_PROTO_ELIMIT when the hull has too many runs (counted, nothing to
+ * send). A producer's failure or invalid features cost only the FEATURES (counted). */
+int vc_node_process_frame(vc_node* node, uint64_t seq, uint64_t t_trigger_ns,
+                          const uint8_t* const rgb[VC_NODE_CAMS], const size_t stride[VC_NODE_CAMS],
+                          vc_node_output* out);
+/* The same for a caller that wants the HULL only: *msg and *len point at it. */
 int vc_node_process(vc_node* node, uint64_t seq, uint64_t t_trigger_ns,
                     const uint8_t* const rgb[VC_NODE_CAMS], const size_t stride[VC_NODE_CAMS],
                     const uint8_t** msg, size_t* len);
@@ -94,6 +125,8 @@ typedef struct vc_node_counters {
   uint64_t frames_processed;
   uint64_t hulls_encoded;
   uint64_t hulls_over_limit;
+  uint64_t features_encoded;  /* FEATURES messages */
+  uint64_t features_failed;   /* frames whose producer failed or gave features that do not encode */
 } vc_node_counters;
 void vc_node_get_counters(const vc_node* node, vc_node_counters* out);
 
