@@ -43,9 +43,9 @@ struct vc_capture {
   vc_capture_options opt;
   vc_capture_callbacks cb;
   pthread_mutex_t mu;
-  pthread_cond_t cv; /* a pair is ready, or a wake */
-  bool wake;         /* under mu */
-  vc_frameq* q;      /* under mu */
+  pthread_cond_t cv;   /* a pair is ready, or a wake */
+  bool wake;           /* under mu */
+  vc_frameq* q;        /* under mu */
   vc_capture_phase ph; /* under mu */
   camthread cams[VC_FRAMEQ_CAMS];
   unsigned nslots;
@@ -56,7 +56,9 @@ struct vc_capture {
   uint64_t last_pulse_seq; /* under mu */
 };
 
-static uint64_t mono_ms(void) { return vc_clock_monotonic_ns() / 1000000u; }
+static uint64_t mono_ms(void) {
+  return vc_clock_monotonic_ns() / 1000000u;
+}
 
 static void logf_(vc_capture* cap, int level, const char* fmt, ...) __attribute__((format(printf, 3, 4)));
 static void logf_(vc_capture* cap, int level, const char* fmt, ...) {
@@ -69,7 +71,8 @@ static void logf_(vc_capture* cap, int level, const char* fmt, ...) {
   cap->cb.log(cap->cb.user, level, line);
 }
 
-static void errorf(vc_capture* cap, uint32_t code, const char* fmt, ...) __attribute__((format(printf, 3, 4)));
+static void errorf(vc_capture* cap, uint32_t code, const char* fmt, ...)
+    __attribute__((format(printf, 3, 4)));
 static void errorf(vc_capture* cap, uint32_t code, const char* fmt, ...) {
   if (!cap->cb.error) return;
   char text[VC_PROTO_MAX_ERROR_TEXT];
@@ -143,11 +146,13 @@ static void* cam_main(void* arg) {
     reported = false;
     ct->frames++;
     pthread_mutex_lock(&cap->mu);
-    int s = vc_frameq_acquire(cap->q, (unsigned)ct->idx); /* -EBUSY: the pipeline holds every slot (counted) */
+    int s =
+        vc_frameq_acquire(cap->q, (unsigned)ct->idx); /* -EBUSY: the pipeline holds every slot (counted) */
     if (s >= 0) {
       uint8_t* dst = ct->slot_rgb[s];
       size_t row = (size_t)ct->width * 3;
-      for (int y = 0; y < ct->height; y++) memcpy(dst + (size_t)y * ct->stride, f.rgb + (size_t)y * f.stride, row);
+      for (int y = 0; y < ct->height; y++)
+        memcpy(dst + (size_t)y * ct->stride, f.rgb + (size_t)y * f.stride, row);
       vc_frameq_add_frame(cap->q, (unsigned)ct->idx, s, f.t_ns, vc_clock_monotonic_ns());
       if (vc_frameq_ready(cap->q)) pthread_cond_signal(&cap->cv);
     }
@@ -251,7 +256,8 @@ int vc_capture_set_phase(vc_capture* cap, vc_capture_phase ph, uint64_t seq_base
     if (rc == 0) rc = vc_camera_rewind(ct->cam, seq_base, scene);
     if (rc == 0) rc = vc_camera_start(ct->cam);
     if (rc < 0) {
-      errorf(cap, VC_ERR_CAMERA, "camera %d: cannot restart its sequence: %s", c, vc_camera_last_error(ct->cam));
+      errorf(cap, VC_ERR_CAMERA, "camera %d: cannot restart its sequence: %s", c,
+             vc_camera_last_error(ct->cam));
       return rc;
     }
   }
@@ -268,8 +274,9 @@ int vc_capture_new(const vc_capture_options* opt, const vc_capture_callbacks* cb
   if (!cap) return -ENOMEM;
   cap->opt = *opt;
   if (cb) cap->cb = *cb;
-  cap->nslots = opt->frame_slots ? (opt->frame_slots > VC_FRAMEQ_MAX_SLOTS ? VC_FRAMEQ_MAX_SLOTS : opt->frame_slots)
-                                 : 4;
+  cap->nslots = opt->frame_slots
+                    ? (opt->frame_slots > VC_FRAMEQ_MAX_SLOTS ? VC_FRAMEQ_MAX_SLOTS : opt->frame_slots)
+                    : 4;
   pthread_mutex_init(&cap->mu, NULL);
   pthread_condattr_t ca;
   pthread_condattr_init(&ca);
@@ -351,7 +358,9 @@ void vc_capture_get_camera_info(const vc_capture* cap, int cam, vc_camera_info* 
   vc_camera_get_info(cap->cams[cam].cam, info);
 }
 
-void vc_capture_get_trigger_info(const vc_capture* cap, vc_trigger_info* info) { vc_trigger_get_info(cap->trig, info); }
+void vc_capture_get_trigger_info(const vc_capture* cap, vc_trigger_info* info) {
+  vc_trigger_get_info(cap->trig, info);
+}
 
 vc_capture_phase vc_capture_get_phase(vc_capture* cap) {
   pthread_mutex_lock(&cap->mu);

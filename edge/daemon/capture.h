@@ -32,14 +32,18 @@ extern "C" {
 
 typedef struct vc_capture vc_capture;
 
-typedef enum vc_capture_phase { VC_CAPTURE_IDLE = 0, VC_CAPTURE_BACKGROUND, VC_CAPTURE_RUNNING } vc_capture_phase;
+typedef enum vc_capture_phase {
+  VC_CAPTURE_IDLE = 0,
+  VC_CAPTURE_BACKGROUND,
+  VC_CAPTURE_RUNNING
+} vc_capture_phase;
 
 typedef struct vc_capture_options {
   vc_camera_config cameras[VC_FRAMEQ_CAMS]; /* strings borrowed for the capture's lifetime */
   const vc_trigger_config* trigger;         /* borrowed during vc_capture_new only */
   vc_pairing_config pairing;                /* ncams, pulse_slots and frame_slots are set by the capture */
   unsigned frame_slots;                     /* copied frames per camera, 0 = 4, at most VC_FRAMEQ_MAX_SLOTS */
-  int camera_timeout_ms;                    /* a camera that delivers nothing this long is reported, 0 = 2000 */
+  int camera_timeout_ms; /* a camera that delivers nothing this long is reported, 0 = 2000 */
 } vc_capture_options;
 
 typedef struct vc_capture_callbacks {
@@ -59,9 +63,9 @@ typedef struct vc_capture_pair {
 } vc_capture_pair;
 
 typedef struct vc_capture_stats {
-  uint64_t frames[VC_FRAMEQ_CAMS];         /* frames captured */
-  uint64_t errors[VC_FRAMEQ_CAMS];         /* camera errors (capture failures, silences reported) */
-  uint64_t missed_pulses[VC_FRAMEQ_CAMS];  /* triggered-only cameras: pulses that came while busy */
+  uint64_t frames[VC_FRAMEQ_CAMS];        /* frames captured */
+  uint64_t errors[VC_FRAMEQ_CAMS];        /* camera errors (capture failures, silences reported) */
+  uint64_t missed_pulses[VC_FRAMEQ_CAMS]; /* triggered-only cameras: pulses that came while busy */
   vc_frameq_stats queue;
 } vc_capture_stats;
 

@@ -151,7 +151,9 @@ void vc_frameq_reset(vc_frameq* q, bool open, uint64_t min_seq, bool time_captur
   q->time_capture = time_capture;
 }
 
-bool vc_frameq_is_open(const vc_frameq* q) { return q->open; }
+bool vc_frameq_is_open(const vc_frameq* q) {
+  return q->open;
+}
 
 int vc_frameq_acquire(vc_frameq* q, unsigned cam) {
   if (!q->open) return -EAGAIN;
@@ -189,7 +191,9 @@ bool vc_frameq_pop(vc_frameq* q, vc_frame_pair* out) {
   return true;
 }
 
-unsigned vc_frameq_ready(const vc_frameq* q) { return q->work_count; }
+unsigned vc_frameq_ready(const vc_frameq* q) {
+  return q->work_count;
+}
 
 void vc_frameq_done(vc_frameq* q, const vc_frame_pair* pair) {
   /* The phase may have changed (slots reset) while the pipeline worked; only free what is still its. */

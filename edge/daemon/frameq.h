@@ -38,10 +38,10 @@ typedef struct vc_frameq vc_frameq;
 
 /* A pulse with a frame from each camera. */
 typedef struct vc_frame_pair {
-  uint64_t seq;                  /* the pulse's seq */
-  uint64_t t_ns;                 /* the pulse's time (trigger edge), CLOCK_MONOTONIC */
-  uint64_t paired_ns;            /* when the pair became complete (the now_ns of that call) */
-  int slot[VC_FRAMEQ_CAMS];      /* each camera's slot */
+  uint64_t seq;             /* the pulse's seq */
+  uint64_t t_ns;            /* the pulse's time (trigger edge), CLOCK_MONOTONIC */
+  uint64_t paired_ns;       /* when the pair became complete (the now_ns of that call) */
+  int slot[VC_FRAMEQ_CAMS]; /* each camera's slot */
 } vc_frame_pair;
 
 typedef struct vc_frameq_stats {

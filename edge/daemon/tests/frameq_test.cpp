@@ -155,7 +155,7 @@ TEST_F(FrameQueue, ResetForgetsThePhaseAndDoneDoesNotFreeASlotTakenSince) {
   frames(1000 * kMs, 1000 * kMs, slots);
   vc_frame_pair p;
   ASSERT_TRUE(vc_frameq_pop(q, &p));
-  vc_frameq_reset(q, true, 100, false);  // e.g. START while the pipeline still works on p
+  vc_frameq_reset(q, true, 100, false);   // e.g. START while the pipeline still works on p
   ASSERT_EQ(vc_frameq_acquire(q, 0), 0);  // the new phase's frame
   vc_frameq_done(q, &p);
   EXPECT_EQ(vc_frameq_acquire(q, 0), -EBUSY) << "done() freed a slot of the new phase";

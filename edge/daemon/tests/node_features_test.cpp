@@ -54,7 +54,8 @@ struct FakeTracker {
     for (int c = 0; c < t->cameras; c++) {
       out[c].camera = (uint16_t)c;
       out[c].feature_count = 2;
-      out[c].features[0] = {VC_FEATURE_HEAD, VC_FEATURE_TRACKING, 10.0f + c, (float)(seq % 100), t->confidence};
+      out[c].features[0] = {VC_FEATURE_HEAD, VC_FEATURE_TRACKING, 10.0f + c, (float)(seq % 100),
+                            t->confidence};
       out[c].features[1] = {VC_FEATURE_LEFT_HAND, VC_FEATURE_LOST, 3.0f, 4.0f, 0.1f};
     }
     return t->cameras;
@@ -69,7 +70,8 @@ struct NodeFeatures : ::testing::Test {
   FakeTracker tracker;
 
   void SetUp() override {
-    vc_node_camera cams[2] = {{W, H, VC_FOURCC('R', 'G', 'B', '3'), 60000}, {W, H, VC_FOURCC('R', 'G', 'B', '3'), 60000}};
+    vc_node_camera cams[2] = {{W, H, VC_FOURCC('R', 'G', 'B', '3'), 60000},
+                              {W, H, VC_FOURCC('R', 'G', 'B', '3'), 60000}};
     n = vc_node_new(5, cams);
     ASSERT_NE(n, nullptr);
     vc_features_producer p = {FakeTracker::track, &tracker};

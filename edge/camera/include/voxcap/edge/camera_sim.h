@@ -12,7 +12,8 @@ extern "C" {
 /* Opens a "sim" camera on a scene the caller built: `scene` is a const vc::sim::Scene*, borrowed —
  * it must outlive the camera (e.g. shared with the caller's reference renders); cfg->device is
  * ignored and cfg->backend need not be set. Otherwise as vc_camera_open. */
-int vc_camera_open_sim(const vc_camera_config* cfg, const void* scene, vc_camera** out, char* why, size_t why_len);
+int vc_camera_open_sim(const vc_camera_config* cfg, const void* scene, vc_camera** out, char* why,
+                       size_t why_len);
 
 #ifdef __cplusplus
 }
