@@ -10,11 +10,13 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
 #include <opencv2/core/quaternion.hpp>
 
 #include "voxcap/body/bvh.hpp"
 #include "voxcap/body/glm_cv.hpp"
+#include "voxcap/body/humanoid.hpp"
 #include "voxcap/body/testing/shared_clips.hpp"
 
 namespace vc::sim {
@@ -270,6 +272,49 @@ TEST(SimBuiltinMotion, JointsEqualTheForwardKinematicsOfTheExportedBvh) {
     }
     EXPECT_LT(worst, 1e-3) << "worst " << worst * 1000 << " mm";
     expect_init_pose(m, bm.name);
+  }
+}
+
+// The built-in motions exported as the standard humanoid for Blender (Y up, metres, MotionBuilder
+// names): read back, every joint's world position is the motion's within 1e-6 m on every frame,
+// and the humanoid mapping finds every standard joint under its export name.
+TEST(SimBuiltinMotion, ExportsAsTheStandardHumanoidForBlender) {
+  const vc::body::BvhWriteOptions o = vc::body::BvhWriteOptions::blender();
+  const glm::dmat3 world_from_file = glm::transpose(o.R_file_from_world);
+  for (const BuiltinMotion& bm : builtin_motions()) {
+    SCOPED_TRACE(bm.name);
+    MotionOptions opt;
+    opt.source = bm.name;
+    const Motion m = Motion::create(opt, BodyDescription{});
+    ASSERT_TRUE(vc::body::is_standard(m.skeleton()));
+    std::vector<Pose> poses;
+    for (int f = 0; f < m.natural_frames(); ++f) poses.push_back(m.skeleton_pose(f));
+    const BvhClip clip = parse_bvh(format_bvh(m.skeleton(), poses, 1.0 / m.fps(), o), bm.name);
+    ASSERT_EQ(clip.frames, m.natural_frames());
+    std::vector<int> in_file(kJointCount);
+    for (int j = 0; j < kJointCount; ++j) {
+      const std::string name = vc::body::joint_is_end(j)
+                                   ? std::string(vc::body::joint_bvh_name(vc::body::joint_parent(j))) + "_end"
+                                   : std::string(vc::body::joint_bvh_name(j));
+      in_file[static_cast<std::size_t>(j)] = clip.skeleton.find(name);
+      ASSERT_GE(in_file[static_cast<std::size_t>(j)], 0) << name;
+    }
+    double worst = 0;
+    std::vector<glm::dvec3> want, got;
+    for (int f = 0; f < clip.frames; ++f) {
+      vc::body::forward_kinematics(m.skeleton(), poses[static_cast<std::size_t>(f)], &want);
+      vc::body::forward_kinematics(clip.skeleton, clip.pose(f), &got);
+      for (int j = 0; j < kJointCount; ++j) {
+        const glm::dvec3 p = world_from_file * got[static_cast<std::size_t>(in_file[static_cast<std::size_t>(j)])];
+        worst = std::max(worst, glm::length(p - want[static_cast<std::size_t>(j)]));
+      }
+    }
+    EXPECT_LT(worst, 1e-6) << "worst " << worst * 1e6 << " um";
+    const vc::body::HumanoidClip h = vc::body::map_humanoid(clip, bm.name + ".bvh");
+    for (int j = 0; j < kJointCount; ++j) {
+      if (vc::body::joint_is_end(j)) continue;
+      EXPECT_EQ(h.map.anchor[static_cast<std::size_t>(j)], in_file[static_cast<std::size_t>(j)]) << joint_name(j);
+    }
   }
 }
 
