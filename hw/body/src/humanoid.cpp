@@ -8,6 +8,7 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <regex>
 #include <sstream>
 #include <stdexcept>
@@ -74,12 +75,17 @@ bool is_limb_part(const std::string& key) {
   return false;
 }
 
-JointName parse_name(const std::string& name) {
+bool is_side_word(const std::string& w) { return w == "left" || w == "right" || w == "l" || w == "r"; }
+
+// `rig_prefix`: a first word most joints of the file share ("Character1_Hips", "Armature_Spine"),
+// dropped like the known ones.
+JointName parse_name(const std::string& name, const std::string& rig_prefix) {
   std::vector<std::string> w = words_of(name);
   // Noise words: 3ds Max Biped's "Bip01" and similar rig prefixes.
   static const std::regex kNoise("^(bip[0-9]*|mixamorig[0-9]*|def|jnt)$");
   w.erase(std::remove_if(w.begin(), w.end(), [](const std::string& x) { return std::regex_match(x, kNoise); }),
           w.end());
+  if (!rig_prefix.empty() && w.size() > 1 && w.front() == rig_prefix) w.erase(w.begin());
   JointName out;
   for (auto it = w.begin(); it != w.end(); ++it) {
     if (*it == "left" || *it == "l") {
@@ -160,10 +166,25 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
   const Skeleton& fsk = clip.skeleton;
   if (clip.frames < 1) throw std::runtime_error(path + ": the clip has no frames");
   const std::size_t n = fsk.joints.size();
+  // A rig prefix: the first word of more than half of the (at least 8) named joints.
+  std::string rig_prefix;
+  {
+    std::map<std::string, int> first_words;
+    int named = 0;
+    for (const auto& jt : fsk.joints) {
+      if (jt.end_site) continue;
+      const std::vector<std::string> w = words_of(jt.name);
+      ++named;
+      if (w.size() > 1 && !is_side_word(w.front())) ++first_words[w.front()];
+    }
+    for (const auto& [word, count] : first_words) {
+      if (named >= 8 && 2 * count > named) rig_prefix = word;
+    }
+  }
   std::vector<JointName> names(n);
   std::vector<int> depth(n, 0);
   for (std::size_t j = 0; j < n; ++j) {
-    if (!fsk.joints[j].end_site) names[j] = parse_name(fsk.joints[j].name);
+    if (!fsk.joints[j].end_site) names[j] = parse_name(fsk.joints[j].name, rig_prefix);
     if (fsk.joints[j].parent >= 0) depth[j] = depth[static_cast<std::size_t>(fsk.joints[j].parent)] + 1;
   }
   auto key_is = [&](std::size_t j, const std::string& k) { return names[j].key == k; };
@@ -218,9 +239,10 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
   auto get = [&](Joint sj) { return map.anchor[static_cast<std::size_t>(sj)]; };
 
   // Head and neck (no side): the topmost head, the topmost neck above it (lowerneck before Neck).
+  static const std::regex kHead("^head[0-9]*$");
   int head = -1;
   for (std::size_t j = 0; j < n; ++j) {
-    if (!fsk.joints[j].end_site && names[j].side == Side::none && key_is(j, "head") &&
+    if (!fsk.joints[j].end_site && names[j].side == Side::none && std::regex_match(names[j].key, kHead) &&
         (head < 0 || depth[j] < depth[static_cast<std::size_t>(head)])) {
       head = static_cast<int>(j);
     }
@@ -231,7 +253,9 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
     const std::string& key = names[static_cast<std::size_t>(k)].key;
     if (key.rfind("neck", 0) == 0 || key == "lowerneck" || key == "upperneck") neck = k;
   }
-  if (neck < 0) fail_missing(Joint::neck, "neck, neck1, lowerneck");
+  // No neck joint (a head straight on the spine): the head's parent stands in for it.
+  if (neck < 0 && fsk.joints[static_cast<std::size_t>(head)].parent > 0) neck = fsk.joints[static_cast<std::size_t>(head)].parent;
+  if (neck < 0) fail_missing(Joint::neck, "neck, neck1, lowerneck or a parent of the head");
   set(Joint::head, head);
   set(Joint::neck, neck);
 

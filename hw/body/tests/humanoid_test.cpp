@@ -1,5 +1,5 @@
 // The humanoid mapping: hierarchies written under the naming conventions of common tools (Mixamo,
-// SMPL, 3ds Max Biped, Unity, Blender, CMU ASF, cgspeed), in metres, centimetres, millimetres or
+// SMPL, 3ds Max Biped, Unity, Blender, Unreal, CMU ASF, MotionBuilder HumanIK, cgspeed), in metres, centimetres, millimetres or
 // unknown units, Y or Z up, facing anywhere, must map onto the standard joints with the standard
 // skeleton's shape; every real clip of the shared data folder (listed) must map upright, facing
 // -y, toes on the floor; non-humanoids are refused with the missing joint named.
@@ -76,6 +76,11 @@ const std::vector<Convention>& conventions() {
                  {"LeftUpperArm", "LeftLowerArm", "LeftHand", "LeftUpperLeg", "LeftLowerLeg", "LeftFoot", "LeftToes", ""},
                  {"RightUpperArm", "RightLowerArm", "RightHand", "RightUpperLeg", "RightLowerLeg", "RightFoot", "RightToes", ""},
                  {"LeftShoulder", "RightShoulder", "", "", "Chest"}),
+      // No joint named neck: the head's parent stands in for it.
+      convention("unity-no-neck", "Hips", "Spine", "UpperChest", "Head",
+                 {"LeftUpperArm", "LeftLowerArm", "LeftHand", "LeftUpperLeg", "LeftLowerLeg", "LeftFoot", "LeftToes", ""},
+                 {"RightUpperArm", "RightLowerArm", "RightHand", "RightUpperLeg", "RightLowerLeg", "RightFoot", "RightToes", ""},
+                 {"", "", "", "", "Chest"}),
       convention("blender", "pelvis", "spine", "neck", "head",
                  {"upper_arm.L", "forearm.L", "hand.L", "thigh.L", "shin.L", "foot.L", "toe.L", ""},
                  {"upper_arm.R", "forearm.R", "hand.R", "thigh.R", "shin.R", "foot.R", "toe.R", ""},
@@ -88,6 +93,12 @@ const std::vector<Convention>& conventions() {
                  {"lhumerus", "lradius", "lwrist", "lfemur", "ltibia", "lfoot", "ltoes", ""},
                  {"rhumerus", "rradius", "rwrist", "rfemur", "rtibia", "rfoot", "rtoes", ""},
                  {"lclavicle", "rclavicle", "lhipjoint", "rhipjoint", "thorax"}),
+      convention("humanik", "Character1_Hips", "Character1_Spine", "Character1_Neck", "Character1_Head",
+                 {"Character1_LeftArm", "Character1_LeftForeArm", "Character1_LeftHand", "Character1_LeftUpLeg",
+                  "Character1_LeftLeg", "Character1_LeftFoot", "Character1_LeftToeBase", ""},
+                 {"Character1_RightArm", "Character1_RightForeArm", "Character1_RightHand", "Character1_RightUpLeg",
+                  "Character1_RightLeg", "Character1_RightFoot", "Character1_RightToeBase", ""},
+                 {"Character1_LeftShoulder", "Character1_RightShoulder", "", "", "Character1_Spine1"}),
       convention("cgspeed-3dsmax", "Hips", "Chest", "lowerneck", "Head",
                  {"LeftShoulder", "LeftElbow", "LeftWrist", "LeftHip", "LeftKnee", "LeftAnkle", "LeftToe", ""},
                  {"RightShoulder", "RightElbow", "RightWrist", "RightHip", "RightKnee", "RightAnkle", "RightToe", ""},
