@@ -18,14 +18,17 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   } catch (const std::runtime_error&) {
     return 0;
   }
-  if (clip.values.size() != static_cast<std::size_t>(clip.frames) * static_cast<std::size_t>(clip.channel_count)) {
+  if (clip.values.size() !=
+      static_cast<std::size_t>(clip.frames) * static_cast<std::size_t>(clip.channel_count)) {
     __builtin_trap();
   }
-  if (clip.channels.size() != clip.skeleton.joints.size() || clip.first_channel.size() != clip.skeleton.joints.size()) {
+  if (clip.channels.size() != clip.skeleton.joints.size() ||
+      clip.first_channel.size() != clip.skeleton.joints.size()) {
     __builtin_trap();
   }
   std::vector<glm::dvec3> p;
-  for (int f = 0; f < clip.frames && f < 4; ++f) vc::body::forward_kinematics(clip.skeleton, clip.pose(f, 0.01), &p);
+  for (int f = 0; f < clip.frames && f < 4; ++f)
+    vc::body::forward_kinematics(clip.skeleton, clip.pose(f, 0.01), &p);
   try {
     const vc::body::HumanoidClip h = vc::body::map_humanoid(clip, "fuzz");
     if (h.map.frames > 0) vc::body::forward_kinematics(h.skeleton, h.sample(0.5 * h.length_s()), &p);

@@ -52,7 +52,8 @@ class Lexer {
 
   void expect(std::string_view want) {
     const std::string_view got = token();
-    if (got != want) fail("expected '" + std::string(want) + "', got '" + std::string(got.substr(0, 40)) + "'");
+    if (got != want)
+      fail("expected '" + std::string(want) + "', got '" + std::string(got.substr(0, 40)) + "'");
   }
 
   // The rest of the current line, trimmed (joint names may contain spaces or colons).
@@ -91,7 +92,9 @@ class Lexer {
   std::size_t remaining() const { return text_.size() - pos_; }
 
  private:
-  static bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; }
+  static bool is_space(char c) {
+    return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v';
+  }
   void skip_space() {
     while (pos_ < text_.size() && is_space(text_[pos_])) {
       if (text_[pos_] == '\n') ++line_;
@@ -164,9 +167,12 @@ void parse_joint(Lexer& lx, BvhClip& clip, const std::string& name, int parent, 
 glm::dmat3 axis_rotation(BvhChannel c, double degrees) {
   const double a = degrees * M_PI / 180.0;
   switch (c) {
-    case BvhChannel::Xrotation: return rot_x(a);
-    case BvhChannel::Yrotation: return rot_y(a);
-    default: return rot_z(a);
+    case BvhChannel::Xrotation:
+      return rot_x(a);
+    case BvhChannel::Yrotation:
+      return rot_y(a);
+    default:
+      return rot_z(a);
   }
 }
 
@@ -235,10 +241,18 @@ Pose BvhClip::pose(int frame, double scale) const {
     glm::dvec3 t(0, 0, 0);
     for (std::size_t c = 0; c < channels[j].size(); ++c) {
       switch (channels[j][c]) {
-        case BvhChannel::Xposition: t[0] = jv[c] * scale; break;
-        case BvhChannel::Yposition: t[1] = jv[c] * scale; break;
-        case BvhChannel::Zposition: t[2] = jv[c] * scale; break;
-        default: R = R * axis_rotation(channels[j][c], jv[c]); break;
+        case BvhChannel::Xposition:
+          t[0] = jv[c] * scale;
+          break;
+        case BvhChannel::Yposition:
+          t[1] = jv[c] * scale;
+          break;
+        case BvhChannel::Zposition:
+          t[2] = jv[c] * scale;
+          break;
+        default:
+          R = R * axis_rotation(channels[j][c], jv[c]);
+          break;
       }
     }
     pose.local[j] = R;
@@ -294,7 +308,8 @@ std::string format_bvh(const Skeleton& skeleton, const std::vector<Pose>& poses,
   std::string why;
   if (!skeleton.valid(&why)) throw std::invalid_argument("format_bvh: " + why);
   if (!options.valid(&why)) throw std::invalid_argument("format_bvh: " + why);
-  if (!(frame_time_s > 0 && frame_time_s <= 10)) throw std::invalid_argument("format_bvh: frame time must be in (0, 10] s");
+  if (!(frame_time_s > 0 && frame_time_s <= 10))
+    throw std::invalid_argument("format_bvh: frame time must be in (0, 10] s");
   if (skeleton.joints[0].end_site) throw std::invalid_argument("format_bvh: the root cannot be an End Site");
   if (options.standard_names && !is_standard(skeleton)) {
     throw std::invalid_argument("format_bvh: standard names need the standard skeleton");
@@ -305,7 +320,8 @@ std::string format_bvh(const Skeleton& skeleton, const std::vector<Pose>& poses,
   const double u = options.units_per_metre;
   const int d = options.decimals;
   auto name_of = [&](int j) {
-    return options.standard_names ? std::string(joint_bvh_name(j)) : skeleton.joints[static_cast<std::size_t>(j)].name;
+    return options.standard_names ? std::string(joint_bvh_name(j))
+                                  : skeleton.joints[static_cast<std::size_t>(j)].name;
   };
   std::string out = "HIERARCHY\n";
   char buf[256];
@@ -318,7 +334,8 @@ std::string format_bvh(const Skeleton& skeleton, const std::vector<Pose>& poses,
   };
   // Depth-first in index order (parents precede children, so children lists are in order).
   std::vector<std::vector<int>> kids(n);
-  for (std::size_t j = 1; j < n; ++j) kids[static_cast<std::size_t>(skeleton.joints[j].parent)].push_back(static_cast<int>(j));
+  for (std::size_t j = 1; j < n; ++j)
+    kids[static_cast<std::size_t>(skeleton.joints[j].parent)].push_back(static_cast<int>(j));
   std::vector<int> order;  // joints with channels, in the order they appear in the file
   auto emit = [&](auto&& self, int j, int depth) -> void {
     const SkeletonJoint& jt = skeleton.joints[static_cast<std::size_t>(j)];
@@ -336,7 +353,8 @@ std::string format_bvh(const Skeleton& skeleton, const std::vector<Pose>& poses,
     const auto& ch = kids[static_cast<std::size_t>(j)];
     if (ch.empty()) {
       // BVH wants every chain to end in an End Site.
-      out += ind + "\tEnd Site\n" + ind + "\t{\n" + ind + "\t\tOFFSET " + vec3(glm::dvec3(0)) + "\n" + ind + "\t}\n";
+      out += ind + "\tEnd Site\n" + ind + "\t{\n" + ind + "\t\tOFFSET " + vec3(glm::dvec3(0)) + "\n" + ind +
+             "\t}\n";
     }
     for (int c : ch) self(self, c, depth + 1);
     out += ind + "}\n";

@@ -75,7 +75,9 @@ bool is_limb_part(const std::string& key) {
   return false;
 }
 
-bool is_side_word(const std::string& w) { return w == "left" || w == "right" || w == "l" || w == "r"; }
+bool is_side_word(const std::string& w) {
+  return w == "left" || w == "right" || w == "l" || w == "r";
+}
 
 // `rig_prefix`: a first word most joints of the file share ("Character1_Hips", "Armature_Spine"),
 // dropped like the known ones.
@@ -83,8 +85,9 @@ JointName parse_name(const std::string& name, const std::string& rig_prefix) {
   std::vector<std::string> w = words_of(name);
   // Noise words: 3ds Max Biped's "Bip01" and similar rig prefixes.
   static const std::regex kNoise("^(bip[0-9]*|mixamorig[0-9]*|def|jnt)$");
-  w.erase(std::remove_if(w.begin(), w.end(), [](const std::string& x) { return std::regex_match(x, kNoise); }),
-          w.end());
+  w.erase(
+      std::remove_if(w.begin(), w.end(), [](const std::string& x) { return std::regex_match(x, kNoise); }),
+      w.end());
   if (!rig_prefix.empty() && w.size() > 1 && w.front() == rig_prefix) w.erase(w.begin());
   JointName out;
   for (auto it = w.begin(); it != w.end(); ++it) {
@@ -100,7 +103,8 @@ JointName parse_name(const std::string& name, const std::string& rig_prefix) {
   }
   std::string key;
   for (const auto& x : w) key += x;
-  if (out.side == Side::none && key.size() > 1 && (key[0] == 'l' || key[0] == 'r') && is_limb_part(key.substr(1))) {
+  if (out.side == Side::none && key.size() > 1 && (key[0] == 'l' || key[0] == 'r') &&
+      is_limb_part(key.substr(1))) {
     out.side = key[0] == 'l' ? Side::left : Side::right;  // "lhumerus", "rfoot"
     key = key.substr(1);
   }
@@ -133,7 +137,9 @@ bool HumanoidOptions::valid(std::string* why) const {
   return false;
 }
 
-double HumanoidClip::length_s() const { return (clip.frames - 1 - map.first_frame) * map.frame_time_s; }
+double HumanoidClip::length_s() const {
+  return (clip.frames - 1 - map.first_frame) * map.frame_time_s;
+}
 
 Pose HumanoidClip::frame_pose(int frame) const {
   Pose pose = clip.pose(frame, map.scale);
@@ -188,8 +194,10 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
     if (fsk.joints[j].parent >= 0) depth[j] = depth[static_cast<std::size_t>(fsk.joints[j].parent)] + 1;
   }
   auto key_is = [&](std::size_t j, const std::string& k) { return names[j].key == k; };
-  const bool has_arm = std::any_of(names.begin(), names.end(), [](const JointName& x) { return x.key == "arm"; });
-  const bool has_elbow = std::any_of(names.begin(), names.end(), [](const JointName& x) { return x.key == "elbow"; });
+  const bool has_arm =
+      std::any_of(names.begin(), names.end(), [](const JointName& x) { return x.key == "arm"; });
+  const bool has_elbow =
+      std::any_of(names.begin(), names.end(), [](const JointName& x) { return x.key == "elbow"; });
   bool lhip = false, rhip = false;
   for (std::size_t j = 0; j < n; ++j) {
     lhip |= names[j].side == Side::left && key_is(j, "hipjoint");
@@ -200,14 +208,15 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
   const std::string convention = cgspeed ? (max3ds ? "cgspeed-3dsmax" : "cgspeed-motionbuilder") : "generic";
 
   auto is_ancestor = [&](int a, int d) {
-    for (int k = fsk.joints[static_cast<std::size_t>(d)].parent; k >= 0; k = fsk.joints[static_cast<std::size_t>(k)].parent) {
+    for (int k = fsk.joints[static_cast<std::size_t>(d)].parent; k >= 0;
+         k = fsk.joints[static_cast<std::size_t>(k)].parent) {
       if (k == a) return true;
     }
     return false;
   };
   auto fail_missing = [&](Joint sj, const std::string& looked_for) -> int {
-    throw std::runtime_error(path + ": not a humanoid hierarchy: no joint for " + std::string(joint_name(sj)) +
-                             " (looked for " + looked_for + ")");
+    throw std::runtime_error(path + ": not a humanoid hierarchy: no joint for " +
+                             std::string(joint_name(sj)) + " (looked for " + looked_for + ")");
   };
   // The topmost joint (then the first in the file) of a side whose key is in the family, below
   // `below` when given.
@@ -222,7 +231,8 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
   };
   // The nearest ancestor of j whose key is in the family.
   auto nearest_above = [&](int j, const std::vector<std::string>& family) {
-    for (int k = fsk.joints[static_cast<std::size_t>(j)].parent; k >= 0; k = fsk.joints[static_cast<std::size_t>(k)].parent) {
+    for (int k = fsk.joints[static_cast<std::size_t>(j)].parent; k >= 0;
+         k = fsk.joints[static_cast<std::size_t>(k)].parent) {
       if (in(family, names[static_cast<std::size_t>(k)].key)) return k;
     }
     return -1;
@@ -249,12 +259,14 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
   }
   if (head < 0) fail_missing(Joint::head, "head");
   int neck = -1;
-  for (int k = fsk.joints[static_cast<std::size_t>(head)].parent; k >= 0; k = fsk.joints[static_cast<std::size_t>(k)].parent) {
+  for (int k = fsk.joints[static_cast<std::size_t>(head)].parent; k >= 0;
+       k = fsk.joints[static_cast<std::size_t>(k)].parent) {
     const std::string& key = names[static_cast<std::size_t>(k)].key;
     if (key.rfind("neck", 0) == 0 || key == "lowerneck" || key == "upperneck") neck = k;
   }
   // No neck joint (a head straight on the spine): the head's parent stands in for it.
-  if (neck < 0 && fsk.joints[static_cast<std::size_t>(head)].parent > 0) neck = fsk.joints[static_cast<std::size_t>(head)].parent;
+  if (neck < 0 && fsk.joints[static_cast<std::size_t>(head)].parent > 0)
+    neck = fsk.joints[static_cast<std::size_t>(head)].parent;
   if (neck < 0) fail_missing(Joint::neck, "neck, neck1, lowerneck or a parent of the head");
   set(Joint::head, head);
   set(Joint::neck, neck);
@@ -276,9 +288,11 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
     const int end = topmost(L.side, *L.end_f, -1);
     if (end < 0) fail_missing(L.end, side + list_of(*L.end_f));
     const int mid = nearest_above(end, *L.mid_f);
-    if (mid < 0) fail_missing(L.mid, list_of(*L.mid_f) + " above " + fsk.joints[static_cast<std::size_t>(end)].name);
+    if (mid < 0)
+      fail_missing(L.mid, list_of(*L.mid_f) + " above " + fsk.joints[static_cast<std::size_t>(end)].name);
     const int root = nearest_above(mid, *L.root_f);
-    if (root < 0) fail_missing(L.root, list_of(*L.root_f) + " above " + fsk.joints[static_cast<std::size_t>(mid)].name);
+    if (root < 0)
+      fail_missing(L.root, list_of(*L.root_f) + " above " + fsk.joints[static_cast<std::size_t>(mid)].name);
     set(L.end, end);
     set(L.mid, mid);
     set(L.root, root);
@@ -289,7 +303,9 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
     for (std::size_t j = 0; j < n; ++j) {
       const int jj = static_cast<int>(j);
       if (fsk.joints[j].end_site || names[j].side != Side::none || !in(kHips, names[j].key)) continue;
-      if (!is_ancestor(jj, get(Joint::l_hip)) || !is_ancestor(jj, get(Joint::r_hip)) || !is_ancestor(jj, neck)) continue;
+      if (!is_ancestor(jj, get(Joint::l_hip)) || !is_ancestor(jj, get(Joint::r_hip)) ||
+          !is_ancestor(jj, neck))
+        continue;
       if (hips < 0 || depth[j] < depth[static_cast<std::size_t>(hips)]) hips = jj;
     }
     if (hips < 0) {
@@ -311,7 +327,8 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
     if (t < 0) t = topmost(Side::none, kToe, get(ankle));
     if (t < 0) t = first_child(get(ankle));
     if (t < 0) {
-      throw std::runtime_error(path + ": the " + std::string(joint_name(ankle)) + " joint has no toe or End Site");
+      throw std::runtime_error(path + ": the " + std::string(joint_name(ankle)) +
+                               " joint has no toe or End Site");
     }
     set(toe, t);
   }
@@ -329,17 +346,20 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
   map.r_hand_end = hand_end(Joint::r_wrist);
   // Ancestry checks: the mapped joints must form the expected chains.
   const std::pair<Joint, Joint> chains[] = {
-      {Joint::hips, Joint::neck},          {Joint::neck, Joint::head},         {Joint::l_shoulder, Joint::l_elbow},
-      {Joint::l_elbow, Joint::l_wrist},    {Joint::r_shoulder, Joint::r_elbow}, {Joint::r_elbow, Joint::r_wrist},
-      {Joint::hips, Joint::l_hip},         {Joint::l_hip, Joint::l_knee},      {Joint::l_knee, Joint::l_ankle},
-      {Joint::l_ankle, Joint::l_toe},      {Joint::hips, Joint::r_hip},        {Joint::r_hip, Joint::r_knee},
-      {Joint::r_knee, Joint::r_ankle},     {Joint::r_ankle, Joint::r_toe},     {Joint::hips, Joint::l_shoulder},
-      {Joint::hips, Joint::r_shoulder}};
+      {Joint::hips, Joint::neck},          {Joint::neck, Joint::head},
+      {Joint::l_shoulder, Joint::l_elbow}, {Joint::l_elbow, Joint::l_wrist},
+      {Joint::r_shoulder, Joint::r_elbow}, {Joint::r_elbow, Joint::r_wrist},
+      {Joint::hips, Joint::l_hip},         {Joint::l_hip, Joint::l_knee},
+      {Joint::l_knee, Joint::l_ankle},     {Joint::l_ankle, Joint::l_toe},
+      {Joint::hips, Joint::r_hip},         {Joint::r_hip, Joint::r_knee},
+      {Joint::r_knee, Joint::r_ankle},     {Joint::r_ankle, Joint::r_toe},
+      {Joint::hips, Joint::l_shoulder},    {Joint::hips, Joint::r_shoulder}};
   for (const auto& [a, d] : chains) {
     if (!is_ancestor(get(a), get(d))) {
       throw std::runtime_error(path + ": not a humanoid hierarchy: " + std::string(joint_name(d)) + " (" +
                                fsk.joints[static_cast<std::size_t>(get(d))].name + ") is not below " +
-                               std::string(joint_name(a)) + " (" + fsk.joints[static_cast<std::size_t>(get(a))].name + ")");
+                               std::string(joint_name(a)) + " (" +
+                               fsk.joints[static_cast<std::size_t>(get(a))].name + ")");
     }
   }
 
@@ -385,7 +405,8 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
   {
     // spine: the joint strictly between hips and neck nearest their midpoint (else hips).
     const int hips = get(Joint::hips);
-    const glm::dvec3 mid = 0.5 * (p_rest[static_cast<std::size_t>(hips)] + p_rest[static_cast<std::size_t>(neck)]);
+    const glm::dvec3 mid =
+        0.5 * (p_rest[static_cast<std::size_t>(hips)] + p_rest[static_cast<std::size_t>(neck)]);
     int best = hips;
     double best_d = HUGE_VAL;
     for (int k = fsk.joints[static_cast<std::size_t>(neck)].parent; k >= 0 && k != hips;
@@ -409,7 +430,8 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
     for (std::size_t j = 0; j < n; ++j) {
       for (std::size_t c = 0; c < clip.channels[j].size(); ++c) {
         const BvhChannel ch = clip.channels[j][c];
-        if (ch == BvhChannel::Xposition || ch == BvhChannel::Yposition || ch == BvhChannel::Zposition) continue;
+        if (ch == BvhChannel::Xposition || ch == BvhChannel::Yposition || ch == BvhChannel::Zposition)
+          continue;
         const double x = v[clip.first_channel[j] + static_cast<int>(c)];
         if (std::abs(x - std::round(x)) > 1e-9) return false;
       }
@@ -478,12 +500,15 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
   map.frame_time_s = ft;
   map.first_frame = first;
   map.frames = clip.frames;
-  for (int j = 0; j < kJointCount; ++j) map.file_joint[static_cast<std::size_t>(j)] = map.anchor[static_cast<std::size_t>(j)];
+  for (int j = 0; j < kJointCount; ++j)
+    map.file_joint[static_cast<std::size_t>(j)] = map.anchor[static_cast<std::size_t>(j)];
   if (map.head_end >= 0) map.file_joint[static_cast<std::size_t>(Joint::head)] = -1;
-  for (Joint j : {Joint::head_top, Joint::l_hand_tip, Joint::r_hand_tip}) map.file_joint[static_cast<std::size_t>(j)] = -1;
+  for (Joint j : {Joint::head_top, Joint::l_hand_tip, Joint::r_hand_tip})
+    map.file_joint[static_cast<std::size_t>(j)] = -1;
   for (int j = 0; j < kJointCount; ++j) {
     const int fj = map.file_joint[static_cast<std::size_t>(j)];
-    map.file_joint_name[static_cast<std::size_t>(j)] = fj >= 0 ? fsk.joints[static_cast<std::size_t>(fj)].name : "";
+    map.file_joint_name[static_cast<std::size_t>(j)] =
+        fj >= 0 ? fsk.joints[static_cast<std::size_t>(fj)].name : "";
   }
   out.map = std::move(map);
   out.clip = std::move(clip);

@@ -7,7 +7,7 @@ namespace {
 
 struct JointInfo {
   std::string_view name;
-  Joint parent;  // itself for the root
+  Joint parent;               // itself for the root
   std::string_view bvh_name;  // "" for end points
 };
 
@@ -38,12 +38,18 @@ constexpr std::array<JointInfo, kJointCount> kJoints = {{
 constexpr std::array<std::string_view, kFeatureCount> kFeatureNames = {"head", "l_hand", "r_hand", "l_foot",
                                                                        "r_foot"};
 
-bool in_range(int j) { return j >= 0 && j < kJointCount; }
+bool in_range(int j) {
+  return j >= 0 && j < kJointCount;
+}
 
 }  // namespace
 
-std::string_view joint_name(Joint j) { return joint_name(static_cast<int>(j)); }
-std::string_view joint_name(int j) { return in_range(j) ? kJoints[static_cast<std::size_t>(j)].name : "?"; }
+std::string_view joint_name(Joint j) {
+  return joint_name(static_cast<int>(j));
+}
+std::string_view joint_name(int j) {
+  return in_range(j) ? kJoints[static_cast<std::size_t>(j)].name : "?";
+}
 
 int joint_from_name(std::string_view name) {
   for (int j = 0; j < kJointCount; ++j) {
@@ -58,19 +64,30 @@ int joint_parent(int j) {
   return p == j ? -1 : p;
 }
 
-bool joint_is_end(int j) { return in_range(j) && kJoints[static_cast<std::size_t>(j)].bvh_name.empty(); }
+bool joint_is_end(int j) {
+  return in_range(j) && kJoints[static_cast<std::size_t>(j)].bvh_name.empty();
+}
 
-std::string_view joint_bvh_name(int j) { return in_range(j) ? kJoints[static_cast<std::size_t>(j)].bvh_name : ""; }
+std::string_view joint_bvh_name(int j) {
+  return in_range(j) ? kJoints[static_cast<std::size_t>(j)].bvh_name : "";
+}
 
-std::string_view feature_name(Feature f) { return kFeatureNames[static_cast<std::size_t>(f)]; }
+std::string_view feature_name(Feature f) {
+  return kFeatureNames[static_cast<std::size_t>(f)];
+}
 
 Joint feature_joint(Feature f) {
   switch (f) {
-    case Feature::head: return Joint::head;
-    case Feature::l_hand: return Joint::l_wrist;
-    case Feature::r_hand: return Joint::r_wrist;
-    case Feature::l_foot: return Joint::l_ankle;
-    default: return Joint::r_ankle;
+    case Feature::head:
+      return Joint::head;
+    case Feature::l_hand:
+      return Joint::l_wrist;
+    case Feature::r_hand:
+      return Joint::r_wrist;
+    case Feature::l_foot:
+      return Joint::l_ankle;
+    default:
+      return Joint::r_ankle;
   }
 }
 

@@ -198,14 +198,23 @@ namespace {
 
 int axis_index(char c) {
   switch (c) {
-    case 'X': case 'x': return 0;
-    case 'Y': case 'y': return 1;
-    case 'Z': case 'z': return 2;
-    default: return -1;
+    case 'X':
+    case 'x':
+      return 0;
+    case 'Y':
+    case 'y':
+      return 1;
+    case 'Z':
+    case 'z':
+      return 2;
+    default:
+      return -1;
   }
 }
 
-glm::dmat3 rot_about(int axis, double a) { return axis == 0 ? rot_x(a) : axis == 1 ? rot_y(a) : rot_z(a); }
+glm::dmat3 rot_about(int axis, double a) {
+  return axis == 0 ? rot_x(a) : axis == 1 ? rot_y(a) : rot_z(a);
+}
 
 }  // namespace
 
@@ -245,9 +254,10 @@ glm::dvec3 euler_from_matrix(std::string_view order, const glm::dmat3& M) {
 }
 
 bool StandardSegments::valid(std::string* why) const {
-  const double all[] = {hips_to_spine_m, spine_to_neck_m, neck_to_head_m, head_to_top_m, shoulder_half_width_m,
-                        upper_arm_m,     forearm_m,       hand_m,         hip_half_width_m, pelvis_drop_m,
-                        thigh_m,         shank_m,         foot_forward_m};
+  const double all[] = {hips_to_spine_m,       spine_to_neck_m, neck_to_head_m, head_to_top_m,
+                        shoulder_half_width_m, upper_arm_m,     forearm_m,      hand_m,
+                        hip_half_width_m,      pelvis_drop_m,   thigh_m,        shank_m,
+                        foot_forward_m};
   std::ostringstream os;
   if (!std::all_of(std::begin(all), std::end(all), [](double v) { return v > 0 && v < 1.5; })) {
     os << "every segment length must be in (0, 1.5) m";
@@ -269,7 +279,8 @@ Skeleton standard_skeleton(const StandardSegments& b) {
   sk.joints.resize(kJointCount);
   auto set = [&](Joint j, const glm::dvec3& offset) {
     const int i = static_cast<int>(j);
-    sk.joints[static_cast<std::size_t>(i)] = {std::string(joint_name(i)), joint_parent(i), offset, joint_is_end(i)};
+    sk.joints[static_cast<std::size_t>(i)] = {std::string(joint_name(i)), joint_parent(i), offset,
+                                              joint_is_end(i)};
   };
   set(Joint::hips, {0, 0, 0});
   set(Joint::spine, {0, 0, b.hips_to_spine_m});
@@ -279,7 +290,8 @@ Skeleton standard_skeleton(const StandardSegments& b) {
   for (int side = 0; side < 2; ++side) {
     const double sg = side == 0 ? 1.0 : -1.0;
     const bool l = side == 0;
-    set(l ? Joint::l_shoulder : Joint::r_shoulder, {sg * b.shoulder_half_width_m, 0, b.spine_to_neck_m - b.shoulder_drop_m});
+    set(l ? Joint::l_shoulder : Joint::r_shoulder,
+        {sg * b.shoulder_half_width_m, 0, b.spine_to_neck_m - b.shoulder_drop_m});
     set(l ? Joint::l_elbow : Joint::r_elbow, {sg * b.upper_arm_m, 0, 0});
     set(l ? Joint::l_wrist : Joint::r_wrist, {sg * b.forearm_m, 0, 0});
     set(l ? Joint::l_hand_tip : Joint::r_hand_tip, {sg * b.hand_m, 0, 0});
@@ -295,7 +307,8 @@ bool is_standard(const Skeleton& skeleton) {
   if (skeleton.joints.size() != static_cast<std::size_t>(kJointCount)) return false;
   for (int j = 0; j < kJointCount; ++j) {
     const SkeletonJoint& jt = skeleton.joints[static_cast<std::size_t>(j)];
-    if (jt.name != joint_name(j) || jt.parent != joint_parent(j) || jt.end_site != joint_is_end(j)) return false;
+    if (jt.name != joint_name(j) || jt.parent != joint_parent(j) || jt.end_site != joint_is_end(j))
+      return false;
   }
   return true;
 }

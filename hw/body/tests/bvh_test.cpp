@@ -5,9 +5,9 @@
 #include <filesystem>
 #include <stdexcept>
 
-#include <glm/geometric.hpp>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <glm/geometric.hpp>
 
 #include "voxcap/body/testing/shared_clips.hpp"
 
@@ -16,7 +16,9 @@ namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
-double norm(const glm::dvec3& v) { return glm::length(v); }
+double norm(const glm::dvec3& v) {
+  return glm::length(v);
+}
 
 const char* kSmall = R"(HIERARCHY
 ROOT Hips
@@ -102,7 +104,8 @@ TEST(BodyBvh, HandlesCrlfAndRejectsMalformedInput) {
 TEST(BodyBvh, RejectsNonFiniteAndOutOfRangeNumbers) {
   const std::string t = kSmall;
   const std::size_t at = t.find("1 2 3 0 0 0 90");
-  for (const char* bad : {"nan", "NaN", "inf", "-inf", "infinity", "1e999", "-1e400", "0x10", "1.2.3", "--1"}) {
+  for (const char* bad :
+       {"nan", "NaN", "inf", "-inf", "infinity", "1e999", "-1e400", "0x10", "1.2.3", "--1"}) {
     std::string text = t;
     text.replace(at, 1, bad);
     EXPECT_THAT(error_of(text), AllOf(HasSubstr("t.bvh:19:"), HasSubstr("expected a number"))) << bad;
@@ -140,8 +143,10 @@ TEST(BodyBvh, BoundsNestingAndJointCount) {
 
 TEST(BodyBvh, WriteThenParseReproducesThePoses) {
   Skeleton sk;
-  sk.joints = {{"hips", -1, {0, 0, 0}, false}, {"spine", 0, {0, 0, 0.2}, false},
-               {"arm", 1, {0.3, 0, 0.1}, false}, {"tip", 2, {0.25, 0, 0}, true}};
+  sk.joints = {{"hips", -1, {0, 0, 0}, false},
+               {"spine", 0, {0, 0, 0.2}, false},
+               {"arm", 1, {0.3, 0, 0.1}, false},
+               {"tip", 2, {0.25, 0, 0}, true}};
   std::vector<Pose> poses;
   for (int f = 0; f < 4; ++f) {
     Pose p = rest_pose(sk, {0.1 * f, -0.2, 1.0});
@@ -170,7 +175,8 @@ TEST(BodyBvh, EveryClipInTheSharedDataParses) {
     const BvhClip c = read_bvh(path.string());
     EXPECT_GE(c.skeleton.joints.size(), 20u);
     EXPECT_GT(c.frames, 100);
-    EXPECT_EQ(c.values.size(), static_cast<std::size_t>(c.frames) * static_cast<std::size_t>(c.channel_count));
+    EXPECT_EQ(c.values.size(),
+              static_cast<std::size_t>(c.frames) * static_cast<std::size_t>(c.channel_count));
     EXPECT_GT(c.frame_time_s, 0.005);
     EXPECT_EQ(c.channels[0].size(), 6u);
   }

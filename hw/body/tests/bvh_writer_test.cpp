@@ -5,10 +5,10 @@
 #include <filesystem>
 #include <stdexcept>
 
-#include <glm/geometric.hpp>
-#include <glm/matrix.hpp>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
 
 #include "voxcap/body/bvh.hpp"
 #include "voxcap/body/humanoid.hpp"
@@ -22,11 +22,14 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 using ::testing::Not;
 
-double deg(double d) { return d * M_PI / 180.0; }
+double deg(double d) {
+  return d * M_PI / 180.0;
+}
 
 TEST(BodyBvhWriter, HandCheckedSmallFileWithBlenderAxes) {
   Skeleton sk;
-  sk.joints = {{"hips", -1, {0, 0, 0}, false}, {"chest", 0, {0, 0, 0.5}, false}, {"tip", 1, {0.25, 0, 0}, true}};
+  sk.joints = {
+      {"hips", -1, {0, 0, 0}, false}, {"chest", 0, {0, 0, 0.5}, false}, {"tip", 1, {0.25, 0, 0}, true}};
   std::vector<Pose> poses(2, rest_pose(sk));
   poses[0].root_position = {1, 2, 3};
   poses[1].root_position = {0, 0, 1};
@@ -111,9 +114,9 @@ TEST(BodyBvhWriter, StandardSkeletonForBlenderReadsBackByName) {
   }
   const BvhWriteOptions o = BvhWriteOptions::blender();
   const std::string text = format_bvh(sk, poses, 1.0 / 60, o);
-  for (const char* name : {"ROOT Hips", "JOINT Spine", "JOINT Neck", "JOINT Head", "JOINT LeftArm", "JOINT LeftForeArm",
-                           "JOINT LeftHand", "JOINT RightArm", "JOINT LeftUpLeg", "JOINT LeftLeg", "JOINT LeftFoot",
-                           "JOINT LeftToeBase", "JOINT RightToeBase"}) {
+  for (const char* name : {"ROOT Hips", "JOINT Spine", "JOINT Neck", "JOINT Head", "JOINT LeftArm",
+                           "JOINT LeftForeArm", "JOINT LeftHand", "JOINT RightArm", "JOINT LeftUpLeg",
+                           "JOINT LeftLeg", "JOINT LeftFoot", "JOINT LeftToeBase", "JOINT RightToeBase"}) {
     EXPECT_THAT(text, HasSubstr(name));
   }
   EXPECT_THAT(text, Not(HasSubstr("l_shoulder")));
@@ -135,7 +138,8 @@ TEST(BodyBvhWriter, StandardSkeletonForBlenderReadsBackByName) {
     forward_kinematics(sk, poses[static_cast<std::size_t>(f)], &a);
     forward_kinematics(c.skeleton, c.pose(f), &b);
     for (std::size_t j = 0; j < a.size(); ++j) {
-      worst = std::max(worst, glm::length(o.R_file_from_world * a[j] - b[static_cast<std::size_t>(in_file[j])]));
+      worst =
+          std::max(worst, glm::length(o.R_file_from_world * a[j] - b[static_cast<std::size_t>(in_file[j])]));
     }
   }
   EXPECT_LT(worst, 1e-6);
@@ -145,8 +149,9 @@ TEST(BodyBvhWriter, StandardSkeletonForBlenderReadsBackByName) {
   EXPECT_DOUBLE_EQ(h.map.scale, 1.0);
   for (int j = 0; j < kJointCount; ++j) {
     if (joint_is_end(j)) continue;
-    EXPECT_EQ(h.clip.skeleton.joints[static_cast<std::size_t>(h.map.anchor[static_cast<std::size_t>(j)])].name,
-              joint_bvh_name(j));
+    EXPECT_EQ(
+        h.clip.skeleton.joints[static_cast<std::size_t>(h.map.anchor[static_cast<std::size_t>(j)])].name,
+        joint_bvh_name(j));
   }
   const glm::dmat3 want = glm::transpose(o.R_file_from_world);
   for (int col = 0; col < 3; ++col) EXPECT_LT(glm::length(h.map.R_world_from_file[col] - want[col]), 1e-9);
@@ -173,7 +178,8 @@ TEST(BodyBvhWriter, EveryRealClipRoundTripsWithinAMicrometre) {
       for (int f = 0; f < back.frames; ++f) {
         forward_kinematics(h.skeleton, poses[static_cast<std::size_t>(f)], &a);
         forward_kinematics(back.skeleton, back.pose(f), &b);
-        for (std::size_t j = 0; j < a.size(); ++j) worst = std::max(worst, glm::length(w.R_file_from_world * a[j] - b[j]));
+        for (std::size_t j = 0; j < a.size(); ++j)
+          worst = std::max(worst, glm::length(w.R_file_from_world * a[j] - b[j]));
       }
       EXPECT_LT(worst, 1e-6) << "worst " << worst * 1e6 << " um";
       for (std::size_t j = 0; j < back.skeleton.joints.size(); ++j) {

@@ -1,18 +1,18 @@
 // The humanoid mapping: hierarchies written under the naming conventions of common tools (Mixamo,
-// SMPL, 3ds Max Biped, Unity, Blender, Unreal, CMU ASF, MotionBuilder HumanIK, cgspeed), in metres, centimetres, millimetres or
-// unknown units, Y or Z up, facing anywhere, must map onto the standard joints with the standard
-// skeleton's shape; every real clip of the shared data folder (listed) must map upright, facing
-// -y, toes on the floor; non-humanoids are refused with the missing joint named.
+// SMPL, 3ds Max Biped, Unity, Blender, Unreal, CMU ASF, MotionBuilder HumanIK, cgspeed), in metres,
+// centimetres, millimetres or unknown units, Y or Z up, facing anywhere, must map onto the standard joints
+// with the standard skeleton's shape; every real clip of the shared data folder (listed) must map upright,
+// facing -y, toes on the floor; non-humanoids are refused with the missing joint named.
 #include "voxcap/body/humanoid.hpp"
 
 #include <filesystem>
 #include <map>
 #include <stdexcept>
 
-#include <glm/geometric.hpp>
-#include <glm/matrix.hpp>
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
 
 #include "voxcap/body/testing/shared_clips.hpp"
 
@@ -22,7 +22,9 @@ namespace {
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
-double deg(double d) { return d * M_PI / 180.0; }
+double deg(double d) {
+  return d * M_PI / 180.0;
+}
 
 // A naming convention: a name per standard joint (end points unnamed) and optional extra joints
 // (clavicles between spine and shoulders, hip joints between hips and thighs, a chest between
@@ -40,8 +42,10 @@ Convention convention(const std::string& label, const std::string& hips, const s
   Convention c;
   c.label = label;
   c.names = {{Joint::hips, hips}, {Joint::spine, spine}, {Joint::neck, neck}, {Joint::head, head}};
-  const Joint L[] = {Joint::l_shoulder, Joint::l_elbow, Joint::l_wrist, Joint::l_hip, Joint::l_knee, Joint::l_ankle, Joint::l_toe};
-  const Joint R[] = {Joint::r_shoulder, Joint::r_elbow, Joint::r_wrist, Joint::r_hip, Joint::r_knee, Joint::r_ankle, Joint::r_toe};
+  const Joint L[] = {Joint::l_shoulder, Joint::l_elbow, Joint::l_wrist, Joint::l_hip,
+                     Joint::l_knee,     Joint::l_ankle, Joint::l_toe};
+  const Joint R[] = {Joint::r_shoulder, Joint::r_elbow, Joint::r_wrist, Joint::r_hip,
+                     Joint::r_knee,     Joint::r_ankle, Joint::r_toe};
   for (int i = 0; i < 7; ++i) {
     c.names[L[i]] = left[static_cast<std::size_t>(i)];
     c.names[R[i]] = right[static_cast<std::size_t>(i)];
@@ -56,12 +60,13 @@ Convention convention(const std::string& label, const std::string& hips, const s
 
 const std::vector<Convention>& conventions() {
   static const std::vector<Convention> list = {
-      convention("mixamo", "mixamorig:Hips", "mixamorig:Spine", "mixamorig:Neck", "mixamorig:Head",
-                 {"mixamorig:LeftArm", "mixamorig:LeftForeArm", "mixamorig:LeftHand", "mixamorig:LeftUpLeg",
-                  "mixamorig:LeftLeg", "mixamorig:LeftFoot", "mixamorig:LeftToeBase", ""},
-                 {"mixamorig:RightArm", "mixamorig:RightForeArm", "mixamorig:RightHand", "mixamorig:RightUpLeg",
-                  "mixamorig:RightLeg", "mixamorig:RightFoot", "mixamorig:RightToeBase", ""},
-                 {"mixamorig:LeftShoulder", "mixamorig:RightShoulder", "", "", "mixamorig:Spine1"}),
+      convention(
+          "mixamo", "mixamorig:Hips", "mixamorig:Spine", "mixamorig:Neck", "mixamorig:Head",
+          {"mixamorig:LeftArm", "mixamorig:LeftForeArm", "mixamorig:LeftHand", "mixamorig:LeftUpLeg",
+           "mixamorig:LeftLeg", "mixamorig:LeftFoot", "mixamorig:LeftToeBase", ""},
+          {"mixamorig:RightArm", "mixamorig:RightForeArm", "mixamorig:RightHand", "mixamorig:RightUpLeg",
+           "mixamorig:RightLeg", "mixamorig:RightFoot", "mixamorig:RightToeBase", ""},
+          {"mixamorig:LeftShoulder", "mixamorig:RightShoulder", "", "", "mixamorig:Spine1"}),
       convention("smpl", "Pelvis", "Spine1", "Neck", "Head",
                  {"L_Shoulder", "L_Elbow", "L_Wrist", "L_Hip", "L_Knee", "L_Ankle", "L_Foot", ""},
                  {"R_Shoulder", "R_Elbow", "R_Wrist", "R_Hip", "R_Knee", "R_Ankle", "R_Foot", ""},
@@ -73,13 +78,17 @@ const std::vector<Convention>& conventions() {
                   "Bip01 R Foot", "Bip01 R Toe0", ""},
                  {"Bip01 L Clavicle", "Bip01 R Clavicle", "", "", "Bip01 Spine1"}),
       convention("unity", "Hips", "Spine", "Neck", "Head",
-                 {"LeftUpperArm", "LeftLowerArm", "LeftHand", "LeftUpperLeg", "LeftLowerLeg", "LeftFoot", "LeftToes", ""},
-                 {"RightUpperArm", "RightLowerArm", "RightHand", "RightUpperLeg", "RightLowerLeg", "RightFoot", "RightToes", ""},
+                 {"LeftUpperArm", "LeftLowerArm", "LeftHand", "LeftUpperLeg", "LeftLowerLeg", "LeftFoot",
+                  "LeftToes", ""},
+                 {"RightUpperArm", "RightLowerArm", "RightHand", "RightUpperLeg", "RightLowerLeg",
+                  "RightFoot", "RightToes", ""},
                  {"LeftShoulder", "RightShoulder", "", "", "Chest"}),
       // No joint named neck: the head's parent stands in for it.
       convention("unity-no-neck", "Hips", "Spine", "UpperChest", "Head",
-                 {"LeftUpperArm", "LeftLowerArm", "LeftHand", "LeftUpperLeg", "LeftLowerLeg", "LeftFoot", "LeftToes", ""},
-                 {"RightUpperArm", "RightLowerArm", "RightHand", "RightUpperLeg", "RightLowerLeg", "RightFoot", "RightToes", ""},
+                 {"LeftUpperArm", "LeftLowerArm", "LeftHand", "LeftUpperLeg", "LeftLowerLeg", "LeftFoot",
+                  "LeftToes", ""},
+                 {"RightUpperArm", "RightLowerArm", "RightHand", "RightUpperLeg", "RightLowerLeg",
+                  "RightFoot", "RightToes", ""},
                  {"", "", "", "", "Chest"}),
       convention("blender", "pelvis", "spine", "neck", "head",
                  {"upper_arm.L", "forearm.L", "hand.L", "thigh.L", "shin.L", "foot.L", "toe.L", ""},
@@ -93,16 +102,19 @@ const std::vector<Convention>& conventions() {
                  {"lhumerus", "lradius", "lwrist", "lfemur", "ltibia", "lfoot", "ltoes", ""},
                  {"rhumerus", "rradius", "rwrist", "rfemur", "rtibia", "rfoot", "rtoes", ""},
                  {"lclavicle", "rclavicle", "lhipjoint", "rhipjoint", "thorax"}),
-      convention("humanik", "Character1_Hips", "Character1_Spine", "Character1_Neck", "Character1_Head",
-                 {"Character1_LeftArm", "Character1_LeftForeArm", "Character1_LeftHand", "Character1_LeftUpLeg",
-                  "Character1_LeftLeg", "Character1_LeftFoot", "Character1_LeftToeBase", ""},
-                 {"Character1_RightArm", "Character1_RightForeArm", "Character1_RightHand", "Character1_RightUpLeg",
-                  "Character1_RightLeg", "Character1_RightFoot", "Character1_RightToeBase", ""},
-                 {"Character1_LeftShoulder", "Character1_RightShoulder", "", "", "Character1_Spine1"}),
-      convention("cgspeed-3dsmax", "Hips", "Chest", "lowerneck", "Head",
-                 {"LeftShoulder", "LeftElbow", "LeftWrist", "LeftHip", "LeftKnee", "LeftAnkle", "LeftToe", ""},
-                 {"RightShoulder", "RightElbow", "RightWrist", "RightHip", "RightKnee", "RightAnkle", "RightToe", ""},
-                 {"LeftCollar", "RightCollar", "LHipJoint", "RHipJoint", "Chest2"}),
+      convention(
+          "humanik", "Character1_Hips", "Character1_Spine", "Character1_Neck", "Character1_Head",
+          {"Character1_LeftArm", "Character1_LeftForeArm", "Character1_LeftHand", "Character1_LeftUpLeg",
+           "Character1_LeftLeg", "Character1_LeftFoot", "Character1_LeftToeBase", ""},
+          {"Character1_RightArm", "Character1_RightForeArm", "Character1_RightHand", "Character1_RightUpLeg",
+           "Character1_RightLeg", "Character1_RightFoot", "Character1_RightToeBase", ""},
+          {"Character1_LeftShoulder", "Character1_RightShoulder", "", "", "Character1_Spine1"}),
+      convention(
+          "cgspeed-3dsmax", "Hips", "Chest", "lowerneck", "Head",
+          {"LeftShoulder", "LeftElbow", "LeftWrist", "LeftHip", "LeftKnee", "LeftAnkle", "LeftToe", ""},
+          {"RightShoulder", "RightElbow", "RightWrist", "RightHip", "RightKnee", "RightAnkle", "RightToe",
+           ""},
+          {"LeftCollar", "RightCollar", "LHipJoint", "RHipJoint", "Chest2"}),
   };
   return list;
 }
@@ -151,7 +163,8 @@ TEST(BodyHumanoid, EveryNamingConventionUnitAndAxisMaps) {
       {"z-up facing +x", rot_z(deg(90))},
       {"y-up facing -x", from_rows(1, 0, 0, 0, 0, 1, 0, -1, 0) * rot_z(deg(-90))},
   };
-  const std::vector<std::pair<double, std::string>> units = {{1.0, "m"}, {100.0, "cm"}, {1000.0, "mm"}, {39.37, "height"}};
+  const std::vector<std::pair<double, std::string>> units = {
+      {1.0, "m"}, {100.0, "cm"}, {1000.0, "mm"}, {39.37, "height"}};
   for (const Convention& c : conventions()) {
     std::array<int, kJointCount> index{};
     const Skeleton sk = named_skeleton(c, &index);
@@ -163,7 +176,8 @@ TEST(BodyHumanoid, EveryNamingConventionUnitAndAxisMaps) {
         for (int f = 0; f < 3; ++f) {
           Pose p = rest_pose(sk, {0, -0.2 * f, 0.95});
           p.local[0] = rot_z(deg(10 * f));
-          p.local[static_cast<std::size_t>(index[static_cast<std::size_t>(Joint::l_shoulder)])] = rot_y(deg(20 * f + 0.5));
+          p.local[static_cast<std::size_t>(index[static_cast<std::size_t>(Joint::l_shoulder)])] =
+              rot_y(deg(20 * f + 0.5));
           poses.push_back(p);
         }
         BvhWriteOptions w;
@@ -181,8 +195,10 @@ TEST(BodyHumanoid, EveryNamingConventionUnitAndAxisMaps) {
         // (The file has a zero End Site after each toe: compare by name, not index.)
         for (int j = 0; j < kJointCount; ++j) {
           if (joint_is_end(j)) continue;
-          EXPECT_EQ(h.clip.skeleton.joints[static_cast<std::size_t>(h.map.anchor[static_cast<std::size_t>(j)])].name,
-                    sk.joints[static_cast<std::size_t>(index[static_cast<std::size_t>(j)])].name)
+          EXPECT_EQ(
+              h.clip.skeleton.joints[static_cast<std::size_t>(h.map.anchor[static_cast<std::size_t>(j)])]
+                  .name,
+              sk.joints[static_cast<std::size_t>(index[static_cast<std::size_t>(j)])].name)
               << joint_name(j);
         }
         // The mapped clip is the original up to the placement: upright, facing -y in frame 0.
@@ -205,8 +221,9 @@ TEST(BodyHumanoid, EveryNamingConventionUnitAndAxisMaps) {
         double lowest = HUGE_VAL;
         for (int f = 0; f < 3; ++f) {
           forward_kinematics(h.skeleton, h.frame_pose(f), &got);
-          lowest = std::min({lowest, got[static_cast<std::size_t>(toe)].z,
-                             got[static_cast<std::size_t>(h.map.anchor[static_cast<std::size_t>(Joint::r_toe)])].z});
+          lowest = std::min(
+              {lowest, got[static_cast<std::size_t>(toe)].z,
+               got[static_cast<std::size_t>(h.map.anchor[static_cast<std::size_t>(Joint::r_toe)])].z});
         }
         EXPECT_NEAR(lowest, HumanoidOptions{}.toe_height_m, 1e-9);
       }
@@ -223,7 +240,8 @@ TEST(BodyHumanoid, RefusesNonHumanoidsNamingTheMissingJoint) {
     (void)map_humanoid(parse_bvh(tail), "tail.bvh");
     FAIL() << "expected an error";
   } catch (const std::runtime_error& e) {
-    EXPECT_THAT(e.what(), AllOf(HasSubstr("tail.bvh"), HasSubstr("not a humanoid hierarchy"), HasSubstr("head")));
+    EXPECT_THAT(e.what(),
+                AllOf(HasSubstr("tail.bvh"), HasSubstr("not a humanoid hierarchy"), HasSubstr("head")));
   }
   // A one-armed figure: the right wrist is missing.
   std::array<int, kJointCount> index{};

@@ -4,9 +4,9 @@
 
 #include <random>
 
+#include <gtest/gtest.h>
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
-#include <gtest/gtest.h>
 #include <opencv2/calib3d.hpp>
 
 #include "voxcap/body/glm_cv.hpp"
@@ -23,8 +23,12 @@ double rot_err(const glm::dmat3& a, const glm::dmat3& b) {
   }
   return e;
 }
-double rot_err(const glm::dmat3& a, const cv::Matx33d& b) { return rot_err(a, to_glm(b)); }
-double norm(const glm::dvec3& v) { return glm::length(v); }
+double rot_err(const glm::dmat3& a, const cv::Matx33d& b) {
+  return rot_err(a, to_glm(b));
+}
+double norm(const glm::dvec3& v) {
+  return glm::length(v);
+}
 
 TEST(BodyRotations, AxisRotationsAgreeWithRodrigues) {
   for (double a : {-2.0, -0.3, 0.0, 0.7, 3.0}) {
@@ -76,7 +80,8 @@ TEST(BodyRotations, SlerpEndsAndMidpoint) {
   EXPECT_LT(rot_err(slerp(a, b, 0.5), rot_z(0.6)), 1e-12);
   // The shorter arc: from +170 deg to -170 deg passes through 180.
   EXPECT_LT(rot_err(slerp(rot_z(170 * M_PI / 180), rot_z(-170 * M_PI / 180), 0.5), rot_z(M_PI)), 1e-12);
-  EXPECT_LT(rot_err(matrix_from_quat(quat_from_matrix(rot_axis({1, 2, 3}, 2.5))), rot_axis({1, 2, 3}, 2.5)), 1e-12);
+  EXPECT_LT(rot_err(matrix_from_quat(quat_from_matrix(rot_axis({1, 2, 3}, 2.5))), rot_axis({1, 2, 3}, 2.5)),
+            1e-12);
 }
 
 TEST(BodyForwardKinematics, ChainFollowsTheBvhConvention) {
@@ -143,12 +148,14 @@ TEST(BodyStandardJoints, StandardSkeletonStandsInTheInitializationPose) {
   forward_kinematics(sk, rest_pose(sk, {0, 0, 1.0}), &p);
   auto P = [&](Joint j) { return p[static_cast<std::size_t>(j)]; };
   // Arms spread along +-x (left is +x), legs straight down, toes forward (-y), head on top.
-  EXPECT_NEAR(P(Joint::l_hand_tip).x - P(Joint::l_shoulder).x, seg.upper_arm_m + seg.forearm_m + seg.hand_m, 1e-12);
+  EXPECT_NEAR(P(Joint::l_hand_tip).x - P(Joint::l_shoulder).x, seg.upper_arm_m + seg.forearm_m + seg.hand_m,
+              1e-12);
   EXPECT_NEAR(P(Joint::r_wrist).x, -(seg.shoulder_half_width_m + seg.upper_arm_m + seg.forearm_m), 1e-12);
   EXPECT_NEAR(P(Joint::l_ankle).z, 1.0 - seg.pelvis_drop_m - seg.thigh_m - seg.shank_m, 1e-12);
   EXPECT_NEAR(P(Joint::l_toe).y, -seg.foot_forward_m, 1e-12);
   EXPECT_NEAR(P(Joint::head_top).z,
-              1.0 + seg.hips_to_spine_m + seg.spine_to_neck_m + seg.neck_to_head_m + seg.head_to_top_m, 1e-12);
+              1.0 + seg.hips_to_spine_m + seg.spine_to_neck_m + seg.neck_to_head_m + seg.head_to_top_m,
+              1e-12);
   Skeleton renamed = sk;
   renamed.joints[3].name = "Head";
   EXPECT_FALSE(is_standard(renamed));

@@ -30,8 +30,8 @@ struct Motion::Impl {
   BodyDescription body;
   Skeleton skeleton;  // metres
   FootGeometry feet;
-  Pose init;          // the initialization pose
-  Pose first;         // the motion's pose at tau = 0 (blend target)
+  Pose init;                               // the initialization pose
+  Pose first;                              // the motion's pose at tau = 0 (blend target)
   std::function<Pose(double tau)> sample;  // the motion proper, tau >= 0 seconds
   double length_s = 0;                     // clip length or one cycle
   std::optional<BvhMapping> bvh;

@@ -20,9 +20,9 @@ struct BvhClip {
   std::vector<int> first_channel;                 // per joint: index of its first value in a frame
   int channel_count = 0;                          // values per frame
   int frames = 0;
-  double frame_time_s = 0;                        // as written in the file
-  int frame_time_decimals = -1;                   // digits after the point as written, -1 if none
-  std::vector<double> values;                     // frames * channel_count, row-major
+  double frame_time_s = 0;       // as written in the file
+  int frame_time_decimals = -1;  // digits after the point as written, -1 if none
+  std::vector<double> values;    // frames * channel_count, row-major
 
   const double* frame_values(int frame) const {
     return values.data() + static_cast<std::size_t>(frame) * static_cast<std::size_t>(channel_count);

@@ -4,16 +4,16 @@
 // placed in the capture volume.
 //
 //  - Names: every joint name is split into words (case changes, '_', '.', ' ', digits kept;
-//    "prefix:", "Bip01" and a first word most joints share, like "Character1_", dropped), a side is read from a left/right/l/r word or an l/r first letter glued to
-//    a known part ("lhumerus"), and limbs are found from the hand and foot upwards: the wrist is
-//    the topmost hand/wrist joint of a side, the elbow the nearest forearm/lowerarm/elbow/radius
-//    joint above it, the shoulder the nearest arm/upperarm/humerus/shoulder joint above that (so
-//    MotionBuilder's LeftShoulder clavicle above LeftArm, 3dsMax's LeftCollar and SMPL's L_Collar
-//    are skipped); legs the same with foot/ankle, leg/lowerleg/shin/calf/knee/tibia and
-//    upleg/upperleg/thigh/femur/hip. Covers cgspeed's MotionBuilder and 3dsMax CMU conversions,
-//    Mixamo, MotionBuilder HumanIK, Unity/Unreal humanoids, SMPL, 3ds Max Biped, Blender and CMU
-//    ASF names. The neck is the topmost neck* joint above the head (else the head's parent); spine
-//    is the joint between hips and neck nearest their midpoint.
+//    "prefix:", "Bip01" and a first word most joints share, like "Character1_", dropped), a side is read from
+//    a left/right/l/r word or an l/r first letter glued to a known part ("lhumerus"), and limbs are found
+//    from the hand and foot upwards: the wrist is the topmost hand/wrist joint of a side, the elbow the
+//    nearest forearm/lowerarm/elbow/radius joint above it, the shoulder the nearest
+//    arm/upperarm/humerus/shoulder joint above that (so MotionBuilder's LeftShoulder clavicle above LeftArm,
+//    3dsMax's LeftCollar and SMPL's L_Collar are skipped); legs the same with foot/ankle,
+//    leg/lowerleg/shin/calf/knee/tibia and upleg/upperleg/thigh/femur/hip. Covers cgspeed's MotionBuilder and
+//    3dsMax CMU conversions, Mixamo, MotionBuilder HumanIK, Unity/Unreal humanoids, SMPL, 3ds Max Biped,
+//    Blender and CMU ASF names. The neck is the topmost neck* joint above the head (else the head's parent);
+//    spine is the joint between hips and neck nearest their midpoint.
 //  - Units: cgspeed files (LHipJoint and RHipJoint) are CMU units, 0.056444 m/unit; otherwise a
 //    rest pose 1.0-2.3 tall is metres, 100-230 centimetres, 1000-2300 millimetres, and anything
 //    else is scaled so the rest pose is height_m tall. HumanoidOptions::scale overrides.
@@ -73,9 +73,9 @@ struct BvhMapping {
 };
 
 struct HumanoidClip {
-  BvhClip clip;        // as read (file units and axes)
+  BvhClip clip;  // as read (file units and axes)
   BvhMapping map;
-  Skeleton skeleton;   // the file's hierarchy in metres, file axes, root offset moved into poses
+  Skeleton skeleton;  // the file's hierarchy in metres, file axes, root offset moved into poses
   // Stands the file's rest pose (all rotations identity) upright, facing -y: the world rotation of
   // the root in the rest pose as the world would show it.
   glm::dmat3 R_world_from_rest{1.0};

@@ -8,19 +8,31 @@ namespace vc::body {
 
 // joints.csv and the fitters use these names (joint_name). Parents precede children.
 enum class Joint : int {
-  hips,        // pelvis centre, the root
-  spine,       // mid-back (thorax base); orients the chest
-  neck,        // base of the neck
-  head,        // centre of the head (the head feature)
-  head_top,    // top of the head
-  l_shoulder, l_elbow, l_wrist, l_hand_tip,
-  r_shoulder, r_elbow, r_wrist, r_hand_tip,
-  l_hip, l_knee, l_ankle, l_toe,  // l_toe: ball of the foot (toe joint)
-  r_hip, r_knee, r_ankle, r_toe,
+  hips,      // pelvis centre, the root
+  spine,     // mid-back (thorax base); orients the chest
+  neck,      // base of the neck
+  head,      // centre of the head (the head feature)
+  head_top,  // top of the head
+  l_shoulder,
+  l_elbow,
+  l_wrist,
+  l_hand_tip,
+  r_shoulder,
+  r_elbow,
+  r_wrist,
+  r_hand_tip,
+  l_hip,
+  l_knee,
+  l_ankle,
+  l_toe,  // l_toe: ball of the foot (toe joint)
+  r_hip,
+  r_knee,
+  r_ankle,
+  r_toe,
 };
 inline constexpr int kJointCount = 21;
 std::string_view joint_name(Joint j);
-std::string_view joint_name(int j);       // "?" out of range
+std::string_view joint_name(int j);          // "?" out of range
 int joint_from_name(std::string_view name);  // -1 if unknown
 // The standard hierarchy: hips is the root (-1); head_top and the hand tips are end points
 // (BVH End Sites), everything else carries a rotation.

@@ -20,9 +20,9 @@ namespace vc::body {
 
 struct SkeletonJoint {
   std::string name;
-  int parent = -1;                 // index into Skeleton::joints, -1 for the root (joint 0)
-  glm::dvec3 offset{0, 0, 0};      // in the parent's frame (metres, or a file's units)
-  bool end_site = false;           // a BVH "End Site": no channels, never rotated
+  int parent = -1;             // index into Skeleton::joints, -1 for the root (joint 0)
+  glm::dvec3 offset{0, 0, 0};  // in the parent's frame (metres, or a file's units)
+  bool end_site = false;       // a BVH "End Site": no channels, never rotated
 };
 
 struct Skeleton {
@@ -82,19 +82,19 @@ glm::dvec3 euler_from_matrix(std::string_view order, const glm::dmat3& R);
 struct StandardSegments {
   double hips_to_spine_m = 0.17;
   double spine_to_neck_m = 0.30;
-  double neck_to_head_m = 0.165;         // neck base -> head centre
-  double head_to_top_m = 0.115;          // head centre -> top
-  double shoulder_half_width_m = 0.18;   // spine axis -> shoulder joint, sideways
-  double shoulder_drop_m = 0.04;         // shoulder joints below the neck base
+  double neck_to_head_m = 0.165;        // neck base -> head centre
+  double head_to_top_m = 0.115;         // head centre -> top
+  double shoulder_half_width_m = 0.18;  // spine axis -> shoulder joint, sideways
+  double shoulder_drop_m = 0.04;        // shoulder joints below the neck base
   double upper_arm_m = 0.30;
   double forearm_m = 0.26;
-  double hand_m = 0.19;                  // wrist -> fingertips
-  double hip_half_width_m = 0.09;        // hips -> hip joint, sideways
-  double pelvis_drop_m = 0.07;           // hips -> hip joints, downwards
+  double hand_m = 0.19;            // wrist -> fingertips
+  double hip_half_width_m = 0.09;  // hips -> hip joint, sideways
+  double pelvis_drop_m = 0.07;     // hips -> hip joints, downwards
   double thigh_m = 0.43;
   double shank_m = 0.43;
-  double foot_forward_m = 0.14;          // ankle -> ball of the foot, forwards
-  double ankle_to_toe_drop_m = 0.058;    // ankle -> ball of the foot, downwards
+  double foot_forward_m = 0.14;        // ankle -> ball of the foot, forwards
+  double ankle_to_toe_drop_m = 0.058;  // ankle -> ball of the foot, downwards
 
   bool valid(std::string* why) const;
 };

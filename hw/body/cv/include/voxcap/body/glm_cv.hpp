@@ -10,8 +10,12 @@
 
 namespace vc::body {
 
-inline cv::Vec3d to_cv(const glm::dvec3& v) { return {v.x, v.y, v.z}; }
-inline glm::dvec3 to_glm(const cv::Vec3d& v) { return {v[0], v[1], v[2]}; }
+inline cv::Vec3d to_cv(const glm::dvec3& v) {
+  return {v.x, v.y, v.z};
+}
+inline glm::dvec3 to_glm(const cv::Vec3d& v) {
+  return {v[0], v[1], v[2]};
+}
 
 inline cv::Matx33d to_cv(const glm::dmat3& m) {
   return {m[0][0], m[1][0], m[2][0],  //

@@ -14,7 +14,9 @@
 
 namespace vc::body::testing {
 
-inline std::filesystem::path shared_data_dir() { return std::filesystem::path(VOXCAP_SHARED_DIR) / "data"; }
+inline std::filesystem::path shared_data_dir() {
+  return std::filesystem::path(VOXCAP_SHARED_DIR) / "data";
+}
 
 inline bool is_bvh(const std::filesystem::path& p) {
   std::string ext = p.extension().string();
@@ -27,7 +29,8 @@ inline std::vector<std::filesystem::path> shared_bvh_clips() {
   std::vector<fs::path> out;
   std::error_code ec;
   if (!fs::is_directory(shared_data_dir(), ec)) return out;
-  for (auto it = fs::recursive_directory_iterator(shared_data_dir(), fs::directory_options::follow_directory_symlink, ec);
+  for (auto it = fs::recursive_directory_iterator(shared_data_dir(),
+                                                  fs::directory_options::follow_directory_symlink, ec);
        !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
     if (it->is_regular_file(ec) && is_bvh(it->path())) out.push_back(it->path());
   }
@@ -41,7 +44,8 @@ inline std::string no_clips_message() {
 }
 
 // The listed clip whose file name is `name`, or an empty path.
-inline std::filesystem::path find_clip(const std::vector<std::filesystem::path>& clips, const std::string& name) {
+inline std::filesystem::path find_clip(const std::vector<std::filesystem::path>& clips,
+                                       const std::string& name) {
   for (const auto& p : clips) {
     if (p.filename() == name) return p;
   }
