@@ -336,6 +336,11 @@ std::string format_bvh(const Skeleton& skeleton, const std::vector<Pose>& poses,
   std::vector<std::vector<int>> kids(n);
   for (std::size_t j = 1; j < n; ++j)
     kids[static_cast<std::size_t>(skeleton.joints[j].parent)].push_back(static_cast<int>(j));
+  for (std::size_t j = 0; j < n; ++j) {
+    if (skeleton.joints[j].end_site && !kids[j].empty()) {
+      throw std::invalid_argument("format_bvh: End Site " + skeleton.joints[j].name + " has children");
+    }
+  }
   std::vector<int> order;  // joints with channels, in the order they appear in the file
   auto emit = [&](auto&& self, int j, int depth) -> void {
     const SkeletonJoint& jt = skeleton.joints[static_cast<std::size_t>(j)];

@@ -95,6 +95,10 @@ TEST(BodyBvhWriter, RejectsWhatBvhCannotHold) {
   o = {};
   o.units_per_metre = 0;
   EXPECT_THROW(format_bvh(sk, {rest_pose(sk)}, 0.01, o), std::invalid_argument);
+  Skeleton end_with_child = sk;
+  end_with_child.joints[1].end_site = true;
+  end_with_child.joints.push_back({"c", 1, {0, 0, 1}, false});
+  EXPECT_THROW(format_bvh(end_with_child, {rest_pose(end_with_child)}, 0.01), std::invalid_argument);
   Skeleton other = sk;
   other.joints.push_back({"b", 1, {0, 0, 1}, false});
   EXPECT_THROW(format_bvh(other, {rest_pose(sk)}, 0.01), std::invalid_argument);
