@@ -182,7 +182,9 @@ TEST(BodyBvh, EveryClipInTheSharedDataParses) {
   }
   // The listing finds every clip the folder's checksum list names (when it has one).
   const int listed = testing::checksummed_bvh_count();
-  if (listed >= 0) EXPECT_EQ(static_cast<int>(clips.size()), listed);
+  if (listed >= 0) {
+    EXPECT_EQ(static_cast<int>(clips.size()), listed);
+  }
   // Known layouts (data/README.md), looked up by file name in the listing: 31 joints + 7 End
   // Sites, 96 values per frame for CMU; the 3dsMax-friendly arms have Z X Y channels.
   const fs::path cmu_path = testing::find_clip(clips, "02_01.bvh");

@@ -189,8 +189,11 @@ TEST(BodyHumanoid, EveryNamingConventionUnitAndAxisMaps) {
         // cgspeed files (LHipJoint/RHipJoint) are CMU units whatever they measure.
         const bool cgspeed = c.label == "cgspeed-3dsmax";
         EXPECT_EQ(h.map.units, cgspeed ? "cmu" : unit);
-        if (cgspeed) EXPECT_DOUBLE_EQ(h.map.scale, 0.056444);
-        if (!cgspeed && unit != "height") EXPECT_NEAR(h.map.scale * per_metre, 1.0, 1e-12);
+        if (cgspeed) {
+          EXPECT_DOUBLE_EQ(h.map.scale, 0.056444);
+        } else if (unit != "height") {
+          EXPECT_NEAR(h.map.scale * per_metre, 1.0, 1e-12);
+        }
         EXPECT_EQ(h.map.convention, c.label == "cgspeed-3dsmax" ? "cgspeed-3dsmax" : "generic");
         // (The file has a zero End Site after each toe: compare by name, not index.)
         for (int j = 0; j < kJointCount; ++j) {
