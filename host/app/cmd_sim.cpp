@@ -141,7 +141,8 @@ void add_sim_commands(CLI::App& app) {
   cmd->add_flag("--no-shadows", args->no_shadows, "Do not cast the performer's shadow on the floor");
   cmd->add_option("--bvh-fps", args->bvh_fps, "Override the BVH clip's frame rate (0: from the file)")
       ->capture_default_str();
-  cmd->add_option("--bvh-scale", args->bvh_scale, "Metres per BVH unit (0: by naming convention or body height)")
+  cmd->add_option("--bvh-scale", args->bvh_scale,
+                  "Metres per BVH unit (0: by naming convention, rest-pose size in m/cm/mm, else body height)")
       ->capture_default_str();
   cmd->add_flag("--loop", args->loop, "Loop a BVH clip instead of holding its last frame");
   cmd->add_option("--jobs", args->jobs, "Render threads (0: one per hardware thread)")->check(CLI::Range(0, 256))

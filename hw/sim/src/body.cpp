@@ -14,12 +14,6 @@
 namespace vc::sim {
 namespace {
 
-constexpr std::array<std::string_view, kJointCount> kJointNames = {
-    "hips",       "spine",   "neck",    "head",       "head_top",   "l_shoulder", "l_elbow",
-    "l_wrist",    "l_hand_tip", "r_shoulder", "r_elbow", "r_wrist", "r_hand_tip", "l_hip",
-    "l_knee",     "l_ankle", "l_toe",   "r_hip",      "r_knee",     "r_ankle",    "r_toe"};
-constexpr std::array<std::string_view, kFeatureCount> kFeatureNames = {"head", "l_hand", "r_hand",
-                                                                       "l_foot", "r_foot"};
 constexpr std::array<std::string_view, kPartCount> kPartNames = {
     "pelvis",  "abdomen",  "chest",  "shoulders", "neck",   "head",    "l_upper_arm",
     "l_forearm", "l_hand", "r_upper_arm", "r_forearm", "r_hand", "l_thigh", "l_shank",
@@ -103,28 +97,6 @@ bool sphere_entry(const cv::Vec3d& o, const cv::Vec3d& d, double cz, double* t) 
 }
 
 }  // namespace
-
-std::string_view joint_name(Joint j) { return joint_name(static_cast<int>(j)); }
-std::string_view joint_name(int j) {
-  return j >= 0 && j < kJointCount ? kJointNames[static_cast<std::size_t>(j)] : std::string_view("?");
-}
-int joint_from_name(std::string_view name) {
-  for (int j = 0; j < kJointCount; ++j) {
-    if (kJointNames[static_cast<std::size_t>(j)] == name) return j;
-  }
-  return -1;
-}
-
-std::string_view feature_name(Feature f) { return kFeatureNames[static_cast<std::size_t>(f)]; }
-Joint feature_joint(Feature f) {
-  switch (f) {
-    case Feature::head: return Joint::head;
-    case Feature::l_hand: return Joint::l_wrist;
-    case Feature::r_hand: return Joint::r_wrist;
-    case Feature::l_foot: return Joint::l_ankle;
-    default: return Joint::r_ankle;
-  }
-}
 
 std::string_view part_name(Part p) { return kPartNames[static_cast<std::size_t>(p)]; }
 

@@ -8,10 +8,17 @@
 #include <cmath>
 #include <stdexcept>
 
+#include <glm/geometric.hpp>
+#include <glm/vec2.hpp>
+
 #include "motion_internal.hpp"
 
 namespace vc::sim {
 namespace {
+
+using vc::body::rot_x;
+using vc::body::rot_y;
+using vc::body::rot_z;
 
 constexpr double kPi = M_PI;
 
@@ -19,23 +26,23 @@ double ease(double x) {
   x = std::clamp(x, 0.0, 1.0);
   return x * x * (3 - 2 * x);
 }
-cv::Vec3d dir(double x, double y, double z) { return cv::normalize(cv::Vec3d(x, y, z)); }
+glm::dvec3 dir(double x, double y, double z) { return glm::normalize(glm::dvec3(x, y, z)); }
 int J(Joint j) { return static_cast<int>(j); }
 
 // What a motion specifies at one instant. Directions: arms in the chest frame, legs in the
 // heading frame (world turned by yaw); frames have x = performer's left, y = back, z = up.
 struct Spec {
   double yaw = 0;                 // heading, radians about +z (0: facing -y)
-  cv::Vec2d xy{0, 0};             // where the root stands (x, y)
+  glm::dvec2 xy{0, 0};             // where the root stands (x, y)
   double pelvis_lean = 0;         // forward lean of the pelvis (about its x axis)
   double spine_lean = 0, spine_twist = 0, spine_roll = 0;
   double neck_lean = 0, head_nod = 0, head_turn = 0, head_tilt = 0;
   struct Arm {
-    cv::Vec3d upper, fore, hand;
+    glm::dvec3 upper, fore, hand;
     double hand_twist = 0;
   } arm[2];
   struct Leg {
-    cv::Vec3d thigh{0, 0, -1}, shank{0, 0, -1};
+    glm::dvec3 thigh{0, 0, -1}, shank{0, 0, -1};
     double foot_pitch = 0;  // positive: toes down
   } leg[2];
 };
@@ -45,7 +52,7 @@ double side_sign(int side) { return side == 0 ? 1.0 : -1.0; }
 Spec init_spec() {
   Spec s;
   for (int side = 0; side < 2; ++side) {
-    const cv::Vec3d out(side_sign(side), 0, 0);
+    const glm::dvec3 out(side_sign(side), 0, 0);
     s.arm[side] = {out, out, out, 0};
   }
   return s;
@@ -60,21 +67,21 @@ void arm_hang(Spec& s, int side, double abduct = 0.14) {
 }
 
 // Two-bone IK in the chest frame: shoulder S, wrist target T, lengths, elbow pole direction.
-void reach(Spec& s, int side, const cv::Vec3d& S, const cv::Vec3d& T, double L1, double L2,
-           const cv::Vec3d& pole, const cv::Vec3d& hand_dir, double hand_twist) {
-  cv::Vec3d st = T - S;
-  double d = cv::norm(st);
-  const cv::Vec3d axis = d > 1e-9 ? st / d : cv::Vec3d(side_sign(side), 0, 0);
+void reach(Spec& s, int side, const glm::dvec3& S, const glm::dvec3& T, double L1, double L2,
+           const glm::dvec3& pole, const glm::dvec3& hand_dir, double hand_twist) {
+  glm::dvec3 st = T - S;
+  double d = glm::length(st);
+  const glm::dvec3 axis = d > 1e-9 ? st / d : glm::dvec3(side_sign(side), 0, 0);
   d = std::clamp(d, std::abs(L1 - L2) + 1e-4, L1 + L2 - 1e-4);
   const double along = (d * d + L1 * L1 - L2 * L2) / (2 * d);
   const double h = std::sqrt(std::max(0.0, L1 * L1 - along * along));
-  cv::Vec3d perp = pole - axis * pole.dot(axis);
-  perp = cv::norm(perp) > 1e-9 ? cv::normalize(perp) : cv::Vec3d(0, 0, -1);
-  const cv::Vec3d E = S + axis * along + perp * h;
-  const cv::Vec3d W = S + axis * d;
-  s.arm[side].upper = cv::normalize(E - S);
-  s.arm[side].fore = cv::normalize(W - E);
-  s.arm[side].hand = cv::normalize(hand_dir);
+  glm::dvec3 perp = pole - axis * glm::dot(pole, axis);
+  perp = glm::length(perp) > 1e-9 ? glm::normalize(perp) : glm::dvec3(0, 0, -1);
+  const glm::dvec3 E = S + axis * along + perp * h;
+  const glm::dvec3 W = S + axis * d;
+  s.arm[side].upper = glm::normalize(E - S);
+  s.arm[side].fore = glm::normalize(W - E);
+  s.arm[side].hand = glm::normalize(hand_dir);
   s.arm[side].hand_twist = hand_twist;
 }
 
@@ -83,17 +90,17 @@ struct Ctx {
   const Skeleton& sk;
   std::vector<int> aim_child;
   detail::MotionData* m;
-  cv::Vec3d shoulder_chest[2];  // shoulder joints in the chest frame
+  glm::dvec3 shoulder_chest[2];  // shoulder joints in the chest frame
 };
 
 Pose build(const Ctx& c, const Spec& s, bool anchor_feet) {
   detail::Poser poser(c.sk, c.aim_child);
-  const cv::Matx33d heading = rot_z(s.yaw);
+  const glm::dmat3 heading = rot_z(s.yaw);
   poser.root({0, 0, 0}, heading * rot_x(s.pelvis_lean));
   poser.local(J(Joint::spine), rot_z(s.spine_twist) * rot_x(s.spine_lean) * rot_y(s.spine_roll));
   poser.local(J(Joint::neck), rot_x(s.neck_lean));
   poser.local(J(Joint::head), rot_z(s.head_turn) * rot_x(s.head_nod) * rot_y(s.head_tilt));
-  const cv::Matx33d chest = poser.world(J(Joint::spine));
+  const glm::dmat3 chest = poser.world(J(Joint::spine));
   const Joint arms[2][3] = {{Joint::l_shoulder, Joint::l_elbow, Joint::l_wrist},
                             {Joint::r_shoulder, Joint::r_elbow, Joint::r_wrist}};
   for (int side = 0; side < 2; ++side) {
@@ -106,14 +113,14 @@ Pose build(const Ctx& c, const Spec& s, bool anchor_feet) {
   for (int side = 0; side < 2; ++side) {
     poser.aim(J(legs[side][0]), heading * s.leg[side].thigh);
     poser.aim(J(legs[side][1]), heading * s.leg[side].shank);
-    const cv::Vec3d toe_rest(0, -b.foot_forward_m, -(b.ankle_height_m - b.toes_half_height_m));
+    const glm::dvec3 toe_rest(0, -b.foot_forward_m, -(b.ankle_height_m - b.toes_half_height_m));
     poser.aim(J(legs[side][2]), heading * (rot_x(s.leg[side].foot_pitch) * toe_rest));
   }
   Pose pose = poser.pose();
   // Plant: lowest foot point on the floor; x, y at the root or the ankles' midpoint.
   const BodyPose bp = detail::body_pose_from(*c.m, pose);
   const double sole = detail::lowest_sole_z(bp, b, c.m->feet);
-  cv::Vec3d shift(s.xy[0], s.xy[1], -sole);
+  glm::dvec3 shift(s.xy[0], s.xy[1], -sole);
   if (anchor_feet) {
     const cv::Vec3d mid = 0.5 * (bp.p(Joint::l_ankle) + bp.p(Joint::r_ankle));
     shift[0] -= mid[0];
@@ -255,9 +262,9 @@ Pose arms_close(const Ctx& c, double tau) {
     Spec s = init_spec();
     for (int side = 0; side < 2; ++side) {
       const double sg = side_sign(side);
-      const cv::Vec3d S = c.shoulder_chest[side];
+      const glm::dvec3 S = c.shoulder_chest[side];
       if (phase == 0) {  // hands on hips (akimbo), elbows out and back
-        const cv::Vec3d T(sg * (b.pelvis_radii_m[0] + 0.035), 0.015, -b.hips_to_spine_m + 0.10);
+        const glm::dvec3 T(sg * (b.pelvis_radii_m[0] + 0.035), 0.015, -b.hips_to_spine_m + 0.10);
         reach(s, side, S, T, b.upper_arm_m, b.forearm_m, {sg * 1.0, 0.45, 0}, {-sg * 0.45, -0.35, -1}, 0);
       } else if (phase == 1) {  // hanging, pressed against the torso
         s.arm[side].upper = dir(sg * 0.03, 0.03, -1);
@@ -266,7 +273,7 @@ Pose arms_close(const Ctx& c, double tau) {
       } else {  // clapping at 2 Hz in front of the chest, palms facing
         const double open = 0.5 - 0.5 * std::cos(2 * kPi * 2.0 * t);
         const double gap = b.hand_half_thickness_m + 0.004 + 0.11 * open;
-        const cv::Vec3d T(sg * gap, -0.34, b.spine_to_neck_m - 0.20);
+        const glm::dvec3 T(sg * gap, -0.34, b.spine_to_neck_m - 0.20);
         reach(s, side, S, T, b.upper_arm_m, b.forearm_m, {sg * 1.0, 0.2, -1.0}, {-sg * 0.05, -0.75, 0.65},
               sg * kPi / 2);
       }
@@ -291,12 +298,12 @@ Pose cross(const Ctx& c, double tau) {
   Spec s = init_spec();
   for (int side = 0; side < 2; ++side) {
     const double sg = side_sign(side);
-    const cv::Vec3d S = c.shoulder_chest[side];
+    const glm::dvec3 S = c.shoulder_chest[side];
     const double reach_len = b.upper_arm_m + b.forearm_m;
-    const cv::Vec3d open = S + cv::Vec3d(sg * reach_len, -0.02, 0);
-    const cv::Vec3d crossed(-sg * 0.13, side == 0 ? -0.40 : -0.31, S[2] - (side == 0 ? 0.24 : 0.17));
-    const cv::Vec3d T = open * (1 - x) + crossed * x;
-    const cv::Vec3d hand_dir = cv::Vec3d(sg, 0, 0) * (1 - x) + cv::Vec3d(-sg, -0.4, 0.1) * x;
+    const glm::dvec3 open = S + glm::dvec3(sg * reach_len, -0.02, 0);
+    const glm::dvec3 crossed(-sg * 0.13, side == 0 ? -0.40 : -0.31, S[2] - (side == 0 ? 0.24 : 0.17));
+    const glm::dvec3 T = open * (1 - x) + crossed * x;
+    const glm::dvec3 hand_dir = glm::dvec3(sg, 0, 0) * (1 - x) + glm::dvec3(-sg, -0.4, 0.1) * x;
     reach(s, side, S, T, b.upper_arm_m, b.forearm_m, {sg * 0.3, 0.3, -1}, hand_dir, 0);
   }
   return build(c, s, false);
@@ -362,33 +369,27 @@ const std::vector<BuiltinMotion>& builtin_motions() {
   return list;
 }
 
-Skeleton standard_skeleton(const BodyDescription& b) {
-  Skeleton sk;
-  sk.joints.resize(kJointCount);
-  auto set = [&](Joint j, Joint parent, const cv::Vec3d& offset, bool end_site = false) {
-    sk.joints[static_cast<std::size_t>(j)] = {std::string(joint_name(j)), parent == j ? -1 : J(parent), offset, end_site};
-  };
-  set(Joint::hips, Joint::hips, {0, 0, 0});
-  set(Joint::spine, Joint::hips, {0, 0, b.hips_to_spine_m});
-  set(Joint::neck, Joint::spine, {0, 0, b.spine_to_neck_m});
-  set(Joint::head, Joint::neck, {0, 0, b.neck_to_head_m()});
-  set(Joint::head_top, Joint::head, {0, 0, b.head_radii_m[2]}, true);
-  for (int side = 0; side < 2; ++side) {
-    const double sg = side_sign(side);
-    const bool l = side == 0;
-    set(l ? Joint::l_shoulder : Joint::r_shoulder, Joint::spine,
-        {sg * b.shoulder_half_width_m, 0, b.spine_to_neck_m - b.shoulder_drop_m});
-    set(l ? Joint::l_elbow : Joint::r_elbow, l ? Joint::l_shoulder : Joint::r_shoulder, {sg * b.upper_arm_m, 0, 0});
-    set(l ? Joint::l_wrist : Joint::r_wrist, l ? Joint::l_elbow : Joint::r_elbow, {sg * b.forearm_m, 0, 0});
-    set(l ? Joint::l_hand_tip : Joint::r_hand_tip, l ? Joint::l_wrist : Joint::r_wrist, {sg * b.hand_m, 0, 0}, true);
-    set(l ? Joint::l_hip : Joint::r_hip, Joint::hips, {sg * b.hip_half_width_m, 0, -b.pelvis_drop_m});
-    set(l ? Joint::l_knee : Joint::r_knee, l ? Joint::l_hip : Joint::r_hip, {0, 0, -b.thigh_m});
-    set(l ? Joint::l_ankle : Joint::r_ankle, l ? Joint::l_knee : Joint::r_knee, {0, 0, -b.shank_m});
-    set(l ? Joint::l_toe : Joint::r_toe, l ? Joint::l_ankle : Joint::r_ankle,
-        {0, -b.foot_forward_m, -(b.ankle_height_m - b.toes_half_height_m)});
-  }
-  return sk;
+vc::body::StandardSegments standard_segments(const BodyDescription& b) {
+  vc::body::StandardSegments s;
+  s.hips_to_spine_m = b.hips_to_spine_m;
+  s.spine_to_neck_m = b.spine_to_neck_m;
+  s.neck_to_head_m = b.neck_to_head_m();
+  s.head_to_top_m = b.head_radii_m[2];
+  s.shoulder_half_width_m = b.shoulder_half_width_m;
+  s.shoulder_drop_m = b.shoulder_drop_m;
+  s.upper_arm_m = b.upper_arm_m;
+  s.forearm_m = b.forearm_m;
+  s.hand_m = b.hand_m;
+  s.hip_half_width_m = b.hip_half_width_m;
+  s.pelvis_drop_m = b.pelvis_drop_m;
+  s.thigh_m = b.thigh_m;
+  s.shank_m = b.shank_m;
+  s.foot_forward_m = b.foot_forward_m;
+  s.ankle_to_toe_drop_m = b.ankle_height_m - b.toes_half_height_m;
+  return s;
 }
+
+Skeleton standard_skeleton(const BodyDescription& b) { return vc::body::standard_skeleton(standard_segments(b)); }
 
 namespace detail {
 
@@ -404,7 +405,7 @@ void make_builtin(const std::string& name, const BodyDescription& body, MotionDa
   m->skeleton = standard_skeleton(body);
   m->feet.ankle_height_m = body.ankle_height_m;
   m->length_s = entry->info.cycle_s;
-  m->canon.assign(m->skeleton.joints.size(), cv::Matx33d::eye());
+  m->canon.assign(m->skeleton.joints.size(), glm::dmat3(1.0));
   for (int j = 0; j < kJointCount; ++j) m->sources[static_cast<std::size_t>(j)] = {j, -1, 0, j, {0, 0, 0}};
 
   std::vector<int> aim_child(kJointCount, -1);

@@ -16,7 +16,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "voxcap/sim/bvh.hpp"
+#include "voxcap/body/bvh.hpp"
+#include "voxcap/body/glm_cv.hpp"
 
 namespace vc::sim {
 namespace {
@@ -65,8 +66,8 @@ void write_scene_yaml(const fs::path& p, const Scene& scene, int frames, int bac
      << "shadow_factor" << o.shadow_factor << "body_height_m" << o.body.height_m;
   if (const BvhMapping* m = scene.motion().bvh()) {
     fs << "bvh" << "{";
-    fs << "convention" << m->convention << "scale" << m->scale << "R_world_from_file" << cv::Mat(m->R_world_from_file)
-       << "t_world_m" << cv::Mat(m->t_world_m) << "frame_time_s" << m->frame_time_s << "first_frame" << m->first_frame;
+    fs << "convention" << m->convention << "scale" << m->scale << "R_world_from_file" << cv::Mat(vc::body::to_cv(m->R_world_from_file))
+       << "t_world_m" << cv::Mat(vc::body::to_cv(m->t_world_m)) << "frame_time_s" << m->frame_time_s << "first_frame" << m->first_frame;
     fs << "}";
   }
   fs.release();
@@ -145,7 +146,7 @@ DatasetSummary write_dataset(const Scene& scene, const DatasetOptions& opt, cons
     poses.reserve(static_cast<std::size_t>(frames));
     for (int f = 0; f < frames; ++f) poses.push_back(scene.motion().skeleton_pose(f));
     try {
-      write_bvh((dir / "truth" / "motion.bvh").string(), scene.motion().skeleton(), poses, 1.0 / scene.fps());
+      vc::body::write_bvh((dir / "truth" / "motion.bvh").string(), scene.motion().skeleton(), poses, 1.0 / scene.fps());
       ++sum.files;
     } catch (const std::invalid_argument& e) {
       sum.notes.push_back(std::string("truth/motion.bvh not written: ") + e.what());

@@ -1,6 +1,7 @@
-// Internals shared by motion.cpp (lead-in, BVH mapping) and builtin_motions.cpp (procedural
+// Internals shared by motion.cpp (lead-in, BVH clips) and builtin_motions.cpp (procedural
 // motions): the motion's implementation record and a small poser that sets joint rotations by
-// aiming bones at directions.
+// aiming bones at directions. Skeleton maths is GLM (hw/body); the body pose handed to the
+// renderer is converted to OpenCV types in body_pose_from, through body/glm_cv.hpp.
 #pragma once
 
 #include <functional>
@@ -18,7 +19,7 @@ struct JointSource {
   int b = -1;
   double w = 0;
   int frame_joint = -1;
-  cv::Vec3d canon_offset{0, 0, 0};
+  glm::dvec3 canon_offset{0, 0, 0};
 };
 
 }  // namespace detail
@@ -29,13 +30,13 @@ struct Motion::Impl {
   BodyDescription body;
   Skeleton skeleton;  // metres
   FootGeometry feet;
-  Pose init;          // the initialization pose
-  Pose first;         // the motion's pose at tau = 0 (blend target)
+  Pose init;                               // the initialization pose
+  Pose first;                              // the motion's pose at tau = 0 (blend target)
   std::function<Pose(double tau)> sample;  // the motion proper, tau >= 0 seconds
   double length_s = 0;                     // clip length or one cycle
   std::optional<BvhMapping> bvh;
   std::array<detail::JointSource, kJointCount> sources;
-  std::vector<cv::Matx33d> canon;  // per skeleton joint: world rotation -> canonical frame
+  std::vector<glm::dmat3> canon;  // per skeleton joint: world rotation -> canonical frame
 };
 
 namespace detail {
@@ -45,24 +46,21 @@ using MotionData = Motion::Impl;
 class Poser {
  public:
   Poser(const Skeleton& skeleton, const std::vector<int>& aim_child);
-  void root(const cv::Vec3d& position, const cv::Matx33d& R_world);
+  void root(const glm::dvec3& position, const glm::dmat3& R_world);
   // Local rotation relative to the parent.
-  void local(int joint, const cv::Matx33d& R_local);
+  void local(int joint, const glm::dmat3& R_local);
   // Rotate the joint (minimal rotation from the parent's frame, then `twist` radians about the
   // bone) so that its bone towards aim_child[joint] points along d_world.
-  void aim(int joint, const cv::Vec3d& d_world, double twist = 0);
-  const cv::Matx33d& world(int joint) const { return W_[static_cast<std::size_t>(joint)]; }
+  void aim(int joint, const glm::dvec3& d_world, double twist = 0);
+  const glm::dmat3& world(int joint) const { return W_[static_cast<std::size_t>(joint)]; }
   Pose& pose() { return pose_; }
 
  private:
   const Skeleton& sk_;
   const std::vector<int>& aim_child_;
   Pose pose_;
-  std::vector<cv::Matx33d> W_;
+  std::vector<glm::dmat3> W_;
 };
-
-// The bone vector from joint j to its descendant e with identity rotations in between, in j's frame.
-cv::Vec3d rest_vector(const Skeleton& skeleton, int j, int e);
 
 // Built-in motions (builtin_motions.cpp): fills name, skeleton, feet, init, sample, length_s,
 // sources, canon. Throws std::invalid_argument for an unknown name.

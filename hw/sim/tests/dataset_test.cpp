@@ -11,7 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "voxcap/sim/bvh.hpp"
+#include "voxcap/body/bvh.hpp"
 
 namespace vc::sim {
 namespace {
@@ -117,7 +117,7 @@ TEST(SimDataset, WritesTheDocumentedLayoutAndConsistentTruth) {
   EXPECT_LT(worst, 0.01) << "worst " << worst << " px";
   EXPECT_GT(visible, static_cast<int>(feats.size()) / 2);
 
-  const BvhClip motion = read_bvh((dir / "truth" / "motion.bvh").string());
+  const vc::body::BvhClip motion = vc::body::read_bvh((dir / "truth" / "motion.bvh").string());
   EXPECT_EQ(motion.frames, 30);
   cv::FileStorage info((dir / "truth" / "scene.yaml").string(), cv::FileStorage::READ);
   EXPECT_EQ(static_cast<std::string>(info["motion"]), "wave");

@@ -10,27 +10,31 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
 #include <opencv2/core/quaternion.hpp>
 
-#include "voxcap/sim/bvh.hpp"
+#include "voxcap/body/bvh.hpp"
+#include "voxcap/body/glm_cv.hpp"
+#include "voxcap/body/humanoid.hpp"
+#include "voxcap/body/testing/shared_clips.hpp"
 
 namespace vc::sim {
 namespace {
 
 namespace fs = std::filesystem;
 using ::testing::HasSubstr;
+using vc::body::BvhChannel;
+using vc::body::BvhClip;
+using vc::body::format_bvh;
+using vc::body::parse_bvh;
+using vc::body::read_bvh;
+using vc::body::to_cv;
+using vc::body::testing::find_clip;
+using vc::body::testing::no_clips_message;
 
-fs::path mocap_dir() { return fs::path(VOXCAP_SHARED_DIR) / "data" / "mocap"; }
-
-std::vector<fs::path> clips() {
-  std::vector<fs::path> out;
-  if (!fs::is_directory(mocap_dir())) return out;
-  for (const auto& e : fs::recursive_directory_iterator(mocap_dir())) {
-    if (e.path().extension() == ".bvh") out.push_back(e.path());
-  }
-  std::sort(out.begin(), out.end());
-  return out;
-}
+// Every *.bvh of the shared data folder (listed, never named here).
+std::vector<fs::path> clips() { return vc::body::testing::shared_bvh_clips(); }
 
 // Independent forward kinematics of one BVH frame (file units, file axes).
 struct RefFrame {
@@ -40,7 +44,7 @@ struct RefFrame {
 
 RefFrame ref_frame(const BvhClip& c, int f) {
   RefFrame r;
-  r.root = c.skeleton.joints[0].offset;
+  r.root = to_cv(c.skeleton.joints[0].offset);
   const double* v = c.frame_values(f);
   for (std::size_t j = 0; j < c.skeleton.joints.size(); ++j) {
     cv::Quatd q(1, 0, 0, 0);
@@ -71,7 +75,7 @@ std::vector<cv::Vec3d> ref_fk(const BvhClip& c, const RefFrame& r) {
       W[j] = r.q[j];
     } else {
       const auto pa = static_cast<std::size_t>(parent);
-      p[j] = p[pa] + W[pa].toRotMat3x3() * c.skeleton.joints[j].offset;
+      p[j] = p[pa] + W[pa].toRotMat3x3() * to_cv(c.skeleton.joints[j].offset);
       W[j] = W[pa] * r.q[j];
     }
   }
@@ -126,7 +130,7 @@ void expect_init_pose(const Motion& m, const std::string& what) {
 
 TEST(SimBvhMotion, RenderedJointsEqualTheFilesForwardKinematics) {
   const auto files = clips();
-  if (files.empty()) GTEST_SKIP() << "no BVH clips: " << mocap_dir() << " is absent";
+  ASSERT_FALSE(files.empty()) << no_clips_message();
   for (const fs::path& path : files) {
     SCOPED_TRACE(path.string());
     MotionOptions opt;
@@ -136,7 +140,7 @@ TEST(SimBvhMotion, RenderedJointsEqualTheFilesForwardKinematics) {
     ASSERT_NE(map, nullptr);
     const BvhClip clip = read_bvh(path.string());
     // The documented transform is a scale, a proper rotation and a translation.
-    EXPECT_NEAR(cv::determinant(map->R_world_from_file), 1.0, 1e-12);
+    EXPECT_NEAR(glm::determinant(map->R_world_from_file), 1.0, 1e-12);
     if (map->convention != "generic") {
       EXPECT_DOUBLE_EQ(map->scale, 0.056444);
     }
@@ -150,7 +154,7 @@ TEST(SimBvhMotion, RenderedJointsEqualTheFilesForwardKinematics) {
     for (int f = m.lead_in_frames(); f < m.natural_frames(); f += stride) {
       const double u = map->first_frame + m.clip_time(f) / map->frame_time_s;
       std::vector<cv::Vec3d> ref = ref_fk_at(clip, u);
-      for (auto& p : ref) p = map->R_world_from_file * (map->scale * p) + map->t_world_m;
+      for (auto& p : ref) p = to_cv(map->R_world_from_file) * (map->scale * p) + to_cv(map->t_world_m);
       const BodyPose bp = m.body_pose(f);
       for (int j = 0; j < kJointCount; ++j) {
         const int fj = map->file_joint[static_cast<std::size_t>(j)];
@@ -174,32 +178,36 @@ TEST(SimBvhMotion, RenderedJointsEqualTheFilesForwardKinematics) {
 }
 
 TEST(SimBvhMotion, DocumentedConventionsAreDetected) {
-  if (clips().empty()) GTEST_SKIP() << "no BVH clips: " << mocap_dir() << " is absent";
-  auto mapping = [](const std::string& rel) {
+  // The clips data/README.md documents, looked up in the folder's listing by file name.
+  const auto files = clips();
+  ASSERT_FALSE(files.empty()) << no_clips_message();
+  auto mapping = [&](const std::string& name) {
+    const fs::path path = find_clip(files, name);
+    if (path.empty()) throw std::runtime_error(name + " (documented in data/README.md) is not in the listing");
     MotionOptions opt;
-    opt.source = (mocap_dir() / rel).string();
+    opt.source = path.string();
     return *Motion::create(opt, BodyDescription{}).bvh();
   };
-  const BvhMapping walk = mapping("cmu/02_01.bvh");
+  const BvhMapping walk = mapping("02_01.bvh");
   EXPECT_EQ(walk.convention, "cgspeed-motionbuilder");
   EXPECT_EQ(walk.first_frame, 1);  // synthetic T-pose skipped
   EXPECT_DOUBLE_EQ(walk.frame_time_s, 1.0 / 120);
   EXPECT_EQ(walk.file_joint_name[static_cast<std::size_t>(Joint::l_shoulder)], "LeftArm");
   EXPECT_EQ(walk.file_joint_name[static_cast<std::size_t>(Joint::spine)], "Spine");
   // Y up: the file's +Y maps to +z.
-  EXPECT_LT(cv::norm(walk.R_world_from_file * cv::Vec3d(0, 1, 0) - cv::Vec3d(0, 0, 1)), 1e-12);
-  const BvhMapping wave = mapping("cmu/141_16.bvh");
+  EXPECT_LT(cv::norm(to_cv(walk.R_world_from_file) * cv::Vec3d(0, 1, 0) - cv::Vec3d(0, 0, 1)), 1e-12);
+  const BvhMapping wave = mapping("141_16.bvh");
   EXPECT_EQ(wave.first_frame, 0);
   EXPECT_DOUBLE_EQ(wave.frame_time_s, 1.0 / 60);  // subject 141 was captured at 60 fps
-  const BvhMapping jj = mapping("animateddrawings/cmu1_jumping_jacks.bvh");
+  const BvhMapping jj = mapping("cmu1_jumping_jacks.bvh");
   EXPECT_EQ(jj.convention, "cgspeed-3dsmax");
   EXPECT_EQ(jj.file_joint_name[static_cast<std::size_t>(Joint::l_shoulder)], "LeftShoulder");
   EXPECT_EQ(jj.file_joint_name[static_cast<std::size_t>(Joint::l_wrist)], "LeftWrist");
   EXPECT_DOUBLE_EQ(jj.frame_time_s, 1.0 / 30);
-  const BvhMapping fair = mapping("animateddrawings/fair1_wave_hello.bvh");
+  const BvhMapping fair = mapping("fair1_wave_hello.bvh");
   EXPECT_EQ(fair.convention, "generic");
   EXPECT_DOUBLE_EQ(fair.frame_time_s, 0.008342);
-  EXPECT_LT(cv::norm(fair.R_world_from_file * cv::Vec3d(0, 0, 1) - cv::Vec3d(0, 0, 1)), 1e-12);  // Z up
+  EXPECT_LT(cv::norm(to_cv(fair.R_world_from_file) * cv::Vec3d(0, 0, 1) - cv::Vec3d(0, 0, 1)), 1e-12);  // Z up
   // Unknown units: the rest pose is scaled to the body height (1.75 m for ~39 units).
   EXPECT_NEAR(fair.scale, 1.75 / 39.0, 0.004);
 }
@@ -264,6 +272,49 @@ TEST(SimBuiltinMotion, JointsEqualTheForwardKinematicsOfTheExportedBvh) {
     }
     EXPECT_LT(worst, 1e-3) << "worst " << worst * 1000 << " mm";
     expect_init_pose(m, bm.name);
+  }
+}
+
+// The built-in motions exported as the standard humanoid for Blender (Y up, metres, MotionBuilder
+// names): read back, every joint's world position is the motion's within 1e-6 m on every frame,
+// and the humanoid mapping finds every standard joint under its export name.
+TEST(SimBuiltinMotion, ExportsAsTheStandardHumanoidForBlender) {
+  const vc::body::BvhWriteOptions o = vc::body::BvhWriteOptions::blender();
+  const glm::dmat3 world_from_file = glm::transpose(o.R_file_from_world);
+  for (const BuiltinMotion& bm : builtin_motions()) {
+    SCOPED_TRACE(bm.name);
+    MotionOptions opt;
+    opt.source = bm.name;
+    const Motion m = Motion::create(opt, BodyDescription{});
+    ASSERT_TRUE(vc::body::is_standard(m.skeleton()));
+    std::vector<Pose> poses;
+    for (int f = 0; f < m.natural_frames(); ++f) poses.push_back(m.skeleton_pose(f));
+    const BvhClip clip = parse_bvh(format_bvh(m.skeleton(), poses, 1.0 / m.fps(), o), bm.name);
+    ASSERT_EQ(clip.frames, m.natural_frames());
+    std::vector<int> in_file(kJointCount);
+    for (int j = 0; j < kJointCount; ++j) {
+      const std::string name = vc::body::joint_is_end(j)
+                                   ? std::string(vc::body::joint_bvh_name(vc::body::joint_parent(j))) + "_end"
+                                   : std::string(vc::body::joint_bvh_name(j));
+      in_file[static_cast<std::size_t>(j)] = clip.skeleton.find(name);
+      ASSERT_GE(in_file[static_cast<std::size_t>(j)], 0) << name;
+    }
+    double worst = 0;
+    std::vector<glm::dvec3> want, got;
+    for (int f = 0; f < clip.frames; ++f) {
+      vc::body::forward_kinematics(m.skeleton(), poses[static_cast<std::size_t>(f)], &want);
+      vc::body::forward_kinematics(clip.skeleton, clip.pose(f), &got);
+      for (int j = 0; j < kJointCount; ++j) {
+        const glm::dvec3 p = world_from_file * got[static_cast<std::size_t>(in_file[static_cast<std::size_t>(j)])];
+        worst = std::max(worst, glm::length(p - want[static_cast<std::size_t>(j)]));
+      }
+    }
+    EXPECT_LT(worst, 1e-6) << "worst " << worst * 1e6 << " um";
+    const vc::body::HumanoidClip h = vc::body::map_humanoid(clip, bm.name + ".bvh");
+    for (int j = 0; j < kJointCount; ++j) {
+      if (vc::body::joint_is_end(j)) continue;
+      EXPECT_EQ(h.map.anchor[static_cast<std::size_t>(j)], in_file[static_cast<std::size_t>(j)]) << joint_name(j);
+    }
   }
 }
 

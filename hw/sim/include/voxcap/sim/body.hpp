@@ -1,6 +1,5 @@
-// The synthetic performer: the standard joint set every motion is mapped to, a small body
-// description (height, segment lengths, limb radii), appearance presets, and the volumetric body —
-// 20 "scaled capsules" (a capsule in a frame with per-axis radii: an ellipsoid when its core
+// The synthetic performer: a small body description (height, segment lengths, limb radii),
+// appearance presets, and the volumetric body — 20 "scaled capsules" (a capsule in a frame with per-axis radii: an ellipsoid when its core
 // segment has zero length, a round capsule when the radii are equal) placed on the joints.
 #pragma once
 
@@ -11,30 +10,20 @@
 
 #include <opencv2/core.hpp>
 
+#include "voxcap/body/joints.hpp"
+
 namespace vc::sim {
 
-// The standard joints (joints.csv uses these names). World frame, metres.
-enum class Joint : int {
-  hips,        // pelvis centre, the root
-  spine,       // mid-back (thorax base); orients the chest
-  neck,        // base of the neck
-  head,        // centre of the head (the head feature)
-  head_top,    // top of the head
-  l_shoulder, l_elbow, l_wrist, l_hand_tip,
-  r_shoulder, r_elbow, r_wrist, r_hand_tip,
-  l_hip, l_knee, l_ankle, l_toe,  // l_toe: ball of the foot (toe joint)
-  r_hip, r_knee, r_ankle, r_toe,
-};
-inline constexpr int kJointCount = 21;
-std::string_view joint_name(Joint j);
-std::string_view joint_name(int j);
-int joint_from_name(std::string_view name);  // -1 if unknown
-
-// Tracked features (2D truth): head -> Joint::head, hands -> wrists, feet -> ankles.
-enum class Feature : int { head, l_hand, r_hand, l_foot, r_foot };
-inline constexpr int kFeatureCount = 5;
-std::string_view feature_name(Feature f);
-Joint feature_joint(Feature f);
+// The standard joints and tracked features are the body library's (hw/body); the performer is
+// built on them.
+using body::Feature;
+using body::feature_joint;
+using body::feature_name;
+using body::Joint;
+using body::joint_from_name;
+using body::joint_name;
+using body::kFeatureCount;
+using body::kJointCount;
 
 // Body parts, one primitive each.
 enum class Part : int {

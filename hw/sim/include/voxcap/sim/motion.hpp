@@ -1,5 +1,5 @@
 // Motions that drive the performer: built-in procedural motions on the standard skeleton, or a
-// BVH clip mapped onto the standard joints. Every motion starts with the initialization pose of
+// BVH clip mapped onto the standard joints (hw/body's humanoid mapping). Every motion starts with the initialization pose of
 // the method (facing the front cameras at -y, legs together, arms spread horizontally), held for
 // lead_hold_s and blended (slerp per joint) into the motion over lead_blend_s.
 #pragma once
@@ -9,10 +9,16 @@
 #include <string>
 #include <vector>
 
+#include "voxcap/body/humanoid.hpp"
+#include "voxcap/body/skeleton.hpp"
 #include "voxcap/sim/body.hpp"
-#include "voxcap/sim/skeleton.hpp"
 
 namespace vc::sim {
+
+// Skeletons, poses and the BVH mapping are the body library's (hw/body, GLM types).
+using body::BvhMapping;
+using body::Pose;
+using body::Skeleton;
 
 struct MotionOptions {
   std::string source = "walk";  // a built-in name (builtin_motion_names()) or a path ending in .bvh
@@ -24,25 +30,6 @@ struct MotionOptions {
   bool loop = false;            // BVH: loop the clip instead of holding its last frame
 
   bool valid(std::string* why) const;
-};
-
-// How a BVH clip was placed in the world:
-//   p_world = R_world_from_file * (scale * p_file) + t_world_m
-// for every joint position p_file of the file's own forward kinematics, and the clip's frame
-// first_frame + tau / frame_time_s is shown at clip time tau.
-struct BvhMapping {
-  std::string convention;    // "cgspeed-motionbuilder", "cgspeed-3dsmax" or "generic"
-  double scale = 1;          // metres per file unit
-  cv::Matx33d R_world_from_file = cv::Matx33d::eye();
-  cv::Vec3d t_world_m{0, 0, 0};
-  double frame_time_s = 0;   // the one used
-  int first_frame = 0;       // 1 when frame 0 is a converter's synthetic T-pose
-  int frames = 0;            // frames in the file
-  // Per standard joint: the file joint whose position it is, or -1 when derived (head is the
-  // midpoint of the Head joint and its End Site, head_top and the hand tips are placed from the
-  // head and wrist frames with the body description's sizes).
-  std::array<int, kJointCount> file_joint{};
-  std::array<std::string, kJointCount> file_joint_name{};
 };
 
 class Motion {
@@ -81,9 +68,10 @@ struct BuiltinMotion {
 };
 const std::vector<BuiltinMotion>& builtin_motions();
 
-// The standard skeleton of the built-in motions: one joint per Joint (same index), offsets from
-// the body description in the initialization pose (world axes: x left of the performer, -y
-// forward, z up); head_top and the hand tips are End Sites.
+// The standard skeleton of the built-in motions (body::standard_skeleton): one joint per Joint
+// (same index), offsets from the body description's segment lengths in the initialization pose
+// (world axes: x left of the performer, -y forward, z up); head_top and the hand tips are End Sites.
+body::StandardSegments standard_segments(const BodyDescription& body);
 Skeleton standard_skeleton(const BodyDescription& body);
 
 }  // namespace vc::sim

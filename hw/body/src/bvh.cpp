@@ -2,7 +2,7 @@
 // user files and is fuzzed): HIERARCHY with ROOT/JOINT/End Site blocks, OFFSET and CHANNELS per
 // joint, then MOTION with "Frames:", "Frame Time:" and frames * channels numbers. Channel order is
 // kept per joint, exactly as written, because real files mix orders (ZYX legs with ZXY arms).
-#include "voxcap/sim/bvh.hpp"
+#include "voxcap/body/bvh.hpp"
 
 #include <charconv>
 #include <cmath>
@@ -11,11 +11,12 @@
 #include <sstream>
 #include <stdexcept>
 
-namespace vc::sim {
-namespace {
+#include <glm/matrix.hpp>
 
-constexpr int kMaxJoints = 4096;
-constexpr long kMaxFrames = 50'000'000;
+#include "voxcap/body/joints.hpp"
+
+namespace vc::body {
+namespace {
 
 class Lexer {
  public:
@@ -51,7 +52,8 @@ class Lexer {
 
   void expect(std::string_view want) {
     const std::string_view got = token();
-    if (got != want) fail("expected '" + std::string(want) + "', got '" + std::string(got) + "'");
+    if (got != want)
+      fail("expected '" + std::string(want) + "', got '" + std::string(got.substr(0, 40)) + "'");
   }
 
   // The rest of the current line, trimmed (joint names may contain spaces or colons).
@@ -90,7 +92,9 @@ class Lexer {
   std::size_t remaining() const { return text_.size() - pos_; }
 
  private:
-  static bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v'; }
+  static bool is_space(char c) {
+    return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\f' || c == '\v';
+  }
   void skip_space() {
     while (pos_ < text_.size() && is_space(text_[pos_])) {
       if (text_[pos_] == '\n') ++line_;
@@ -115,7 +119,7 @@ BvhChannel parse_channel(Lexer& lx) {
   lx.fail("unknown channel '" + std::string(t.substr(0, 40)) + "'");
 }
 
-cv::Vec3d parse_offset(Lexer& lx) {
+glm::dvec3 parse_offset(Lexer& lx) {
   lx.expect("OFFSET");
   const double x = lx.number(), y = lx.number(), z = lx.number();
   return {x, y, z};
@@ -124,7 +128,7 @@ cv::Vec3d parse_offset(Lexer& lx) {
 // Parses the block after "ROOT name" / "JOINT name" (the name already read).
 void parse_joint(Lexer& lx, BvhClip& clip, const std::string& name, int parent, int depth) {
   if (depth > 256) lx.fail("hierarchy nested too deeply");
-  if (static_cast<int>(clip.skeleton.joints.size()) >= kMaxJoints) lx.fail("too many joints");
+  if (static_cast<int>(clip.skeleton.joints.size()) >= kBvhMaxJoints) lx.fail("too many joints");
   const int index = static_cast<int>(clip.skeleton.joints.size());
   clip.skeleton.joints.push_back({name, parent, {0, 0, 0}, false});
   clip.channels.emplace_back();
@@ -147,9 +151,9 @@ void parse_joint(Lexer& lx, BvhClip& clip, const std::string& name, int parent, 
       parse_joint(lx, clip, child, index, depth + 1);
     } else if (t == "End") {
       lx.expect("Site");
-      if (static_cast<int>(clip.skeleton.joints.size()) >= kMaxJoints) lx.fail("too many joints");
+      if (static_cast<int>(clip.skeleton.joints.size()) >= kBvhMaxJoints) lx.fail("too many joints");
       lx.expect("{");
-      const cv::Vec3d off = parse_offset(lx);
+      const glm::dvec3 off = parse_offset(lx);
       lx.expect("}");
       clip.skeleton.joints.push_back({name + "_end", index, off, true});
       clip.channels.emplace_back();
@@ -160,12 +164,15 @@ void parse_joint(Lexer& lx, BvhClip& clip, const std::string& name, int parent, 
   }
 }
 
-cv::Matx33d axis_rotation(BvhChannel c, double degrees) {
+glm::dmat3 axis_rotation(BvhChannel c, double degrees) {
   const double a = degrees * M_PI / 180.0;
   switch (c) {
-    case BvhChannel::Xrotation: return rot_x(a);
-    case BvhChannel::Yrotation: return rot_y(a);
-    default: return rot_z(a);
+    case BvhChannel::Xrotation:
+      return rot_x(a);
+    case BvhChannel::Yrotation:
+      return rot_y(a);
+    default:
+      return rot_z(a);
   }
 }
 
@@ -184,7 +191,7 @@ BvhClip parse_bvh(std::string_view text, const std::string& source_name) {
   if (after != "MOTION") lx.fail("expected MOTION, got '" + std::string(after.substr(0, 40)) + "'");
   lx.expect("Frames:");
   const long frames = lx.integer();
-  if (frames < 0 || frames > kMaxFrames) lx.fail("Frames: out of range");
+  if (frames < 0 || frames > kBvhMaxFrames) lx.fail("Frames: out of range");
   lx.expect("Frame");
   lx.expect("Time:");
   {
@@ -225,25 +232,33 @@ Pose BvhClip::pose(int frame, double scale) const {
   const double* v = frame_values(frame);
   const std::size_t n = skeleton.joints.size();
   Pose pose;
-  pose.local.assign(n, cv::Matx33d::eye());
+  pose.local.assign(n, glm::dmat3(1.0));
   bool any_translation = false;
-  std::vector<cv::Vec3d> translation(n, cv::Vec3d(0, 0, 0));
+  std::vector<glm::dvec3> translation(n, glm::dvec3(0, 0, 0));
   for (std::size_t j = 0; j < n; ++j) {
     const double* jv = v + first_channel[j];
-    cv::Matx33d R = cv::Matx33d::eye();
-    cv::Vec3d t(0, 0, 0);
+    glm::dmat3 R(1.0);
+    glm::dvec3 t(0, 0, 0);
     for (std::size_t c = 0; c < channels[j].size(); ++c) {
       switch (channels[j][c]) {
-        case BvhChannel::Xposition: t[0] = jv[c] * scale; break;
-        case BvhChannel::Yposition: t[1] = jv[c] * scale; break;
-        case BvhChannel::Zposition: t[2] = jv[c] * scale; break;
-        default: R = R * axis_rotation(channels[j][c], jv[c]); break;
+        case BvhChannel::Xposition:
+          t[0] = jv[c] * scale;
+          break;
+        case BvhChannel::Yposition:
+          t[1] = jv[c] * scale;
+          break;
+        case BvhChannel::Zposition:
+          t[2] = jv[c] * scale;
+          break;
+        default:
+          R = R * axis_rotation(channels[j][c], jv[c]);
+          break;
       }
     }
     pose.local[j] = R;
     if (j == 0) {
       pose.root_position = t;
-    } else if (t != cv::Vec3d(0, 0, 0)) {
+    } else if (t != glm::dvec3(0, 0, 0)) {
       translation[j] = t;
       any_translation = true;
     }
@@ -258,63 +273,115 @@ Skeleton BvhClip::scaled_skeleton(double scale) const {
   return s;
 }
 
-std::string format_bvh(const Skeleton& skeleton, const std::vector<Pose>& poses, double frame_time_s) {
+bool BvhWriteOptions::valid(std::string* why) const {
+  std::ostringstream os;
+  const double det = glm::determinant(R_file_from_world);
+  const glm::dmat3 should_be_eye = glm::transpose(R_file_from_world) * R_file_from_world;
+  double off = 0;
+  for (int c = 0; c < 3; ++c) {
+    for (int r = 0; r < 3; ++r) off = std::max(off, std::abs(should_be_eye[c][r] - (r == c ? 1.0 : 0.0)));
+  }
+  if (!(std::abs(det - 1) < 1e-9 && off < 1e-9)) {
+    os << "R_file_from_world must be a rotation";
+  } else if (!(units_per_metre > 0 && units_per_metre <= 1e6)) {
+    os << "units_per_metre must be in (0, 1e6]";
+  } else if (decimals < 1 || decimals > 12) {
+    os << "decimals must be in [1, 12]";
+  } else {
+    return true;
+  }
+  if (why) *why = os.str();
+  return false;
+}
+
+BvhWriteOptions BvhWriteOptions::blender() {
+  BvhWriteOptions o;
+  // rot_x(-pi/2) with exact zeros: world z -> file Y, world y -> file -Z.
+  o.R_file_from_world = from_rows(1, 0, 0, 0, 0, 1, 0, -1, 0);
+  o.units_per_metre = 1.0;
+  o.standard_names = true;
+  return o;
+}
+
+std::string format_bvh(const Skeleton& skeleton, const std::vector<Pose>& poses, double frame_time_s,
+                       const BvhWriteOptions& options) {
   std::string why;
   if (!skeleton.valid(&why)) throw std::invalid_argument("format_bvh: " + why);
+  if (!options.valid(&why)) throw std::invalid_argument("format_bvh: " + why);
+  if (!(frame_time_s > 0 && frame_time_s <= 10))
+    throw std::invalid_argument("format_bvh: frame time must be in (0, 10] s");
+  if (skeleton.joints[0].end_site) throw std::invalid_argument("format_bvh: the root cannot be an End Site");
+  if (options.standard_names && !is_standard(skeleton)) {
+    throw std::invalid_argument("format_bvh: standard names need the standard skeleton");
+  }
   const std::size_t n = skeleton.joints.size();
+  const glm::dmat3& A = options.R_file_from_world;
+  const glm::dmat3 At = glm::transpose(A);
+  const double u = options.units_per_metre;
+  const int d = options.decimals;
+  auto name_of = [&](int j) {
+    return options.standard_names ? std::string(joint_bvh_name(j))
+                                  : skeleton.joints[static_cast<std::size_t>(j)].name;
+  };
   std::string out = "HIERARCHY\n";
-  char buf[160];
+  char buf[256];
+  // Values that print as zero print as "0.000", never "-0.000" (-0.0 and -1e-17 from rotations).
+  const double zero_below = 0.5 * std::pow(10.0, -d);
+  auto clean = [&](double x) { return std::abs(x) < zero_below ? 0.0 : x; };
+  auto vec3 = [&](const glm::dvec3& v) {
+    std::snprintf(buf, sizeof buf, "%.*f %.*f %.*f", d, clean(v[0]), d, clean(v[1]), d, clean(v[2]));
+    return std::string(buf);
+  };
   // Depth-first in index order (parents precede children, so children lists are in order).
   std::vector<std::vector<int>> kids(n);
-  for (std::size_t j = 1; j < n; ++j) kids[static_cast<std::size_t>(skeleton.joints[j].parent)].push_back(static_cast<int>(j));
+  for (std::size_t j = 1; j < n; ++j)
+    kids[static_cast<std::size_t>(skeleton.joints[j].parent)].push_back(static_cast<int>(j));
+  for (std::size_t j = 0; j < n; ++j) {
+    if (skeleton.joints[j].end_site && !kids[j].empty()) {
+      throw std::invalid_argument("format_bvh: End Site " + skeleton.joints[j].name + " has children");
+    }
+  }
   std::vector<int> order;  // joints with channels, in the order they appear in the file
   auto emit = [&](auto&& self, int j, int depth) -> void {
     const SkeletonJoint& jt = skeleton.joints[static_cast<std::size_t>(j)];
     const std::string ind(static_cast<std::size_t>(depth), '\t');
+    const std::string offset = vec3(A * jt.offset * u);
     if (jt.end_site) {
-      out += ind + "End Site\n" + ind + "{\n";
-      std::snprintf(buf, sizeof buf, "%s\tOFFSET %.6f %.6f %.6f\n", ind.c_str(), jt.offset[0], jt.offset[1], jt.offset[2]);
-      out += buf;
-      out += ind + "}\n";
+      out += ind + "End Site\n" + ind + "{\n" + ind + "\tOFFSET " + offset + "\n" + ind + "}\n";
       return;
     }
-    out += ind + (j == 0 ? "ROOT " : "JOINT ") + jt.name + "\n" + ind + "{\n";
-    std::snprintf(buf, sizeof buf, "%s\tOFFSET %.6f %.6f %.6f\n", ind.c_str(), jt.offset[0], jt.offset[1], jt.offset[2]);
-    out += buf;
+    out += ind + (j == 0 ? "ROOT " : "JOINT ") + name_of(j) + "\n" + ind + "{\n";
+    out += ind + "\tOFFSET " + offset + "\n";
     out += ind + (j == 0 ? "\tCHANNELS 6 Xposition Yposition Zposition Zrotation Yrotation Xrotation\n"
                          : "\tCHANNELS 3 Zrotation Yrotation Xrotation\n");
     order.push_back(j);
     const auto& ch = kids[static_cast<std::size_t>(j)];
     if (ch.empty()) {
       // BVH wants every chain to end in an End Site.
-      out += ind + "\tEnd Site\n" + ind + "\t{\n" + ind + "\t\tOFFSET 0.000000 0.000000 0.000000\n" + ind + "\t}\n";
+      out += ind + "\tEnd Site\n" + ind + "\t{\n" + ind + "\t\tOFFSET " + vec3(glm::dvec3(0)) + "\n" + ind +
+             "\t}\n";
     }
     for (int c : ch) self(self, c, depth + 1);
     out += ind + "}\n";
   };
-  if (skeleton.joints[0].end_site) throw std::invalid_argument("format_bvh: the root cannot be an End Site");
   emit(emit, 0, 0);
   out += "MOTION\n";
   out += "Frames: " + std::to_string(poses.size()) + "\n";
   std::snprintf(buf, sizeof buf, "Frame Time: %.9f\n", frame_time_s);
   out += buf;
+  std::string line;
   for (const Pose& pose : poses) {
     if (pose.local.size() != n) throw std::invalid_argument("format_bvh: pose of another skeleton");
     for (std::size_t j = 1; j < pose.translation.size(); ++j) {
-      if (pose.translation[j] != cv::Vec3d(0, 0, 0)) {
+      if (pose.translation[j] != glm::dvec3(0, 0, 0)) {
         throw std::invalid_argument("format_bvh: joint translations are not representable");
       }
     }
-    std::string line;
+    line.clear();
     for (std::size_t i = 0; i < order.size(); ++i) {
       const int j = order[i];
-      if (j == 0) {
-        std::snprintf(buf, sizeof buf, "%.6f %.6f %.6f ", pose.root_position[0], pose.root_position[1], pose.root_position[2]);
-        line += buf;
-      }
-      const cv::Vec3d e = euler_from_matrix("ZYX", pose.local[static_cast<std::size_t>(j)]);
-      std::snprintf(buf, sizeof buf, "%.6f %.6f %.6f", e[0], e[1], e[2]);
-      line += buf;
+      if (j == 0) line += vec3(A * pose.root_position * u) + " ";
+      line += vec3(euler_from_matrix("ZYX", A * pose.local[static_cast<std::size_t>(j)] * At));
       line += i + 1 < order.size() ? " " : "\n";
     }
     out += line;
@@ -323,12 +390,12 @@ std::string format_bvh(const Skeleton& skeleton, const std::vector<Pose>& poses,
 }
 
 void write_bvh(const std::string& path, const Skeleton& skeleton, const std::vector<Pose>& poses,
-               double frame_time_s) {
-  const std::string text = format_bvh(skeleton, poses, frame_time_s);
+               double frame_time_s, const BvhWriteOptions& options) {
+  const std::string text = format_bvh(skeleton, poses, frame_time_s, options);
   std::ofstream f(path, std::ios::binary);
   if (!f) throw std::runtime_error(path + ": cannot open for writing");
   f << text;
   if (!f) throw std::runtime_error(path + ": write error");
 }
 
-}  // namespace vc::sim
+}  // namespace vc::body
