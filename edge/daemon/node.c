@@ -121,15 +121,6 @@ int vc_node_hello(const vc_node* n, uint32_t capabilities, uint8_t* buf, size_t 
   return vc_encode_hello(buf, cap, len, &hdr, &h);
 }
 
-static void to_camera_model(const vc_config_camera* in, vc_camera_model* out) {
-  out->width = (int)in->width;
-  out->height = (int)in->height;
-  memcpy(out->K, in->K, sizeof(out->K));
-  memcpy(out->dist, in->dist, sizeof(out->dist));
-  memcpy(out->R, in->R_cam_from_world, sizeof(out->R));
-  memcpy(out->t, in->t_cam_from_world, sizeof(out->t));
-}
-
 /* CONFIG's clean-up sizes map onto passes of the 3x3 majority filter (cleanup.h): one pass removes
  * speckles and fills holes of up to 2x2 = 4 pixels, a second pass takes somewhat larger ones. */
 static int cleanup_passes(const vc_config* cfg) {
@@ -145,25 +136,22 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
     snprintf(why, why_len, "CONFIG has %u cameras, this node has %d", cfg->camera_count, VC_NODE_CAMS);
     return -EINVAL;
   }
-  vc_camera_model models[VC_NODE_CAMS];
   for (int c = 0; c < VC_NODE_CAMS; c++) {
-    const vc_config_camera* cc = &cfg->cameras[c];
+    const vc_camera* cc = &cfg->cameras[c];
     if ((int)cc->width != n->cams[c].width || (int)cc->height != n->cams[c].height) {
       snprintf(why, why_len, "CONFIG camera %d is %ux%u, the camera delivers %dx%d", c, cc->width,
                cc->height, n->cams[c].width, n->cams[c].height);
       return -EINVAL;
     }
-    to_camera_model(cc, &models[c]);
     const char* bad = NULL;
-    if (vc_camera_check(&models[c], &bad) < 0) {
+    if (vc_camera_check(cc, &bad) < 0) {
       snprintf(why, why_len, "CONFIG camera %d: %s", c, bad ? bad : "invalid");
       return -EINVAL;
     }
   }
-  vc_voxel_grid grid = {{cfg->min_m[0], cfg->min_m[1], cfg->min_m[2]}, cfg->voxel_m,
-                        (int)cfg->nx, (int)cfg->ny, (int)cfg->nz};
+  const vc_voxel_grid* grid = &cfg->grid;
   const char* bad = NULL;
-  if (vc_grid_check(&grid, &bad) < 0) {
+  if (vc_grid_check(grid, &bad) < 0) {
     snprintf(why, why_len, "CONFIG grid: %s", bad ? bad : "invalid");
     return -EINVAL;
   }
@@ -178,10 +166,10 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
     return -EINVAL;
   }
 
-  vc_carver* carver = vc_carver_new(&grid, &models[0], &models[1]);
+  vc_carver* carver = vc_carver_new(grid, &cfg->cameras[0], &cfg->cameras[1]);
   if (!carver) {
-    snprintf(why, why_len, "CONFIG: cannot build the carver for a %dx%dx%d grid: %s", grid.nx, grid.ny,
-             grid.nz, strerror(errno));
+    snprintf(why, why_len, "CONFIG: cannot build the carver for a %ux%ux%u grid: %s", grid->nx, grid->ny,
+             grid->nz, strerror(errno));
     return errno == ENOMEM ? -ENOMEM : -EINVAL;
   }
   size_t bits_bytes = vc_carver_bitset_bytes(carver);

@@ -81,11 +81,11 @@ int vc_encode_config(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr
   if ((rc = frame_begin(buf, cap, len, hdr, plen))) return rc;
   uint8_t* p = buf + VC_PROTO_HEADER_SIZE;
   vc_st32(p + 0, m->grid_id);
-  vc_st32(p + 4, m->nx);
-  vc_st32(p + 8, m->ny);
-  vc_st32(p + 12, m->nz);
-  for (int i = 0; i < 3; i++) vc_stf64(p + 16 + 8 * i, m->min_m[i]);
-  vc_stf64(p + 40, m->voxel_m);
+  vc_st32(p + 4, m->grid.nx);
+  vc_st32(p + 8, m->grid.ny);
+  vc_st32(p + 12, m->grid.nz);
+  for (int i = 0; i < 3; i++) vc_stf64(p + 16 + 8 * i, m->grid.min_m[i]);
+  vc_stf64(p + 40, m->grid.voxel_m);
   vc_stf32(p + 48, m->t_upper);
   vc_stf32(p + 52, m->t_lower);
   vc_stf32(p + 56, m->shadow_angle_deg);
@@ -97,7 +97,7 @@ int vc_encode_config(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr
   vc_st16(p + 76, VC_CONFIG_CAMERA_SIZE);
   p += VC_CONFIG_FIXED;
   for (unsigned i = 0; i < m->camera_count; i++, p += VC_CONFIG_CAMERA_SIZE) {
-    const vc_config_camera* c = &m->cameras[i];
+    const vc_camera* c = &m->cameras[i];
     vc_st32(p + 0, c->width);
     vc_st32(p + 4, c->height);
     for (int k = 0; k < 9; k++) vc_stf64(p + 8 + 8 * k, c->K[k]);

@@ -114,8 +114,8 @@ std::unique_ptr<vc_msg> sample(uint16_t type, const Bytes& rle, const std::strin
       break;
     case VC_MSG_CONFIG: {
       vc_config& c = m->u.config;
-      c.grid_id = 9, c.nx = 64, c.ny = 48, c.nz = 100;
-      c.min_m[0] = -0.64, c.min_m[1] = -0.48, c.min_m[2] = 0, c.voxel_m = 0.02;
+      c.grid_id = 9, c.grid.nx = 64, c.grid.ny = 48, c.grid.nz = 100;
+      c.grid.min_m[0] = -0.64, c.grid.min_m[1] = -0.48, c.grid.min_m[2] = 0, c.grid.voxel_m = 0.02;
       c.t_upper = 4, c.t_lower = 2, c.shadow_angle_deg = 5, c.speckle_px = 9, c.hole_px = 0;
       c.background_frames = 25, c.feature_role = VC_ROLE_NONE, c.camera_count = 1;
       c.cameras[0].width = 320, c.cameras[0].height = 240;
@@ -194,7 +194,7 @@ TEST(RoundTrip, EveryTypeDecodesToWhatWasEncoded) {
         break;
       case VC_MSG_CONFIG:
         EXPECT_EQ(r.u.config.cameras[0].t_cam_from_world[0], 1.0 / 3);
-        EXPECT_EQ(r.u.config.min_m[0], -0.64);
+        EXPECT_EQ(r.u.config.grid.min_m[0], -0.64);
         EXPECT_EQ(r.u.config.camera_record_size, 216);
         break;
       case VC_MSG_HULL:
@@ -268,10 +268,10 @@ TEST(Encoders, RefuseInvalidBodiesWithTheDecodersCode) {
   hello->u.hello.camera_count = 9;
   expect_refused(*hello, VC_PROTO_ELIMIT);
   auto config = sample(VC_MSG_CONFIG, rle, "");
-  config->u.config.voxel_m = -0.02;
+  config->u.config.grid.voxel_m = -0.02;
   expect_refused(*config, VC_PROTO_EFIELD);
   config = sample(VC_MSG_CONFIG, rle, "");
-  config->u.config.nx = config->u.config.ny = config->u.config.nz = 1024;
+  config->u.config.grid.nx = config->u.config.grid.ny = config->u.config.grid.nz = 1024;
   expect_refused(*config, VC_PROTO_ELIMIT);
   config = sample(VC_MSG_CONFIG, rle, "");
   config->u.config.cameras[0].K[0] = NAN;

@@ -129,11 +129,11 @@ vc_msg config_msg() {
   vc_msg m = make(VC_MSG_CONFIG);
   vc_config& c = m.u.config;
   c.grid_id = 7;
-  c.nx = c.ny = c.nz = 128;
-  c.min_m[0] = -1.28;
-  c.min_m[1] = -1.28;
-  c.min_m[2] = 0.0;
-  c.voxel_m = 0.02;
+  c.grid.nx = c.grid.ny = c.grid.nz = 128;
+  c.grid.min_m[0] = -1.28;
+  c.grid.min_m[1] = -1.28;
+  c.grid.min_m[2] = 0.0;
+  c.grid.voxel_m = 0.02;
   c.t_upper = 3.5f;
   c.t_lower = 1.5f;
   c.shadow_angle_deg = 6.0f;
@@ -151,7 +151,7 @@ vc_msg config_msg() {
   const double R1[9] = {0.8660254037844387, 0.5, 0, 0, 0, -1, -0.5, 0.8660254037844387, 0};
   const double t1[3] = {0, 1.25, 3};
   for (int i = 0; i < 2; i++) {
-    vc_config_camera& cam = c.cameras[i];
+    vc_camera& cam = c.cameras[i];
     cam.width = 640;
     cam.height = 480;
     std::copy(K, K + 9, cam.K);

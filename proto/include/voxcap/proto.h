@@ -18,6 +18,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "voxcap/camera_model.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -205,19 +207,9 @@ typedef struct vc_hello {
   vc_hello_camera cameras[VC_PROTO_MAX_CAMERAS];
 } vc_hello;
 
-typedef struct vc_config_camera {
-  uint32_t width, height;
-  double K[9];                /* row-major intrinsics, pixels */
-  double dist[5];             /* k1 k2 p1 p2 k3 (OpenCV) */
-  double R_cam_from_world[9]; /* row-major; x_cam = R x_world + t */
-  double t_cam_from_world[3]; /* metres */
-} vc_config_camera;
-
 typedef struct vc_config {
-  uint32_t grid_id; /* names this grid in HULL messages */
-  uint32_t nx, ny, nz;
-  double min_m[3];             /* world min corner, metres */
-  double voxel_m;              /* voxel edge, metres */
+  uint32_t grid_id;            /* names this grid in HULL messages */
+  vc_voxel_grid grid;          /* nx ny nz min_m voxel_m (camera_model.h) */
   float t_upper;               /* eq. 1: foreground if |p - mu| > t_upper * sigma in some channel */
   float t_lower;               /* background if below t_lower * sigma in all channels */
   float shadow_angle_deg;      /* eq. 2: angular (hue) threshold between the two */
@@ -227,7 +219,7 @@ typedef struct vc_config {
   uint16_t feature_role;       /* vc_feature_role */
   uint16_t camera_count;       /* 1..VC_PROTO_MAX_CAMERAS, in the node's HELLO order */
   uint16_t camera_record_size; /* decoded: as received; encoders write this version's size */
-  vc_config_camera cameras[VC_PROTO_MAX_CAMERAS];
+  vc_camera cameras[VC_PROTO_MAX_CAMERAS]; /* calibration records (camera_model.h) */
 } vc_config;
 
 typedef struct vc_background {
