@@ -36,7 +36,7 @@ struct vc_node {
   bool bg_learnt; /* bg[] finished */
   uint32_t bg_wanted, bg_have;
   vc_subtract_params sub;
-  int cleanup_iterations;
+  int cleanup_radius; /* CONFIG's cleanup_radius_px: one pass of that majority filter */
 
   vc_carver* carver;
   uint8_t* masks[VC_NODE_CAMS];
@@ -121,14 +121,6 @@ int vc_node_hello(const vc_node* n, uint32_t capabilities, uint8_t* buf, size_t 
   return vc_encode_hello(buf, cap, len, &hdr, &h);
 }
 
-/* CONFIG's clean-up sizes map onto passes of the 3x3 majority filter (cleanup.h): one pass removes
- * speckles and fills holes of up to 2x2 = 4 pixels, a second pass takes somewhat larger ones. */
-static int cleanup_passes(const vc_config* cfg) {
-  uint32_t px = cfg->speckle_px > cfg->hole_px ? cfg->speckle_px : cfg->hole_px;
-  if (px == 0) return 0;
-  return px <= 4 ? 1 : 2;
-}
-
 int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_len, char* warning,
                       size_t warning_len) {
   if (warning && warning_len) warning[0] = '\0';
@@ -165,6 +157,11 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
     snprintf(why, why_len, "CONFIG thresholds: %s", bad ? bad : "invalid");
     return -EINVAL;
   }
+  if (cfg->cleanup_radius_px > VC_CLEANUP_MAX_RADIUS) { /* the decoder checks it too */
+    snprintf(why, why_len, "CONFIG cleanup_radius_px %u: this edge runs 0..%d", cfg->cleanup_radius_px,
+             VC_CLEANUP_MAX_RADIUS);
+    return -EINVAL;
+  }
 
   vc_carver* carver = vc_carver_new(grid, &cfg->cameras[0], &cfg->cameras[1]);
   if (!carver) {
@@ -176,8 +173,8 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
   size_t msgcap = VC_PROTO_HEADER_SIZE + 64 + vc_rle_max_encoded_size(vc_carver_voxels(carver));
   uint8_t* bitset = malloc(bits_bytes);
   uint8_t* msgbuf = malloc(msgcap);
-  size_t scratch_len = vc_cleanup_scratch_size(n->cams[0].width > n->cams[1].width ? n->cams[0].width
-                                                                                    : n->cams[1].width);
+  size_t scratch_len = vc_cleanup_radius_scratch_size(
+      n->cams[0].width > n->cams[1].width ? n->cams[0].width : n->cams[1].width, (int)cfg->cleanup_radius_px);
   uint8_t* scratch = malloc(scratch_len);
   uint8_t* masks[VC_NODE_CAMS] = {NULL, NULL};
   for (int c = 0; c < VC_NODE_CAMS; c++)
@@ -212,7 +209,7 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
   n->cfg = *cfg;
   n->have_cfg = true;
   n->sub = sub;
-  n->cleanup_iterations = cleanup_passes(cfg);
+  n->cleanup_radius = (int)cfg->cleanup_radius_px;
   if (n->bg_learnt) {
     /* A learnt background survives a new CONFIG: the cameras' sizes were checked above. */
     for (int c = 0; c < VC_NODE_CAMS; c++) vc_bgmodel_set_params(n->bg[c], &n->sub);
@@ -395,8 +392,8 @@ int vc_node_process(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
   }
   uint64_t t1 = now_ns();
   for (int c = 0; c < VC_NODE_CAMS; c++) {
-    int rc = vc_cleanup(n->masks[c], n->cams[c].width, n->cams[c].height, n->cleanup_iterations,
-                        n->scratch, n->scratch_len);
+    int rc = vc_cleanup_radius(n->masks[c], n->cams[c].width, n->cams[c].height, n->cleanup_radius,
+                               n->scratch, n->scratch_len);
     if (rc < 0) return rc;
   }
   uint64_t t2 = now_ns();

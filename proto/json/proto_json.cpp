@@ -95,8 +95,8 @@ Json config_json(const vc_config& m) {
   j["t_upper"] = m.t_upper;
   j["t_lower"] = m.t_lower;
   j["shadow_angle_deg"] = m.shadow_angle_deg;
-  j["speckle_px"] = m.speckle_px;
-  j["hole_px"] = m.hole_px;
+  j["cleanup_radius_px"] = m.cleanup_radius_px;
+  j["reserved"] = m.reserved;
   j["background_frames"] = m.background_frames;
   j["feature_role"] = m.feature_role;
   put_name(j, "feature_role", vc_role_name(m.feature_role));

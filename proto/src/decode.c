@@ -91,8 +91,8 @@ static int parse_config(reader* r, vc_config* m) {
   m->t_upper = vc_ldf32(p + 48);
   m->t_lower = vc_ldf32(p + 52);
   m->shadow_angle_deg = vc_ldf32(p + 56);
-  m->speckle_px = vc_ld32(p + 60);
-  m->hole_px = vc_ld32(p + 64);
+  m->cleanup_radius_px = vc_ld32(p + 60);
+  m->reserved = vc_ld32(p + 64);
   m->background_frames = vc_ld32(p + 68);
   m->feature_role = vc_ld16(p + 72);
   m->camera_count = vc_ld16(p + 74);

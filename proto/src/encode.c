@@ -89,8 +89,8 @@ int vc_encode_config(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr
   vc_stf32(p + 48, m->t_upper);
   vc_stf32(p + 52, m->t_lower);
   vc_stf32(p + 56, m->shadow_angle_deg);
-  vc_st32(p + 60, m->speckle_px);
-  vc_st32(p + 64, m->hole_px);
+  vc_st32(p + 60, m->cleanup_radius_px);
+  vc_st32(p + 64, m->reserved);
   vc_st32(p + 68, m->background_frames);
   vc_st16(p + 72, m->feature_role);
   vc_st16(p + 74, m->camera_count);

@@ -62,6 +62,10 @@ int vc_check_config(const vc_config* m, vc_proto_diag* diag) {
   if (!(m->shadow_angle_deg >= 0 && m->shadow_angle_deg <= 180))
     return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: shadow_angle_deg %g is not in [0, 180]",
                        (double)m->shadow_angle_deg);
+  if (m->cleanup_radius_px > VC_CLEANUP_RADIUS_MAX_PX)
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: cleanup_radius_px %u is not in [0, %d]",
+                       m->cleanup_radius_px, VC_CLEANUP_RADIUS_MAX_PX);
+  if (m->reserved != 0) return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: reserved is %u, not 0", m->reserved);
   if (m->background_frames == 0) return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: background_frames 0");
   if (vc_role_name(m->feature_role) == NULL)
     return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: unknown feature_role %u", m->feature_role);

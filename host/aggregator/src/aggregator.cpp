@@ -38,9 +38,7 @@ vc_config make_config_message(const config::RigConfig& rig, const config::NodeCo
   c.t_upper = static_cast<float>(rig.subtraction.t_upper);
   c.t_lower = static_cast<float>(rig.subtraction.t_lower);
   c.shadow_angle_deg = static_cast<float>(rig.subtraction.shadow_angle_deg);
-  // The edge's clean-up removes speckles and fills holes of about (2r)^2 pixels.
-  uint32_t px = static_cast<uint32_t>(4 * rig.subtraction.cleanup_radius_px * rig.subtraction.cleanup_radius_px);
-  c.speckle_px = c.hole_px = px;
+  c.cleanup_radius_px = static_cast<uint32_t>(rig.subtraction.cleanup_radius_px);  // what the edge runs
   c.background_frames = static_cast<uint32_t>(rig.subtraction.background_frames);
   c.feature_role = node.is_front() && rig.features.enabled ? VC_ROLE_FRONT : VC_ROLE_NONE;
   c.camera_count = static_cast<uint16_t>(node.cameras.size());

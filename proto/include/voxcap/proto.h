@@ -19,6 +19,7 @@
 #include <stdint.h>
 
 #include "voxcap/camera_model.h"
+#include "voxcap/subtraction.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -27,7 +28,7 @@ extern "C" {
 /* ---- Versions and limits (SPEC.md "Framing", "Limits") ------------------------------------------ */
 
 #define VC_PROTO_MAGIC 0x50435856u /* "VXCP" in memory */
-#define VC_PROTO_VERSION_MAJOR 1
+#define VC_PROTO_VERSION_MAJOR 2
 #define VC_PROTO_VERSION_MINOR 0
 #define VC_PROTO_HEADER_SIZE 40
 
@@ -213,8 +214,8 @@ typedef struct vc_config {
   float t_upper;               /* eq. 1: foreground if |p - mu| > t_upper * sigma in some channel */
   float t_lower;               /* background if below t_lower * sigma in all channels */
   float shadow_angle_deg;      /* eq. 2: angular (hue) threshold between the two */
-  uint32_t speckle_px;         /* clean-up: drop foreground blobs smaller than this (0: off) */
-  uint32_t hole_px;            /* clean-up: fill holes smaller than this (0: off) */
+  uint32_t cleanup_radius_px;  /* clean-up: one pass of a (2r+1)^2 majority filter, 0..8 (0: off) */
+  uint32_t reserved;           /* 0 */
   uint32_t background_frames;  /* frames BACKGROUND learns when it says 0 */
   uint16_t feature_role;       /* vc_feature_role */
   uint16_t camera_count;       /* 1..VC_PROTO_MAX_CAMERAS, in the node's HELLO order */
