@@ -169,7 +169,8 @@ static void handle_ctl(edged* d, ctl* c) {
         send_error(d, VC_ERR_CONFIG, VC_SEVERITY_ERROR, VC_MSG_CONFIG, "CONFIG rejected: %s", why);
       } else {
         if (warn[0]) send_error(d, VC_ERR_CONFIG, VC_SEVERITY_WARNING, VC_MSG_CONFIG, "%s", warn);
-        logm(2, "configured: grid %ux%ux%u (id %u)", c->cfg.nx, c->cfg.ny, c->cfg.nz, c->cfg.grid_id);
+        logm(2, "configured: grid %ux%ux%u (id %u)", c->cfg.grid.nx, c->cfg.grid.ny, c->cfg.grid.nz,
+             c->cfg.grid_id);
       }
       break;
     case VC_MSG_BACKGROUND:

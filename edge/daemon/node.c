@@ -36,7 +36,7 @@ struct vc_node {
   bool bg_learnt; /* bg[] finished */
   uint32_t bg_wanted, bg_have;
   vc_subtract_params sub;
-  int cleanup_iterations;
+  int cleanup_radius; /* CONFIG's cleanup_radius_px: one pass of that majority filter */
 
   vc_carver* carver;
   uint8_t* masks[VC_NODE_CAMS];
@@ -124,23 +124,6 @@ int vc_node_hello(const vc_node* n, uint32_t capabilities, uint8_t* buf, size_t 
   return vc_encode_hello(buf, cap, len, &hdr, &h);
 }
 
-static void to_camera_model(const vc_config_camera* in, vc_camera_model* out) {
-  out->width = (int)in->width;
-  out->height = (int)in->height;
-  memcpy(out->K, in->K, sizeof(out->K));
-  memcpy(out->dist, in->dist, sizeof(out->dist));
-  memcpy(out->R, in->R_cam_from_world, sizeof(out->R));
-  memcpy(out->t, in->t_cam_from_world, sizeof(out->t));
-}
-
-/* CONFIG's clean-up sizes map onto passes of the 3x3 majority filter (cleanup.h): one pass removes
- * speckles and fills holes of up to 2x2 = 4 pixels, a second pass takes somewhat larger ones. */
-static int cleanup_passes(const vc_config* cfg) {
-  uint32_t px = cfg->speckle_px > cfg->hole_px ? cfg->speckle_px : cfg->hole_px;
-  if (px == 0) return 0;
-  return px <= 4 ? 1 : 2;
-}
-
 int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_len, char* warning,
                       size_t warning_len) {
   if (warning && warning_len) warning[0] = '\0';
@@ -148,25 +131,22 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
     snprintf(why, why_len, "CONFIG has %u cameras, this node has %d", cfg->camera_count, VC_NODE_CAMS);
     return -EINVAL;
   }
-  vc_camera_model models[VC_NODE_CAMS];
   for (int c = 0; c < VC_NODE_CAMS; c++) {
-    const vc_config_camera* cc = &cfg->cameras[c];
+    const vc_camera* cc = &cfg->cameras[c];
     if ((int)cc->width != n->cams[c].width || (int)cc->height != n->cams[c].height) {
       snprintf(why, why_len, "CONFIG camera %d is %ux%u, the camera delivers %dx%d", c, cc->width,
                cc->height, n->cams[c].width, n->cams[c].height);
       return -EINVAL;
     }
-    to_camera_model(cc, &models[c]);
     const char* bad = NULL;
-    if (vc_camera_check(&models[c], &bad) < 0) {
+    if (vc_camera_check(cc, &bad) < 0) {
       snprintf(why, why_len, "CONFIG camera %d: %s", c, bad ? bad : "invalid");
       return -EINVAL;
     }
   }
-  vc_voxel_grid grid = {{cfg->min_m[0], cfg->min_m[1], cfg->min_m[2]}, cfg->voxel_m,
-                        (int)cfg->nx, (int)cfg->ny, (int)cfg->nz};
+  const vc_voxel_grid* grid = &cfg->grid;
   const char* bad = NULL;
-  if (vc_grid_check(&grid, &bad) < 0) {
+  if (vc_grid_check(grid, &bad) < 0) {
     snprintf(why, why_len, "CONFIG grid: %s", bad ? bad : "invalid");
     return -EINVAL;
   }
@@ -180,19 +160,24 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
     snprintf(why, why_len, "CONFIG thresholds: %s", bad ? bad : "invalid");
     return -EINVAL;
   }
+  if (cfg->cleanup_radius_px > VC_CLEANUP_MAX_RADIUS) { /* the decoder checks it too */
+    snprintf(why, why_len, "CONFIG cleanup_radius_px %u: this edge runs 0..%d", cfg->cleanup_radius_px,
+             VC_CLEANUP_MAX_RADIUS);
+    return -EINVAL;
+  }
 
-  vc_carver* carver = vc_carver_new(&grid, &models[0], &models[1]);
+  vc_carver* carver = vc_carver_new(grid, &cfg->cameras[0], &cfg->cameras[1]);
   if (!carver) {
-    snprintf(why, why_len, "CONFIG: cannot build the carver for a %dx%dx%d grid: %s", grid.nx, grid.ny,
-             grid.nz, strerror(errno));
+    snprintf(why, why_len, "CONFIG: cannot build the carver for a %ux%ux%u grid: %s", grid->nx, grid->ny,
+             grid->nz, strerror(errno));
     return errno == ENOMEM ? -ENOMEM : -EINVAL;
   }
   size_t bits_bytes = vc_carver_bitset_bytes(carver);
   size_t msgcap = VC_PROTO_HEADER_SIZE + 64 + vc_rle_max_encoded_size(vc_carver_voxels(carver));
   uint8_t* bitset = malloc(bits_bytes);
   uint8_t* msgbuf = malloc(msgcap);
-  size_t scratch_len = vc_cleanup_scratch_size(n->cams[0].width > n->cams[1].width ? n->cams[0].width
-                                                                                    : n->cams[1].width);
+  size_t scratch_len = vc_cleanup_radius_scratch_size(
+      n->cams[0].width > n->cams[1].width ? n->cams[0].width : n->cams[1].width, (int)cfg->cleanup_radius_px);
   uint8_t* scratch = malloc(scratch_len);
   uint8_t* masks[VC_NODE_CAMS] = {NULL, NULL};
   for (int c = 0; c < VC_NODE_CAMS; c++)
@@ -227,7 +212,7 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
   n->cfg = *cfg;
   n->have_cfg = true;
   n->sub = sub;
-  n->cleanup_iterations = cleanup_passes(cfg);
+  n->cleanup_radius = (int)cfg->cleanup_radius_px;
   if (n->bg_learnt) {
     /* A learnt background survives a new CONFIG: the cameras' sizes were checked above. */
     for (int c = 0; c < VC_NODE_CAMS; c++) vc_bgmodel_set_params(n->bg[c], &n->sub);
@@ -457,8 +442,8 @@ int vc_node_process_frame(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
   }
   uint64_t t1 = now_ns();
   for (int c = 0; c < VC_NODE_CAMS; c++) {
-    int rc = vc_cleanup(n->masks[c], n->cams[c].width, n->cams[c].height, n->cleanup_iterations,
-                        n->scratch, n->scratch_len);
+    int rc = vc_cleanup_radius(n->masks[c], n->cams[c].width, n->cams[c].height, n->cleanup_radius,
+                               n->scratch, n->scratch_len);
     if (rc < 0) return rc;
   }
   uint64_t t2 = now_ns();

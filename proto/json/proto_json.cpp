@@ -87,16 +87,16 @@ Json hello_json(const vc_hello& m) {
 Json config_json(const vc_config& m) {
   Json j;
   j["grid_id"] = m.grid_id;
-  j["nx"] = m.nx;
-  j["ny"] = m.ny;
-  j["nz"] = m.nz;
-  j["min_m"] = array(m.min_m);
-  j["voxel_m"] = m.voxel_m;
+  j["nx"] = m.grid.nx;
+  j["ny"] = m.grid.ny;
+  j["nz"] = m.grid.nz;
+  j["min_m"] = array(m.grid.min_m);
+  j["voxel_m"] = m.grid.voxel_m;
   j["t_upper"] = m.t_upper;
   j["t_lower"] = m.t_lower;
   j["shadow_angle_deg"] = m.shadow_angle_deg;
-  j["speckle_px"] = m.speckle_px;
-  j["hole_px"] = m.hole_px;
+  j["cleanup_radius_px"] = m.cleanup_radius_px;
+  j["reserved"] = m.reserved;
   j["background_frames"] = m.background_frames;
   j["feature_role"] = m.feature_role;
   put_name(j, "feature_role", vc_role_name(m.feature_role));
@@ -104,7 +104,7 @@ Json config_json(const vc_config& m) {
   j["camera_record_size"] = m.camera_record_size;
   Json cams = Json::array();
   for (unsigned i = 0; i < m.camera_count && i < VC_PROTO_MAX_CAMERAS; i++) {
-    const vc_config_camera& c = m.cameras[i];
+    const vc_camera& c = m.cameras[i];
     Json cj;
     cj["width"] = c.width;
     cj["height"] = c.height;

@@ -83,16 +83,16 @@ static int parse_config(reader* r, vc_config* m) {
   if (rc) return rc;
   const uint8_t* p = r->p;
   m->grid_id = vc_ld32(p + 0);
-  m->nx = vc_ld32(p + 4);
-  m->ny = vc_ld32(p + 8);
-  m->nz = vc_ld32(p + 12);
-  for (int i = 0; i < 3; i++) m->min_m[i] = vc_ldf64(p + 16 + 8 * i);
-  m->voxel_m = vc_ldf64(p + 40);
+  m->grid.nx = vc_ld32(p + 4);
+  m->grid.ny = vc_ld32(p + 8);
+  m->grid.nz = vc_ld32(p + 12);
+  for (int i = 0; i < 3; i++) m->grid.min_m[i] = vc_ldf64(p + 16 + 8 * i);
+  m->grid.voxel_m = vc_ldf64(p + 40);
   m->t_upper = vc_ldf32(p + 48);
   m->t_lower = vc_ldf32(p + 52);
   m->shadow_angle_deg = vc_ldf32(p + 56);
-  m->speckle_px = vc_ld32(p + 60);
-  m->hole_px = vc_ld32(p + 64);
+  m->cleanup_radius_px = vc_ld32(p + 60);
+  m->reserved = vc_ld32(p + 64);
   m->background_frames = vc_ld32(p + 68);
   m->feature_role = vc_ld16(p + 72);
   m->camera_count = vc_ld16(p + 74);
@@ -105,7 +105,7 @@ static int parse_config(reader* r, vc_config* m) {
   if ((rc = need(r, (size_t)m->camera_count * rec, "cameras"))) return rc;
   for (unsigned i = 0; i < m->camera_count; i++) {
     const uint8_t* c = r->p + r->off;
-    vc_config_camera* cam = &m->cameras[i];
+    vc_camera* cam = &m->cameras[i];
     cam->width = vc_ld32(c + 0);
     cam->height = vc_ld32(c + 4);
     for (int k = 0; k < 9; k++) cam->K[k] = vc_ldf64(c + 8 + 8 * k);

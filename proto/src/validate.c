@@ -46,15 +46,15 @@ int vc_check_config(const vc_config* m, vc_proto_diag* diag) {
   if (m->camera_count > VC_PROTO_MAX_CAMERAS)
     return vc_diag_set(diag, VC_PROTO_ELIMIT, "CONFIG: camera_count %u > %d", m->camera_count,
                        VC_PROTO_MAX_CAMERAS);
-  if (m->nx == 0 || m->ny == 0 || m->nz == 0)
-    return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: grid %ux%ux%u has no voxels", m->nx, m->ny, m->nz);
-  uint64_t xy = (uint64_t)m->nx * m->ny; /* < 2^64: two u32 */
-  if (xy > VC_PROTO_MAX_VOXELS || xy * m->nz > VC_PROTO_MAX_VOXELS)
-    return vc_diag_set(diag, VC_PROTO_ELIMIT, "CONFIG: grid %ux%ux%u has more than %llu voxels", m->nx, m->ny,
-                       m->nz, (unsigned long long)VC_PROTO_MAX_VOXELS);
-  if (!all_finite(m->min_m, 3)) return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: min_m is not finite");
-  if (!(isfinite(m->voxel_m) && m->voxel_m > 0))
-    return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: voxel_m %g is not > 0", m->voxel_m);
+  if (m->grid.nx == 0 || m->grid.ny == 0 || m->grid.nz == 0)
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: grid %ux%ux%u has no voxels", m->grid.nx, m->grid.ny, m->grid.nz);
+  uint64_t xy = (uint64_t)m->grid.nx * m->grid.ny; /* < 2^64: two u32 */
+  if (xy > VC_PROTO_MAX_VOXELS || xy * m->grid.nz > VC_PROTO_MAX_VOXELS)
+    return vc_diag_set(diag, VC_PROTO_ELIMIT, "CONFIG: grid %ux%ux%u has more than %llu voxels", m->grid.nx, m->grid.ny,
+                       m->grid.nz, (unsigned long long)VC_PROTO_MAX_VOXELS);
+  if (!all_finite(m->grid.min_m, 3)) return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: min_m is not finite");
+  if (!(isfinite(m->grid.voxel_m) && m->grid.voxel_m > 0))
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: voxel_m %g is not > 0", m->grid.voxel_m);
   if (!(isfinite(m->t_upper) && isfinite(m->t_lower) && m->t_lower >= 0 && m->t_lower <= m->t_upper))
     return vc_diag_set(diag, VC_PROTO_EFIELD,
                        "CONFIG: need 0 <= t_lower <= t_upper, got t_lower %g t_upper %g", (double)m->t_lower,
@@ -62,11 +62,15 @@ int vc_check_config(const vc_config* m, vc_proto_diag* diag) {
   if (!(m->shadow_angle_deg >= 0 && m->shadow_angle_deg <= 180))
     return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: shadow_angle_deg %g is not in [0, 180]",
                        (double)m->shadow_angle_deg);
+  if (m->cleanup_radius_px > VC_CLEANUP_RADIUS_MAX_PX)
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: cleanup_radius_px %u is not in [0, %d]",
+                       m->cleanup_radius_px, VC_CLEANUP_RADIUS_MAX_PX);
+  if (m->reserved != 0) return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: reserved is %u, not 0", m->reserved);
   if (m->background_frames == 0) return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: background_frames 0");
   if (vc_role_name(m->feature_role) == NULL)
     return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: unknown feature_role %u", m->feature_role);
   for (unsigned i = 0; i < m->camera_count; i++) {
-    const vc_config_camera* c = &m->cameras[i];
+    const vc_camera* c = &m->cameras[i];
     if (c->width == 0 || c->height == 0)
       return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: cameras[%u] has size %ux%u", i, c->width, c->height);
     if (!all_finite(c->K, 9) || !all_finite(c->dist, 5) || !all_finite(c->R_cam_from_world, 9) ||

@@ -69,7 +69,7 @@ TEST(Layout, HeartbeatByteByByteAsInSpec) {
   m->hdr.flags = 0;
   m->u.heartbeat = {0x3132333435363738ull, VC_STATE_RUNNING};
   const Bytes b = encode(*m);
-  Bytes expected = {'V',  'X',  'C',  'P',  1,    0,    9,    0,    0,    0,    0x03,
+  Bytes expected = {'V',  'X',  'C',  'P',  2,    0,    9,    0,    0,    0,    0x03,
                     0x02, 12,   0,    0,    0,    0x18, 0x17, 0x16, 0x15, 0x14, 0x13,
                     0x12, 0x11, 0x28, 0x27, 0x26, 0x25, 0x24, 0x23, 0x22, 0x21};
   const Bytes payload = {0x38, 0x37, 0x36, 0x35, 0x34, 0x33, 0x32, 0x31, 5, 0, 0, 0};
@@ -114,9 +114,9 @@ std::unique_ptr<vc_msg> sample(uint16_t type, const Bytes& rle, const std::strin
       break;
     case VC_MSG_CONFIG: {
       vc_config& c = m->u.config;
-      c.grid_id = 9, c.nx = 64, c.ny = 48, c.nz = 100;
-      c.min_m[0] = -0.64, c.min_m[1] = -0.48, c.min_m[2] = 0, c.voxel_m = 0.02;
-      c.t_upper = 4, c.t_lower = 2, c.shadow_angle_deg = 5, c.speckle_px = 9, c.hole_px = 0;
+      c.grid_id = 9, c.grid.nx = 64, c.grid.ny = 48, c.grid.nz = 100;
+      c.grid.min_m[0] = -0.64, c.grid.min_m[1] = -0.48, c.grid.min_m[2] = 0, c.grid.voxel_m = 0.02;
+      c.t_upper = 4, c.t_lower = 2, c.shadow_angle_deg = 5, c.cleanup_radius_px = 3;
       c.background_frames = 25, c.feature_role = VC_ROLE_NONE, c.camera_count = 1;
       c.cameras[0].width = 320, c.cameras[0].height = 240;
       for (int i = 0; i < 9; i++) c.cameras[0].K[i] = c.cameras[0].R_cam_from_world[i] = i * 0.5 - 1;
@@ -194,7 +194,7 @@ TEST(RoundTrip, EveryTypeDecodesToWhatWasEncoded) {
         break;
       case VC_MSG_CONFIG:
         EXPECT_EQ(r.u.config.cameras[0].t_cam_from_world[0], 1.0 / 3);
-        EXPECT_EQ(r.u.config.min_m[0], -0.64);
+        EXPECT_EQ(r.u.config.grid.min_m[0], -0.64);
         EXPECT_EQ(r.u.config.camera_record_size, 216);
         break;
       case VC_MSG_HULL:
@@ -268,10 +268,10 @@ TEST(Encoders, RefuseInvalidBodiesWithTheDecodersCode) {
   hello->u.hello.camera_count = 9;
   expect_refused(*hello, VC_PROTO_ELIMIT);
   auto config = sample(VC_MSG_CONFIG, rle, "");
-  config->u.config.voxel_m = -0.02;
+  config->u.config.grid.voxel_m = -0.02;
   expect_refused(*config, VC_PROTO_EFIELD);
   config = sample(VC_MSG_CONFIG, rle, "");
-  config->u.config.nx = config->u.config.ny = config->u.config.nz = 1024;
+  config->u.config.grid.nx = config->u.config.grid.ny = config->u.config.grid.nz = 1024;
   expect_refused(*config, VC_PROTO_ELIMIT);
   config = sample(VC_MSG_CONFIG, rle, "");
   config->u.config.cameras[0].K[0] = NAN;
@@ -281,6 +281,12 @@ TEST(Encoders, RefuseInvalidBodiesWithTheDecodersCode) {
   expect_refused(*config, VC_PROTO_EFIELD);
   config = sample(VC_MSG_CONFIG, rle, "");
   config->u.config.feature_role = 2;
+  expect_refused(*config, VC_PROTO_EFIELD);
+  config = sample(VC_MSG_CONFIG, rle, "");
+  config->u.config.cleanup_radius_px = VC_CLEANUP_RADIUS_MAX_PX + 1;  // more than the edge runs
+  expect_refused(*config, VC_PROTO_EFIELD);
+  config = sample(VC_MSG_CONFIG, rle, "");
+  config->u.config.reserved = 1;
   expect_refused(*config, VC_PROTO_EFIELD);
   auto hull = sample(VC_MSG_HULL, rle, "");
   hull->u.hull.occupied_count++;

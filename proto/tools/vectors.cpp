@@ -129,16 +129,15 @@ vc_msg config_msg() {
   vc_msg m = make(VC_MSG_CONFIG);
   vc_config& c = m.u.config;
   c.grid_id = 7;
-  c.nx = c.ny = c.nz = 128;
-  c.min_m[0] = -1.28;
-  c.min_m[1] = -1.28;
-  c.min_m[2] = 0.0;
-  c.voxel_m = 0.02;
+  c.grid.nx = c.grid.ny = c.grid.nz = 128;
+  c.grid.min_m[0] = -1.28;
+  c.grid.min_m[1] = -1.28;
+  c.grid.min_m[2] = 0.0;
+  c.grid.voxel_m = 0.02;
   c.t_upper = 3.5f;
   c.t_lower = 1.5f;
   c.shadow_angle_deg = 6.0f;
-  c.speckle_px = 20;
-  c.hole_px = 50;
+  c.cleanup_radius_px = 3;
   c.background_frames = 30;
   c.feature_role = VC_ROLE_FRONT;
   c.camera_count = 2;
@@ -151,7 +150,7 @@ vc_msg config_msg() {
   const double R1[9] = {0.8660254037844387, 0.5, 0, 0, 0, -1, -0.5, 0.8660254037844387, 0};
   const double t1[3] = {0, 1.25, 3};
   for (int i = 0; i < 2; i++) {
-    vc_config_camera& cam = c.cameras[i];
+    vc_camera& cam = c.cameras[i];
     cam.width = 640;
     cam.height = 480;
     std::copy(K, K + 9, cam.K);
@@ -355,7 +354,7 @@ std::vector<Vector> build_streams() {
   }
   {  // Evolution: an unknown type is skipped, not fatal.
     Vector& u = add("unknown_type",
-                    "A message of type 77 (unknown to 1.0) with valid CRCs: reported as unknown and "
+                    "A message of type 77 (unknown to 2.0) with valid CRCs: reported as unknown and "
                     "skipped; the HEARTBEAT after it decodes");
     vc_msg m = make(77, 5, 6);
     m.known = false;
@@ -368,9 +367,9 @@ std::vector<Vector> build_streams() {
     u.message(m, b);
     u.message(heartbeat_msg());
   }
-  {  // Evolution: a newer minor version appends fields; a 1.0 receiver ignores them.
+  {  // Evolution: a newer minor version appends fields; a 2.0 receiver ignores them.
     Vector& n = add("newer_minor",
-                    "HELLO 1.1 with 16-byte camera records and 6 appended bytes, HULL 1.2 with 3 "
+                    "HELLO 2.1 with 16-byte camera records and 6 appended bytes, HULL 2.2 with 3 "
                     "appended bytes: decoded, the unknown bytes counted in ignored_bytes");
     vc_msg hello = hello_msg();
     Bytes p = payload_of(encode(hello));
@@ -381,14 +380,14 @@ std::vector<Vector> build_streams() {
       q.insert(q.end(), {0xAA, 0xBB, 0xCC, 0xDD});
     }
     q.insert(q.end(), {1, 2, 3, 4, 5, 6});
-    hello.hdr.version_major = 1;
+    hello.hdr.version_major = VC_PROTO_VERSION_MAJOR;
     hello.hdr.version_minor = 1;
     hello.u.hello.camera_record_size = 16;
     n.message(hello, frame(hello.hdr, q), 2 * 4 + 6);
     vc_msg hull = hull_msg(small);
     Bytes hp = payload_of(encode(hull));
     hp.insert(hp.end(), {0xEE, 0xEE, 0xEE});
-    hull.hdr.version_major = 1;
+    hull.hdr.version_major = VC_PROTO_VERSION_MAJOR;
     hull.hdr.version_minor = 2;
     n.message(hull, frame(hull.hdr, hp), 3);
   }
@@ -403,9 +402,9 @@ std::vector<Vector> build_streams() {
     r.error(r.raw(Bytes(http.begin(), http.end())), VC_PROTO_EMAGIC);
   }
   {
-    Vector& r = add("bad_major", "A HEARTBEAT from protocol version 2.0: fatal VC_PROTO_EVERSION");
+    Vector& r = add("bad_major", "A HEARTBEAT from protocol version 3.0: fatal VC_PROTO_EVERSION");
     vc_msg m = heartbeat_msg();
-    m.hdr.version_major = 2;
+    m.hdr.version_major = VC_PROTO_VERSION_MAJOR + 1;
     m.hdr.version_minor = 0;
     m.hdr.type = VC_MSG_HEARTBEAT;
     r.error(r.raw(frame(m.hdr, payload_of(encode(heartbeat_msg())))), VC_PROTO_EVERSION);
@@ -485,7 +484,7 @@ std::vector<Vector> build_streams() {
   }
   {
     Vector& r = add("trailing_bytes",
-                    "A 1.0 HEARTBEAT with 4 bytes after its last field: VC_PROTO_ETRAILING; the "
+                    "A 2.0 HEARTBEAT with 4 bytes after its last field: VC_PROTO_ETRAILING; the "
                     "STOP after it decodes");
     r.rejected(patched(heartbeat_msg(),
                        [](Bytes& p) {
@@ -545,6 +544,11 @@ std::vector<Vector> build_streams() {
   {
     Vector& r = add("bad_feature_state", "A FEATURES with state 7 (undefined): VC_PROTO_EFIELD");
     r.rejected(patched(features_msg(), [](Bytes& p) { st16(p.data() + 6 + 2, 7); }), VC_PROTO_EFIELD);
+  }
+  {
+    Vector& r = add("bad_cleanup_radius",
+                    "A CONFIG with cleanup_radius_px 9 (the edge runs 0..8): VC_PROTO_EFIELD");
+    r.rejected(patched(config_msg(), [](Bytes& p) { st32(p.data() + 60, 9); }), VC_PROTO_EFIELD);
   }
   {
     Vector& r = add("bad_utf8", "An ERROR whose text is not UTF-8 (0xc3 0x28): VC_PROTO_EFIELD");

@@ -99,7 +99,7 @@ struct EdgePipeline {
   vc_subtract_stats sub_stats[2]{};
   vc_carve_stats carve_stats{};
 
-  EdgePipeline(int width, int height, const vc_voxel_grid& grid, const vc_camera_model cams[2])
+  EdgePipeline(int width, int height, const vc_voxel_grid& grid, const vc_camera cams[2])
       : w(width), h(height) {
     for (int c = 0; c < 2; c++) {
       bg[c].reset(vc_bgmodel_new(w, h));
@@ -141,16 +141,16 @@ struct LutCarver {
   uint64_t nvox;
   static constexpr uint32_t kUnseen = UINT32_MAX;
 
-  LutCarver(const vc_voxel_grid& g, const vc_camera_model cams[2]) {
+  LutCarver(const vc_voxel_grid& g, const vc_camera cams[2]) {
     nvox = uint64_t(g.nx) * g.ny * g.nz;
     for (int c = 0; c < 2; c++) {
       lut[c].resize(nvox);
       size_t n = 0;
-      for (int k = 0; k < g.nz; k++)
-        for (int j = 0; j < g.ny; j++)
-          for (int i = 0; i < g.nx; i++, n++) {
-            double p[3] = {g.min[0] + (i + 0.5) * g.voxel_m, g.min[1] + (j + 0.5) * g.voxel_m,
-                           g.min[2] + (k + 0.5) * g.voxel_m};
+      for (uint32_t k = 0; k < g.nz; k++)
+        for (uint32_t j = 0; j < g.ny; j++)
+          for (uint32_t i = 0; i < g.nx; i++, n++) {
+            double p[3] = {g.min_m[0] + (i + 0.5) * g.voxel_m, g.min_m[1] + (j + 0.5) * g.voxel_m,
+                           g.min_m[2] + (k + 0.5) * g.voxel_m};
             int x, y;
             lut[c][n] = vc_camera_project(&cams[c], p, &x, &y) ? uint32_t(y) * uint32_t(cams[c].width) + uint32_t(x)
                                                                : kUnseen;
@@ -257,7 +257,7 @@ json parse_callgrind_dir(const fs::path& dir) {
 
 json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode, const std::string& frames_file) {
   const EdgeScene scene(o.width, o.height, 1);  // cameras only: nothing is rendered here
-  const vc_camera_model cams[2] = {scene.camera_model(0), scene.camera_model(1)};
+  const vc_camera cams[2] = {scene.camera_model(0), scene.camera_model(1)};
   const vc_voxel_grid grid = EdgeScene::grid(o.grid);
   FrameReader reader(frames_file, frame_bytes(o));
   std::vector<uint8_t> frame[2];
@@ -337,7 +337,7 @@ json run_edge_bench(const EdgeBenchOptions& o) {
   std::string why;
   if (!o.valid(&why)) throw std::invalid_argument(why);
   const EdgeScene scene(o.width, o.height, 20240611);
-  const vc_camera_model cams[2] = {scene.camera_model(0), scene.camera_model(1)};
+  const vc_camera cams[2] = {scene.camera_model(0), scene.camera_model(1)};
   const vc_voxel_grid grid = EdgeScene::grid(o.grid);
   const double pixels = 2.0 * o.width * o.height;
 

@@ -7,7 +7,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "voxcap/edge/rig_models.hpp"
+#include "voxcap/rig/c_models.hpp"
 
 namespace vc::bench {
 namespace {
@@ -83,17 +83,17 @@ void EdgeScene::prepare_rays(int c) const {
     }
 }
 
-vc_camera_model EdgeScene::camera_model(int c) const {
-  return vc::edge::camera_model(cams_[c]);
+vc_camera EdgeScene::camera_model(int c) const {
+  return vc::rig::to_c_camera(cams_[c]);
 }
 
 vc_voxel_grid EdgeScene::grid(int n) {
   vc_voxel_grid g{};
-  g.min[0] = -1.0;
-  g.min[1] = -1.0;
-  g.min[2] = 0.0;
+  g.min_m[0] = -1.0;
+  g.min_m[1] = -1.0;
+  g.min_m[2] = 0.0;
   g.voxel_m = 2.0 / n;
-  g.nx = g.ny = g.nz = n;
+  g.nx = g.ny = g.nz = static_cast<uint32_t>(n);
   return g;
 }
 

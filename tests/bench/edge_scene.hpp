@@ -29,7 +29,7 @@ class EdgeScene {
   int width() const { return width_; }
   int height() const { return height_; }
   const vc::rig::Camera& camera(int c) const { return cams_[c]; }
-  vc_camera_model camera_model(int c) const;
+  vc_camera camera_model(int c) const;
   // The capture volume [-1, 1] x [-1, 1] x [0, 2] m as an n^3 grid.
   static vc_voxel_grid grid(int n);
 

@@ -54,12 +54,13 @@ struct vc_bgmodel {
 
 void vc_subtract_params_default(vc_subtract_params *params) {
   if (params == NULL) return;
-  params->t_upper = 10.0;
-  params->t_lower = 3.0;
-  params->cos2_angular = 0.98907380036690284; /* cos^2(6 degrees) */
-  params->shadow_min_gain = 0.25;
-  params->shadow_max_gain = 1.0;
-  params->sigma_floor = 1.0;
+  const double angle = VC_SUBTRACT_SHADOW_ANGLE_DEG * (acos(-1.0) / 180.0);
+  params->t_upper = VC_SUBTRACT_T_UPPER;
+  params->t_lower = VC_SUBTRACT_T_LOWER;
+  params->cos2_angular = cos(angle) * cos(angle);
+  params->shadow_min_gain = VC_SUBTRACT_SHADOW_MIN_GAIN;
+  params->shadow_max_gain = VC_SUBTRACT_SHADOW_MAX_GAIN;
+  params->sigma_floor = VC_SUBTRACT_SIGMA_FLOOR;
 }
 
 int vc_subtract_params_check(const vc_subtract_params *p, const char **why) {

@@ -66,8 +66,15 @@ typedef struct cam_frame {
   uint8_t *any, *full; /* tw*th per-tile flags (scratch) */
 } cam_frame;
 
+/* The grid as the loops index it: int dimensions (checked <= 4096 each by vc_grid_check). */
+typedef struct grid_i {
+  double min[3];
+  double voxel_m;
+  int nx, ny, nz;
+} grid_i;
+
 struct vc_carver {
-  vc_voxel_grid grid;
+  grid_i grid;
   int W[2], H[2];
   int tbx, tby, tbz; /* top blocks per axis */
   node *top, *mid, *leaf;   /* [ntop], [8*ntop], [64*ntop] */
@@ -84,7 +91,7 @@ struct vc_carver {
 
 /* ---- configuration ---------------------------------------------------------------------------- */
 
-int vc_camera_check(const vc_camera_model *c, const char **why) {
+int vc_camera_check(const vc_camera *c, const char **why) {
   const char *bad = NULL;
   if (c == NULL)
     bad = "camera is NULL";
@@ -98,16 +105,16 @@ int vc_camera_check(const vc_camera_model *c, const char **why) {
     for (int i = 0; i < 5; i++)
       if (!isfinite(c->dist[i])) bad = "distortion coefficients must be finite";
     for (int i = 0; i < 9; i++)
-      if (!isfinite(c->R[i])) bad = "R must be finite";
+      if (!isfinite(c->R_cam_from_world[i])) bad = "R must be finite";
     for (int i = 0; i < 3; i++)
-      if (!isfinite(c->t[i])) bad = "t must be finite";
+      if (!isfinite(c->t_cam_from_world[i])) bad = "t must be finite";
   }
   if (bad == NULL) {
     /* R must be a rotation: R R^T = I within 1e-6. */
     for (int a = 0; a < 3 && bad == NULL; a++)
       for (int b = 0; b < 3; b++) {
         double d = 0.0;
-        for (int k = 0; k < 3; k++) d += c->R[3 * a + k] * c->R[3 * b + k];
+        for (int k = 0; k < 3; k++) d += c->R_cam_from_world[3 * a + k] * c->R_cam_from_world[3 * b + k];
         if (fabs(d - (a == b ? 1.0 : 0.0)) > 1e-6) {
           bad = "R must be a rotation matrix";
           break;
@@ -124,7 +131,7 @@ int vc_grid_check(const vc_voxel_grid *g, const char **why) {
     bad = "grid is NULL";
   else if (!(g->voxel_m > 0.0 && isfinite(g->voxel_m)))
     bad = "voxel size must be positive";
-  else if (!isfinite(g->min[0]) || !isfinite(g->min[1]) || !isfinite(g->min[2]))
+  else if (!isfinite(g->min_m[0]) || !isfinite(g->min_m[1]) || !isfinite(g->min_m[2]))
     bad = "grid min corner must be finite";
   else if (g->nx < 1 || g->ny < 1 || g->nz < 1 || g->nx > 4096 || g->ny > 4096 || g->nz > 4096)
     bad = "grid dimensions must be 1..4096";
@@ -135,11 +142,11 @@ int vc_grid_check(const vc_voxel_grid *g, const char **why) {
 }
 
 /* OpenCV's projectPoints model (modules/calib3d, cvProjectPoints2Internal) for one point. */
-int vc_camera_project(const vc_camera_model *c, const double p[3], int *px, int *py) {
-  const double *R = c->R;
-  double X = R[0] * p[0] + R[1] * p[1] + R[2] * p[2] + c->t[0];
-  double Y = R[3] * p[0] + R[4] * p[1] + R[5] * p[2] + c->t[1];
-  double Z = R[6] * p[0] + R[7] * p[1] + R[8] * p[2] + c->t[2];
+int vc_camera_project(const vc_camera *c, const double p[3], int *px, int *py) {
+  const double *R = c->R_cam_from_world, *t = c->t_cam_from_world;
+  double X = R[0] * p[0] + R[1] * p[1] + R[2] * p[2] + t[0];
+  double Y = R[3] * p[0] + R[4] * p[1] + R[5] * p[2] + t[1];
+  double Z = R[6] * p[0] + R[7] * p[1] + R[8] * p[2] + t[2];
   if (!(Z > 0.0)) return 0;
   double z = 1.0 / Z;
   double x = X * z, y = Y * z;
@@ -228,7 +235,7 @@ static void node_set(node *n, const bsum *b) {
   if (n->flags & (F_NONE0 | F_NONE1)) n->flags |= F_SKIP;
 }
 
-static void voxel_centre(const vc_voxel_grid *g, int i, int j, int k, double p[3]) {
+static void voxel_centre(const grid_i *g, int i, int j, int k, double p[3]) {
   p[0] = g->min[0] + ((double)i + 0.5) * g->voxel_m;
   p[1] = g->min[1] + ((double)j + 0.5) * g->voxel_m;
   p[2] = g->min[2] + ((double)k + 0.5) * g->voxel_m;
@@ -243,9 +250,9 @@ typedef struct leaf_proj {
 
 /* Builds one leaf at voxel origin (i0, j0, k0): its node, and its table when both cameras see it.
  * Returns 0 or -ENOMEM. */
-static int build_leaf(vc_carver *cv, const vc_camera_model *cam[2], int i0, int j0, int k0,
+static int build_leaf(vc_carver *cv, const vc_camera *cam[2], int i0, int j0, int k0,
                       size_t li, bsum *out, size_t *tab_cap) {
-  const vc_voxel_grid *g = &cv->grid;
+  const grid_i *g = &cv->grid;
   leaf_proj lp;
   memset(lp.seen, 0, sizeof(lp.seen));
   lp.in_grid = 0;
@@ -349,8 +356,8 @@ static void frame_free(cam_frame *f) {
   free(f->full);
 }
 
-vc_carver *vc_carver_new(const vc_voxel_grid *grid, const vc_camera_model *cam0,
-                         const vc_camera_model *cam1) {
+vc_carver *vc_carver_new(const vc_voxel_grid *grid, const vc_camera *cam0,
+                         const vc_camera *cam1) {
   int err = -EINVAL;
   vc_carver *cv = NULL;
   if (vc_grid_check(grid, NULL) != 0 || vc_camera_check(cam0, NULL) != 0 ||
@@ -359,17 +366,18 @@ vc_carver *vc_carver_new(const vc_voxel_grid *grid, const vc_camera_model *cam0,
   err = -ENOMEM;
   cv = calloc(1, sizeof(*cv));
   if (cv == NULL) goto err;
-  cv->grid = *grid;
-  const vc_camera_model *cam[2] = {cam0, cam1};
+  cv->grid = (grid_i){{grid->min_m[0], grid->min_m[1], grid->min_m[2]}, grid->voxel_m, (int)grid->nx,
+                      (int)grid->ny, (int)grid->nz};
+  const vc_camera *cam[2] = {cam0, cam1};
   for (int c = 0; c < 2; c++) {
-    cv->W[c] = cam[c]->width;
-    cv->H[c] = cam[c]->height;
+    cv->W[c] = (int)cam[c]->width;
+    cv->H[c] = (int)cam[c]->height;
     if (frame_alloc(&cv->fr[c], cv->W[c], cv->H[c]) != 0) goto err;
   }
   cv->nvox = (uint64_t)grid->nx * (uint64_t)grid->ny * (uint64_t)grid->nz;
-  cv->tbx = (grid->nx + TOP - 1) / TOP;
-  cv->tby = (grid->ny + TOP - 1) / TOP;
-  cv->tbz = (grid->nz + TOP - 1) / TOP;
+  cv->tbx = (cv->grid.nx + TOP - 1) / TOP;
+  cv->tby = (cv->grid.ny + TOP - 1) / TOP;
+  cv->tbz = (cv->grid.nz + TOP - 1) / TOP;
   size_t ntop = (size_t)cv->tbx * (size_t)cv->tby * (size_t)cv->tbz;
   cv->top = calloc(ntop, sizeof(node));
   cv->mid = calloc(ntop * 8, sizeof(node));
@@ -532,7 +540,7 @@ static void set_bits(uint8_t *bits, uint64_t pos, unsigned len) {
 }
 
 /* Fills the voxels [i0, i0+s) x [j0, j0+s) x [k0, k0+s) clipped to the grid. */
-static uint64_t fill_block(const vc_voxel_grid *g, uint8_t *bits, int i0, int j0, int k0, int s) {
+static uint64_t fill_block(const grid_i *g, uint8_t *bits, int i0, int j0, int k0, int s) {
   int i1 = imin(g->nx, i0 + s), j1 = imin(g->ny, j0 + s), k1 = imin(g->nz, k0 + s);
   for (int k = k0; k < k1; k++)
     for (int j = j0; j < j1; j++)
@@ -561,7 +569,7 @@ static inline uint64_t leaf_lookup_wide(const uint8_t *mask, const uint32_t *e) 
 
 /* ORs a leaf's 64 bits (x + 4y + 16z) into the bitset at voxel origin (i0, j0, k0). Bits of voxels
  * outside the grid are zero, so no byte past a row's last voxel is written. */
-static void write_leaf(const vc_voxel_grid *g, uint8_t *bits, int i0, int j0, int k0, uint64_t b) {
+static void write_leaf(const grid_i *g, uint8_t *bits, int i0, int j0, int k0, uint64_t b) {
   for (int z = 0; z < LEAF; z++)
     for (int y = 0; y < LEAF; y++) {
       unsigned nib = (unsigned)(b >> (LEAF * (y + LEAF * z))) & 0xFu;
@@ -579,7 +587,7 @@ int vc_carver_run(vc_carver *cv, const uint8_t *mask0, const uint8_t *mask1, uin
   const uint8_t *mask[2] = {mask0, mask1};
   for (int c = 0; c < 2; c++) summarise(&cv->fr[c], mask[c], cv->W[c], cv->H[c]);
   memset(bitset, 0, vc_carver_bitset_bytes(cv));
-  const vc_voxel_grid *g = &cv->grid;
+  const grid_i *g = &cv->grid;
   const size_t W0 = (size_t)cv->W[0], W1 = (size_t)cv->W[1];
   uint64_t occupied = 0;
   uint32_t skipped = 0, filled = 0, tested = 0;

@@ -1,4 +1,6 @@
-/* Silhouette clean-up: binary 3x3 majority filter (see cleanup.h), in place with a 3-row window.
+/* Silhouette clean-up: binary majority filters (see cleanup.h), in place.
+ *
+ * 3x3 (vc_cleanup, and vc_cleanup_radius with radius 1), with a 3-row window:
  *
  * The filter is separable in counts: a row of vertical sums (0..3) of the rows above, at and below,
  * then each output is the sum of three neighbouring vertical sums (0..9) compared with 5. Both loops
@@ -9,6 +11,7 @@
 #include "voxcap/edge/cleanup.h"
 
 #include <errno.h>
+#include <stdint.h>
 #include <string.h>
 
 #include "dispatch.h"
@@ -82,5 +85,70 @@ int vc_cleanup(uint8_t *mask, int width, int height, int iterations, uint8_t *sc
       if (y + 1 < height) memcpy(cur, out + w, w);
     }
   }
+  return 0;
+}
+
+/* (2r+1) x (2r+1) majority, r >= 2 (cleanup.h), with running sums:
+ *   cs[x]  = foreground count of column x over rows y-r..y+r (border rows replicated), updated per
+ *            row by adding the row entering below and subtracting the row leaving above;
+ *   a sliding horizontal sum over cs (border columns replicated) gives the window count.
+ * Rows above y are already filtered in the mask, so the originals of rows y-r..y are kept in a ring
+ * of r+1 rows (0/1 bytes); rows below y are still the originals in the mask. Counts fit in 16 bits:
+ * at most 17 x 17 = 289. Not on the default path (radius 1), so plain C without a vector variant. */
+static size_t ring_offset(int width, int radius) {
+  return 2 * ((size_t)width + 2 * (size_t)radius); /* after cs[] (uint16, width + 2r) */
+}
+
+size_t vc_cleanup_radius_scratch_size(int width, int radius) {
+  if (width < 1 || radius < 0 || radius > VC_CLEANUP_MAX_RADIUS) return 0;
+  if (radius <= 1) return vc_cleanup_scratch_size(width);
+  return ring_offset(width, radius) + ((size_t)radius + 1) * (size_t)width;
+}
+
+int vc_cleanup_radius(uint8_t *mask, int width, int height, int radius, uint8_t *scratch,
+                      size_t scratch_len) {
+  if (radius < 0 || radius > VC_CLEANUP_MAX_RADIUS || width < 1 ||
+      scratch_len < vc_cleanup_radius_scratch_size(width, radius) ||
+      ((uintptr_t)scratch & 1u) != 0)
+    return -EINVAL;
+  if (radius <= 1) return vc_cleanup(mask, width, height, radius, scratch, scratch_len);
+  if (mask == NULL || scratch == NULL || height < 1) return -EINVAL;
+
+  const size_t w = (size_t)width;
+  const int r = radius, side = 2 * radius + 1;
+  const unsigned need = (unsigned)(side * side + 1) / 2; /* strict majority: 5 of 9, 13 of 25, ... */
+  uint16_t *cs = (uint16_t *)(void *)scratch + r;      /* cs[-r .. width-1+r] */
+  uint8_t *ring = scratch + ring_offset(width, radius); /* originals of rows y-r..y, row % (r+1) */
+#define ROW(yy) (mask + (size_t)((yy) < 0 ? 0 : (yy) >= height ? height - 1 : (yy)) * w)
+
+  for (size_t x = 0; x < w; x++) {
+    unsigned n = 0;
+    for (int dy = -r; dy <= r; dy++) n += ROW(dy)[x] != 0;
+    cs[x] = (uint16_t)n;
+  }
+  for (int y = 0; y < height; y++) {
+    uint8_t *out = mask + (size_t)y * w;
+    uint8_t *keep = ring + (size_t)(y % (r + 1)) * w;
+    for (size_t x = 0; x < w; x++) keep[x] = out[x] != 0;
+    for (int k = 1; k <= r; k++) {
+      cs[-k] = cs[0];
+      cs[width - 1 + k] = cs[width - 1];
+    }
+    unsigned s = 0;
+    for (int x = -r; x <= r; x++) s += cs[x];
+    for (int x = 0;; x++) {
+      out[x] = (uint8_t)(0u - (uint8_t)(s >= need));
+      if (x + 1 == width) break; /* cs[width + r] would be past the padding */
+      s += (unsigned)cs[x + r + 1] - (unsigned)cs[x - r];
+    }
+    if (y + 1 == height) break;
+    /* Next row's column counts: the row leaving above (an original, from the ring: rows <= y are
+     * filtered now) out, the row entering below (still original in the mask) in. */
+    const int leave = y - r < 0 ? 0 : y - r;
+    const uint8_t *old = ring + (size_t)(leave % (r + 1)) * w;
+    const uint8_t *enter = ROW(y + 1 + r);
+    for (size_t x = 0; x < w; x++) cs[x] = (uint16_t)(cs[x] - old[x] + (enter[x] != 0));
+  }
+#undef ROW
   return 0;
 }

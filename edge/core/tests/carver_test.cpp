@@ -26,16 +26,16 @@ struct CarverDeleter {
 using CarverPtr = std::unique_ptr<vc_carver, CarverDeleter>;
 
 // Pixel of every voxel centre in one camera via cv::projectPoints, or -1 when unseen.
-std::vector<int> reference_pixels(const vc_voxel_grid& g, const vc_camera_model& cam) {
+std::vector<int> reference_pixels(const vc_voxel_grid& g, const vc_camera& cam) {
   std::vector<cv::Point3d> pts;
   pts.reserve(static_cast<size_t>(g.nx) * g.ny * g.nz);
-  for (int k = 0; k < g.nz; k++)
-    for (int j = 0; j < g.ny; j++)
-      for (int i = 0; i < g.nx; i++)
-        pts.emplace_back(g.min[0] + (i + 0.5) * g.voxel_m, g.min[1] + (j + 0.5) * g.voxel_m,
-                         g.min[2] + (k + 0.5) * g.voxel_m);
-  cv::Matx33d R(cam.R), K(cam.K);
-  cv::Vec3d rvec, tvec(cam.t[0], cam.t[1], cam.t[2]);
+  for (uint32_t k = 0; k < g.nz; k++)
+    for (uint32_t j = 0; j < g.ny; j++)
+      for (uint32_t i = 0; i < g.nx; i++)
+        pts.emplace_back(g.min_m[0] + (i + 0.5) * g.voxel_m, g.min_m[1] + (j + 0.5) * g.voxel_m,
+                         g.min_m[2] + (k + 0.5) * g.voxel_m);
+  cv::Matx33d R(cam.R_cam_from_world), K(cam.K);
+  cv::Vec3d rvec, tvec(cam.t_cam_from_world[0], cam.t_cam_from_world[1], cam.t_cam_from_world[2]);
   cv::Rodrigues(R, rvec);
   std::vector<double> dist(cam.dist, cam.dist + 5);
   std::vector<cv::Point2d> uv;
@@ -60,7 +60,7 @@ std::vector<uint8_t> reference_carve(const std::vector<int>& pix0, const std::ve
 }
 
 struct Rig {
-  vc_camera_model cam[2];
+  vc_camera cam[2];
 };
 
 // Two cameras 3-4 m from the grid centre, 40-100 degrees apart, with barrel distortion.
@@ -115,15 +115,15 @@ void expect_same_bits(const std::vector<uint8_t>& got, const std::vector<uint8_t
 TEST(Camera, ProjectionMatchesOpenCV) {
   std::mt19937 rng(1);
   Rig rig = random_rig(rng, 640, 480);
-  vc_voxel_grid g{{-1.1, -0.9, 0.02}, 0.0377, 57, 49, 53};
+  vc_voxel_grid g{57, 49, 53, {-1.1, -0.9, 0.02}, 0.0377};
   for (const auto& cam : rig.cam) {
     std::vector<int> ref = reference_pixels(g, cam);
     size_t n = 0, seen = 0;
-    for (int k = 0; k < g.nz; k++)
-      for (int j = 0; j < g.ny; j++)
-        for (int i = 0; i < g.nx; i++, n++) {
-          double p[3] = {g.min[0] + (i + 0.5) * g.voxel_m, g.min[1] + (j + 0.5) * g.voxel_m,
-                         g.min[2] + (k + 0.5) * g.voxel_m};
+    for (uint32_t k = 0; k < g.nz; k++)
+      for (uint32_t j = 0; j < g.ny; j++)
+        for (uint32_t i = 0; i < g.nx; i++, n++) {
+          double p[3] = {g.min_m[0] + (i + 0.5) * g.voxel_m, g.min_m[1] + (j + 0.5) * g.voxel_m,
+                         g.min_m[2] + (k + 0.5) * g.voxel_m};
           int x = -1, y = -1;
           int in = vc_camera_project(&cam, p, &x, &y);
           ASSERT_EQ(in, ref[n] >= 0) << n;
@@ -141,17 +141,17 @@ TEST(Camera, ChecksRejectBadModels) {
   Rig rig = random_rig(rng, 64, 48);
   const char* why = nullptr;
   EXPECT_EQ(vc_camera_check(&rig.cam[0], &why), 0);
-  vc_camera_model c = rig.cam[0];
+  vc_camera c = rig.cam[0];
   c.K[1] = 0.5;
   EXPECT_EQ(vc_camera_check(&c, &why), -EINVAL);
   EXPECT_NE(why, nullptr);
   c = rig.cam[0];
-  c.R[0] *= 2;
+  c.R_cam_from_world[0] *= 2;
   EXPECT_EQ(vc_camera_check(&c, &why), -EINVAL);
   c = rig.cam[0];
   c.width = 0;
   EXPECT_EQ(vc_camera_check(&c, nullptr), -EINVAL);
-  vc_voxel_grid g{{0, 0, 0}, 0.1, 4, 4, 0};
+  vc_voxel_grid g{4, 4, 0, {0, 0, 0}, 0.1};
   EXPECT_EQ(vc_grid_check(&g, &why), -EINVAL);
   g.nz = 4;
   g.voxel_m = -1;
@@ -210,12 +210,12 @@ TEST_P(CarverVsReference, EqualsFloatReferenceVoxelForVoxel) {
 
 INSTANTIATE_TEST_SUITE_P(
     Grids, CarverVsReference,
-    ::testing::Values(GridCase{{{-1.0, -1.0, 0.0}, 2.0 / 64, 64, 64, 64}, 320, 240},
-                      GridCase{{{-1.3, -1.1, -0.2}, 0.061, 37, 29, 45}, 320, 240},  // odd sizes
-                      GridCase{{{-0.4, -0.4, 0.5}, 0.05, 16, 16, 16}, 203, 157},    // odd image
-                      GridCase{{{-3.0, -3.0, 0.0}, 0.1, 60, 60, 20}, 320, 240},     // partly unseen
-                      GridCase{{{0.0, 0.0, 1.0}, 0.1, 1, 1, 1}, 64, 48},
-                      GridCase{{{-1.0, -0.1, 0.3}, 0.02, 100, 3, 70}, 320, 240}),
+    ::testing::Values(GridCase{{64, 64, 64, {-1.0, -1.0, 0.0}, 2.0 / 64}, 320, 240},
+                      GridCase{{37, 29, 45, {-1.3, -1.1, -0.2}, 0.061}, 320, 240},  // odd sizes
+                      GridCase{{16, 16, 16, {-0.4, -0.4, 0.5}, 0.05}, 203, 157},    // odd image
+                      GridCase{{60, 60, 20, {-3.0, -3.0, 0.0}, 0.1}, 320, 240},     // partly unseen
+                      GridCase{{1, 1, 1, {0.0, 0.0, 1.0}, 0.1}, 64, 48},
+                      GridCase{{100, 3, 70, {-1.0, -0.1, 0.3}, 0.02}, 320, 240}),
     [](const auto& p) {
       const auto& g = p.param.grid;
       return std::to_string(g.nx) + "x" + std::to_string(g.ny) + "x" + std::to_string(g.nz) + "_" +
@@ -228,8 +228,8 @@ TEST(Carver, CamerasBehindAndBesideTheGridSeeNothing) {
   // Move camera 1 to look away from the grid: every voxel is behind or beside it.
   double eye[3] = {0, 0, 1}, away[3] = {10, 0, 1};
   const double dist[5] = {0, 0, 0, 0, 0};
-  vc_camera_model c1 = look_at(eye, away, 320, 240, 200, dist);
-  vc_voxel_grid g{{-3, -3, 0}, 0.1, 20, 60, 20};  // x in [-3, -1]: behind the camera
+  vc_camera c1 = look_at(eye, away, 320, 240, 200, dist);
+  vc_voxel_grid g{20, 60, 20, {-3, -3, 0}, 0.1};  // x in [-3, -1]: behind the camera
   CarverPtr cv(vc_carver_new(&g, &rig.cam[0], &c1));
   ASSERT_NE(cv, nullptr);
   EXPECT_DOUBLE_EQ(vc_carver_unseen_fraction(cv.get()), 1.0);
@@ -241,7 +241,7 @@ TEST(Carver, CamerasBehindAndBesideTheGridSeeNothing) {
 TEST(Carver, RunRejectsNullArguments) {
   std::mt19937 rng(4);
   Rig rig = random_rig(rng, 64, 48);
-  vc_voxel_grid g{{-1, -1, 0}, 0.25, 8, 8, 8};
+  vc_voxel_grid g{8, 8, 8, {-1, -1, 0}, 0.25};
   CarverPtr cv(vc_carver_new(&g, &rig.cam[0], &rig.cam[1]));
   ASSERT_NE(cv, nullptr);
   EXPECT_GT(vc_carver_memory_bytes(cv.get()), 0u);

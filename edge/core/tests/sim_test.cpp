@@ -16,7 +16,7 @@
 #include "voxcap/edge/bgmodel.h"
 #include "voxcap/edge/carver.h"
 #include "voxcap/edge/cleanup.h"
-#include "voxcap/edge/rig_models.hpp"
+#include "voxcap/rig/c_models.hpp"
 #include "voxcap/sim/scene.hpp"
 #include <opencv2/imgproc.hpp>
 
@@ -93,9 +93,8 @@ TEST(SimTruth, PartialHullContainsTheBodySeenByBothCameras) {
   const auto& calib = scene.calibration();
   ASSERT_TRUE(calib.grid.has_value());
   const vc::rig::VoxelGrid& g = *calib.grid;
-  vc_voxel_grid grid = vc::edge::voxel_grid(g);
-  vc_camera_model cams[2] = {vc::edge::camera_model(calib.cameras[0]),
-                             vc::edge::camera_model(calib.cameras[1])};
+  vc_voxel_grid grid = vc::rig::to_c_grid(g);
+  vc_camera cams[2] = {vc::rig::to_c_camera(calib.cameras[0]), vc::rig::to_c_camera(calib.cameras[1])};
   std::unique_ptr<vc_carver, void (*)(vc_carver*)> cv(vc_carver_new(&grid, &cams[0], &cams[1]), vc_carver_free);
   ASSERT_NE(cv, nullptr);
   std::vector<uint8_t> bits(vc_carver_bitset_bytes(cv.get())), grown_bits(bits.size()), body;

@@ -77,11 +77,11 @@ struct Scene {
 };
 
 // A camera at `eye` looking at `target` (z up), OpenCV convention (x right, y down, z forward).
-inline vc_camera_model look_at(const double eye[3], const double target[3], int w, int h, double f,
-                               const double dist[5]) {
-  vc_camera_model c{};
-  c.width = w;
-  c.height = h;
+inline vc_camera look_at(const double eye[3], const double target[3], int w, int h, double f,
+                         const double dist[5]) {
+  vc_camera c{};
+  c.width = static_cast<uint32_t>(w);
+  c.height = static_cast<uint32_t>(h);
   double z[3] = {target[0] - eye[0], target[1] - eye[1], target[2] - eye[2]};
   double n = std::sqrt(z[0] * z[0] + z[1] * z[1] + z[2] * z[2]);
   for (double& v : z) v /= n;
@@ -92,11 +92,14 @@ inline vc_camera_model look_at(const double eye[3], const double target[3], int 
   for (double& v : x) v /= n;
   double y[3] = {z[1] * x[2] - z[2] * x[1], z[2] * x[0] - z[0] * x[2], z[0] * x[1] - z[1] * x[0]};
   for (int k = 0; k < 3; k++) {
-    c.R[0 + k] = x[k];
-    c.R[3 + k] = y[k];
-    c.R[6 + k] = z[k];
+    c.R_cam_from_world[0 + k] = x[k];
+    c.R_cam_from_world[3 + k] = y[k];
+    c.R_cam_from_world[6 + k] = z[k];
   }
-  for (int r = 0; r < 3; r++) c.t[r] = -(c.R[3 * r] * eye[0] + c.R[3 * r + 1] * eye[1] + c.R[3 * r + 2] * eye[2]);
+  for (int r = 0; r < 3; r++) {
+    const double* R = &c.R_cam_from_world[3 * r];
+    c.t_cam_from_world[r] = -(R[0] * eye[0] + R[1] * eye[1] + R[2] * eye[2]);
+  }
   c.K[0] = f;
   c.K[2] = w / 2.0 - 0.37;  // off-centre principal point: no symmetric rounding ties
   c.K[4] = f * 1.01;

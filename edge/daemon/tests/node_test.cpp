@@ -17,8 +17,8 @@ namespace {
 constexpr int W = 160, H = 120;
 
 // A camera at `eye` looking at `target` (z up): rows of R are the camera's x (right), y (down), z.
-vc_config_camera look_at(const double eye[3], const double target[3]) {
-  vc_config_camera c{};
+vc_camera look_at(const double eye[3], const double target[3]) {
+  vc_camera c{};
   c.width = W;
   c.height = H;
   double K[9] = {150, 0, W / 2.0, 0, 150, H / 2.0, 0, 0, 1};
@@ -46,11 +46,11 @@ vc_config_camera look_at(const double eye[3], const double target[3]) {
 vc_config make_config() {
   vc_config cfg{};
   cfg.grid_id = 7;
-  cfg.nx = cfg.ny = cfg.nz = 16;
-  cfg.min_m[0] = -0.8;
-  cfg.min_m[1] = -0.8;
-  cfg.min_m[2] = 0.2;
-  cfg.voxel_m = 0.1;
+  cfg.grid.nx = cfg.grid.ny = cfg.grid.nz = 16;
+  cfg.grid.min_m[0] = -0.8;
+  cfg.grid.min_m[1] = -0.8;
+  cfg.grid.min_m[2] = 0.2;
+  cfg.grid.voxel_m = 0.1;
   cfg.t_upper = 10;
   cfg.t_lower = 3;
   cfg.shadow_angle_deg = 6;
@@ -170,19 +170,12 @@ TEST(Node, FullForegroundOccupiesExactlyTheVoxelsBothCamerasSee) {
   ASSERT_EQ(vc_node_process(n, 101, 6000, rgb_fg, stride, &msg, &len), 0);
   ASSERT_EQ(vc_msg_decode(msg, len, 0, &m, &used, nullptr), 1);
   uint64_t seen = 0;
-  vc_camera_model cm[2];
-  for (int c = 0; c < 2; c++) {
-    cm[c].width = W;
-    cm[c].height = H;
-    std::memcpy(cm[c].K, cfg.cameras[c].K, sizeof(cm[c].K));
-    std::memcpy(cm[c].dist, cfg.cameras[c].dist, sizeof(cm[c].dist));
-    std::memcpy(cm[c].R, cfg.cameras[c].R_cam_from_world, sizeof(cm[c].R));
-    std::memcpy(cm[c].t, cfg.cameras[c].t_cam_from_world, sizeof(cm[c].t));
-  }
+  const vc_camera* cm = cfg.cameras;  // CONFIG's cameras are the carver's
   for (int k = 0; k < 16; k++)
     for (int j = 0; j < 16; j++)
       for (int i = 0; i < 16; i++) {
-        double p[3] = {cfg.min_m[0] + (i + 0.5) * 0.1, cfg.min_m[1] + (j + 0.5) * 0.1, cfg.min_m[2] + (k + 0.5) * 0.1};
+        double p[3] = {cfg.grid.min_m[0] + (i + 0.5) * 0.1, cfg.grid.min_m[1] + (j + 0.5) * 0.1,
+                       cfg.grid.min_m[2] + (k + 0.5) * 0.1};
         int u, v;
         if (vc_camera_project(&cm[0], p, &u, &v) && vc_camera_project(&cm[1], p, &u, &v)) seen++;
       }
@@ -211,8 +204,8 @@ TEST(Node, NewConfigKeepsTheLearntBackground) {
   ASSERT_EQ(vc_node_configure(n, &cfg, why, sizeof(why), warn, sizeof(warn)), 0);
   learn_background(n);
   ASSERT_EQ(vc_node_start(n, 0), 0);
-  cfg.voxel_m = 0.05;
-  cfg.nx = cfg.ny = cfg.nz = 32;
+  cfg.grid.voxel_m = 0.05;
+  cfg.grid.nx = cfg.grid.ny = cfg.grid.nz = 32;
   ASSERT_EQ(vc_node_configure(n, &cfg, why, sizeof(why), warn, sizeof(warn)), 0);
   EXPECT_EQ(vc_node_state(n), (uint32_t)VC_STATE_READY);
   EXPECT_EQ(vc_node_start(n, 0), 0);
@@ -224,7 +217,7 @@ TEST(Node, NewConfigKeepsTheLearntBackground) {
 TEST(Node, WarnsWhenPartOfTheGridIsUnseen) {
   vc_node* n = make_node();
   vc_config cfg = make_config();
-  cfg.nx = 60;  // 6 m wide: far beyond both views
+  cfg.grid.nx = 60;  // 6 m wide: far beyond both views
   char why[256], warn[256];
   ASSERT_EQ(vc_node_configure(n, &cfg, why, sizeof(why), warn, sizeof(warn)), 0);
   EXPECT_NE(std::strstr(warn, "not seen"), nullptr) << warn;

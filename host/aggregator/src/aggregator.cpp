@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "voxcap/crc32c.h"
+#include "voxcap/rig/c_models.hpp"
 
 namespace vc::aggregator {
 
@@ -33,33 +34,17 @@ uint32_t grid_id(const rig::VoxelGrid& g) {
 vc_config make_config_message(const config::RigConfig& rig, const config::NodeConfig& node, uint32_t gid) {
   vc_config c{};
   c.grid_id = gid;
-  c.nx = static_cast<uint32_t>(rig.grid.nx);
-  c.ny = static_cast<uint32_t>(rig.grid.ny);
-  c.nz = static_cast<uint32_t>(rig.grid.nz);
-  for (int i = 0; i < 3; i++) c.min_m[i] = rig.grid.min_m[i];
-  c.voxel_m = rig.grid.voxel_m;
+  c.grid = rig::to_c_grid(rig.grid);
   c.t_upper = static_cast<float>(rig.subtraction.t_upper);
   c.t_lower = static_cast<float>(rig.subtraction.t_lower);
   c.shadow_angle_deg = static_cast<float>(rig.subtraction.shadow_angle_deg);
-  // The edge's clean-up removes speckles and fills holes of about (2r)^2 pixels.
-  uint32_t px = static_cast<uint32_t>(4 * rig.subtraction.cleanup_radius_px * rig.subtraction.cleanup_radius_px);
-  c.speckle_px = c.hole_px = px;
+  c.cleanup_radius_px = static_cast<uint32_t>(rig.subtraction.cleanup_radius_px);  // what the edge runs
   c.background_frames = static_cast<uint32_t>(rig.subtraction.background_frames);
   c.feature_role = node.is_front() && rig.features.enabled ? VC_ROLE_FRONT : VC_ROLE_NONE;
   c.camera_count = static_cast<uint16_t>(node.cameras.size());
   for (size_t k = 0; k < node.cameras.size() && k < VC_PROTO_MAX_CAMERAS; k++) {
     int idx = rig.camera_index(node.cameras[k]);
-    const rig::Camera& cam = rig.calibration.cameras.at(static_cast<size_t>(idx));
-    vc_config_camera& cc = c.cameras[k];
-    cc.width = static_cast<uint32_t>(cam.width);
-    cc.height = static_cast<uint32_t>(cam.height);
-    for (int r = 0; r < 3; r++)
-      for (int q = 0; q < 3; q++) {
-        cc.K[r * 3 + q] = cam.K(r, q);
-        cc.R_cam_from_world[r * 3 + q] = cam.R_cam_from_world(r, q);
-      }
-    for (int i = 0; i < 5; i++) cc.dist[i] = cam.dist[i];
-    for (int i = 0; i < 3; i++) cc.t_cam_from_world[i] = cam.t_cam_from_world[i];
+    c.cameras[k] = rig::to_c_camera(rig.calibration.cameras.at(static_cast<size_t>(idx)));
   }
   return c;
 }

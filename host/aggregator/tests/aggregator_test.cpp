@@ -200,8 +200,8 @@ TEST(Aggregator, ConfigMessageCarriesTheCalibrationOfTheNodesCameras) {
   vc_config c = make_config_message(rig, rig.nodes[1], 42);
   EXPECT_EQ(c.grid_id, 42u);
   EXPECT_EQ(c.camera_count, 2);
-  EXPECT_EQ(c.nx, 4u);
-  EXPECT_DOUBLE_EQ(c.voxel_m, 0.25);
+  EXPECT_EQ(c.grid.nx, 4u);
+  EXPECT_DOUBLE_EQ(c.grid.voxel_m, 0.25);
   EXPECT_EQ(c.cameras[0].width, 64u);
   EXPECT_DOUBLE_EQ(c.cameras[1].K[0], 60.0);
   EXPECT_DOUBLE_EQ(c.cameras[1].t_cam_from_world[2], 3.0);

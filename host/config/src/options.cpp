@@ -82,10 +82,13 @@ bool SubtractionOptions::valid(std::string* why) const {
     return fail(why, fmt::format("t_upper: must be greater than t_lower ({}), got {}", t_lower, t_upper));
   if (!(shadow_angle_deg > 0.0 && shadow_angle_deg < 90.0))
     return fail(why, fmt::format("shadow_angle_deg: must be in (0, 90), got {}", shadow_angle_deg));
-  if (cleanup_radius_px < 0 || cleanup_radius_px > 8)
-    return fail(why, fmt::format("cleanup_radius_px: must be in [0, 8], got {}", cleanup_radius_px));
-  if (background_frames < 2 || background_frames > 1000)
-    return fail(why, fmt::format("background_frames: must be in [2, 1000], got {}", background_frames));
+  // The edge runs the majority filter up to this radius and rejects a CONFIG beyond it.
+  if (cleanup_radius_px < 0 || cleanup_radius_px > VC_CLEANUP_RADIUS_MAX_PX)
+    return fail(why, fmt::format("cleanup_radius_px: must be in [0, {}], got {}", VC_CLEANUP_RADIUS_MAX_PX,
+                                 cleanup_radius_px));
+  if (background_frames < VC_BACKGROUND_FRAMES_MIN || background_frames > VC_BACKGROUND_FRAMES_MAX)
+    return fail(why, fmt::format("background_frames: must be in [{}, {}], got {}", VC_BACKGROUND_FRAMES_MIN,
+                                 VC_BACKGROUND_FRAMES_MAX, background_frames));
   return true;
 }
 

@@ -22,7 +22,7 @@
 
 #include "voxcap/aggregator/sinks.hpp"
 #include "voxcap/edge/carver.h"
-#include "voxcap/edge/rig_models.hpp"
+#include "voxcap/rig/c_models.hpp"
 #include "voxcap/rig/calibration.hpp"
 #include "voxcap/rle.h"
 #include "voxcap/sim/rig_layout.hpp"
@@ -89,10 +89,10 @@ class TruthScorer : public aggregator::Sink {
     so.noise_sigma = opt.noise;
     so.calibration = rig::read_calibration(spec_cal);
     scene_ = std::make_unique<sim::Scene>(so);
-    const vc_voxel_grid g = edge::voxel_grid(grid);
+    const vc_voxel_grid g = rig::to_c_grid(grid);
     for (int k = 0; k < opt.nodes; k++) {
-      vc_camera_model a = edge::camera_model(cal.cameras[static_cast<size_t>(2 * k)]);
-      vc_camera_model b = edge::camera_model(cal.cameras[static_cast<size_t>(2 * k + 1)]);
+      vc_camera a = rig::to_c_camera(cal.cameras[static_cast<size_t>(2 * k)]);
+      vc_camera b = rig::to_c_camera(cal.cameras[static_cast<size_t>(2 * k + 1)]);
       vc_carver* c = vc_carver_new(&g, &a, &b);
       if (!c) throw std::runtime_error("truth: cannot build a carver for the rig");
       carvers_.push_back(c);

@@ -18,6 +18,9 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "voxcap/camera_model.h"
+#include "voxcap/subtraction.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -25,7 +28,7 @@ extern "C" {
 /* ---- Versions and limits (SPEC.md "Framing", "Limits") ------------------------------------------ */
 
 #define VC_PROTO_MAGIC 0x50435856u /* "VXCP" in memory */
-#define VC_PROTO_VERSION_MAJOR 1
+#define VC_PROTO_VERSION_MAJOR 2
 #define VC_PROTO_VERSION_MINOR 0
 #define VC_PROTO_HEADER_SIZE 40
 
@@ -205,29 +208,19 @@ typedef struct vc_hello {
   vc_hello_camera cameras[VC_PROTO_MAX_CAMERAS];
 } vc_hello;
 
-typedef struct vc_config_camera {
-  uint32_t width, height;
-  double K[9];                /* row-major intrinsics, pixels */
-  double dist[5];             /* k1 k2 p1 p2 k3 (OpenCV) */
-  double R_cam_from_world[9]; /* row-major; x_cam = R x_world + t */
-  double t_cam_from_world[3]; /* metres */
-} vc_config_camera;
-
 typedef struct vc_config {
-  uint32_t grid_id; /* names this grid in HULL messages */
-  uint32_t nx, ny, nz;
-  double min_m[3];             /* world min corner, metres */
-  double voxel_m;              /* voxel edge, metres */
+  uint32_t grid_id;            /* names this grid in HULL messages */
+  vc_voxel_grid grid;          /* nx ny nz min_m voxel_m (camera_model.h) */
   float t_upper;               /* eq. 1: foreground if |p - mu| > t_upper * sigma in some channel */
   float t_lower;               /* background if below t_lower * sigma in all channels */
   float shadow_angle_deg;      /* eq. 2: angular (hue) threshold between the two */
-  uint32_t speckle_px;         /* clean-up: drop foreground blobs smaller than this (0: off) */
-  uint32_t hole_px;            /* clean-up: fill holes smaller than this (0: off) */
+  uint32_t cleanup_radius_px;  /* clean-up: one pass of a (2r+1)^2 majority filter, 0..8 (0: off) */
+  uint32_t reserved;           /* 0 */
   uint32_t background_frames;  /* frames BACKGROUND learns when it says 0 */
   uint16_t feature_role;       /* vc_feature_role */
   uint16_t camera_count;       /* 1..VC_PROTO_MAX_CAMERAS, in the node's HELLO order */
   uint16_t camera_record_size; /* decoded: as received; encoders write this version's size */
-  vc_config_camera cameras[VC_PROTO_MAX_CAMERAS];
+  vc_camera cameras[VC_PROTO_MAX_CAMERAS]; /* calibration records (camera_model.h) */
 } vc_config;
 
 typedef struct vc_background {

@@ -30,6 +30,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "voxcap/subtraction.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -48,7 +50,8 @@ typedef struct vc_subtract_params {
                            * still pixel does not turn every one-level change into foreground */
 } vc_subtract_params;
 
-/* Fills the defaults: T_u 10, T_l 3, T_angular 6 degrees, alpha in [0.25, 1.0], sigma floor 1.0. */
+/* Fills the defaults of voxcap/subtraction.h (the ones the host's rig.toml starts from): T_u 60,
+ * T_l 3.5, T_angular 8 degrees, alpha in [0.25, 1.0], sigma floor 1.0. */
 void vc_subtract_params_default(vc_subtract_params *params);
 
 /* 0 if the parameters are usable, -EINVAL otherwise. When `why` is not NULL it receives a static

@@ -16,34 +16,26 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "voxcap/camera_model.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-/* A calibrated camera, as in rig.yaml (all doubles, configuration time only). */
-typedef struct vc_camera_model {
-  int width, height; /* image size in pixels; masks are width*height bytes, stride width */
-  double K[9];       /* row-major intrinsics: fx = K[0], cx = K[2], fy = K[4], cy = K[5]; K[1] (skew)
-                      * must be 0 (cv::projectPoints ignores it), last row 0 0 1 */
-  double dist[5];    /* k1 k2 p1 p2 k3 (OpenCV order) */
-  double R[9];       /* row-major rotation cam_from_world */
-  double t[3];       /* translation cam_from_world, metres */
-} vc_camera_model;
-
-/* The shared voxel grid: voxel (i,j,k) has centre min + (i+1/2, j+1/2, k+1/2) * voxel_m. */
-typedef struct vc_voxel_grid {
-  double min[3];  /* min corner, world metres */
-  double voxel_m; /* edge length, metres, > 0 */
-  int nx, ny, nz; /* 1..4096 each, nx*ny*nz <= 2^31 */
-} vc_voxel_grid;
+/* The camera (vc_camera) and the grid (vc_voxel_grid) are the ones CONFIG carries, from
+ * proto/include/voxcap/camera_model.h (header only: nothing to link). The carver's own limits are
+ * those of vc_camera_check() and vc_grid_check(). */
 
 /* Projects p_world with the carver's camera model. Returns 1 and the pixel in *px, *py when the point
  * is in front of the camera and its pixel lies inside the image, 0 otherwise (*px, *py untouched).
  * This is the exact rule vc_carver_run() applies to voxel centres. */
-int vc_camera_project(const vc_camera_model *cam, const double p_world[3], int *px, int *py);
+int vc_camera_project(const vc_camera *cam, const double p_world[3], int *px, int *py);
 
-/* 0 when the camera model is usable, -EINVAL otherwise (why: static string, may be NULL). */
-int vc_camera_check(const vc_camera_model *cam, const char **why);
+/* 0 when the camera is usable by the carver, -EINVAL otherwise (why: static string, may be NULL):
+ * image 1..16384 pixels each way, K = [fx 0 cx; 0 fy cy; 0 0 1] with fx, fy > 0 (cv::projectPoints
+ * ignores skew), finite distortion, R_cam_from_world a rotation within 1e-6, finite t. Grids: finite
+ * min_m, voxel_m > 0, nx, ny, nz 1..4096 each and at most 2^31 voxels. */
+int vc_camera_check(const vc_camera *cam, const char **why);
 int vc_grid_check(const vc_voxel_grid *grid, const char **why);
 
 typedef struct vc_carver vc_carver;
@@ -52,8 +44,8 @@ typedef struct vc_carver vc_carver;
  * Returns NULL and sets errno: EINVAL (bad camera or grid), ENOMEM. The caller owns the carver and
  * frees it with vc_carver_free(). Time and memory grow with the voxel count: about 4.5 bytes per
  * voxel seen by both cameras (more for voxels that project larger than 64 pixels). */
-vc_carver *vc_carver_new(const vc_voxel_grid *grid, const vc_camera_model *cam0,
-                         const vc_camera_model *cam1);
+vc_carver *vc_carver_new(const vc_voxel_grid *grid, const vc_camera *cam0,
+                         const vc_camera *cam1);
 
 /* Frees the carver; NULL is a no-op. */
 void vc_carver_free(vc_carver *carver);

@@ -11,6 +11,8 @@
 #include <string_view>
 #include <vector>
 
+#include "voxcap/subtraction.h"
+
 namespace vc::config {
 
 // A UDP endpoint given as "host:port" with a numeric IPv4 host or "localhost".
@@ -25,13 +27,15 @@ struct Endpoint {
   bool operator==(const Endpoint&) const = default;
 };
 
-// Background subtraction on the edges (paper sec. 5, eq. 1-2).
+// Background subtraction on the edges (paper sec. 5, eq. 1-2). Defaults and ranges are the ones of
+// proto/include/voxcap/subtraction.h, shared with the edge; CONFIG carries these values as they are.
 struct SubtractionOptions {
-  double t_upper = 4.0;           // T_u: foreground when |p - mu| > T_u * sigma in any channel
-  double t_lower = 2.0;           // T_l: surely background when below T_l * sigma in all channels
-  double shadow_angle_deg = 5.0;  // T_angular: in-between pixels with a smaller colour angle are shadow
-  int cleanup_radius_px = 1;      // speckle removal / hole filling size; 0 = no clean-up
-  int background_frames = 30;     // empty-scene frames learnt for mu and sigma
+  double t_upper = VC_SUBTRACT_T_UPPER;  // T_u: foreground when |p - mu| > T_u * sigma in any channel
+  double t_lower = VC_SUBTRACT_T_LOWER;  // T_l: surely background when below T_l * sigma in all channels
+  double shadow_angle_deg = VC_SUBTRACT_SHADOW_ANGLE_DEG;  // T_angular: in-between pixels with a smaller
+                                                           // colour angle are shadow
+  int cleanup_radius_px = VC_CLEANUP_RADIUS_PX;  // radius of the edge's majority filter, 0..8; 0 = none
+  int background_frames = VC_BACKGROUND_FRAMES;  // empty-scene frames learnt for mu and sigma
 
   bool valid(std::string* why) const;
 };

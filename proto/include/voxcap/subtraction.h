@@ -1,0 +1,47 @@
+/* The background subtraction and silhouette clean-up settings: every default and every range, once.
+ *
+ * host/config's [subtraction] options start from these, the host checks rig.toml against the ranges,
+ * CONFIG (proto/SPEC.md) carries the values as the edge runs them, the edge's kernels
+ * (edge/core bgmodel.h, cleanup.h) default to them, and the docs (host/config/README.md) quote them;
+ * a test checks the example rigs (hw/rigs/) and that README against this header.
+ *
+ * Header-only C11, macros only, so that C (edge/core, proto) and C++ (host) take the same numbers
+ * without linking anything.
+ */
+#ifndef VOXCAP_SUBTRACTION_H
+#define VOXCAP_SUBTRACTION_H
+
+/* Eq. 1: foreground if |p - mu| > T_u * sigma in some channel; surely background if below
+ * T_l * sigma in every channel; 0 < T_l < T_u. A floor shadow darkens by up to ~40 % (~90 grey
+ * levels) while sensor noise is a few levels: T_u * sigma must exceed a shadow's depth, or shadows
+ * never reach the colour test of eq. 2 and carve as body. These are the values the emulated rig
+ * (hw/sim's shadows and noise) runs and is measured with. */
+#define VC_SUBTRACT_T_UPPER 60.0
+#define VC_SUBTRACT_T_LOWER 3.5
+
+/* Eq. 2: a pixel between the two thresholds whose colour is within this angle of the background's
+ * colour is a shadow (background). Degrees, in (0, 90); the noise of a darkened pixel tilts its
+ * colour by a few degrees. */
+#define VC_SUBTRACT_SHADOW_ANGLE_DEG 8.0
+
+/* A shadow only darkens: its brightness ratio alpha = p.mu / |mu|^2 lies in [min, max], else the
+ * pixel is foreground. Fixed on the edge (not in rig.toml or CONFIG). */
+#define VC_SUBTRACT_SHADOW_MIN_GAIN 0.25
+#define VC_SUBTRACT_SHADOW_MAX_GAIN 1.0
+
+/* sigma below this (grey levels) is raised to it: a perfectly still pixel must not turn every
+ * one-level change into foreground. Fixed on the edge. */
+#define VC_SUBTRACT_SIGMA_FLOOR 1.0
+
+/* Clean-up: one pass of a (2r+1) x (2r+1) majority filter on each silhouette (edge/core cleanup.h),
+ * r = cleanup_radius_px; 0 = none. Radius r removes foreground speckles and fills holes up to about
+ * (2r+1)/sqrt(2) pixels across (r = 1: 2x2, r = 2: 3x3, r = 4: 6x6, r = 8: 12x12). */
+#define VC_CLEANUP_RADIUS_PX 1
+#define VC_CLEANUP_RADIUS_MAX_PX 8
+
+/* Frames of the empty scene the edge learns mu and sigma from. */
+#define VC_BACKGROUND_FRAMES 30
+#define VC_BACKGROUND_FRAMES_MIN 2
+#define VC_BACKGROUND_FRAMES_MAX 1000
+
+#endif /* VOXCAP_SUBTRACTION_H */
