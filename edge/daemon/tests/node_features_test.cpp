@@ -15,10 +15,10 @@ constexpr int W = 64, H = 48;
 vc_config config(uint16_t role) {
   vc_config cfg{};
   cfg.grid_id = 3;
-  cfg.nx = cfg.ny = cfg.nz = 8;
-  cfg.min_m[0] = cfg.min_m[1] = -0.4;
-  cfg.min_m[2] = 0.6;
-  cfg.voxel_m = 0.1;
+  cfg.grid.nx = cfg.grid.ny = cfg.grid.nz = 8;
+  cfg.grid.min_m[0] = cfg.grid.min_m[1] = -0.4;
+  cfg.grid.min_m[2] = 0.6;
+  cfg.grid.voxel_m = 0.1;
   cfg.t_upper = 10;
   cfg.t_lower = 3;
   cfg.shadow_angle_deg = 6;
@@ -26,7 +26,7 @@ vc_config config(uint16_t role) {
   cfg.feature_role = role;
   cfg.camera_count = 2;
   for (int c = 0; c < 2; c++) {  // both cameras 3 m from the origin along -y, looking at it (z up)
-    vc_config_camera& k = cfg.cameras[c];
+    vc_camera& k = cfg.cameras[c];
     k.width = W;
     k.height = H;
     double K[9] = {60, 0, W / 2.0, 0, 60, H / 2.0, 0, 0, 1};
