@@ -4,6 +4,7 @@
 # where the upward arrow is planted as a PRIVATE link ($<LINK_ONLY:...>), from another folder (::@
 # markers) and inside a generator expression.
 # -D: WORK (a build-tree directory), GENERATOR, C_COMPILER (for the small project).
+cmake_minimum_required(VERSION 3.25)
 include(${CMAKE_CURRENT_LIST_DIR}/VoxcapLayers.cmake)
 
 set(failures 0)
