@@ -203,21 +203,23 @@ std::string program_name(const char* argv0) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"voxcap-bench — the benchmarks behind `voxcap bench` (keys in tests/bench/README.md)"};
-  app.require_subcommand(1, 1);
-  add_edge_command(app);
-  add_host_command(app);
-
-  const std::string name = program_name(argc > 0 ? argv[0] : nullptr);
+  std::string name = "voxcap-bench";
   try {
-    app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    name = program_name(argc > 0 ? argv[0] : nullptr);
+    CLI::App app{"voxcap-bench — the benchmarks behind `voxcap bench` (keys in tests/bench/README.md)"};
+    app.require_subcommand(1, 1);
+    add_edge_command(app);
+    add_host_command(app);
+    try {
+      app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+      return app.exit(e);
+    }
   } catch (const UsageError& e) {
-    fmt::print(stderr, "{}: {}\n", name, e.what());
+    std::fprintf(stderr, "%s: %s\n", name.c_str(), e.what());
     return 2;
   } catch (const std::exception& e) {
-    fmt::print(stderr, "{}: {}\n", name, e.what());
+    std::fprintf(stderr, "%s: %s\n", name.c_str(), e.what());
     return 1;
   }
   return 0;
