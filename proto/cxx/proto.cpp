@@ -44,7 +44,7 @@ const char* ProtoError::name() const noexcept {
   return vc_proto_error_name(code_);
 }
 
-int check(int rc, const std::string& context) {
+int check(int rc, const char* context) {
   if (rc < 0) throw ProtoError(rc, context);
   return rc;
 }

@@ -39,8 +39,8 @@ class ProtoError : public std::runtime_error {
   int code_;
 };
 
-// rc when rc >= 0; throws ProtoError(rc, context) when it is negative.
-int check(int rc, const std::string& context);
+// rc when rc >= 0; throws ProtoError(rc, context) when it is negative (the message is built only then).
+int check(int rc, const char* context);
 
 using Bytes = std::vector<uint8_t>;
 
