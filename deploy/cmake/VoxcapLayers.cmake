@@ -33,7 +33,7 @@ set(VC_LAYERS
   "host/config: vc_host_config"         # host/: in host/README.md's order
   "host/trigger: vc_host_trigger"
   "host/session: vc_host_session"
-  "host/pipeline: vc_host_pipeline"     # the stage lifecycle the stages below build on
+  "host/pipeline: vc_host_pipeline"     # the stage lifecycle; the stages in the layers above link it
   "host/assemble: vc_host_assemble"
   "host/record: vc_host_record vc_host_record_testing"
   "host/aggregator: vc_host_aggregator"
