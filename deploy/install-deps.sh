@@ -27,7 +27,7 @@ SRC
 fi
 
 # Toolchain and build.
-pkgs=(build-essential cmake ninja-build pkg-config git clang libclang-rt-14-dev lld valgrind)
+pkgs=(build-essential cmake ninja-build pkg-config git clang clang-format clang-tidy libclang-rt-14-dev lld valgrind)
 # Tests and benchmarks.
 pkgs+=(googletest libgtest-dev libgmock-dev libbenchmark-dev)
 # Libraries of the host, the simulator and the edge.

@@ -15,6 +15,7 @@
 #include <cstring>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,7 +25,7 @@
 
 #include "commands.hpp"
 #include "voxcap/config/rig_config.hpp"
-#include "voxcap/proto.h"
+#include "voxcap/proto.hpp"
 #include "voxcap/trigger/generator.hpp"
 
 namespace vc::cli {
@@ -165,7 +166,8 @@ void run_test(const TestArgs& a) {
     }
     if (print_pulses) {
       // Line-buffered so a pipe (| head, a log) sees each pulse as it goes out.
-      fmt::print("pulse seq={} t_ns={} late_us={:.1f}\n", p.seq, p.t_ns, static_cast<double>(p.lateness_ns) / 1e3);
+      fmt::print("pulse seq={} t_ns={} late_us={:.1f}\n", p.seq, p.t_ns,
+                 static_cast<double>(p.lateness_ns) / 1e3);
       (void)std::fflush(stdout);
     }
   });
@@ -266,11 +268,12 @@ void run_listen(const ListenArgs& a) {
     uint8_t buf[256];
     const ssize_t n = recv(fd, buf, sizeof buf, 0);
     const int64_t now = trigger::monotonic_ns();
-    uint64_t seq = 0, t_ns = 0;
-    if (n < 0 || vc_trigger_dgram_decode(buf, static_cast<size_t>(n), &seq, &t_ns) != 0) {
+    const auto pulse = n < 0 ? std::nullopt : proto::decode_trigger({buf, static_cast<size_t>(n)});
+    if (!pulse) {
       ++invalid;
       continue;
     }
+    const uint64_t seq = pulse->seq, t_ns = pulse->t_ns;
     if (have_last && seq > last_seq + 1) {
       missing += seq - last_seq - 1;
       if (!a.quiet) fmt::print("gap: {} pulses missing before seq {}\n", seq - last_seq - 1, seq);

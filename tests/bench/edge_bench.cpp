@@ -2,7 +2,7 @@
 //  - the parent renders the frames once (EdgeScene), writes them to a temporary file for children,
 //    times every stage per frame (medians), runs the two references and checks that the plain LUT
 //    carve and the edge carver agree bit for bit;
-//  - a child `voxcap bench edge ... --child rss` learns and runs the edge pipeline alone from that
+//  - a child `voxcap-bench edge ... --child rss` learns and runs the edge pipeline alone from that
 //    file and reports its peak resident memory (VmHWM), so that the parent's renderer, references
 //    and other grid sizes do not count;
 //  - a child under `valgrind --tool=callgrind --instr-atstart=no --collect-atstart=no` runs each
@@ -224,7 +224,7 @@ std::string run_capture(const std::string& cmd, int* status) {
 std::string child_command(const EdgeBenchOptions& o, const std::string& mode, const std::string& frames) {
   std::string self = o.self_exe.empty() ? fs::read_symlink("/proc/self/exe").string() : o.self_exe;
   std::ostringstream cmd;
-  cmd << shell_quote(self) << " bench edge --grid " << o.grid << " --frames " << o.frames << " --bg-frames "
+  cmd << shell_quote(self) << " edge --grid " << o.grid << " --frames " << o.frames << " --bg-frames "
       << o.bg_frames << " --width " << o.width << " --height " << o.height << " --child " << mode
       << " --frames-file " << shell_quote(frames);
   return cmd.str();

@@ -18,7 +18,7 @@ struct EdgeBenchOptions {
   int height = 480;
   bool callgrind = true; // instruction counts via a child under valgrind --tool=callgrind
   bool rss = true;       // peak resident memory via a child that runs only the edge pipeline
-  std::string self_exe;  // the voxcap binary, re-run as the measuring child ("" = /proc/self/exe)
+  std::string self_exe;  // the voxcap-bench binary, re-run as the measuring child ("" = /proc/self/exe)
 
   bool valid(std::string* why) const;
 };

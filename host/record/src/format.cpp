@@ -15,7 +15,7 @@
 #include <nlohmann/json.hpp>
 
 #include "voxcap/crc32c.h"
-#include "voxcap/rle.h"
+#include "voxcap/proto.hpp"
 
 namespace vc::record::format {
 namespace {
@@ -196,9 +196,12 @@ bool check(const FrameRecord& r, std::string* why) {
   if (!check_size(frame_body(r), "frame", why)) return false;
   if (!r.rle.empty()) {
     vc_rle_info info{};
-    const int rc = vc_rle_inspect(r.rle.data(), r.rle.size(), &info);
-    if (rc != 0)
-      return fail(why, fmt::format("frame seq {}: hull RLE is malformed ({})", r.seq, std::strerror(-rc)));
+    try {
+      info = proto::rle_inspect(r.rle);
+    } catch (const proto::ProtoError& e) {
+      return fail(
+          why, fmt::format("frame seq {}: hull RLE is malformed ({})", r.seq, vc_proto_strerror(e.code())));
+    }
     if (info.total != r.voxel_count || info.occupied != r.occupied)
       return fail(why, fmt::format("frame seq {}: hull RLE holds {} of {} voxels, the record says {} of {}",
                                    r.seq, info.occupied, info.total, r.occupied, r.voxel_count));

@@ -15,7 +15,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
-#include "voxcap/proto.h"
+#include "voxcap/proto.hpp"
 
 namespace vc::trigger::detail {
 
@@ -57,15 +57,13 @@ void UdpGenerator::prepare(const PulseTrain& /*train*/) {
 }
 
 void UdpGenerator::leading_edge(Pulse& pulse) {
-  uint8_t dgram[VC_TRIGGER_DGRAM_SIZE];
   pulse.t_ns = monotonic_ns();
-  const int rc = vc_trigger_dgram_encode(dgram, pulse.seq, static_cast<uint64_t>(pulse.t_ns));
-  if (rc < 0) throw TriggerError(fmt::format("udp: encoding the trigger datagram failed ({})", rc));
+  const proto::TriggerDatagram dgram = proto::encode_trigger(pulse.seq, static_cast<uint64_t>(pulse.t_ns));
   uint64_t failed = 0;
   for (size_t i = 0; i < addrs_.size(); ++i) {
-    const ssize_t n =
-        sendto(fd_, dgram, sizeof dgram, 0, reinterpret_cast<const sockaddr*>(&addrs_[i]), sizeof addrs_[i]);
-    if (n == static_cast<ssize_t>(sizeof dgram)) continue;
+    const ssize_t n = sendto(fd_, dgram.data(), dgram.size(), 0,
+                             reinterpret_cast<const sockaddr*>(&addrs_[i]), sizeof addrs_[i]);
+    if (n == static_cast<ssize_t>(dgram.size())) continue;
     const int err = n < 0 ? errno : EMSGSIZE;
     if (err == EBADF || err == ENOTSOCK)
       throw TriggerError(fmt::format("udp: socket lost: {}", std::strerror(err)));

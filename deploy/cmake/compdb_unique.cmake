@@ -1,0 +1,22 @@
+# Copies a compile_commands.json keeping the first command of each file (some targets, e.g. the fuzzers,
+# compile a source a second time with other flags; clang-tidy would check it once per command).
+# -D: IN, OUT (paths of the JSON files).
+cmake_minimum_required(VERSION 3.25)
+file(READ ${IN} json)
+string(JSON n LENGTH "${json}")
+set(entries)
+set(seen)
+if(n GREATER 0)
+  math(EXPR last "${n} - 1")
+  foreach(i RANGE ${last})
+    string(JSON f GET "${json}" ${i} file)
+    if(NOT f IN_LIST seen)
+      list(APPEND seen "${f}")
+      string(JSON entry GET "${json}" ${i})
+      string(REPLACE ";" "\\;" entry "${entry}")
+      list(APPEND entries "${entry}")
+    endif()
+  endforeach()
+endif()
+list(JOIN entries ",\n" body)
+file(WRITE ${OUT} "[\n${body}\n]\n")

@@ -1,0 +1,226 @@
+// voxcap-bench: the benchmarks behind `voxcap bench edge|host`, as a program of their own so that the
+// voxcap binary links none of tests/bench. `voxcap bench ARGS` execs `voxcap-bench ARGS` from beside
+// itself with argv[0] = "<voxcap> bench", so usage lines and error prefixes read as they always did.
+// Exit codes as voxcap's: 0 ok, 1 runtime failure, 2 bad input (CLI11's own codes for parse errors).
+#include <cstdio>
+#include <exception>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <fmt/core.h>
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "edge_bench.hpp"
+#include "host_bench.hpp"
+
+namespace {
+
+// Bad input from the user: exit code 2.
+struct UsageError : std::runtime_error {
+  using std::runtime_error::runtime_error;
+};
+
+constexpr const char* kEdgeKeys = R"(JSON keys (one object per grid; an array when --grid is repeated):
+  grid, voxels, cameras, width, height, frames, bg_frames   the setting
+  kernel                 kernel variant in use ("avx2" or "generic")
+  subtract_ns            median ns per frame: subtraction of both cameras
+  cleanup_ns             median ns per frame: 3x3 majority clean-up of both masks
+  carve_ns               median ns per frame: partial-hull carving
+  rle_ns                 median ns per frame: RLE of the hull bitset
+  edge_frame_ms          median ms of the whole edge frame (2x subtract + 2x clean-up + carve + RLE)
+  mog2_ns                median ns per frame: OpenCV MOG2 (shadows on, 1 thread), both cameras
+  lut_carve_ns           median ns per frame: plain per-voxel lookup-table carve
+  speedup_subtract_vs_mog2, speedup_carve_vs_lut   ratios of the medians
+  lut_matches            the LUT carve and the edge carver produced the same bitset
+  carver_setup_ms, carver_table_mb, lut_table_mb   configuration cost of the carver / LUT
+  unseen_fraction        grid fraction not seen by both cameras
+  band_fraction, shadow_fraction   pixels through the shadow test / classified shadow
+  occupied_voxels, leaves_tested, rle_bytes         per-frame means
+  peak_rss_mb            VmHWM of a child running only the edge pipeline (null with --no-rss)
+  ir_per_pixel.{subtract,cleanup,mog2}, ir_per_voxel.{carve,rle,lut_carve}
+                         callgrind instructions (null when callgrind is unavailable)
+  callgrind              "ok" or why the instruction counts are null
+  goals.*                the issue's targets and whether this run met them (reported, not asserted))";
+
+void print_edge_table(const nlohmann::json& j) {
+  auto num = [&](const nlohmann::json& v, const char* fmtspec) {
+    return v.is_null() ? std::string("n/a") : fmt::format(fmt::runtime(fmtspec), v.get<double>());
+  };
+  fmt::print("edge bench: 2 cameras {}x{}, grid {}^3, {} frames, kernel {}\n", j["width"].get<int>(),
+             j["height"].get<int>(), j["grid"].get<int>(), j["frames"].get<int>(),
+             j["kernel"].get<std::string>());
+  fmt::print("  subtract   {:>10.0f} ns   (MOG2 {:>10.0f} ns, x{:.1f})   Ir/px {} (MOG2 {})\n",
+             j["subtract_ns"].get<double>(), j["mog2_ns"].get<double>(),
+             j["speedup_subtract_vs_mog2"].get<double>(), num(j["ir_per_pixel"]["subtract"], "{:.2f}"),
+             num(j["ir_per_pixel"]["mog2"], "{:.1f}"));
+  fmt::print("  clean-up   {:>10.0f} ns                                     Ir/px {}\n",
+             j["cleanup_ns"].get<double>(), num(j["ir_per_pixel"]["cleanup"], "{:.2f}"));
+  fmt::print("  carve      {:>10.0f} ns   (LUT  {:>10.0f} ns, x{:.1f})   Ir/voxel {} (LUT {})\n",
+             j["carve_ns"].get<double>(), j["lut_carve_ns"].get<double>(),
+             j["speedup_carve_vs_lut"].get<double>(), num(j["ir_per_voxel"]["carve"], "{:.3f}"),
+             num(j["ir_per_voxel"]["lut_carve"], "{:.2f}"));
+  fmt::print("  rle        {:>10.0f} ns   ({:.0f} bytes)                        Ir/voxel {}\n",
+             j["rle_ns"].get<double>(), j["rle_bytes"].get<double>(),
+             num(j["ir_per_voxel"]["rle"], "{:.3f}"));
+  fmt::print("  edge frame {:>10.3f} ms   peak RSS {} MB   carver tables {:.1f} MB\n",
+             j["edge_frame_ms"].get<double>(), num(j["peak_rss_mb"], "{:.1f}"),
+             j["carver_table_mb"].get<double>());
+  fmt::print("  callgrind: {}\n", j["callgrind"].get<std::string>());
+}
+
+void print_host_text(const nlohmann::json& j) {
+  for (const auto& m : j["merge"])
+    fmt::print("merge {} nodes at {}^3: {:.1f} us per frame (p99 {:.1f} us), {} B RLE per node\n",
+               m["nodes"].get<int>(), m["grid"].get<int>(), m["merge_ns_per_frame"].get<double>() / 1e3,
+               m["merge_ns_p99"].get<double>() / 1e3, m["rle_bytes_per_node"].get<uint64_t>());
+  if (j.contains("rig")) {
+    const auto& r = j["rig"];
+    fmt::print(
+        "rig {} nodes {} {}^3 for {:.0f} s: {:.1f} fps, {} frames ({} complete), trigger->merged p50 {:.2f} "
+        "ms "
+        "p99 {:.2f} ms, host RSS {} -> {} kB\n",
+        r["nodes"].get<int>(), r["size"].get<std::string>(), r["grid"].get<int>(), r["seconds"].get<double>(),
+        r["fps"].get<double>(), r["frames"].get<uint64_t>(), r["complete"].get<uint64_t>(),
+        r["trigger_to_merged_ms"]["p50"].get<double>(), r["trigger_to_merged_ms"]["p99"].get<double>(),
+        r["host_rss_kb"]["start"].get<long>(), r["host_rss_kb"]["end"].get<long>());
+  }
+}
+
+void add_edge_command(CLI::App& app) {
+  struct EdgeArgs {
+    std::vector<int> grids;
+    vc::bench::EdgeBenchOptions opt;
+    bool json = false, no_callgrind = false, no_rss = false;
+    std::string child, frames_file;
+  };
+  auto args = std::make_shared<EdgeArgs>();
+  auto* edge = app.add_subcommand("edge",
+                                  "Edge per-frame work (2 cameras: subtraction, clean-up, carving, RLE) vs "
+                                  "OpenCV MOG2 and a plain LUT carve");
+  edge->footer(kEdgeKeys);
+  edge->add_option("--grid", args->grids,
+                   "Voxels per axis of the cubic grid; repeat for several (default 128)")
+      ->check(CLI::Range(4, 1024));
+  edge->add_option("--frames", args->opt.frames, "Measured frames; medians are reported")
+      ->check(CLI::Range(1, 10000))
+      ->capture_default_str();
+  edge->add_option("--bg-frames", args->opt.bg_frames, "Empty-room frames the background model learns from")
+      ->check(CLI::Range(2, 1000))
+      ->capture_default_str();
+  edge->add_option("--width", args->opt.width, "Image width per camera")
+      ->check(CLI::Range(16, 4096))
+      ->capture_default_str();
+  edge->add_option("--height", args->opt.height, "Image height per camera")
+      ->check(CLI::Range(16, 4096))
+      ->capture_default_str();
+  edge->add_flag("--json", args->json, "Print JSON (keys below) instead of a table");
+  edge->add_flag("--no-callgrind", args->no_callgrind, "Skip the instruction counts (no valgrind child)");
+  edge->add_flag("--no-rss", args->no_rss, "Skip the peak-memory child");
+  edge->add_option("--child", args->child,
+                   "Internal: run as the benchmark's own measuring child (rss or callgrind); not for users")
+      ->check(CLI::IsMember({"rss", "callgrind"}));
+  edge->add_option("--frames-file", args->frames_file, "Internal: frames written by the parent, for --child");
+
+  edge->callback([args] {
+    vc::bench::EdgeBenchOptions opt = args->opt;
+    opt.callgrind = !args->no_callgrind;
+    opt.rss = !args->no_rss;
+    std::vector<int> grids = args->grids.empty() ? std::vector<int>{128} : args->grids;
+    if (!args->child.empty()) {
+      if (args->frames_file.empty() || grids.size() != 1)
+        throw UsageError("--child needs --frames-file and one --grid");
+      opt.grid = grids[0];
+      nlohmann::json j = vc::bench::run_edge_bench_child(opt, args->child, args->frames_file);
+      if (!j.empty()) fmt::print("{}\n", j.dump());
+      return;
+    }
+    nlohmann::json all = nlohmann::json::array();
+    for (int g : grids) {
+      opt.grid = g;
+      std::string why;
+      if (!opt.valid(&why)) throw UsageError(why);
+      nlohmann::json j = vc::bench::run_edge_bench(opt);
+      if (!args->json) print_edge_table(j);
+      all.push_back(std::move(j));
+    }
+    if (args->json) fmt::print("{}\n", (all.size() == 1 ? all[0] : all).dump(2));
+  });
+}
+
+void add_host_command(CLI::App& app) {
+  auto hopt = std::make_shared<vc::bench::HostBenchOptions>();
+  auto hjson = std::make_shared<bool>(false);
+  auto hsize = std::make_shared<std::string>("640x480");
+  auto grids = std::make_shared<std::vector<int>>();
+  auto nodes = std::make_shared<std::vector<int>>();
+  auto* host = app.add_subcommand(
+      "host",
+      "Host: merge cost per frame (3/4/8 nodes, 64^3..256^3), the emulated rig's fps, latency and memory");
+  host->footer(
+      "JSON keys: merge[] {nodes, grid, voxels, rle_bytes_per_node, merged_occupied, merge_ns_per_frame "
+      "(median), "
+      "merge_ns_p99}; rig {nodes, size, grid, seconds, pulses, frames, complete, degraded, fps, "
+      "trigger_to_merged_ms {p50, p99}, host_rss_kb {start, end}}. Keys also in tests/bench/README.md.");
+  host->add_option("--grid", *grids, "merge: voxels per axis; repeat for several (default 64 128 256)");
+  host->add_option("--nodes", *nodes, "merge: node counts; repeat for several (default 3 4 8)");
+  host->add_option("--repeats", hopt->repeats, "merge: timed merges per configuration")
+      ->capture_default_str();
+  host->add_option("--minutes", hopt->rig_minutes,
+                   "rig: how long the emulated rig runs (memory at start and end)")
+      ->capture_default_str();
+  host->add_option("--size", *hsize, "rig: camera size WxH")->capture_default_str();
+  host->add_option("--rig-grid", hopt->rig_grid, "rig: voxels per axis")->capture_default_str();
+  host->add_option("--rig-nodes", hopt->rig_nodes, "rig: edge nodes")->capture_default_str();
+  host->add_flag(
+      "--no-rig", [hopt](int64_t) { hopt->rig = false; }, "merge figures only");
+  host->add_flag("--json", *hjson, "Print JSON (keys below) instead of text");
+  host->callback([=] {
+    vc::bench::HostBenchOptions o = *hopt;
+    if (!grids->empty()) o.grids = *grids;
+    if (!nodes->empty()) o.nodes = *nodes;
+    if (std::sscanf(hsize->c_str(), "%dx%d", &o.width, &o.height) != 2)
+      throw UsageError("--size: expected WxH");
+    nlohmann::json j = vc::bench::run_host_bench(o);
+    if (*hjson) {
+      fmt::print("{}\n", j.dump(2));
+      return;
+    }
+    print_host_text(j);
+  });
+}
+
+// "voxcap" when run as `voxcap bench` (argv[0] "<path>/voxcap bench"), else this program's name.
+std::string program_name(const char* argv0) {
+  std::string first = argv0 ? argv0 : "voxcap-bench";
+  first = first.substr(0, first.find(' '));
+  const size_t slash = first.rfind('/');
+  return slash == std::string::npos ? first : first.substr(slash + 1);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string name = "voxcap-bench";
+  try {
+    name = program_name(argc > 0 ? argv[0] : nullptr);
+    CLI::App app{"voxcap-bench — the benchmarks behind `voxcap bench` (keys in tests/bench/README.md)"};
+    app.require_subcommand(1, 1);
+    add_edge_command(app);
+    add_host_command(app);
+    try {
+      app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+      return app.exit(e);
+    }
+  } catch (const UsageError& e) {
+    std::fprintf(stderr, "%s: %s\n", name.c_str(), e.what());
+    return 2;
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: %s\n", name.c_str(), e.what());
+    return 1;
+  }
+  return 0;
+}
