@@ -17,18 +17,17 @@ include_guard(GLOBAL)
 
 set(VC_LAYERS
   "build: vc_warnings"                  # warning flags: an interface every target links
-  "proto/headers: vc_camera_model"      # header-only C structs (camera, voxel grid) shared by all
+  "proto/headers: vc_proto_models"      # header-only C structs (camera, voxel grid) shared by all
   "edge/core: vc_edge_core"             # the edge's hot kernels: C, depends on nothing but headers
   "proto: vc_proto"                     # the wire protocol, C11
   "proto/c++: vc_proto_cxx vc_proto_json vc_proto_testing"
   "proto/tools: vc_proto_vectorgen"
   "hw/rig: vc_rig"                      # cameras, calibration, voxel grid
-  "hw/body: vc_body"                    # joints, skeleton, BVH
+  "hw/body: vc_body vc_body_cv vc_body_test_clips"                    # joints, skeleton, BVH
   "hw/sim: vc_sim"                      # the virtual rig's renderer
   "edge/clock: vc_edge_clock"
-  "edge/camera: vc_edge_camera_cxx vc_edge_camera_sim vc_edge_camera"
+  "edge/camera: vc_edge_camera_c vc_edge_camera_cxx vc_edge_camera_sim vc_edge_camera_nosim vc_edge_camera"
   "edge/trigger: vc_edge_trigger"
-  "edge/rig: vc_edge_rig"               # C++ adapters from hw/rig to edge/core's structs
   "edge/daemon: vc_edge_daemon"
   "host/config: vc_host_config"         # host/: in host/README.md's order
   "host/trigger: vc_host_trigger"
@@ -38,7 +37,7 @@ set(VC_LAYERS
   "host/record: vc_host_record vc_host_record_testing"
   "host/aggregator: vc_host_aggregator"
   "host/emulated: vc_host_emulated"
-  "apps: voxcap voxcap-host voxcap-edge"
+  "apps: voxcap voxcap-host voxcap-edge voxcap-edge-nosim"
   "tests/bench: vc_bench_edge vc_bench_host voxcap-bench")
 
 set(VC_LAYERS_FILE ${CMAKE_CURRENT_LIST_FILE})
