@@ -10,7 +10,7 @@
 
 #include "commands.hpp"
 #include "voxcap/aggregator/aggregator.hpp"
-#include "voxcap/aggregator/sinks.hpp"
+#include "voxcap/aggregator/record_stage.hpp"
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/emulated/emulated_rig.hpp"
 
@@ -163,13 +163,23 @@ void add_rig_commands(CLI::App& app) {
       if (r.report.frames == 0) throw std::runtime_error("no frame was merged");
       return;
     }
-    // A real rig: the aggregator alone; the edges are on their boards.
-    std::filesystem::path path = config->empty() ? config::default_rig_config_path() : std::filesystem::path(*config);
-    config::RigConfig rig = config::load_rig_config(path);
-    aggregator::RecordingSink recording(rig, record->empty() ? rig.recording.dir : std::filesystem::path(*record));
+    // A real rig: the aggregator alone; the edges are on their boards. A rig.toml that cannot be read
+    // or is wrong (a bad key, a node id without a number) is bad input: exit code 2.
+    std::unique_ptr<aggregator::Aggregator> agg_ptr;
+    config::RigConfig rig;
+    try {
+      std::filesystem::path path = config->empty() ? config::default_rig_config_path() : std::filesystem::path(*config);
+      rig = config::load_rig_config(path);
+      agg_ptr = std::make_unique<aggregator::Aggregator>(rig, aggregator::Options{});
+    } catch (const config::ConfigError& e) {
+      throw UsageError(e.what());
+    }
+    aggregator::Aggregator& agg = *agg_ptr;
+    auto& recording = agg.pipeline().tap(
+        std::make_unique<aggregator::RecordStage>(record->empty() ? rig.recording.dir : std::filesystem::path(*record)),
+        aggregator::RecordStage::kQueue);
+    agg.start();  // creates the session folder
     fmt::print("recording to {}\n", recording.dir().string());
-    aggregator::Aggregator agg(rig, {}, &recording);
-    agg.start();
     auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(*seconds > 0 ? *seconds : 1e12);
     while (!g_interrupted && std::chrono::steady_clock::now() < end)
       std::this_thread::sleep_for(std::chrono::milliseconds(50));

@@ -20,7 +20,7 @@
 #include <stdexcept>
 #include <thread>
 
-#include "voxcap/aggregator/sinks.hpp"
+#include "voxcap/aggregator/record_stage.hpp"
 #include "voxcap/edge/carver.h"
 #include "voxcap/edge/rig_models.hpp"
 #include "voxcap/rig/calibration.hpp"
@@ -76,9 +76,10 @@ static int free_port(int type) {
   return ntohs(a.sin_port);
 }
 
-// Scores merged frames against the simulator's truth on its own thread (a bounded queue: when it
-// falls behind, frames are skipped from scoring, never from the rig).
-class TruthScorer : public aggregator::Sink {
+// Scores merged frames against the simulator's truth: a consumer stage of the host's pipeline, on its
+// own thread behind a drop-oldest queue (when it falls behind, frames are skipped from scoring —
+// counted as the stage's drops — never from the rig). Every truth_every-th frame of the run is scored.
+class TruthScorer : public pipeline::Stage {
  public:
   TruthScorer(const Options& opt, const rig::Calibration& cal, const rig::VoxelGrid& grid, const std::string& spec_cal)
       : opt_(opt), grid_(grid) {
@@ -98,51 +99,40 @@ class TruthScorer : public aggregator::Sink {
       carvers_.push_back(c);
     }
     voxels_ = static_cast<uint64_t>(grid.nx) * grid.ny * grid.nz;
-    if (opt.truth_every > 0) worker_ = std::thread([this] { loop(); });
+    const size_t bytes = (voxels_ + 7) / 8;
+    merged_.resize(bytes);
+    truth_.resize(bytes);
+    part_.resize(bytes);
+    sil_.resize(2);
   }
   ~TruthScorer() override {
-    {
-      std::lock_guard<std::mutex> g(mu_);
-      done_ = true;
-    }
-    cv_.notify_all();
-    if (worker_.joinable()) worker_.join();
     for (auto* c : carvers_) vc_carver_free(c);
   }
-  void set_origin(uint64_t origin) { origin_ = origin; }
-  void frame(const assemble::MergedFrame& f) override {
-    uint64_t n = merged_++;
-    if (opt_.truth_every <= 0 || n % static_cast<uint64_t>(opt_.truth_every) != 0 || f.seq < origin_) return;
-    std::lock_guard<std::mutex> g(mu_);
-    if (queue_.size() >= 8) return;
-    queue_.push_back({f.seq - origin_, f.rle});
-    cv_.notify_one();
+  // The queue: a few frames to score deep, so that a scoring in progress does not push them out.
+  static pipeline::QueueOptions queue(const Options& o) {
+    return {static_cast<size_t>(8 * std::max(1, o.truth_every)), pipeline::Overflow::DropOldest};
   }
-  uint64_t merged() const { return merged_; }
-  Accuracy accuracy() {
-    std::unique_lock<std::mutex> l(mu_);
-    cv_.wait_for(l, std::chrono::seconds(30), [&] { return queue_.empty() && !busy_; });
+  std::string name() const override { return "score"; }
+  void set_origin(uint64_t origin) { origin_ = origin; }
+  void process(pipeline::Frame& f) override {
+    const uint64_t origin = origin_;
+    if (opt_.truth_every <= 0 || f.seq < origin || (f.seq - origin) % static_cast<uint64_t>(opt_.truth_every) != 0)
+      return;
+    score(static_cast<int>(f.seq - origin), f.rle);
+  }
+  Accuracy accuracy() const {
+    std::lock_guard<std::mutex> g(mu_);
     return acc_;
   }
 
  private:
-  void loop() {
-    size_t bytes = (voxels_ + 7) / 8;
-    std::vector<uint8_t> merged(bytes), truth(bytes), part(bytes), body;
-    std::vector<cv::Mat> sil(2);
-    cv::Mat rgb;
-    for (;;) {
-      std::pair<uint64_t, std::vector<uint8_t>> job;
-      {
-        std::unique_lock<std::mutex> l(mu_);
-        cv_.wait(l, [&] { return done_ || !queue_.empty(); });
-        if (done_) return;
-        job = std::move(queue_.front());
-        queue_.pop_front();
-        busy_ = true;
-      }
-      int frame = static_cast<int>(job.first);
-      vc_rle_decode(job.second.data(), job.second.size(), merged.data(), voxels_);
+  void score(int frame, const std::vector<uint8_t>& rle) {
+    std::vector<uint8_t>&merged = merged_, &truth = truth_, &part = part_, &body = body_;
+    std::vector<cv::Mat>& sil = sil_;
+    cv::Mat& rgb = rgb_;
+    const size_t bytes = merged.size();
+    {
+      vc_rle_decode(rle.data(), rle.size(), merged.data(), voxels_);
       std::fill(truth.begin(), truth.end(), 0xFF);
       for (int k = 0; k < opt_.nodes; k++) {
         for (int c = 0; c < 2; c++) scene_->render_clean(frame, 2 * k + c, rgb, &sil[static_cast<size_t>(c)]);
@@ -171,8 +161,6 @@ class TruthScorer : public aggregator::Sink {
       double rec = body_n ? double(body_in) / double(body_n) : 1.0;
       acc_.body_recall = (acc_.body_recall * n + rec) / (n + 1);
       acc_.frames++;
-      busy_ = false;
-      cv_.notify_all();
     }
   }
 
@@ -181,13 +169,12 @@ class TruthScorer : public aggregator::Sink {
   std::unique_ptr<sim::Scene> scene_;
   std::vector<vc_carver*> carvers_;
   uint64_t voxels_ = 0;
-  std::atomic<uint64_t> origin_{0}, merged_{0};
-  std::mutex mu_;
-  std::condition_variable cv_;
-  std::deque<std::pair<uint64_t, std::vector<uint8_t>>> queue_;
-  bool done_ = false, busy_ = false;
+  std::atomic<uint64_t> origin_{0};
+  std::vector<uint8_t> merged_, truth_, part_, body_;  // scratch, reused frame to frame
+  std::vector<cv::Mat> sil_;
+  cv::Mat rgb_;
+  mutable std::mutex mu_;  // acc_
   Accuracy acc_;
-  std::thread worker_;
 };
 
 struct EmulatedRig::Impl {
@@ -199,10 +186,9 @@ struct EmulatedRig::Impl {
   int host_port = 0;
   std::vector<int> trigger_ports;
   std::vector<pid_t> pids;
-  std::unique_ptr<TruthScorer> scorer;
-  std::unique_ptr<aggregator::RecordingSink> recorder;  // sinks outlive the aggregator (declared first)
-  std::unique_ptr<aggregator::FanoutSink> fanout;
   std::unique_ptr<aggregator::Aggregator> agg;
+  TruthScorer* scorer = nullptr;             // stages of agg's pipeline (owned there)
+  aggregator::RecordStage* recorder = nullptr;
   Clock::time_point t_start;
   long rss_start = 0;
   bool stopped = false;
@@ -338,18 +324,19 @@ void EmulatedRig::start(double timeout_s) {
 
   m.sim_spec = fmt::format("motion={},fps={},seed={},noise={},calibration={}", o.motion, o.rate_hz, o.seed, o.noise,
                            cal_path.string());
-  m.scorer = std::make_unique<TruthScorer>(o, cal, grid, cal_path.string());
   aggregator::Options ao;
   if (o.quiet) ao.log = [](int level, const std::string& line) {
     if (level >= 2) fmt::print(stderr, "voxcap-host: {}\n", line);
   };
-  aggregator::Sink* sink = m.scorer.get();
-  if (!o.record_dir.empty()) {
-    m.recorder = std::make_unique<aggregator::RecordingSink>(rig, o.record_dir);
-    m.fanout = std::make_unique<aggregator::FanoutSink>(std::vector<aggregator::Sink*>{m.scorer.get(), m.recorder.get()});
-    sink = m.fanout.get();
-  }
-  m.agg = std::make_unique<aggregator::Aggregator>(rig, ao, sink);
+  m.agg = std::make_unique<aggregator::Aggregator>(rig, ao);
+  // The host's pipeline: assemble -> merge -> the recording (every frame) and the scorer (live).
+  if (!o.record_dir.empty())
+    m.recorder = &m.agg->pipeline().tap(std::make_unique<aggregator::RecordStage>(o.record_dir),
+                                        aggregator::RecordStage::kQueue);
+  if (o.truth_every > 0)
+    m.scorer = &m.agg->pipeline().tap(std::make_unique<TruthScorer>(o, cal, grid, cal_path.string()),
+                                      TruthScorer::queue(o));
+  if (o.stages) o.stages(m.agg->pipeline());
   m.agg->start();
   m.pids.assign(static_cast<size_t>(o.nodes), 0);
   for (int k = 0; k < o.nodes; k++) m.spawn(k);
@@ -369,11 +356,11 @@ void EmulatedRig::start(double timeout_s) {
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
-  m.scorer->set_origin(m.agg->report().origin);
+  if (m.scorer) m.scorer->set_origin(m.agg->report().origin);
   m.t_start = Clock::now();
 }
 
-uint64_t EmulatedRig::merged_frames() const { return impl_->scorer ? impl_->scorer->merged() : 0; }
+uint64_t EmulatedRig::merged_frames() const { return impl_->agg ? impl_->agg->merged_frames() : 0; }
 aggregator::Report EmulatedRig::report() const { return impl_->agg->report(); }
 uint16_t EmulatedRig::host_port() const { return static_cast<uint16_t>(impl_->host_port); }
 const fs::path& EmulatedRig::workdir() const { return impl_->dir; }
@@ -413,15 +400,12 @@ Result EmulatedRig::stop() {
   r.wall_seconds = std::chrono::duration<double>(Clock::now() - m.t_start).count();
   r.report = m.agg->report();
   for (int k = 0; k < static_cast<int>(m.pids.size()); k++) m.reap(k, SIGTERM, 3.0);
-  m.agg->stop();
-  r.accuracy = m.scorer->accuracy();
+  m.agg->stop();  // every stage drains its queue; the recording is closed cleanly
+  if (m.scorer) r.accuracy = m.scorer->accuracy();
   r.host_rss_start_kb = m.rss_start;
   r.host_rss_end_kb = rss_kb();
   r.workdir = m.dir;
-  if (m.recorder) {
-    r.session_dir = m.recorder->dir();
-    m.recorder.reset();  // closes the session cleanly
-  }
+  if (m.recorder) r.session_dir = m.recorder->dir();
   return r;
 }
 
