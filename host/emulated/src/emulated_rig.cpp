@@ -401,6 +401,7 @@ Result EmulatedRig::stop() {
   r.report = m.agg->report();
   for (int k = 0; k < static_cast<int>(m.pids.size()); k++) m.reap(k, SIGTERM, 3.0);
   m.agg->stop();  // every stage drains its queue; the recording is closed cleanly
+  r.stages = m.agg->report().pipeline;
   if (m.scorer) r.accuracy = m.scorer->accuracy();
   r.host_rss_start_kb = m.rss_start;
   r.host_rss_end_kb = rss_kb();

@@ -54,7 +54,8 @@ struct Accuracy {
 };
 
 struct Result {
-  aggregator::Report report;
+  aggregator::Report report;        // taken while the run was still going (before the edges stop)
+  pipeline::PipelineReport stages;  // every stage once all drained at stop: what each finally saw
   Accuracy accuracy;
   uint64_t frames_wanted = 0;
   double wall_seconds = 0;
