@@ -73,11 +73,7 @@ bool AssemblyStage::post_features(uint16_t node_id, uint64_t seq, uint64_t t_tri
 
 bool AssemblyStage::post_stats(uint16_t node_id, const vc_stats& s) { return post(node_id, Stats{node_id, s}); }
 
-void AssemblyStage::set_running(uint16_t node_id, bool running) {
-  std::lock_guard<std::mutex> g(mu_);
-  running_[node_id] = running;
-  running_dirty_ = true;
-}
+void AssemblyStage::set_running(uint16_t node_id, bool running) { inbox_.push_always(Running{node_id, running}); }
 
 void AssemblyStage::forward(std::vector<assemble::MergedFrame>& frames) {
   for (auto& f : frames) out_.push(std::make_shared<pipeline::Frame>(std::move(f)));
@@ -96,10 +92,6 @@ void AssemblyStage::run() {
     uint64_t now = session::monotonic_ns();
     {
       std::lock_guard<std::mutex> g(mu_);
-      if (running_dirty_) {
-        for (const auto& [n, r] : running_) assembler_.set_running(n, r);
-        running_dirty_ = false;
-      }
       if (in) {
         if (auto* h = std::get_if<assemble::PartialHull>(&*in)) {
           assembler_.add(std::move(*h), now, out);
@@ -107,6 +99,8 @@ void AssemblyStage::run() {
           assembler_.add_features(f->node_id, f->seq, f->t_trigger_ns, f->features, now, out);
         } else if (auto* s = std::get_if<Stats>(&*in)) {
           assembler_.add_stats(s->node_id, s->stats);
+        } else if (auto* r = std::get_if<Running>(&*in)) {
+          assembler_.set_running(r->node_id, r->running);
         }
       }
       if (!in || now - last_poll >= poll_ns) {

@@ -73,6 +73,21 @@ TEST(BoundedQueue, CloseWakesABlockedProducerAndDrainsWhatIsLeft) {
   EXPECT_FALSE(q.push(3));
 }
 
+TEST(BoundedQueue, PushAlwaysKeepsOrderPastTheCapacityWithoutWaitingOrDropping) {
+  BoundedQueue<int> q(2, Overflow::DropNewest);
+  EXPECT_TRUE(q.push(1));
+  EXPECT_TRUE(q.push(2));
+  EXPECT_FALSE(q.push(3));
+  EXPECT_TRUE(q.push_always(4));
+  EXPECT_EQ(q.counters().depth, 3u);
+  EXPECT_EQ(q.counters().dropped, 1u);
+  EXPECT_EQ(*q.pop(), 1);
+  EXPECT_EQ(*q.pop(), 2);
+  EXPECT_EQ(*q.pop(), 4);
+  q.close();
+  EXPECT_FALSE(q.push_always(5));
+}
+
 TEST(BoundedQueue, ZeroCapacityIsRejected) { EXPECT_THROW(BoundedQueue<int>(0, Overflow::Block), std::invalid_argument); }
 
 }  // namespace

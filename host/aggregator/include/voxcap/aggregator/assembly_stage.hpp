@@ -42,7 +42,8 @@ class AssemblyStage {
   bool post_hull(assemble::PartialHull hull);
   bool post_features(uint16_t node_id, uint64_t seq, uint64_t t_trigger_ns, const vc_features& features);
   bool post_stats(uint16_t node_id, const vc_stats& stats);
-  // Which nodes a frame waits for; applied by the stage's thread before its next message.
+  // Which nodes a frame waits for. Queued in order with the messages (never dropped, never waits):
+  // hulls queued before a node started running are assembled as if it was not running yet.
   void set_running(uint16_t node_id, bool running);
 
   assemble::AssemblerStats stats() const;
@@ -60,7 +61,11 @@ class AssemblyStage {
     uint16_t node_id;
     vc_stats stats;
   };
-  using Input = std::variant<assemble::PartialHull, Features, Stats>;
+  struct Running {
+    uint16_t node_id;
+    bool running;
+  };
+  using Input = std::variant<assemble::PartialHull, Features, Stats, Running>;
 
   bool post(uint16_t node_id, Input in);
   void run();
@@ -70,10 +75,8 @@ class AssemblyStage {
   AssemblyOptions opt_;
   pipeline::LogFn log_;
   pipeline::BoundedQueue<Input> inbox_;
-  mutable std::mutex mu_;  // the assembler, its running set, the figures below
+  mutable std::mutex mu_;  // the assembler, the figures below
   assemble::Assembler assembler_;
-  std::map<uint16_t, bool> running_;  // wanted by set_running(), applied by the thread
-  bool running_dirty_ = false;
   uint64_t processed_ = 0;
   double busy_ns_sum_ = 0, busy_ns_max_ = 0;
   std::map<uint16_t, uint64_t> drops_;

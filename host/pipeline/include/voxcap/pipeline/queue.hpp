@@ -68,6 +68,20 @@ class BoundedQueue {
     return true;
   }
 
+  // Queues the item even when the queue is full, by any policy: never waits, never drops. For rare
+  // control items that must keep their order with the data (a node starting or stopping); they are
+  // not counted against the capacity's purpose, so keep them rare. False only when closed.
+  bool push_always(T item) {
+    std::unique_lock<std::mutex> l(mu_);
+    if (closed_) return refuse_closed();
+    q_.push_back(std::move(item));
+    c_.pushed++;
+    if (q_.size() > c_.max_depth) c_.max_depth = q_.size();
+    l.unlock();
+    not_empty_.notify_one();
+    return true;
+  }
+
   // Waits up to `timeout` for an item; nothing when it timed out, or when closed and empty.
   std::optional<T> pop_for(std::chrono::nanoseconds timeout) {
     std::unique_lock<std::mutex> l(mu_);
