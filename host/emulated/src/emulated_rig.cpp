@@ -20,6 +20,8 @@
 #include <stdexcept>
 #include <thread>
 
+#include <toml++/toml.h>
+
 #include "voxcap/aggregator/record_stage.hpp"
 #include "voxcap/edge/carver.h"
 #include "voxcap/edge/rig_models.hpp"
@@ -177,6 +179,110 @@ class TruthScorer : public pipeline::Stage {
   Accuracy acc_;
 };
 
+namespace {
+
+// The emulated rig's configuration, built in code: the option structs' defaults except what an
+// emulated rig is — its nodes (node0 the front one) and grid, the udp trigger to each edge's port, the
+// host on loopback, and the simulator's subtraction settings.
+config::RigConfig rig_config(const Options& o, const rig::Calibration& cal, const fs::path& cal_path,
+                             const fs::path& toml_path, const std::vector<int>& trigger_ports, int host_port) {
+  config::RigConfig c;
+  c.source = toml_path;
+  c.name = "emulated";
+  c.calibration_path = cal_path;
+  // As the edges' sim cameras read it: the file, so that host and edges agree to the last digit.
+  c.calibration = rig::read_calibration(cal_path.string());
+  c.grid = *cal.grid;  // set by the caller
+  c.grid_source = config::GridSource::Config;
+  for (int k = 0; k < o.nodes; k++) {
+    config::NodeConfig n;
+    n.id = fmt::format("node{}", k);
+    n.number = static_cast<uint16_t>(k);
+    n.address = "127.0.0.1";
+    n.cameras = {fmt::format("cam{}", 2 * k), fmt::format("cam{}", 2 * k + 1)};
+    n.role = k == 0 ? config::NodeRole::Front : config::NodeRole::Side;
+    c.nodes.push_back(std::move(n));
+  }
+  // The simulator's floor shadow darkens by up to ~40 % (~90 levels) while its sensor noise is ~2
+  // levels: T_u * sigma must exceed the shadow's depth so shadows reach the colour test (eq. 2), and the
+  // noise of a darkened pixel tilts its colour by a few degrees. The edge's sim-truth tests use these.
+  c.subtraction.t_upper = 60.0;
+  c.subtraction.t_lower = 3.5;
+  c.subtraction.shadow_angle_deg = 8.0;
+  c.subtraction.cleanup_radius_px = 1;
+  c.subtraction.background_frames = 20;
+  c.trigger.backend = config::TriggerBackend::Udp;
+  c.trigger.rate_hz = o.rate_hz;
+  c.trigger.rt_priority = 0;
+  for (int port : trigger_ports) c.trigger.udp.targets.push_back({"127.0.0.1", static_cast<uint16_t>(port)});
+  c.assembly.deadline_ms = o.deadline_ms;
+  c.assembly.missing_node_policy =
+      o.missing_policy == "drop" ? config::MissingNodePolicy::Drop : config::MissingNodePolicy::Degraded;
+  c.network.listen = "127.0.0.1";
+  c.network.port = static_cast<uint16_t>(host_port);
+  std::string why;
+  if (!c.valid(&why)) throw std::logic_error("emulated rig: its configuration is invalid: " + why);
+  return c;
+}
+
+// rig.toml of a RigConfig, for the workdir and the session recording (which keeps a copy of the file
+// the rig ran from): the keys an emulated rig sets, written with toml++ and read back with the one
+// loader, which must give the same rig.
+void write_rig_toml(const config::RigConfig& c, const fs::path& path) {
+  toml::table t;
+  t.insert("version", 1);
+  t.insert("name", c.name);
+  t.insert("calibration", c.calibration_path.string());
+  t.insert("grid", toml::table{{"min_m", toml::array{c.grid.min_m[0], c.grid.min_m[1], c.grid.min_m[2]}},
+                               {"voxel_m", c.grid.voxel_m},
+                               {"nx", c.grid.nx},
+                               {"ny", c.grid.ny},
+                               {"nz", c.grid.nz}});
+  toml::array nodes;
+  for (const config::NodeConfig& n : c.nodes) {
+    toml::array cams;
+    for (const std::string& cam : n.cameras) cams.push_back(cam);
+    nodes.push_back(toml::table{{"id", n.id},
+                                {"address", n.address},
+                                {"cameras", cams},
+                                {"role", std::string(config::to_string(n.role))}});
+  }
+  t.insert("nodes", nodes);
+  t.insert("subtraction", toml::table{{"t_upper", c.subtraction.t_upper},
+                                      {"t_lower", c.subtraction.t_lower},
+                                      {"shadow_angle_deg", c.subtraction.shadow_angle_deg},
+                                      {"cleanup_radius_px", c.subtraction.cleanup_radius_px},
+                                      {"background_frames", c.subtraction.background_frames}});
+  t.insert("features", toml::table{{"enabled", c.features.enabled}});
+  toml::array targets;
+  for (const config::Endpoint& e : c.trigger.udp.targets) targets.push_back(e.str());
+  t.insert("trigger", toml::table{{"backend", std::string(config::to_string(c.trigger.backend))},
+                                  {"rate_hz", c.trigger.rate_hz},
+                                  {"pulse_width_us", c.trigger.pulse_width_us},
+                                  {"rt_priority", c.trigger.rt_priority},
+                                  {"late_threshold_us", c.trigger.late_threshold_us},
+                                  {"udp", toml::table{{"targets", targets}}}});
+  t.insert("assembly", toml::table{{"deadline_ms", c.assembly.deadline_ms},
+                                   {"missing_node_policy", std::string(config::to_string(c.assembly.missing_node_policy))}});
+  t.insert("network", toml::table{{"listen", c.network.listen}, {"port", static_cast<int64_t>(c.network.port)}});
+  {
+    std::ofstream f(path);
+    f << "# Written by voxcap's emulated rig from its RigConfig (host/emulated).\n" << t << "\n";
+    if (!f) throw std::runtime_error(fmt::format("cannot write {}", path.string()));
+  }
+  const config::RigConfig back = config::load_rig_config(path);
+  bool same = back.nodes.size() == c.nodes.size() && back.trigger.udp.targets == c.trigger.udp.targets &&
+              back.subtraction.t_upper == c.subtraction.t_upper && back.network.port == c.network.port &&
+              back.grid.nx == c.grid.nx && back.assembly.deadline_ms == c.assembly.deadline_ms;
+  for (size_t k = 0; same && k < c.nodes.size(); k++)
+    same = back.nodes[k].id == c.nodes[k].id && back.nodes[k].number == c.nodes[k].number &&
+           back.nodes[k].role == c.nodes[k].role;
+  if (!same)
+    throw std::logic_error(fmt::format("emulated rig: {} does not read back as the rig it was written from", path.string()));
+}
+
+}  // namespace
+
 struct EmulatedRig::Impl {
   Options opt;
   fs::path dir;
@@ -294,33 +400,14 @@ void EmulatedRig::start(double timeout_s) {
   grid.voxel_m = 2.24 / o.grid;
   grid.nx = grid.ny = grid.nz = o.grid;
   cal.grid = grid;
-  fs::path cal_path = m.dir / "rig.yaml";
+  fs::path cal_path = fs::absolute(m.dir / "rig.yaml");
   rig::write_calibration(cal_path.string(), cal);
 
   m.host_port = free_port(SOCK_STREAM);
   m.trigger_ports.clear();
   for (int k = 0; k < o.nodes; k++) m.trigger_ports.push_back(free_port(SOCK_DGRAM));
-  std::ostringstream t;
-  t << "# Written by voxcap's emulated rig.\nversion = 1\nname = \"emulated\"\ncalibration = \"rig.yaml\"\n\n";
-  t << fmt::format("[grid]\nmin_m = [-1.12, -1.12, 0.0]\nvoxel_m = {}\nnx = {}\nny = {}\nnz = {}\n\n", grid.voxel_m,
-                   o.grid, o.grid, o.grid);
-  for (int k = 0; k < o.nodes; k++)
-    t << fmt::format("[[nodes]]\nid = \"node{}\"\naddress = \"127.0.0.1\"\ncameras = [\"cam{}\", \"cam{}\"]\n{}\n", k,
-                     2 * k, 2 * k + 1, k == 0 ? "role = \"front\"\n" : "");
-  // The simulator's floor shadow darkens by up to ~40 % (~90 levels) while its sensor noise is ~2
-  // levels: T_u * sigma must exceed the shadow's depth so shadows reach the colour test (eq. 2), and the
-  // noise of a darkened pixel tilts its colour by a few degrees. The edge's sim-truth tests use these.
-  t << "[subtraction]\nt_upper = 60.0\nt_lower = 3.5\nshadow_angle_deg = 8.0\ncleanup_radius_px = 1\n"
-       "background_frames = 20\n\n";
-  t << "[trigger]\nbackend = \"udp\"\n" << fmt::format("rate_hz = {}\nrt_priority = 0\n", o.rate_hz);
-  t << "[trigger.udp]\ntargets = [";
-  for (int k = 0; k < o.nodes; k++) t << (k ? ", " : "") << fmt::format("\"127.0.0.1:{}\"", m.trigger_ports[k]);
-  t << "]\n\n";
-  t << fmt::format("[assembly]\ndeadline_ms = {}\nmissing_node_policy = \"{}\"\n\n", o.deadline_ms, o.missing_policy);
-  t << fmt::format("[network]\nlisten = \"127.0.0.1\"\nport = {}\n", m.host_port);
-  fs::path toml = m.dir / "rig.toml";
-  std::ofstream(toml) << t.str();
-  config::RigConfig rig = config::load_rig_config(toml);
+  config::RigConfig rig = rig_config(o, cal, cal_path, m.dir / "rig.toml", m.trigger_ports, m.host_port);
+  write_rig_toml(rig, rig.source);  // for the workdir and the session recording's copy
 
   m.sim_spec = fmt::format("motion={},fps={},seed={},noise={},calibration={}", o.motion, o.rate_hz, o.seed, o.noise,
                            cal_path.string());
