@@ -25,7 +25,7 @@ namespace vc::aggregator {
 
 struct AssemblyOptions {
   size_t queue = 1024;  // messages waiting at most (~8 s of 3 nodes at 60 Hz with FEATURES)
-  int poll_ms = 2;      // deadlines are checked at least this often
+  int poll_ms = 5;      // deadlines are checked at least this often (as the session tick did before)
 };
 
 class AssemblyStage {
