@@ -10,7 +10,7 @@
 
 #include "commands.hpp"
 #include "voxcap/aggregator/aggregator.hpp"
-#include "voxcap/aggregator/sinks.hpp"
+#include "voxcap/aggregator/record_stage.hpp"
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/emulated/emulated_rig.hpp"
 
@@ -52,10 +52,22 @@ nlohmann::json report_json(const aggregator::Report& r) {
                           {"edge_queue_drops", n.edge_queue_drops},
                           {"edge_frames_without_pulse", n.edge_frames_without_pulse},
                           {"edge_pulses_without_frame", n.edge_pulses_without_frame},
+                          {"host_queue_drops", n.host_queue_drops},
+                          {"features", n.features},
+                          {"features_late", n.features_late},
                           {"edge_stage_ms", s},
                           {"trigger_to_received_ms",
                            {{"mean", n.rx.mean_ms()}, {"p50", n.rx.percentile_ms(0.5)}, {"p99", n.rx.percentile_ms(0.99)}}}});
   }
+  for (const auto& s : r.pipeline.stages)
+    j["stages"].push_back({{"name", s.name},
+                           {"overflow", pipeline::overflow_name(s.overflow)},
+                           {"processed", s.processed},
+                           {"dropped", s.queue.dropped},
+                           {"errors", s.errors},
+                           {"queue_max", s.queue.max_depth},
+                           {"queue_capacity", s.queue.capacity},
+                           {"busy_ms", {{"mean", s.busy_ms_mean}, {"max", s.busy_ms_max}}}});
   return j;
 }
 
@@ -78,6 +90,11 @@ void print_report(const aggregator::Report& r) {
              r.complete, r.degraded, r.dropped, r.pulses, r.first_seq, r.last_seq);
   fmt::print("fps: {:.1f}   trigger->merged hull: mean {:.2f} ms  p50 {:.2f} ms  p99 {:.2f} ms\n", r.fps,
              r.merged.mean_ms(), r.merged.percentile_ms(0.5), r.merged.percentile_ms(0.99));
+  fmt::print("stages:");
+  for (const auto& s : r.pipeline.stages)
+    fmt::print("  {} {:.3f} ms (max {:.1f}), queue max {}/{}, dropped {}{}", s.name, s.busy_ms_mean, s.busy_ms_max,
+               s.queue.max_depth, s.queue.capacity, s.queue.dropped, s.errors ? fmt::format(", {} errors", s.errors) : "");
+  fmt::print("\n");
 }
 
 }  // namespace
@@ -115,7 +132,8 @@ void add_rig_commands(CLI::App& app) {
   cmd->add_flag("--verbose", [opt](int64_t) { opt->quiet = false; }, "emulated: info logs from host and edges");
   cmd->add_flag("--json", *json,
                 "print the figures as JSON: frames, complete, degraded, dropped, pulses, fps, trigger_to_merged_ms "
-                "{mean,p50,p99}, nodes[] {id, name, hulls, late, missing, edge_stage_ms, trigger_to_received_ms, ...}, "
+                "{mean,p50,p99}, nodes[] {id, name, hulls, late, missing, host_queue_drops, edge_stage_ms, trigger_to_received_ms, ...}, "
+                "stages[] {name, overflow, processed, dropped, errors, queue_max, queue_capacity, busy_ms {mean,max}}, "
                 "accuracy {frames, agree, min_agree, iou_silhouette_hull, body_recall} (emulated)");
   cmd->callback([=] {
     std::signal(SIGINT, on_sigint);
@@ -163,13 +181,23 @@ void add_rig_commands(CLI::App& app) {
       if (r.report.frames == 0) throw std::runtime_error("no frame was merged");
       return;
     }
-    // A real rig: the aggregator alone; the edges are on their boards.
-    std::filesystem::path path = config->empty() ? config::default_rig_config_path() : std::filesystem::path(*config);
-    config::RigConfig rig = config::load_rig_config(path);
-    aggregator::RecordingSink recording(rig, record->empty() ? rig.recording.dir : std::filesystem::path(*record));
+    // A real rig: the aggregator alone; the edges are on their boards. A rig.toml that cannot be read
+    // or is wrong (a bad key, a node id without a number) is bad input: exit code 2.
+    std::unique_ptr<aggregator::Aggregator> agg_ptr;
+    config::RigConfig rig;
+    try {
+      std::filesystem::path path = config->empty() ? config::default_rig_config_path() : std::filesystem::path(*config);
+      rig = config::load_rig_config(path);
+      agg_ptr = std::make_unique<aggregator::Aggregator>(rig, aggregator::Options{});
+    } catch (const config::ConfigError& e) {
+      throw UsageError(e.what());
+    }
+    aggregator::Aggregator& agg = *agg_ptr;
+    auto& recording = agg.pipeline().tap(
+        std::make_unique<aggregator::RecordStage>(record->empty() ? rig.recording.dir : std::filesystem::path(*record)),
+        aggregator::RecordStage::kQueue);
+    agg.start();  // creates the session folder
     fmt::print("recording to {}\n", recording.dir().string());
-    aggregator::Aggregator agg(rig, {}, &recording);
-    agg.start();
     auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(*seconds > 0 ? *seconds : 1e12);
     while (!g_interrupted && std::chrono::steady_clock::now() < end)
       std::this_thread::sleep_for(std::chrono::milliseconds(50));

@@ -38,7 +38,7 @@ record::NodeNames node_names(const Reader::Summary& s) {
     config::NodeConfig node;
     node.id = s.rig_node_ids[k];
     try {
-      names[aggregator::node_number(node, k, "rig.toml")] = node.id;
+      names[config::node_number(node, k, "rig.toml")] = node.id;
     } catch (const std::exception&) {
     }
   }

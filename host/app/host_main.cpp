@@ -10,7 +10,7 @@
 #include <fmt/core.h>
 
 #include "voxcap/aggregator/aggregator.hpp"
-#include "voxcap/aggregator/sinks.hpp"
+#include "voxcap/aggregator/record_stage.hpp"
 #include "voxcap/config/rig_config.hpp"
 
 namespace {
@@ -29,12 +29,15 @@ int main(int argc, char** argv) {
   try {
     std::filesystem::path path = config.empty() ? vc::config::default_rig_config_path() : std::filesystem::path(config);
     vc::config::RigConfig rig = vc::config::load_rig_config(path);
-    vc::aggregator::RecordingSink recording(rig, rig.recording.dir);
-    fmt::print("voxcap-host: recording to {}\n", recording.dir().string());
-    vc::aggregator::Aggregator agg(rig, {}, &recording);
+    vc::aggregator::Aggregator agg(rig, {});
+    // The pipeline after merge: the recording (every frame). Triangulation, fitting, a viewer and
+    // stream-out are added here the same way.
+    auto& recording = agg.pipeline().tap(std::make_unique<vc::aggregator::RecordStage>(rig.recording.dir),
+                                         vc::aggregator::RecordStage::kQueue);
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     agg.start();
+    fmt::print("voxcap-host: recording to {}\n", recording.dir().string());
     auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds > 0 ? seconds : 1e12);
     while (!g_stop && std::chrono::steady_clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(50));
     agg.stop();

@@ -1,9 +1,12 @@
 #include "host_bench.hpp"
 
+#include <signal.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <numeric>
+#include <thread>
 
 #include "voxcap/assemble/assembler.hpp"
 #include "voxcap/emulated/emulated_rig.hpp"
@@ -113,19 +116,34 @@ nlohmann::json run_host_bench(const HostBenchOptions& o) {
     emulated::EmulatedRig rig(eo);
     rig.start(120);
     long rss_start = emulated::rss_kb();
+    auto t_run = Clock::now();
     rig.run_seconds(o.rig_minutes * 60);
+    const aggregator::Report run = rig.report();  // the run's figures, before the rejoin below
+    const double run_s = std::chrono::duration<double>(Clock::now() - t_run).count();
+    // Rejoin: an edge killed (SIGKILL) and started again; the time from its start to RUNNING in the
+    // run again (HELLO, CONFIG, background learnt, START with the run's origin).
+    const int k = o.rig_nodes > 1 ? 1 : 0;
+    rig.kill_node(k, SIGKILL);
+    rig.run_seconds(0.5);
+    auto t0 = Clock::now();
+    rig.restart_node(k);
+    while (!rig.node_running(k) && Clock::now() - t0 < std::chrono::seconds(30))
+      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    nlohmann::json rejoin_ms = nullptr;
+    if (rig.node_running(k)) rejoin_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     emulated::Result r = rig.stop();
     j["rig"] = {{"nodes", o.rig_nodes},
                 {"size", std::to_string(o.width) + "x" + std::to_string(o.height)},
                 {"grid", o.rig_grid},
-                {"seconds", r.wall_seconds},
-                {"pulses", r.report.pulses},
-                {"frames", r.report.frames},
-                {"complete", r.report.complete},
-                {"degraded", r.report.degraded},
-                {"fps", r.report.fps},
+                {"seconds", run_s},
+                {"pulses", run.pulses},
+                {"frames", run.frames},
+                {"complete", run.complete},
+                {"degraded", run.degraded},
+                {"fps", run.fps},
                 {"trigger_to_merged_ms",
-                 {{"p50", r.report.merged.percentile_ms(0.5)}, {"p99", r.report.merged.percentile_ms(0.99)}}},
+                 {{"p50", run.merged.percentile_ms(0.5)}, {"p99", run.merged.percentile_ms(0.99)}}},
+                {"rejoin_ms", rejoin_ms},
                 {"host_rss_kb", {{"start", rss_start}, {"end", r.host_rss_end_kb}}}};
   }
   return j;

@@ -4,7 +4,8 @@
 //           true body occupancy extruded along each node's horizontal viewing direction (what two nearby
 //           views leave of a body: a prism around it), so run counts are those of real hulls.
 //   rig:    the emulated rig's sustained fps, trigger -> merged-hull latency (p50, p99), frames complete,
-//           and the host's resident memory at the start and at the end of the run (default 10 minutes).
+//           and the host's resident memory at the start and at the end of the run (default 10 minutes);
+//           then one edge killed and restarted: its time to rejoin the run (rejoin_ms).
 #pragma once
 
 #include <nlohmann/json.hpp>

@@ -7,7 +7,7 @@ if(NOT rc EQUAL 0)
 endif()
 foreach(path "merge;0;nodes" "merge;0;grid" "merge;0;voxels" "merge;0;rle_bytes_per_node" "merge;0;merged_occupied"
              "merge;0;merge_ns_per_frame" "merge;0;merge_ns_p99" "rig;fps" "rig;frames" "rig;complete"
-             "rig;degraded" "rig;pulses" "rig;seconds" "rig;trigger_to_merged_ms;p50" "rig;trigger_to_merged_ms;p99"
+             "rig;degraded" "rig;pulses" "rig;seconds" "rig;trigger_to_merged_ms;p50" "rig;trigger_to_merged_ms;p99" "rig;rejoin_ms"
              "rig;host_rss_kb;start" "rig;host_rss_kb;end")
   string(JSON v ERROR_VARIABLE e GET "${out}" ${path})
   if(e)

@@ -11,11 +11,16 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
+#include <filesystem>
+#include <set>
+#include <variant>
 #include <thread>
 
 #include "voxcap/emulated/emulated_rig.hpp"
 #include "voxcap/proto.h"
+#include "voxcap/record/recorder.hpp"
 
 namespace vc::emulated {
 namespace {
@@ -60,10 +65,10 @@ TEST(EmulatedRig, ThreeNodesSixHundredFramesCompleteAndMatchTheTrueSilhouettes) 
   EXPECT_GE(r.accuracy.min_agree, 0.99);
   EXPECT_GE(r.accuracy.agree, 0.995);
   EXPECT_GE(r.accuracy.body_recall, 0.8);
-  EXPECT_GT(r.report.fps, 50.0);
+  // The rate (fps) is a figure, not a pass/fail criterion: `voxcap bench host` (rig.fps).
 }
 
-TEST(EmulatedRig, KilledEdgeIsMissedAndItsRestartRejoinsWithinASecond) {
+TEST(EmulatedRig, KilledEdgeIsMissedAndItsRestartRejoins) {
   EmulatedRig rig(options());
   rig.start(60);
   rig.run_frames(60, 30);
@@ -81,8 +86,8 @@ TEST(EmulatedRig, KilledEdgeIsMissedAndItsRestartRejoinsWithinASecond) {
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   double rejoin_s = std::chrono::duration<double>(Clock::now() - t0).count();
   ASSERT_TRUE(rig.node_running(1));
+  // How fast is a figure (`voxcap bench host`: rig.rejoin_ms), not a pass/fail criterion.
   RecordProperty("rejoin_ms", std::to_string(int(rejoin_s * 1000)));
-  EXPECT_LT(rejoin_s, 1.0) << "rejoined after " << rejoin_s << " s";
   uint64_t complete_before = rig.report().complete;
   rig.run_seconds(1.0);
   Result r = rig.stop();
@@ -179,6 +184,107 @@ TEST(EmulatedRig, StalledNodeIsCountedLateAndMemoryStaysFlat) {
       << "its backlog is counted, not merged";
   EXPECT_GT(r.report.degraded, 30u);
   EXPECT_LT(rss_after - rss_before, 16 * 1024) << "host memory grew by " << (rss_after - rss_before) << " kB";
+}
+
+// A stage that sleeps `seconds` in process() on the `at`-th frame it sees, as a slow viewer or a disk
+// that stops for a while would.
+class Stall : public pipeline::Stage {
+ public:
+  Stall(std::string name, uint64_t at, double seconds) : name_(std::move(name)), at_(at), seconds_(seconds) {}
+  std::string name() const override { return name_; }
+  void process(pipeline::Frame&) override {
+    if (++seen_ == at_) {
+      stalled_ = true;
+      std::this_thread::sleep_for(std::chrono::duration<double>(seconds_));
+      stalled_ = false;
+      done_ = true;
+    }
+  }
+  bool stalling() const { return stalled_; }
+  bool done() const { return done_; }
+
+ private:
+  std::string name_;
+  uint64_t at_;
+  double seconds_;
+  std::atomic<uint64_t> seen_{0};
+  std::atomic<bool> stalled_{false}, done_{false};
+};
+
+TEST(EmulatedRig, AStalledStageDropsNoNodeAndItsFramesAreAccounted) {
+  namespace fs = std::filesystem;
+  char tmp[] = "/tmp/voxcap-stall-XXXXXX";
+  ASSERT_NE(mkdtemp(tmp), nullptr);
+  Options o = options();
+  o.truth_every = 0;
+  o.record_dir = tmp;
+  Stall *live = nullptr, *must_see = nullptr;
+  // Both stall for 3 s — longer than the session's heartbeat timeout (2 s) — at the same frame: a live
+  // consumer (drops the oldest) and one that must see every frame (blocks the merge stage behind it).
+  o.stages = [&](pipeline::Pipeline& p) {
+    live = &p.tap(std::make_unique<Stall>("stalled-live", 30, 3.0), {4, pipeline::Overflow::DropOldest});
+    must_see = &p.tap(std::make_unique<Stall>("stalled-block", 30, 3.0), {512, pipeline::Overflow::Block});
+  };
+  EmulatedRig rig(o);
+  rig.start(60);
+  auto end = Clock::now() + std::chrono::seconds(30);
+  while (!must_see->stalling() && Clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_TRUE(must_see->stalling());
+  uint64_t at_stall = rig.merged_frames();
+  rig.run_seconds(1.5);
+  aggregator::Report during = rig.report();
+  EXPECT_TRUE(must_see->stalling()) << "still asleep";
+  EXPECT_GT(during.pipeline.stage("stalled-block")->queue.depth, 20u) << "its frames wait for it";
+  EXPECT_GT(rig.merged_frames(), at_stall + 20) << "the other stages go on";
+  while (!(must_see->done() && live->done()) && Clock::now() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  rig.run_seconds(1.0);
+  aggregator::Report after = rig.report();
+  Result r = rig.stop();
+
+  for (int k = 0; k < 3; k++) {
+    SCOPED_TRACE(k);
+    EXPECT_TRUE(node(after, k).connected) << "connected throughout";
+    EXPECT_EQ(node(r.report, k).joins, 1u);
+    EXPECT_EQ(node(r.report, k).leaves, 0u) << "no node left during the stall";
+    EXPECT_EQ(node(r.report, k).host_queue_drops, 0u) << "the assembly stage's queue never overflowed";
+  }
+  EXPECT_EQ(r.report.server.timeouts, 0u) << "no heartbeat timeout";
+  EXPECT_EQ(r.report.dropped + r.report.evicted, 0u);
+  EXPECT_GT(r.report.frames, 250u);
+
+  // Once everything drained at stop: every frame that left the chain (counted by `figures`) reached
+  // each consumer — processed or, for the live one only, dropped.
+  const pipeline::StageReport* fig = r.stages.stage("figures");
+  const pipeline::StageReport* lr = r.stages.stage("stalled-live");
+  const pipeline::StageReport* br = r.stages.stage("stalled-block");
+  const pipeline::StageReport* rec = r.stages.stage("record");
+  ASSERT_TRUE(fig && lr && br && rec);
+  const uint64_t frames = fig->processed;
+  EXPECT_GE(frames, r.report.frames);
+  EXPECT_GT(lr->queue.dropped, 100u) << "the live consumer skipped the stall's frames";
+  EXPECT_EQ(lr->processed + lr->queue.dropped, frames) << "every frame accounted: shown or dropped";
+  EXPECT_EQ(br->queue.dropped, 0u);
+  EXPECT_EQ(br->processed, frames) << "delayed, but every frame";
+  EXPECT_GT(br->queue.max_depth, 100u);
+  EXPECT_GE(br->busy_ms_max, 2900.0);
+  EXPECT_EQ(rec->processed, frames);
+  EXPECT_EQ(rec->queue.dropped, 0u);
+  for (const auto& s : r.stages.stages) EXPECT_EQ(s.errors, 0u) << s.name;
+
+  // The recording has every frame; during the run (the stall included) no seq is missing.
+  ASSERT_FALSE(r.session_dir.empty());
+  record::Reader reader = record::Reader::open(r.session_dir);
+  EXPECT_TRUE(reader.summary().closed_cleanly);
+  EXPECT_EQ(reader.summary().frames, frames);
+  std::set<uint64_t> seqs;
+  record::Record rr;
+  while (reader.next(rr))
+    if (auto* f = std::get_if<record::FrameRecord>(&rr)) seqs.insert(f->seq);
+  uint64_t in_run = 0;
+  for (uint64_t q = r.report.first_seq; q <= r.report.last_seq; q++) in_run += seqs.count(q);
+  EXPECT_EQ(in_run, r.report.last_seq - r.report.first_seq + 1) << "a gap in the recording";
+  fs::remove_all(tmp);
 }
 
 }  // namespace

@@ -3,26 +3,13 @@
 #include <fmt/core.h>
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 
+#include "voxcap/assemble/merge_stage.hpp"
 #include "voxcap/crc32c.h"
 #include "voxcap/rig/c_models.hpp"
 
 namespace vc::aggregator {
-
-uint16_t node_number(const config::NodeConfig& node, size_t k, const std::string& file) {
-  const std::string& id = node.id;
-  size_t end = id.size(), begin = end;
-  while (begin > 0 && std::isdigit(static_cast<unsigned char>(id[begin - 1]))) begin--;
-  if (begin == end || end - begin > 5)
-    throw config::ConfigError(file, fmt::format("nodes[{}].id", k),
-                              fmt::format("'{}' must be or end in the node's number (0..65535)", id));
-  unsigned long v = std::stoul(id.substr(begin));
-  if (v > 65535)
-    throw config::ConfigError(file, fmt::format("nodes[{}].id", k), fmt::format("node number {} is over 65535", v));
-  return static_cast<uint16_t>(v);
-}
 
 uint32_t grid_id(const rig::VoxelGrid& g) {
   double d[4] = {g.min_m[0], g.min_m[1], g.min_m[2], g.voxel_m};
@@ -82,11 +69,37 @@ struct Aggregator::Node {
   bool connected = false;
   uint32_t state = VC_STATE_IDLE;
   bool background_sent = false, start_sent = false;
+  bool assembling = false;  // what the assembly stage was last told (set_running)
   NodeReport rep;
 };
 
-Aggregator::Aggregator(config::RigConfig rig, Options options, Sink* sink)
-    : rig_(std::move(rig)), opt_(std::move(options)), sink_(sink), grid_id_(grid_id(rig_.grid)) {
+class Aggregator::Figures : public pipeline::Stage {
+ public:
+  std::string name() const override { return "figures"; }
+  void process(pipeline::Frame& f) override {
+    std::lock_guard<std::mutex> g(mu);
+    if (frames == 0) {
+      first_merged_ns = f.t_merged_ns;
+      first_seq = f.seq;
+    }
+    frames++;
+    last_merged_ns = f.t_merged_ns;
+    last_seq = f.seq;
+    if (f.t_merged_ns > f.t_trigger_ns) {
+      merged.add(f.t_merged_ns - f.t_trigger_ns);
+      window.add(f.t_merged_ns - f.t_trigger_ns);
+    }
+    count = frames;
+  }
+  mutable std::mutex mu;
+  uint64_t first_merged_ns = 0, last_merged_ns = 0, frames = 0, first_seq = 0, last_seq = 0;
+  Latency window;  // trigger -> merged since the last figures line
+  Latency merged;
+  std::atomic<uint64_t> count{0};
+};
+
+Aggregator::Aggregator(config::RigConfig rig, Options options)
+    : rig_(std::move(rig)), opt_(std::move(options)), grid_id_(grid_id(rig_.grid)) {
   std::string why;
   if (!rig_.valid(&why)) throw config::ConfigError(rig_.source.string(), "", why);
   assemble::AssemblerOptions ao;
@@ -99,11 +112,7 @@ Aggregator::Aggregator(config::RigConfig rig, Options options, Sink* sink)
   for (size_t k = 0; k < rig_.nodes.size(); k++) {
     auto n = std::make_unique<Node>();
     n->cfg = &rig_.nodes[k];
-    n->id = node_number(rig_.nodes[k], k, rig_.source.string());
-    for (const auto& other : nodes_)
-      if (other->id == n->id)
-        throw config::ConfigError(rig_.source.string(), fmt::format("nodes[{}].id", k),
-                                  fmt::format("node number {} is used twice", n->id));
+    n->id = config::node_number(rig_.nodes[k], k, rig_.source.string());  // unique: rig_.valid() checked
     vc_config c = make_config_message(rig_, *n->cfg, grid_id_);
     n->config_msg.resize(VC_PROTO_HEADER_SIZE + 4096);
     size_t len = 0;
@@ -118,8 +127,13 @@ Aggregator::Aggregator(config::RigConfig rig, Options options, Sink* sink)
     ao.nodes.push_back(n->id);
     nodes_.push_back(std::move(n));
   }
-  assembler_ = std::make_unique<assemble::Assembler>(ao);
-  for (const auto& n : nodes_) assembler_->set_running(n->id, false);
+  pipeline::StageContext ctx;
+  ctx.rig = &rig_;
+  ctx.log = [this](int level, const std::string& line) { log(level, line); };
+  pipeline_ = std::make_unique<pipeline::Pipeline>(ctx);
+  pipeline_->then(std::make_unique<assemble::MergeStage>(), {64, pipeline::Overflow::Block});
+  assembly_ = std::make_unique<AssemblyStage>(ao, opt_.assembly, *pipeline_, ctx.log);
+  for (const auto& n : nodes_) assembly_->set_running(n->id, false);
   session::ServerOptions so;
   so.listen = rig_.network.listen;
   so.port = rig_.network.port;
@@ -142,6 +156,10 @@ void Aggregator::log(int level, const std::string& line) const {
 uint16_t Aggregator::port() const { return server_->port(); }
 
 void Aggregator::start() {
+  // The figures consumer goes last, after every stage the caller added.
+  figures_ = &pipeline_->tap(std::make_unique<Figures>(), {256, pipeline::Overflow::Block});
+  pipeline_->start();
+  assembly_->start();
   server_->start();
   log(0, fmt::format("listening on {}:{} for {} nodes", rig_.network.listen, server_->port(), nodes_.size()));
   if (trigger_) {
@@ -164,12 +182,15 @@ void Aggregator::stop() {
   if (trigger_) trigger_->stop();
   if (!server_->drain(500)) log(1, "some nodes did not take their STOP within 0.5 s");
   server_->stop();
+  // Upstream first: what was received goes through assembly (pending frames flushed), then every
+  // stage drains its queue.
+  assembly_->stop();
+  pipeline_->stop();
   std::lock_guard<std::mutex> g(mu_);
-  out_.clear();
-  assembler_->flush(session::monotonic_ns(), out_);
-  deliver(out_);
   server_.reset();
 }
+
+uint64_t Aggregator::merged_frames() const { return figures_ ? figures_->count.load() : 0; }
 
 void Aggregator::note_pulse(uint64_t seq, uint64_t t_ns) {
   (void)t_ns;
@@ -202,7 +223,8 @@ std::string Aggregator::on_hello(session::ConnId conn, const vc_msg& m, const st
   }
   if (n->connected) {  // a restarted edge came back before we noticed the old connection die
     server_->close(n->conn, "replaced by a new connection of the same node");
-    assembler_->set_running(n->id, false);
+    n->connected = false;
+    set_running(*n);
     n->rep.leaves++;
   }
   n->conn = conn;
@@ -252,7 +274,14 @@ void Aggregator::advance(Node& n) {
       n.start_sent = true;
     }
   }
-  assembler_->set_running(n.id, n.connected && n.state == VC_STATE_RUNNING);
+  set_running(n);
+}
+
+void Aggregator::set_running(Node& n) {
+  bool running = n.connected && n.state == VC_STATE_RUNNING;
+  if (running == n.assembling) return;
+  n.assembling = running;
+  assembly_->set_running(n.id, running);
 }
 
 void Aggregator::on_message(session::ConnId conn, const vc_msg& m, uint64_t t_rx_ns) {
@@ -282,13 +311,15 @@ void Aggregator::on_message(session::ConnId conn, const vc_msg& m, uint64_t t_rx
       h.rle.assign(m.u.hull.rle, m.u.hull.rle + m.u.hull.rle_len);
       if (t_rx_ns > h.t_trigger_ns) n->rep.rx.add(t_rx_ns - h.t_trigger_ns);
       n->rep.hulls++;
-      out_.clear();
-      assembler_->add(std::move(h), t_rx_ns, out_);
-      deliver(out_);
+      assembly_->post_hull(std::move(h));  // never waits; a full queue drops it (counted per node)
       break;
     }
     case VC_MSG_FEATURES:
-      if (sink_) sink_->features(n->id, m.hdr.seq, m.u.features);
+      if (m.hdr.node_id != n->id) {
+        n->rep.rejected++;
+        break;
+      }
+      assembly_->post_features(n->id, m.hdr.seq, m.hdr.t_trigger_ns, m.u.features);
       break;
     case VC_MSG_STATS: {
       const vc_stats& s = m.u.stats;
@@ -307,7 +338,7 @@ void Aggregator::on_message(session::ConnId conn, const vc_msg& m, uint64_t t_rx
           default: break;
         }
       }
-      if (sink_) sink_->stats(n->id, s);
+      assembly_->post_stats(n->id, s);
       break;
     }
     case VC_MSG_ERROR: {
@@ -333,56 +364,60 @@ void Aggregator::on_disconnect(session::ConnId conn, const std::string& reason) 
   n->connected = false;
   n->state = VC_STATE_IDLE;
   n->rep.leaves++;
-  assembler_->set_running(n->id, false);
+  set_running(*n);
   log(1, fmt::format("node {} ({}) left: {}", n->id, n->cfg->id, reason));
 }
 
 void Aggregator::on_tick(uint64_t now_ns) {
-  std::lock_guard<std::mutex> g(mu_);
-  out_.clear();
-  assembler_->poll(now_ns, out_);
-  deliver(out_);
-  if (opt_.log_every_s <= 0) return;
+  // Deadlines are the assembly stage's (its own thread); here only the line of figures.
+  if (opt_.log_every_s <= 0 || !figures_) return;
   if (last_log_ns_ == 0) last_log_ns_ = now_ns;
   double dt = double(now_ns - last_log_ns_) / 1e9;
   if (dt < opt_.log_every_s) return;
-  // The observability line: fps, trigger -> merged latency, and per node what its STATS and the
-  // assembler say (edge frame time, late and missing hulls, the edge's own drops).
-  const assemble::AssemblerStats& st = assembler_->stats();
+  // The observability line: fps, trigger -> merged latency, per node what its STATS and the assembler
+  // say (edge frame time, late and missing hulls, the edge's own drops and the host's), and per stage
+  // its time, queue and drops.
+  const assemble::AssemblerStats st = assembly_->stats();
+  const std::map<uint16_t, uint64_t> host_drops = assembly_->drops();
   std::string nodes;
-  for (const auto& n : nodes_) {
-    auto it = st.nodes.find(n->id);
-    nodes += fmt::format(" | {} {} edge {:.2f} ms late {} missing {} drops {}", n->cfg->id,
-                         n->connected ? (vc_node_state_name(n->state) ? vc_node_state_name(n->state) : "?") : "gone",
-                         n->rep.edge_frame_ms, it != st.nodes.end() ? it->second.late : 0,
-                         it != st.nodes.end() ? it->second.missing : 0,
-                         n->rep.edge_queue_drops + n->rep.edge_pulses_without_frame);
+  {
+    std::lock_guard<std::mutex> g(mu_);
+    for (const auto& n : nodes_) {
+      auto it = st.nodes.find(n->id);
+      auto hd = host_drops.find(n->id);
+      nodes += fmt::format(" | {} {} edge {:.2f} ms late {} missing {} drops {}", n->cfg->id,
+                           n->connected ? (vc_node_state_name(n->state) ? vc_node_state_name(n->state) : "?") : "gone",
+                           n->rep.edge_frame_ms, it != st.nodes.end() ? it->second.late : 0,
+                           it != st.nodes.end() ? it->second.missing : 0,
+                           n->rep.edge_queue_drops + n->rep.edge_pulses_without_frame +
+                               (hd != host_drops.end() ? hd->second : 0));
+    }
+  }
+  std::string stages;
+  for (const pipeline::StageReport& s : pipeline_report().stages)
+    stages += fmt::format(" | {} {:.2f} ms q {}/{} drops {}", s.name, s.busy_ms_mean, s.queue.depth, s.queue.capacity,
+                          s.queue.dropped);
+  uint64_t frames = 0;
+  double p50 = 0, p99 = 0;
+  {
+    std::lock_guard<std::mutex> g(figures_->mu);
+    frames = figures_->frames;
+    p50 = figures_->window.percentile_ms(0.5);
+    p99 = figures_->window.percentile_ms(0.99);
+    figures_->window = Latency{};
   }
   log(0, fmt::format("{:.1f} fps, trigger->merged p50 {:.2f} ms p99 {:.2f} ms, frames {} ({} complete, {} degraded, "
-                     "{} dropped){}",
-                     double(frames_ - frames_at_log_) / dt, window_.percentile_ms(0.5), window_.percentile_ms(0.99),
-                     frames_, st.complete, st.degraded, st.dropped, nodes));
-  window_ = Latency{};
-  frames_at_log_ = frames_;
+                     "{} dropped){}{}",
+                     double(frames - frames_at_log_) / dt, p50, p99, frames, st.complete, st.degraded, st.dropped,
+                     nodes, stages));
+  frames_at_log_ = frames;
   last_log_ns_ = now_ns;
 }
 
-void Aggregator::deliver(std::vector<assemble::MergedFrame>& frames) {
-  for (const auto& f : frames) {
-    if (frames_ == 0) {
-      first_merged_ns_ = f.t_merged_ns;
-      first_seq_ = f.seq;
-    }
-    frames_++;
-    last_merged_ns_ = f.t_merged_ns;
-    last_seq_ = f.seq;
-    if (f.t_merged_ns > f.t_trigger_ns) {
-      merged_.add(f.t_merged_ns - f.t_trigger_ns);
-      window_.add(f.t_merged_ns - f.t_trigger_ns);
-    }
-    if (sink_) sink_->frame(f);
-  }
-  frames.clear();
+pipeline::PipelineReport Aggregator::pipeline_report() const {
+  pipeline::PipelineReport p = pipeline_->report();
+  p.stages.insert(p.stages.begin(), assembly_->report());
+  return p;
 }
 
 bool Aggregator::all_running() const {
@@ -392,23 +427,28 @@ bool Aggregator::all_running() const {
 }
 
 Report Aggregator::report() const {
-  std::lock_guard<std::mutex> g(mu_);
   Report r;
   r.pulses = pulses_;
-  const assemble::AssemblerStats& st = assembler_->stats();
-  r.frames = frames_;
+  const assemble::AssemblerStats st = assembly_->stats();
+  const std::map<uint16_t, uint64_t> host_drops = assembly_->drops();
+  if (figures_) {
+    std::lock_guard<std::mutex> g(figures_->mu);
+    r.frames = figures_->frames;
+    r.first_seq = figures_->first_seq;
+    r.last_seq = figures_->last_seq;
+    r.seconds = r.frames > 1 ? double(figures_->last_merged_ns - figures_->first_merged_ns) / 1e9 : 0;
+    r.merged = figures_->merged;
+  }
+  r.fps = r.seconds > 0 ? double(r.frames - 1) / r.seconds : 0;
   r.complete = st.complete;
   r.degraded = st.degraded;
   r.dropped = st.dropped;
   r.evicted = st.evicted;
-  r.first_seq = first_seq_;
-  r.last_seq = last_seq_;
-  r.seconds = frames_ > 1 ? double(last_merged_ns_ - first_merged_ns_) / 1e9 : 0;
-  r.fps = r.seconds > 0 ? double(frames_ - 1) / r.seconds : 0;
-  r.merged = merged_;
+  r.pending_frames = assembly_->pending();
+  r.pipeline = pipeline_report();
+  std::lock_guard<std::mutex> g(mu_);
   r.running = run_started_;
   if (server_) r.server = server_->stats();
-  r.pending_frames = assembler_->pending();
   r.origin = origin_;
   for (const auto& n : nodes_) {
     NodeReport nr = n->rep;
@@ -419,7 +459,11 @@ Report Aggregator::report() const {
       nr.late = it->second.late;
       nr.missing = it->second.missing;
       nr.rejected += it->second.rejected;
+      nr.features = it->second.features;
+      nr.features_late = it->second.features_late;
     }
+    auto hd = host_drops.find(n->id);
+    if (hd != host_drops.end()) nr.host_queue_drops = hd->second;
     r.nodes.push_back(std::move(nr));
   }
   return r;

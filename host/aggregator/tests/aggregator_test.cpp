@@ -1,6 +1,7 @@
 // The aggregator's session state machine against fake edges on 127.0.0.1 (no trigger: pulses are
 // noted by the test). Loops are bounded in time.
 #include "voxcap/aggregator/aggregator.hpp"
+#include "voxcap/aggregator/record_stage.hpp"
 
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
@@ -138,6 +139,37 @@ struct FakeEdge {
     ASSERT_EQ(vc_encode_hull_bits(buf.data(), buf.size(), &len, &hdr, grid, bits.data(), 64), 0);
     write_all(buf.data(), len);
   }
+  void features(uint64_t seq, uint64_t t, uint16_t camera) {
+    uint8_t buf[1024];
+    size_t len = 0;
+    vc_header hdr{};
+    hdr.node_id = id;
+    hdr.seq = seq;
+    hdr.t_trigger_ns = t;
+    vc_features f{};
+    f.camera = camera;
+    f.feature_count = 1;
+    f.features[0].feature_id = 1;
+    f.features[0].u = 10.5f;
+    f.features[0].v = 20.5f;
+    f.features[0].confidence = 0.9f;
+    ASSERT_EQ(vc_encode_features(buf, sizeof(buf), &len, &hdr, &f), 0);
+    write_all(buf, len);
+  }
+  void stats() {
+    uint8_t buf[2048];
+    size_t len = 0;
+    vc_header hdr{};
+    hdr.node_id = id;
+    vc_stats s{};
+    s.frames = 60;
+    s.stage_count = 1;
+    s.stages[0].stage_id = VC_STAGE_FRAME;
+    s.stages[0].mean_ns = 2'000'000;
+    s.stages[0].max_ns = 3'000'000;
+    ASSERT_EQ(vc_encode_stats(buf, sizeof(buf), &len, &hdr, &s), 0);
+    write_all(buf, len);
+  }
   // Waits for a message of `type`; returns its header seq, or -1.
   int64_t expect(uint16_t type, int ms = 3000) {
     auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
@@ -158,10 +190,12 @@ struct FakeEdge {
   }
 };
 
-struct FrameSink : Sink {
+// A consumer stage that keeps every frame.
+struct FrameSink : pipeline::Stage {
   std::mutex mu;
   std::vector<assemble::MergedFrame> frames;
-  void frame(const assemble::MergedFrame& f) override {
+  std::string name() const override { return "test-sink"; }
+  void process(pipeline::Frame& f) override {
     std::lock_guard<std::mutex> g(mu);
     frames.push_back(f);
   }
@@ -184,16 +218,6 @@ TEST(Latency, PercentilesComeFromAUniformSampleOfTheWholeRunInBoundedMemory) {
   EXPECT_DOUBLE_EQ(Latency{}.percentile_ms(0.5), 0.0);
 }
 
-TEST(Aggregator, NodeNumbers) {
-  config::NodeConfig n;
-  n.id = "node12";
-  EXPECT_EQ(node_number(n, 0, "r.toml"), 12);
-  n.id = "7";
-  EXPECT_EQ(node_number(n, 0, "r.toml"), 7);
-  n.id = "front";
-  EXPECT_THROW(node_number(n, 3, "r.toml"), config::ConfigError);
-}
-
 TEST(Aggregator, ConfigMessageCarriesTheCalibrationOfTheNodesCameras) {
   TmpDir tmp;
   config::RigConfig rig = make_rig(tmp.p);
@@ -213,8 +237,8 @@ TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
   Options o;
   o.start_trigger = false;
   o.log = [](int, const std::string&) {};
-  FrameSink sink;
-  Aggregator agg(make_rig(tmp.p), o, &sink);
+  Aggregator agg(make_rig(tmp.p), o);
+  FrameSink& sink = agg.pipeline().tap(std::make_unique<FrameSink>(), {64, pipeline::Overflow::Block});
   agg.start();
   agg.note_pulse(100, 0);
 
@@ -285,6 +309,95 @@ TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
   EXPECT_EQ(r.nodes[1].joins, 2u);
   EXPECT_EQ(r.nodes[1].leaves, 1u);
   agg.stop();
+}
+
+// Both fake edges through HELLO .. RUNNING; returns the run's origin seq.
+int64_t bring_up(Aggregator& agg, FakeEdge& e1, FakeEdge& e2) {
+  agg.note_pulse(100, 0);
+  EXPECT_EQ(e1.expect(VC_MSG_CONFIG), 0);
+  EXPECT_EQ(e2.expect(VC_MSG_CONFIG), 0);
+  e1.state(VC_STATE_CONFIGURED);
+  e2.state(VC_STATE_CONFIGURED);
+  EXPECT_GE(e1.expect(VC_MSG_BACKGROUND), 0);
+  EXPECT_GE(e2.expect(VC_MSG_BACKGROUND), 0);
+  e1.state(VC_STATE_READY);
+  e2.state(VC_STATE_READY);
+  int64_t origin = e1.expect(VC_MSG_START);
+  EXPECT_EQ(e2.expect(VC_MSG_START), origin);
+  e1.state(VC_STATE_RUNNING);
+  e2.state(VC_STATE_RUNNING);
+  for (int i = 0; i < 200 && !agg.all_running(); i++) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  EXPECT_TRUE(agg.all_running());
+  return origin;
+}
+
+TEST(Aggregator, FeaturesAndStatsTravelWithTheirFrameThroughEveryStageIntoTheRecording) {
+  TmpDir tmp;
+  Options o;
+  o.start_trigger = false;
+  o.log = [](int, const std::string&) {};
+  config::RigConfig rig = make_rig(tmp.p);
+  uint32_t gid = grid_id(rig.grid);
+  Aggregator agg(rig, o);
+  FrameSink& sink = agg.pipeline().tap(std::make_unique<FrameSink>(), {64, pipeline::Overflow::Block});
+  RecordStage& rec = agg.pipeline().tap(std::make_unique<RecordStage>(tmp.p / "rec"), RecordStage::kQueue);
+  agg.start();
+  ASSERT_TRUE(fs::is_directory(rec.dir())) << "the session folder exists once started";
+  FakeEdge e1(agg.port(), 1), e2(agg.port(), 2);
+  int64_t origin = bring_up(agg, e1, e2);
+  ASSERT_GT(origin, 0);
+  uint64_t seq = static_cast<uint64_t>(origin), t = session::monotonic_ns();
+  std::vector<uint8_t> a(8, 0xF0), b(8, 0x3C);
+  e1.stats();
+  e1.features(seq, t, 0);  // the front node's features, before and after its hull
+  e1.hull(seq, t, gid, a);
+  e1.features(seq, t, 1);
+  e2.hull(seq, t, gid, b);
+  // The frame is complete on the last hull; FEATURES that come after it are late.
+  for (int i = 0; i < 400 && agg.merged_frames() < 1; i++) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_EQ(agg.merged_frames(), 1u);
+  agg.stop();
+  {
+    std::lock_guard<std::mutex> g(sink.mu);
+    ASSERT_EQ(sink.frames.size(), 1u);
+    const pipeline::Frame& f = sink.frames[0];
+    EXPECT_EQ(f.seq, seq);
+    EXPECT_TRUE(f.merged);
+    EXPECT_EQ(f.occupied, 16u);
+    EXPECT_GE(f.t_merged_ns, f.t_assembled_ns);
+    ASSERT_NE(f.node(1), nullptr);
+    ASSERT_NE(f.node(2), nullptr);
+    EXPECT_EQ(f.node(1)->rle.empty(), false) << "the partial hulls travel with the frame";
+    uint64_t feats = f.node(1)->features.size();
+    EXPECT_GE(feats, 1u);
+    EXPECT_EQ(f.node(1)->features[0].camera, 0);
+    EXPECT_FLOAT_EQ(f.node(1)->features[0].features[0].u, 10.5f);
+    ASSERT_EQ(f.node(1)->stats.size(), 1u);
+    EXPECT_EQ(f.node(1)->stats[0].frames, 60u);
+    EXPECT_TRUE(f.node(2)->features.empty());
+    Report r = agg.report();
+    EXPECT_EQ(r.nodes[0].features + r.nodes[0].features_late, 2u) << "both FEATURES accounted";
+    EXPECT_EQ(r.nodes[0].features, feats);
+    EXPECT_DOUBLE_EQ(r.nodes[0].edge_frame_ms, 2.0);
+    for (const char* stage : {"assemble", "merge", "test-sink", "record", "figures"}) {
+      const pipeline::StageReport* s = r.pipeline.stage(stage);
+      ASSERT_NE(s, nullptr) << stage;
+      EXPECT_EQ(s->queue.dropped, 0u) << stage;
+    }
+    EXPECT_EQ(r.pipeline.stage("merge")->processed, 1u);
+    EXPECT_EQ(r.pipeline.stage("record")->processed, 1u);
+    EXPECT_GE(r.pipeline.stage("assemble")->processed, 5u);
+    std::vector<std::string> order;
+    for (const auto& s : r.pipeline.stages) order.push_back(s.name);
+    EXPECT_EQ(order, (std::vector<std::string>{"assemble", "merge", "test-sink", "record", "figures"}));
+  }
+  record::Reader reader = record::Reader::open(rec.dir());
+  const record::Reader::Summary& s = reader.summary();
+  EXPECT_TRUE(s.closed_cleanly);
+  EXPECT_EQ(s.frames, 1u);
+  EXPECT_EQ(s.features, agg.report().nodes[0].features);
+  EXPECT_EQ(s.stats, 1u);
+  EXPECT_EQ(s.first_seq, seq);
 }
 
 TEST(Aggregator, RejectsUnknownNodesAndWrongCameras) {

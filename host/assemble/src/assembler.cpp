@@ -23,6 +23,7 @@ bool AssemblerOptions::valid(std::string* why) const {
   if (voxel_count == 0) return fail("voxel_count: must be > 0");
   if (deadline_ns == 0) return fail("deadline_ns: must be > 0");
   if (max_pending == 0) return fail("max_pending: must be > 0");
+  if (max_stats_waiting == 0) return fail("max_stats_waiting: must be > 0");
   return true;
 }
 
@@ -41,8 +42,11 @@ void Assembler::set_running(uint16_t node_id, bool running) {
 }
 
 bool Assembler::complete(const Pending& p) const {
-  for (const auto& [node, run] : running_)
-    if (run && !p.hulls.count(node)) return false;
+  for (const auto& [node, run] : running_) {
+    if (!run) continue;
+    auto it = p.parts.find(node);
+    if (it == p.parts.end() || !it->second.has_hull) return false;
+  }
   return true;
 }
 
@@ -82,20 +86,34 @@ void intersect(const std::vector<const std::vector<uint8_t>*>& hulls, std::vecto
   }
 }
 
+void merge(pipeline::Frame& f, std::vector<uint8_t>& scratch, uint64_t now_ns) {
+  std::vector<const std::vector<uint8_t>*> parts;
+  for (const pipeline::NodePart& p : f.nodes)
+    if (p.has_hull) parts.push_back(&p.rle);
+  intersect(parts, f.rle, scratch);
+  uint64_t occ = 0, total = 0;
+  if (vc_rle_popcount(f.rle.data(), f.rle.size(), &occ, &total) < 0 || total != f.voxel_count)
+    throw std::runtime_error("assembler: merged hull is inconsistent");
+  f.occupied = occ;
+  f.merged = true;
+  f.t_merged_ns = now_ns;
+}
+
 void Assembler::resolve(uint64_t seq, Pending& p, uint64_t now_ns, std::vector<MergedFrame>& out) {
   if (!any_resolved_ || seq > max_resolved_) max_resolved_ = seq;
   any_resolved_ = true;
   MergedFrame f;
   f.seq = seq;
   for (uint16_t n : opt_.nodes) {
-    if (p.hulls.count(n)) {
+    auto it = p.parts.find(n);
+    if (it != p.parts.end() && it->second.has_hull) {
       f.present.push_back(n);
     } else {
       f.missing.push_back(n);
       stats_.nodes[n].missing++;
     }
   }
-  if (f.present.empty()) return;  // nobody sent anything: nothing to merge or count
+  if (f.present.empty()) return;  // nobody sent a hull: nothing to merge or count
   if (!f.missing.empty() && opt_.policy == MissingPolicy::Drop) {
     stats_.dropped++;
     return;
@@ -104,18 +122,50 @@ void Assembler::resolve(uint64_t seq, Pending& p, uint64_t now_ns, std::vector<M
   f.t_trigger_ns = p.t_trigger_ns;
   f.t_first_rx_ns = p.t_first_rx_ns;
   f.t_last_rx_ns = p.t_last_rx_ns;
-  f.t_merged_ns = now_ns;
+  f.t_assembled_ns = now_ns;
   f.grid_id = opt_.grid_id;
   f.voxel_count = opt_.voxel_count;
-  std::vector<const std::vector<uint8_t>*> parts;
-  for (auto& [node, rle] : p.hulls) parts.push_back(&rle);
-  intersect(parts, f.rle, tmp_);
-  uint64_t occ = 0, total = 0;
-  if (vc_rle_popcount(f.rle.data(), f.rle.size(), &occ, &total) < 0 || total != opt_.voxel_count)
-    throw std::runtime_error("assembler: merged hull is inconsistent");
-  f.occupied = occ;
+  for (auto& [node, part] : p.parts) f.nodes.push_back(std::move(part));
+  for (auto& [id, waiting] : stats_waiting_) {
+    if (waiting.empty()) continue;
+    const uint16_t node = id;
+    auto it = std::find_if(f.nodes.begin(), f.nodes.end(), [&](const pipeline::NodePart& x) { return x.node_id == node; });
+    if (it == f.nodes.end()) {
+      pipeline::NodePart part;
+      part.node_id = node;
+      it = f.nodes.insert(std::upper_bound(f.nodes.begin(), f.nodes.end(), node,
+                                           [](uint16_t n, const pipeline::NodePart& x) { return n < x.node_id; }),
+                          std::move(part));
+    }
+    it->stats = std::move(waiting);
+    waiting.clear();
+  }
+  if (opt_.merge) merge(f, tmp_, now_ns);
   (f.degraded ? stats_.degraded : stats_.complete)++;
   out.push_back(std::move(f));
+}
+
+Assembler::Pending* Assembler::slot(uint64_t seq, uint64_t t_trigger_ns, uint64_t now_ns,
+                                    std::vector<MergedFrame>& out, uint64_t& late) {
+  auto it = pending_.find(seq);
+  if (it != pending_.end()) return &it->second;
+  if (any_resolved_ && seq <= max_resolved_) {
+    late++;
+    return nullptr;
+  }
+  while (pending_.size() >= opt_.max_pending) {
+    auto oldest = pending_.begin();
+    if (oldest->first > seq) {  // the new one is older than everything kept: it is the one to go
+      late++;
+      return nullptr;
+    }
+    stats_.evicted++;
+    resolve(oldest->first, oldest->second, now_ns, out);
+    pending_.erase(oldest);
+  }
+  Pending& p = pending_.emplace(seq, Pending{}).first->second;
+  p.t_trigger_ns = t_trigger_ns;
+  return &p;
 }
 
 bool Assembler::add(PartialHull h, uint64_t now_ns, std::vector<MergedFrame>& out) {
@@ -126,39 +176,48 @@ bool Assembler::add(PartialHull h, uint64_t now_ns, std::vector<MergedFrame>& ou
     nc.rejected++;
     return false;
   }
-  auto it = pending_.find(h.seq);
-  if (it == pending_.end()) {
-    if (any_resolved_ && h.seq <= max_resolved_) {
-      nc.late++;
-      return false;
-    }
-    while (pending_.size() >= opt_.max_pending) {
-      auto oldest = pending_.begin();
-      if (oldest->first > h.seq) {  // the new hull is older than everything kept: it is the one to go
-        nc.late++;
-        return false;
-      }
-      stats_.evicted++;
-      resolve(oldest->first, oldest->second, now_ns, out);
-      pending_.erase(oldest);
-    }
-    it = pending_.emplace(h.seq, Pending{}).first;
-    it->second.t_trigger_ns = h.t_trigger_ns;
-    it->second.t_first_rx_ns = h.t_received_ns;
-  }
-  Pending& p = it->second;
-  if (p.hulls.count(h.node_id)) {
+  const bool fresh = !pending_.count(h.seq);
+  Pending* p = slot(h.seq, h.t_trigger_ns, now_ns, out, nc.late);
+  if (!p) return false;
+  pipeline::NodePart& part = p->parts[h.node_id];
+  if (part.has_hull) {
     nc.rejected++;
     return false;
   }
-  p.t_last_rx_ns = std::max(p.t_last_rx_ns, h.t_received_ns);
-  p.hulls.emplace(h.node_id, std::move(h.rle));
+  if (fresh || p->t_first_rx_ns == 0) p->t_first_rx_ns = h.t_received_ns;
+  p->t_last_rx_ns = std::max(p->t_last_rx_ns, h.t_received_ns);
+  part.node_id = h.node_id;
+  part.has_hull = true;
+  part.t_received_ns = h.t_received_ns;
+  part.occupied = h.occupied;
+  part.rle = std::move(h.rle);
   nc.received++;
-  if (complete(p)) {
-    resolve(it->first, p, now_ns, out);
-    pending_.erase(it);
+  if (complete(*p)) {
+    resolve(h.seq, *p, now_ns, out);
+    pending_.erase(h.seq);
   }
   return true;
+}
+
+bool Assembler::add_features(uint16_t node_id, uint64_t seq, uint64_t t_trigger_ns, const vc_features& features,
+                             uint64_t now_ns, std::vector<MergedFrame>& out) {
+  auto node_it = stats_.nodes.find(node_id);
+  if (node_it == stats_.nodes.end()) return false;
+  NodeCounters& nc = node_it->second;
+  Pending* p = slot(seq, t_trigger_ns, now_ns, out, nc.features_late);
+  if (!p) return false;
+  pipeline::NodePart& part = p->parts[node_id];
+  part.node_id = node_id;
+  part.features.push_back(features);
+  nc.features++;
+  return true;
+}
+
+void Assembler::add_stats(uint16_t node_id, const vc_stats& stats) {
+  if (!stats_.nodes.count(node_id)) return;
+  std::vector<vc_stats>& w = stats_waiting_[node_id];
+  if (w.size() >= opt_.max_stats_waiting) w.erase(w.begin());
+  w.push_back(stats);
 }
 
 void Assembler::poll(uint64_t now_ns, std::vector<MergedFrame>& out) {
@@ -180,7 +239,7 @@ void Assembler::flush(uint64_t now_ns, std::vector<MergedFrame>& out) {
 size_t Assembler::pending_bytes() const {
   size_t b = 0;
   for (const auto& [seq, p] : pending_)
-    for (const auto& [n, rle] : p.hulls) b += rle.size();
+    for (const auto& [n, part] : p.parts) b += part.rle.size();
   return b;
 }
 

@@ -4,6 +4,7 @@
 
 #include <random>
 
+#include "voxcap/assemble/merge_stage.hpp"
 #include "voxcap/rle.h"
 
 namespace vc::assemble {
@@ -148,6 +149,94 @@ TEST(Assembler, InvalidOptionsThrow) {
   o = opts();
   o.voxel_count = 0;
   EXPECT_THROW(Assembler{o}, std::invalid_argument);
+}
+
+vc_features features(uint16_t camera, float u) {
+  vc_features f{};
+  f.camera = camera;
+  f.feature_count = 1;
+  f.features[0].feature_id = 1;
+  f.features[0].u = u;
+  return f;
+}
+
+TEST(Assembler, FeaturesJoinTheFrameOfTheirSeqWithoutHoldingItBack) {
+  Assembler a(opts());
+  std::vector<MergedFrame> out;
+  EXPECT_TRUE(a.add_features(1, 10, 1000, features(0, 1.5f), 0, out));  // before any hull of seq 10
+  a.add(hull(1, 10, random_bits(1, 0.5)), 0, out);
+  EXPECT_TRUE(a.add_features(1, 10, 1000, features(1, 2.5f), 0, out));
+  a.add(hull(2, 10, random_bits(2, 0.5)), 0, out);
+  a.add(hull(3, 10, random_bits(3, 0.5)), 0, out);
+  ASSERT_EQ(out.size(), 1u) << "complete on the last hull: features are not waited for";
+  const pipeline::NodePart* n1 = out[0].node(1);
+  ASSERT_NE(n1, nullptr);
+  ASSERT_EQ(n1->features.size(), 2u);
+  EXPECT_EQ(n1->features[0].camera, 0);
+  EXPECT_FLOAT_EQ(n1->features[1].features[0].u, 2.5f);
+  EXPECT_TRUE(out[0].node(2)->features.empty());
+  EXPECT_EQ(out[0].t_trigger_ns, 1000u) << "a frame made by FEATURES keeps their trigger time";
+  EXPECT_EQ(out[0].t_first_rx_ns, 1100u) << "receive times are the hulls'";
+  EXPECT_FALSE(a.add_features(3, 10, 1000, features(0, 0), 0, out)) << "frame 10 is gone: late";
+  EXPECT_FALSE(a.add_features(9, 11, 1000, features(0, 0), 0, out)) << "not a configured node";
+  EXPECT_EQ(a.stats().nodes.at(1).features, 2u);
+  EXPECT_EQ(a.stats().nodes.at(3).features_late, 1u);
+}
+
+TEST(Assembler, FramesCarryEveryNodesPartialHullAndTheStatsThatCameBeforeThem) {
+  Assembler a(opts(MissingPolicy::Degraded));
+  std::vector<MergedFrame> out;
+  vc_stats st{};
+  st.frames = 60;
+  a.add_stats(2, st);
+  a.add_stats(9, st);  // not configured: ignored
+  auto b1 = random_bits(1, 0.5), b3 = random_bits(3, 0.5);
+  a.add(hull(1, 4, b1), 0, out);
+  a.add(hull(3, 4, b3), 0, out);
+  a.poll(1'000'000, out);
+  ASSERT_EQ(out.size(), 1u);
+  const MergedFrame& f = out[0];
+  ASSERT_EQ(f.nodes.size(), 3u) << "node 2 sent no hull, but its STATS ride on this frame";
+  EXPECT_EQ(f.nodes[0].node_id, 1);
+  EXPECT_EQ(f.nodes[1].node_id, 2);
+  EXPECT_EQ(f.nodes[2].node_id, 3);
+  EXPECT_EQ(f.nodes[0].rle, encode(b1));
+  EXPECT_TRUE(f.nodes[0].has_hull);
+  EXPECT_FALSE(f.nodes[1].has_hull);
+  ASSERT_EQ(f.nodes[1].stats.size(), 1u);
+  EXPECT_EQ(f.nodes[1].stats[0].frames, 60u);
+  EXPECT_EQ(f.missing, (std::vector<uint16_t>{2}));
+  a.add(hull(1, 5, b1), 0, out);
+  a.poll(2'000'000, out);
+  ASSERT_EQ(out.size(), 2u);
+  EXPECT_EQ(out[1].node(2), nullptr) << "STATS go with one frame only";
+}
+
+TEST(Assembler, UnmergedFramesAreMergedLaterToTheSameHull) {
+  AssemblerOptions o = opts();
+  o.merge = false;
+  Assembler a(o), b(opts());
+  std::vector<MergedFrame> out, ref;
+  for (uint16_t n = 1; n <= 3; n++) {
+    auto bits = random_bits(40 + n, 0.7);
+    a.add(hull(n, 8, bits), 0, out);
+    b.add(hull(n, 8, bits), 0, ref);
+  }
+  ASSERT_EQ(out.size(), 1u);
+  ASSERT_EQ(ref.size(), 1u);
+  EXPECT_FALSE(out[0].merged);
+  EXPECT_TRUE(out[0].rle.empty());
+  EXPECT_TRUE(ref[0].merged);
+  MergeStage stage;
+  EXPECT_EQ(stage.name(), "merge");
+  stage.process(out[0]);
+  EXPECT_TRUE(out[0].merged);
+  EXPECT_EQ(out[0].rle, ref[0].rle);
+  EXPECT_EQ(out[0].occupied, ref[0].occupied);
+  EXPECT_GE(out[0].t_merged_ns, out[0].t_assembled_ns);
+  pipeline::Frame empty;
+  empty.voxel_count = kVoxels;
+  EXPECT_THROW(stage.process(empty), std::runtime_error);
 }
 
 TEST(Intersect, AnyNumberOfHullsEqualsTheBitsetAnd) {

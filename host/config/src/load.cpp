@@ -407,6 +407,7 @@ RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::pa
       Reader r(*n.as_table(), key, ctx);
       NodeConfig node;
       read_node(r, &node);
+      node.number = parse_node_number(node.id);  // once, here; node_number() names the key when unset
       c.nodes.push_back(std::move(node));
     }
   }

@@ -3,6 +3,9 @@
 
 #include <fmt/format.h>
 
+#include <cctype>
+#include <string>
+
 namespace vc::config {
 namespace {
 
@@ -19,6 +22,29 @@ bool section_valid(const Options& o, const char* section, std::string* why) {
 }
 
 }  // namespace
+
+std::optional<uint16_t> parse_node_number(std::string_view id, std::string* why) {
+  size_t end = id.size(), begin = end;
+  while (begin > 0 && std::isdigit(static_cast<unsigned char>(id[begin - 1]))) begin--;
+  if (begin == end || end - begin > 5) {
+    if (why) *why = fmt::format("'{}' must be or end in the node's number (0..65535)", id);
+    return std::nullopt;
+  }
+  unsigned long v = std::stoul(std::string(id.substr(begin)));
+  if (v > 65535) {
+    if (why) *why = fmt::format("node number {} is over 65535", v);
+    return std::nullopt;
+  }
+  return static_cast<uint16_t>(v);
+}
+
+uint16_t node_number(const NodeConfig& node, size_t k, const std::string& file) {
+  if (node.number) return *node.number;
+  std::string why;
+  std::optional<uint16_t> n = parse_node_number(node.id, &why);
+  if (!n) throw ConfigError(file, fmt::format("nodes[{}].id", k), why);
+  return *n;
+}
 
 int RigConfig::camera_index(std::string_view camera_name) const {
   for (size_t k = 0; k < calibration.cameras.size(); ++k) {
@@ -55,6 +81,12 @@ bool RigConfig::valid(std::string* why) const {
     for (size_t j = 0; j < i; ++j)
       if (nodes[j].id == n.id)
         return fail(why, fmt::format("nodes[{}].id: \"{}\" is already the id of nodes[{}]", i, n.id, j));
+    if (n.number != parse_node_number(n.id))
+      return fail(why, fmt::format("nodes[{}].number: {} does not match its id \"{}\"", i,
+                                   n.number ? std::to_string(*n.number) : "unset", n.id));
+    for (size_t j = 0; j < i; ++j)
+      if (n.number && nodes[j].number == n.number)
+        return fail(why, fmt::format("nodes[{}].id: node number {} is used twice", i, *n.number));
     if (!have_cameras) continue;  // calibration not loaded: names cannot be checked
     for (size_t c = 0; c < n.cameras.size(); ++c) {
       const int k = camera_index(n.cameras[c]);

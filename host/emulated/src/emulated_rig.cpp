@@ -20,7 +20,9 @@
 #include <stdexcept>
 #include <thread>
 
-#include "voxcap/aggregator/sinks.hpp"
+#include <toml++/toml.h>
+
+#include "voxcap/aggregator/record_stage.hpp"
 #include "voxcap/edge/carver.h"
 #include "voxcap/rig/c_models.hpp"
 #include "voxcap/rig/calibration.hpp"
@@ -76,9 +78,10 @@ static int free_port(int type) {
   return ntohs(a.sin_port);
 }
 
-// Scores merged frames against the simulator's truth on its own thread (a bounded queue: when it
-// falls behind, frames are skipped from scoring, never from the rig).
-class TruthScorer : public aggregator::Sink {
+// Scores merged frames against the simulator's truth: a consumer stage of the host's pipeline, on its
+// own thread behind a drop-oldest queue (when it falls behind, frames are skipped from scoring —
+// counted as the stage's drops — never from the rig). Every truth_every-th frame of the run is scored.
+class TruthScorer : public pipeline::Stage {
  public:
   TruthScorer(const Options& opt, const rig::Calibration& cal, const rig::VoxelGrid& grid, const std::string& spec_cal)
       : opt_(opt), grid_(grid) {
@@ -98,51 +101,40 @@ class TruthScorer : public aggregator::Sink {
       carvers_.push_back(c);
     }
     voxels_ = static_cast<uint64_t>(grid.nx) * grid.ny * grid.nz;
-    if (opt.truth_every > 0) worker_ = std::thread([this] { loop(); });
+    const size_t bytes = (voxels_ + 7) / 8;
+    merged_.resize(bytes);
+    truth_.resize(bytes);
+    part_.resize(bytes);
+    sil_.resize(2);
   }
   ~TruthScorer() override {
-    {
-      std::lock_guard<std::mutex> g(mu_);
-      done_ = true;
-    }
-    cv_.notify_all();
-    if (worker_.joinable()) worker_.join();
     for (auto* c : carvers_) vc_carver_free(c);
   }
-  void set_origin(uint64_t origin) { origin_ = origin; }
-  void frame(const assemble::MergedFrame& f) override {
-    uint64_t n = merged_++;
-    if (opt_.truth_every <= 0 || n % static_cast<uint64_t>(opt_.truth_every) != 0 || f.seq < origin_) return;
-    std::lock_guard<std::mutex> g(mu_);
-    if (queue_.size() >= 8) return;
-    queue_.push_back({f.seq - origin_, f.rle});
-    cv_.notify_one();
+  // The queue: a few frames to score deep, so that a scoring in progress does not push them out.
+  static pipeline::QueueOptions queue(const Options& o) {
+    return {static_cast<size_t>(8 * std::max(1, o.truth_every)), pipeline::Overflow::DropOldest};
   }
-  uint64_t merged() const { return merged_; }
-  Accuracy accuracy() {
-    std::unique_lock<std::mutex> l(mu_);
-    cv_.wait_for(l, std::chrono::seconds(30), [&] { return queue_.empty() && !busy_; });
+  std::string name() const override { return "score"; }
+  void set_origin(uint64_t origin) { origin_ = origin; }
+  void process(pipeline::Frame& f) override {
+    const uint64_t origin = origin_;
+    if (opt_.truth_every <= 0 || f.seq < origin || (f.seq - origin) % static_cast<uint64_t>(opt_.truth_every) != 0)
+      return;
+    score(static_cast<int>(f.seq - origin), f.rle);
+  }
+  Accuracy accuracy() const {
+    std::lock_guard<std::mutex> g(mu_);
     return acc_;
   }
 
  private:
-  void loop() {
-    size_t bytes = (voxels_ + 7) / 8;
-    std::vector<uint8_t> merged(bytes), truth(bytes), part(bytes), body;
-    std::vector<cv::Mat> sil(2);
-    cv::Mat rgb;
-    for (;;) {
-      std::pair<uint64_t, std::vector<uint8_t>> job;
-      {
-        std::unique_lock<std::mutex> l(mu_);
-        cv_.wait(l, [&] { return done_ || !queue_.empty(); });
-        if (done_) return;
-        job = std::move(queue_.front());
-        queue_.pop_front();
-        busy_ = true;
-      }
-      int frame = static_cast<int>(job.first);
-      vc_rle_decode(job.second.data(), job.second.size(), merged.data(), voxels_);
+  void score(int frame, const std::vector<uint8_t>& rle) {
+    std::vector<uint8_t>&merged = merged_, &truth = truth_, &part = part_, &body = body_;
+    std::vector<cv::Mat>& sil = sil_;
+    cv::Mat& rgb = rgb_;
+    const size_t bytes = merged.size();
+    {
+      vc_rle_decode(rle.data(), rle.size(), merged.data(), voxels_);
       std::fill(truth.begin(), truth.end(), 0xFF);
       for (int k = 0; k < opt_.nodes; k++) {
         for (int c = 0; c < 2; c++) scene_->render_clean(frame, 2 * k + c, rgb, &sil[static_cast<size_t>(c)]);
@@ -171,8 +163,6 @@ class TruthScorer : public aggregator::Sink {
       double rec = body_n ? double(body_in) / double(body_n) : 1.0;
       acc_.body_recall = (acc_.body_recall * n + rec) / (n + 1);
       acc_.frames++;
-      busy_ = false;
-      cv_.notify_all();
     }
   }
 
@@ -181,14 +171,117 @@ class TruthScorer : public aggregator::Sink {
   std::unique_ptr<sim::Scene> scene_;
   std::vector<vc_carver*> carvers_;
   uint64_t voxels_ = 0;
-  std::atomic<uint64_t> origin_{0}, merged_{0};
-  std::mutex mu_;
-  std::condition_variable cv_;
-  std::deque<std::pair<uint64_t, std::vector<uint8_t>>> queue_;
-  bool done_ = false, busy_ = false;
+  std::atomic<uint64_t> origin_{0};
+  std::vector<uint8_t> merged_, truth_, part_, body_;  // scratch, reused frame to frame
+  std::vector<cv::Mat> sil_;
+  cv::Mat rgb_;
+  mutable std::mutex mu_;  // acc_
   Accuracy acc_;
-  std::thread worker_;
 };
+
+namespace {
+
+// The emulated rig's configuration, built in code: the option structs' defaults except what an
+// emulated rig is — its nodes (node0 the front one) and grid, the udp trigger to each edge's port, the
+// host on loopback, and the simulator's subtraction settings.
+config::RigConfig rig_config(const Options& o, const rig::Calibration& cal, const fs::path& cal_path,
+                             const fs::path& toml_path, const std::vector<int>& trigger_ports, int host_port) {
+  config::RigConfig c;
+  c.source = toml_path;
+  c.name = "emulated";
+  c.calibration_path = cal_path;
+  // As the edges' sim cameras read it: the file, so that host and edges agree to the last digit.
+  c.calibration = rig::read_calibration(cal_path.string());
+  c.grid = *cal.grid;  // set by the caller
+  c.grid_source = config::GridSource::Config;
+  for (int k = 0; k < o.nodes; k++) {
+    config::NodeConfig n;
+    n.id = fmt::format("node{}", k);
+    n.number = static_cast<uint16_t>(k);
+    n.address = "127.0.0.1";
+    n.cameras = {fmt::format("cam{}", 2 * k), fmt::format("cam{}", 2 * k + 1)};
+    n.role = k == 0 ? config::NodeRole::Front : config::NodeRole::Side;
+    c.nodes.push_back(std::move(n));
+  }
+  // The simulator's floor shadow darkens by up to ~40 % (~90 levels) while its sensor noise is ~2
+  // levels: T_u * sigma must exceed the shadow's depth so shadows reach the colour test (eq. 2), and the
+  // noise of a darkened pixel tilts its colour by a few degrees. The edge's sim-truth tests use these.
+  c.subtraction.t_upper = 60.0;
+  c.subtraction.t_lower = 3.5;
+  c.subtraction.shadow_angle_deg = 8.0;
+  c.subtraction.cleanup_radius_px = 1;
+  c.subtraction.background_frames = 20;
+  c.trigger.backend = config::TriggerBackend::Udp;
+  c.trigger.rate_hz = o.rate_hz;
+  c.trigger.rt_priority = 0;
+  for (int port : trigger_ports) c.trigger.udp.targets.push_back({"127.0.0.1", static_cast<uint16_t>(port)});
+  c.assembly.deadline_ms = o.deadline_ms;
+  c.assembly.missing_node_policy =
+      o.missing_policy == "drop" ? config::MissingNodePolicy::Drop : config::MissingNodePolicy::Degraded;
+  c.network.listen = "127.0.0.1";
+  c.network.port = static_cast<uint16_t>(host_port);
+  std::string why;
+  if (!c.valid(&why)) throw std::logic_error("emulated rig: its configuration is invalid: " + why);
+  return c;
+}
+
+// rig.toml of a RigConfig, for the workdir and the session recording (which keeps a copy of the file
+// the rig ran from): the keys an emulated rig sets, written with toml++ and read back with the one
+// loader, which must give the same rig.
+void write_rig_toml(const config::RigConfig& c, const fs::path& path) {
+  toml::table t;
+  t.insert("version", 1);
+  t.insert("name", c.name);
+  t.insert("calibration", c.calibration_path.string());
+  t.insert("grid", toml::table{{"min_m", toml::array{c.grid.min_m[0], c.grid.min_m[1], c.grid.min_m[2]}},
+                               {"voxel_m", c.grid.voxel_m},
+                               {"nx", c.grid.nx},
+                               {"ny", c.grid.ny},
+                               {"nz", c.grid.nz}});
+  toml::array nodes;
+  for (const config::NodeConfig& n : c.nodes) {
+    toml::array cams;
+    for (const std::string& cam : n.cameras) cams.push_back(cam);
+    nodes.push_back(toml::table{{"id", n.id},
+                                {"address", n.address},
+                                {"cameras", cams},
+                                {"role", std::string(config::to_string(n.role))}});
+  }
+  t.insert("nodes", nodes);
+  t.insert("subtraction", toml::table{{"t_upper", c.subtraction.t_upper},
+                                      {"t_lower", c.subtraction.t_lower},
+                                      {"shadow_angle_deg", c.subtraction.shadow_angle_deg},
+                                      {"cleanup_radius_px", c.subtraction.cleanup_radius_px},
+                                      {"background_frames", c.subtraction.background_frames}});
+  t.insert("features", toml::table{{"enabled", c.features.enabled}});
+  toml::array targets;
+  for (const config::Endpoint& e : c.trigger.udp.targets) targets.push_back(e.str());
+  t.insert("trigger", toml::table{{"backend", std::string(config::to_string(c.trigger.backend))},
+                                  {"rate_hz", c.trigger.rate_hz},
+                                  {"pulse_width_us", c.trigger.pulse_width_us},
+                                  {"rt_priority", c.trigger.rt_priority},
+                                  {"late_threshold_us", c.trigger.late_threshold_us},
+                                  {"udp", toml::table{{"targets", targets}}}});
+  t.insert("assembly", toml::table{{"deadline_ms", c.assembly.deadline_ms},
+                                   {"missing_node_policy", std::string(config::to_string(c.assembly.missing_node_policy))}});
+  t.insert("network", toml::table{{"listen", c.network.listen}, {"port", static_cast<int64_t>(c.network.port)}});
+  {
+    std::ofstream f(path);
+    f << "# Written by voxcap's emulated rig from its RigConfig (host/emulated).\n" << t << "\n";
+    if (!f) throw std::runtime_error(fmt::format("cannot write {}", path.string()));
+  }
+  const config::RigConfig back = config::load_rig_config(path);
+  bool same = back.nodes.size() == c.nodes.size() && back.trigger.udp.targets == c.trigger.udp.targets &&
+              back.subtraction.t_upper == c.subtraction.t_upper && back.network.port == c.network.port &&
+              back.grid.nx == c.grid.nx && back.assembly.deadline_ms == c.assembly.deadline_ms;
+  for (size_t k = 0; same && k < c.nodes.size(); k++)
+    same = back.nodes[k].id == c.nodes[k].id && back.nodes[k].number == c.nodes[k].number &&
+           back.nodes[k].role == c.nodes[k].role;
+  if (!same)
+    throw std::logic_error(fmt::format("emulated rig: {} does not read back as the rig it was written from", path.string()));
+}
+
+}  // namespace
 
 struct EmulatedRig::Impl {
   Options opt;
@@ -199,10 +292,9 @@ struct EmulatedRig::Impl {
   int host_port = 0;
   std::vector<int> trigger_ports;
   std::vector<pid_t> pids;
-  std::unique_ptr<TruthScorer> scorer;
-  std::unique_ptr<aggregator::RecordingSink> recorder;  // sinks outlive the aggregator (declared first)
-  std::unique_ptr<aggregator::FanoutSink> fanout;
   std::unique_ptr<aggregator::Aggregator> agg;
+  TruthScorer* scorer = nullptr;             // stages of agg's pipeline (owned there)
+  aggregator::RecordStage* recorder = nullptr;
   Clock::time_point t_start;
   long rss_start = 0;
   bool stopped = false;
@@ -308,48 +400,30 @@ void EmulatedRig::start(double timeout_s) {
   grid.voxel_m = 2.24 / o.grid;
   grid.nx = grid.ny = grid.nz = o.grid;
   cal.grid = grid;
-  fs::path cal_path = m.dir / "rig.yaml";
+  fs::path cal_path = fs::absolute(m.dir / "rig.yaml");
   rig::write_calibration(cal_path.string(), cal);
 
   m.host_port = free_port(SOCK_STREAM);
   m.trigger_ports.clear();
   for (int k = 0; k < o.nodes; k++) m.trigger_ports.push_back(free_port(SOCK_DGRAM));
-  std::ostringstream t;
-  t << "# Written by voxcap's emulated rig.\nversion = 1\nname = \"emulated\"\ncalibration = \"rig.yaml\"\n\n";
-  t << fmt::format("[grid]\nmin_m = [-1.12, -1.12, 0.0]\nvoxel_m = {}\nnx = {}\nny = {}\nnz = {}\n\n", grid.voxel_m,
-                   o.grid, o.grid, o.grid);
-  for (int k = 0; k < o.nodes; k++)
-    t << fmt::format("[[nodes]]\nid = \"node{}\"\naddress = \"127.0.0.1\"\ncameras = [\"cam{}\", \"cam{}\"]\n{}\n", k,
-                     2 * k, 2 * k + 1, k == 0 ? "role = \"front\"\n" : "");
-  // The simulator's floor shadow darkens by up to ~40 % (~90 levels) while its sensor noise is ~2
-  // levels: T_u * sigma must exceed the shadow's depth so shadows reach the colour test (eq. 2), and the
-  // noise of a darkened pixel tilts its colour by a few degrees. The edge's sim-truth tests use these.
-  t << "[subtraction]\nt_upper = 60.0\nt_lower = 3.5\nshadow_angle_deg = 8.0\ncleanup_radius_px = 1\n"
-       "background_frames = 20\n\n";
-  t << "[trigger]\nbackend = \"udp\"\n" << fmt::format("rate_hz = {}\nrt_priority = 0\n", o.rate_hz);
-  t << "[trigger.udp]\ntargets = [";
-  for (int k = 0; k < o.nodes; k++) t << (k ? ", " : "") << fmt::format("\"127.0.0.1:{}\"", m.trigger_ports[k]);
-  t << "]\n\n";
-  t << fmt::format("[assembly]\ndeadline_ms = {}\nmissing_node_policy = \"{}\"\n\n", o.deadline_ms, o.missing_policy);
-  t << fmt::format("[network]\nlisten = \"127.0.0.1\"\nport = {}\n", m.host_port);
-  fs::path toml = m.dir / "rig.toml";
-  std::ofstream(toml) << t.str();
-  config::RigConfig rig = config::load_rig_config(toml);
+  config::RigConfig rig = rig_config(o, cal, cal_path, m.dir / "rig.toml", m.trigger_ports, m.host_port);
+  write_rig_toml(rig, rig.source);  // for the workdir and the session recording's copy
 
   m.sim_spec = fmt::format("motion={},fps={},seed={},noise={},calibration={}", o.motion, o.rate_hz, o.seed, o.noise,
                            cal_path.string());
-  m.scorer = std::make_unique<TruthScorer>(o, cal, grid, cal_path.string());
   aggregator::Options ao;
   if (o.quiet) ao.log = [](int level, const std::string& line) {
     if (level >= 2) fmt::print(stderr, "voxcap-host: {}\n", line);
   };
-  aggregator::Sink* sink = m.scorer.get();
-  if (!o.record_dir.empty()) {
-    m.recorder = std::make_unique<aggregator::RecordingSink>(rig, o.record_dir);
-    m.fanout = std::make_unique<aggregator::FanoutSink>(std::vector<aggregator::Sink*>{m.scorer.get(), m.recorder.get()});
-    sink = m.fanout.get();
-  }
-  m.agg = std::make_unique<aggregator::Aggregator>(rig, ao, sink);
+  m.agg = std::make_unique<aggregator::Aggregator>(rig, ao);
+  // The host's pipeline: assemble -> merge -> the recording (every frame) and the scorer (live).
+  if (!o.record_dir.empty())
+    m.recorder = &m.agg->pipeline().tap(std::make_unique<aggregator::RecordStage>(o.record_dir),
+                                        aggregator::RecordStage::kQueue);
+  if (o.truth_every > 0)
+    m.scorer = &m.agg->pipeline().tap(std::make_unique<TruthScorer>(o, cal, grid, cal_path.string()),
+                                      TruthScorer::queue(o));
+  if (o.stages) o.stages(m.agg->pipeline());
   m.agg->start();
   m.pids.assign(static_cast<size_t>(o.nodes), 0);
   for (int k = 0; k < o.nodes; k++) m.spawn(k);
@@ -369,11 +443,11 @@ void EmulatedRig::start(double timeout_s) {
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
-  m.scorer->set_origin(m.agg->report().origin);
+  if (m.scorer) m.scorer->set_origin(m.agg->report().origin);
   m.t_start = Clock::now();
 }
 
-uint64_t EmulatedRig::merged_frames() const { return impl_->scorer ? impl_->scorer->merged() : 0; }
+uint64_t EmulatedRig::merged_frames() const { return impl_->agg ? impl_->agg->merged_frames() : 0; }
 aggregator::Report EmulatedRig::report() const { return impl_->agg->report(); }
 uint16_t EmulatedRig::host_port() const { return static_cast<uint16_t>(impl_->host_port); }
 const fs::path& EmulatedRig::workdir() const { return impl_->dir; }
@@ -413,15 +487,13 @@ Result EmulatedRig::stop() {
   r.wall_seconds = std::chrono::duration<double>(Clock::now() - m.t_start).count();
   r.report = m.agg->report();
   for (int k = 0; k < static_cast<int>(m.pids.size()); k++) m.reap(k, SIGTERM, 3.0);
-  m.agg->stop();
-  r.accuracy = m.scorer->accuracy();
+  m.agg->stop();  // every stage drains its queue; the recording is closed cleanly
+  r.stages = m.agg->report().pipeline;
+  if (m.scorer) r.accuracy = m.scorer->accuracy();
   r.host_rss_start_kb = m.rss_start;
   r.host_rss_end_kb = rss_kb();
   r.workdir = m.dir;
-  if (m.recorder) {
-    r.session_dir = m.recorder->dir();
-    m.recorder.reset();  // closes the session cleanly
-  }
+  if (m.recorder) r.session_dir = m.recorder->dir();
   return r;
 }
 

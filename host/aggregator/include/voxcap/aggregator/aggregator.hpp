@@ -9,8 +9,15 @@
 //   node reports RUNNING                                                     → the assembler waits for it
 //   connection lost                                                           → frames go on without it
 //
-// Merged frames go to the Sink (recording, fitting, live view). Per-stage latency (trigger → hull at
-// edge → received → merged), fps and per-node drops are kept for report() and the log.
+// The session server's thread only decodes, runs this state machine and hands HULL, FEATURES and STATS
+// to the assembly stage's queue without waiting (assembly_stage.hpp); heartbeats never wait for a
+// stage. Frames then flow through the host's pipeline (voxcap/pipeline/pipeline.hpp):
+//
+//   assemble ─► merge ─► [stages added with pipeline().then()] ─┬─► figures (fps, latency; internal)
+//                                                               └─► [consumers added with pipeline().tap()]
+//
+// Per-stage latency (trigger → hull at edge → received → merged), fps, per-node drops and every
+// stage's queue, drops and time are kept for report() and the log.
 #pragma once
 
 #include <atomic>
@@ -22,26 +29,15 @@
 #include <string>
 #include <vector>
 
+#include "voxcap/aggregator/assembly_stage.hpp"
 #include "voxcap/assemble/assembler.hpp"
 #include "voxcap/config/rig_config.hpp"
+#include "voxcap/pipeline/pipeline.hpp"
 #include "voxcap/proto.h"
 #include "voxcap/session/server.hpp"
 #include "voxcap/trigger/generator.hpp"
 
 namespace vc::aggregator {
-
-// Where assembled data goes. Called on the server thread: keep it short or queue.
-class Sink {
- public:
-  virtual ~Sink() = default;
-  virtual void frame(const assemble::MergedFrame& f) = 0;
-  virtual void features(uint16_t node_id, uint64_t seq, const vc_features& f) { (void)node_id, (void)seq, (void)f; }
-  virtual void stats(uint16_t node_id, const vc_stats& s) { (void)node_id, (void)s; }
-};
-
-// The protocol's node id of a rig node: its `id` ("3", or "node3": the trailing number). Throws
-// config::ConfigError naming nodes[k].id when there is none.
-uint16_t node_number(const config::NodeConfig& node, size_t k, const std::string& file);
 
 // The CONFIG message body for one node, from the rig configuration.
 vc_config make_config_message(const config::RigConfig& rig, const config::NodeConfig& node, uint32_t grid_id);
@@ -54,7 +50,8 @@ struct Options {
   double start_margin_s = 0.3;
   bool start_trigger = true;    // false: tests drive pulses themselves via note_pulse()
   std::function<void(int level, const std::string&)> log;  // 0 info, 1 warning, 2 error
-  double log_every_s = 5;       // a line of figures (fps, latency, per-node drops) this often; 0: never
+  double log_every_s = 5;       // a line of figures (fps, latency, per-node drops, stages) this often; 0: never
+  AssemblyOptions assembly;     // the assembly stage's queue and deadline polling
 };
 
 struct Latency {  // nanoseconds
@@ -76,6 +73,8 @@ struct NodeReport {
   uint64_t joins = 0, leaves = 0;
   uint64_t hulls = 0, late = 0, missing = 0, rejected = 0;
   uint64_t edge_queue_drops = 0, edge_frames_without_pulse = 0, edge_pulses_without_frame = 0;
+  uint64_t host_queue_drops = 0;  // its messages dropped because the assembly stage's queue was full
+  uint64_t features = 0, features_late = 0;  // FEATURES that joined a frame / came after it
   uint64_t errors = 0;
   std::string last_error;
   double edge_frame_ms = 0;  // trigger edge → HULL queued, as the edge's STATS say (mean)
@@ -93,18 +92,24 @@ struct Report {
   std::vector<NodeReport> nodes;
   session::ServerStats server;  // connections accepted, dropped for undecodable bytes, timeouts, ...
   size_t pending_frames = 0;    // frames waiting in the assembler now
+  pipeline::PipelineReport pipeline;  // every stage: assemble, merge, ..., figures, consumers
   bool running = false; // the run has started (every node was READY once)
   uint64_t origin = 0;
 };
 
 class Aggregator : public session::Handler {
  public:
-  Aggregator(config::RigConfig rig, Options options, Sink* sink = nullptr);
+  Aggregator(config::RigConfig rig, Options options);
   ~Aggregator() override;
 
-  void start();  // listens and starts the trigger; throws on failure
-  void stop();   // STOP to every node, trigger off, pending frames flushed
+  // The frame pipeline after assembly: merge is in it; add stages (then) and consumers (tap) before
+  // start(), e.g. pipeline().tap(std::make_unique<RecordStage>(dir), RecordStage::kQueue).
+  pipeline::Pipeline& pipeline() { return *pipeline_; }
+
+  void start();  // configures and starts the stages, listens, starts the trigger; throws on failure
+  void stop();   // STOP to every node, trigger off; pending frames flushed through every stage
   uint16_t port() const;
+  uint64_t merged_frames() const;  // frames that left the chain so far
 
   Report report() const;
   bool all_running() const;
@@ -122,26 +127,27 @@ class Aggregator : public session::Handler {
   Node* by_conn(session::ConnId conn);
   void send(Node& n, const std::vector<uint8_t>& msg);
   void advance(Node& n);
-  void deliver(std::vector<assemble::MergedFrame>& frames);
+  void set_running(Node& n);
   void log(int level, const std::string& line) const;
+  pipeline::PipelineReport pipeline_report() const;
+
+  // Counts the frames that leave the chain: fps and trigger -> merged latency (a Block consumer).
+  class Figures;
 
   config::RigConfig rig_;
   Options opt_;
-  Sink* sink_;
   uint32_t grid_id_;
+  std::unique_ptr<pipeline::Pipeline> pipeline_;
+  Figures* figures_ = nullptr;  // owned by pipeline_
+  std::unique_ptr<AssemblyStage> assembly_;
   std::unique_ptr<session::Server> server_;
   std::unique_ptr<trigger::Generator> trigger_;
-  std::unique_ptr<assemble::Assembler> assembler_;
   mutable std::mutex mu_;
   std::vector<std::unique_ptr<Node>> nodes_;
   std::atomic<uint64_t> last_pulse_seq_{0}, pulses_{0};
   bool run_started_ = false;
   uint64_t origin_ = 0;
-  uint64_t first_merged_ns_ = 0, last_merged_ns_ = 0, frames_ = 0, first_seq_ = 0, last_seq_ = 0;
   uint64_t last_log_ns_ = 0, frames_at_log_ = 0;
-  Latency window_;  // trigger -> merged since the last figures line
-  Latency merged_;
-  std::vector<assemble::MergedFrame> out_;
 };
 
 }  // namespace vc::aggregator

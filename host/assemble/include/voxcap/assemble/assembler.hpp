@@ -1,11 +1,16 @@
-// Frame assembly on the host: group the nodes' partial hulls by trigger seq and intersect them.
+// Frame assembly on the host: group what the nodes send by trigger seq into one pipeline::Frame —
+// partial hulls, FEATURES (per camera) and STATS — and intersect the hulls.
 //
 // A frame is merged as soon as every node that is currently running has sent its HULL for that seq,
 // or when its deadline (trigger time + deadline) passes. The merge is the AND of the partial hulls,
 // done on the RLE streams directly in one pass over all of them (vc_rle_and_n, no bitset in between).
 // When a configured node is missing from a frame, the policy decides: Drop the frame, or merge what
 // came and mark it degraded.
-// A HULL for a frame that was already emitted is late: counted per node and discarded.
+// A HULL for a frame that was already emitted is late: counted per node and discarded. FEATURES join
+// the frame of their seq (they never hold it back; late ones are counted and discarded); STATS are not
+// about one seq and join the next frame the assembler emits.
+// With AssemblerOptions::merge false the frames leave unmerged (the host's pipeline merges them in its
+// merge stage, merge_stage.hpp); merge() below is that step.
 //
 // Memory is bounded whatever the nodes do: at most max_pending frames wait; a newer seq beyond that
 // evicts the oldest pending frame, which is resolved early as if its deadline had passed. Pure logic:
@@ -17,6 +22,8 @@
 #include <map>
 #include <string>
 #include <vector>
+
+#include "voxcap/pipeline/frame.hpp"
 
 namespace vc::assemble {
 
@@ -33,18 +40,9 @@ struct PartialHull {
   std::vector<uint8_t> rle;    // proto/ RLE (voxcap/rle.h)
 };
 
-struct MergedFrame {
-  uint64_t seq = 0;
-  uint64_t t_trigger_ns = 0;
-  uint64_t t_first_rx_ns = 0, t_last_rx_ns = 0;  // first and last partial hull received
-  uint64_t t_merged_ns = 0;                      // the `now` at which it was merged
-  uint32_t grid_id = 0;
-  uint64_t voxel_count = 0;
-  uint64_t occupied = 0;
-  bool degraded = false;                         // some configured node is missing
-  std::vector<uint16_t> present, missing;        // node ids
-  std::vector<uint8_t> rle;                      // the merged hull
-};
+// What the assembler emits: the pipeline's frame (t_assembled_ns and, when merged here, t_merged_ns
+// are the `now` at which it was resolved).
+using MergedFrame = pipeline::Frame;
 
 struct AssemblerOptions {
   std::vector<uint16_t> nodes;   // the configured nodes (all of them, running or not)
@@ -53,6 +51,8 @@ struct AssemblerOptions {
   uint64_t deadline_ns = 50'000'000;
   MissingPolicy policy = MissingPolicy::Drop;
   size_t max_pending = 64;       // frames waiting at most
+  bool merge = true;             // AND the hulls when a frame is resolved; false: leave it to merge()
+  size_t max_stats_waiting = 16; // STATS kept per node until the next frame leaves (the oldest go)
 
   bool valid(std::string* why) const;
 };
@@ -62,6 +62,8 @@ struct NodeCounters {
   uint64_t missing = 0;   // frames resolved without this node's hull
   uint64_t late = 0;      // hulls that came after their frame was resolved
   uint64_t rejected = 0;  // wrong grid, wrong size, duplicate, inconsistent RLE
+  uint64_t features = 0;       // FEATURES messages that joined a frame
+  uint64_t features_late = 0;  // FEATURES for a frame already resolved
 };
 
 struct AssemblerStats {
@@ -83,6 +85,12 @@ class Assembler {
   // One node's partial hull. Frames that became complete are appended to `out`. Returns false when
   // the hull was rejected or late (counted).
   bool add(PartialHull hull, uint64_t now_ns, std::vector<MergedFrame>& out);
+  // One node's FEATURES (one camera) for frame `seq`. They join the frame without holding it back.
+  // Returns false when late or not from a configured node.
+  bool add_features(uint16_t node_id, uint64_t seq, uint64_t t_trigger_ns, const vc_features& features,
+                    uint64_t now_ns, std::vector<MergedFrame>& out);
+  // One node's STATS: they go with the next frame that leaves the assembler.
+  void add_stats(uint16_t node_id, const vc_stats& stats);
 
   // Resolves every frame whose deadline passed at now_ns (in seq order), appending merged ones.
   void poll(uint64_t now_ns, std::vector<MergedFrame>& out);
@@ -99,8 +107,12 @@ class Assembler {
   struct Pending {
     uint64_t t_trigger_ns = 0;
     uint64_t t_first_rx_ns = 0, t_last_rx_ns = 0;
-    std::map<uint16_t, std::vector<uint8_t>> hulls;  // node -> RLE
+    std::map<uint16_t, pipeline::NodePart> parts;  // node -> what it sent
   };
+  // The pending frame of seq, made when it is new (evicting the oldest at max_pending); nullptr when
+  // seq is late (counted in `late`).
+  Pending* slot(uint64_t seq, uint64_t t_trigger_ns, uint64_t now_ns, std::vector<MergedFrame>& out,
+                uint64_t& late);
   void resolve(uint64_t seq, Pending& p, uint64_t now_ns, std::vector<MergedFrame>& out);
   bool complete(const Pending& p) const;
 
@@ -111,7 +123,13 @@ class Assembler {
   uint64_t max_resolved_ = 0;
   AssemblerStats stats_;
   std::vector<uint8_t> tmp_;  // merge scratch, reused
+  std::map<uint16_t, std::vector<vc_stats>> stats_waiting_;
 };
+
+// The merged hull of a frame: the AND of its nodes' partial hulls into frame.rle, its occupied count,
+// merged = true and t_merged_ns = now_ns. Throws std::runtime_error when the frame has no hull or the
+// result does not cover voxel_count voxels.
+void merge(pipeline::Frame& frame, std::vector<uint8_t>& scratch, uint64_t now_ns);
 
 // AND of several RLE streams of the same grid into out (vc_rle_and_n; `scratch` is its output buffer,
 // kept between calls so that a steady stream of frames does not allocate it again). One hull is

@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -125,6 +126,10 @@ struct NodeConfig {
   std::string address = "any";       // the edge's IPv4 address/host name, or "any"
   std::vector<std::string> cameras;  // exactly two camera names of the calibration (cam0 ... camN-1)
   NodeRole role = NodeRole::Side;
+  // The protocol's node id (what the edge says in HELLO): the number `id` is or ends in ("node3" → 3),
+  // parsed once by load_rig_config (parse_node_number). Unset when `id` has none: such a rig loads
+  // (`voxcap config check`) but a host cannot run it (config::node_number() says why).
+  std::optional<uint16_t> number;
 
   bool valid(std::string* why) const;
   bool is_front() const { return role == NodeRole::Front; }

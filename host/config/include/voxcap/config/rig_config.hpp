@@ -9,7 +9,9 @@
 // Unknown keys are errors (a typo must not silently fall back to a default).
 #pragma once
 
+#include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -69,6 +71,13 @@ RigConfig load_rig_config(const std::filesystem::path& path, const LoadOptions& 
 // The same from text; `source` names the file in messages and anchors relative paths.
 RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::path& source,
                            const LoadOptions& options = {});
+
+// The node number `id` is or ends in ("node12" → 12, "7" → 7), or nothing with the reason in *why
+// ("'front' must be or end in the node's number (0..65535)", "node number 70000 is over 65535").
+std::optional<uint16_t> parse_node_number(std::string_view id, std::string* why = nullptr);
+// The protocol's node id of rig node `node` (nodes[k] of `file`): NodeConfig::number, or for a node
+// built without it, parsed from its id. Throws ConfigError naming nodes[k].id when there is none.
+uint16_t node_number(const NodeConfig& node, size_t k, const std::string& file);
 
 // The rig.toml to use when none is given: $VOXCAP_RIG, else ./rig.toml if it exists, else the
 // emulated example rig of the source tree (hw/rigs/emulated.toml).

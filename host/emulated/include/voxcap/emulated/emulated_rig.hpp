@@ -2,17 +2,19 @@
 //
 // EmulatedRig writes a virtual rig (calibration from hw/sim's default ring, a rig.toml with a udp
 // trigger), runs the host aggregator in this process and one `voxcap-edge` process per node with
-// `sim` cameras and the udp trigger input, all on 127.0.0.1 with ports picked free. Each merged frame
-// can be scored against ground truth: the hull carved from the simulator's TRUE silhouettes (the same
-// carving rule as the edges, then the AND over nodes — what a perfect subtraction would give) and the
-// true body occupancy. Nodes can be killed and restarted (fault tests). Used by `voxcap rig
-// --emulated`, the integration tests and `voxcap bench host`.
+// `sim` cameras and the udp trigger input, all on 127.0.0.1 with ports picked free. Merged frames can
+// be scored against ground truth by the scorer, a consumer stage of the host's pipeline (a live one:
+// it drops the oldest frames when behind, counted): the hull carved from the simulator's TRUE
+// silhouettes (the same carving rule as the edges, then the AND over nodes — what a perfect
+// subtraction would give) and the true body occupancy. Nodes can be killed and restarted (fault
+// tests). Used by `voxcap rig --emulated`, the integration tests and `voxcap bench host`.
 #pragma once
 
 #include <sys/types.h>
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -36,6 +38,9 @@ struct Options {
   std::filesystem::path edge_binary;  // empty: voxcap-edge beside this executable
   std::filesystem::path record_dir;   // record the session in a new folder below this; empty: no recording
   bool quiet = true;              // edges log warnings only, host info lines suppressed
+  // More stages for the host's pipeline (a viewer, a test's probe), added after the recorder and the
+  // scorer, before the rig starts.
+  std::function<void(pipeline::Pipeline&)> stages;
 
   bool valid(std::string* why) const;
 };
@@ -49,7 +54,8 @@ struct Accuracy {
 };
 
 struct Result {
-  aggregator::Report report;
+  aggregator::Report report;        // taken while the run was still going (before the edges stop)
+  pipeline::PipelineReport stages;  // every stage once all drained at stop: what each finally saw
   Accuracy accuracy;
   uint64_t frames_wanted = 0;
   double wall_seconds = 0;

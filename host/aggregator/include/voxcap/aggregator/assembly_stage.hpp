@@ -1,0 +1,88 @@
+// The assembly stage: the head of the host's pipeline. The session server's thread hands it what the
+// nodes send (post_*: never waits — when its queue is full the message is dropped and counted for its
+// node); on its own thread it groups them by seq (assemble::Assembler, unmerged), resolves each frame
+// when every running node's HULL is in or at its deadline, and pushes it into the pipeline, where it
+// may wait for room (a Block stage further down holds back this thread, never the session thread).
+//
+// Lifecycle as every stage: configure (the constructor: options from the rig) → start → process (its
+// thread: one message at a time, deadlines polled every poll_ms) → stop (the queue is drained, pending
+// frames are flushed into the pipeline).
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <map>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <variant>
+#include <vector>
+
+#include "voxcap/assemble/assembler.hpp"
+#include "voxcap/pipeline/pipeline.hpp"
+
+namespace vc::aggregator {
+
+struct AssemblyOptions {
+  size_t queue = 1024;  // messages waiting at most (~8 s of 3 nodes at 60 Hz with FEATURES)
+  int poll_ms = 5;      // deadlines are checked at least this often (as the session tick did before)
+};
+
+class AssemblyStage {
+ public:
+  // Frames go to `out` (borrowed; it must outlive this stage and be started before start()).
+  AssemblyStage(assemble::AssemblerOptions assembler, AssemblyOptions options, pipeline::Pipeline& out,
+                pipeline::LogFn log);
+  ~AssemblyStage();  // stop()
+
+  void start();
+  void stop();  // idempotent
+
+  // From the session thread; false when dropped (queue full, counted for the node) or stopped.
+  bool post_hull(assemble::PartialHull hull);
+  bool post_features(uint16_t node_id, uint64_t seq, uint64_t t_trigger_ns, const vc_features& features);
+  bool post_stats(uint16_t node_id, const vc_stats& stats);
+  // Which nodes a frame waits for. Queued in order with the messages (never dropped, never waits):
+  // hulls queued before a node started running are assembled as if it was not running yet.
+  void set_running(uint16_t node_id, bool running);
+
+  assemble::AssemblerStats stats() const;
+  size_t pending() const;
+  pipeline::StageReport report() const;  // as "assemble"
+  std::map<uint16_t, uint64_t> drops() const;  // per node: messages dropped for a full queue
+
+ private:
+  struct Features {
+    uint16_t node_id;
+    uint64_t seq, t_trigger_ns;
+    vc_features features;
+  };
+  struct Stats {
+    uint16_t node_id;
+    vc_stats stats;
+  };
+  struct Running {
+    uint16_t node_id;
+    bool running;
+  };
+  using Input = std::variant<assemble::PartialHull, Features, Stats, Running>;
+
+  bool post(uint16_t node_id, Input in);
+  void run();
+  void forward(std::vector<assemble::MergedFrame>& frames);
+
+  pipeline::Pipeline& out_;
+  AssemblyOptions opt_;
+  pipeline::LogFn log_;
+  pipeline::BoundedQueue<Input> inbox_;
+  mutable std::mutex mu_;  // the assembler, the figures below
+  assemble::Assembler assembler_;
+  uint64_t processed_ = 0;
+  double busy_ns_sum_ = 0, busy_ns_max_ = 0;
+  std::map<uint16_t, uint64_t> drops_;
+  uint64_t drops_logged_ = 0, last_drop_log_ns_ = 0;
+  std::thread thread_;
+  bool started_ = false, stopped_ = false;
+};
+
+}  // namespace vc::aggregator

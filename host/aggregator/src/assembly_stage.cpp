@@ -1,0 +1,154 @@
+#include "voxcap/aggregator/assembly_stage.hpp"
+
+#include <fmt/core.h>
+
+#include <chrono>
+
+#include "voxcap/session/server.hpp"
+
+namespace vc::aggregator {
+
+namespace {
+assemble::AssemblerOptions unmerged(assemble::AssemblerOptions o) {
+  o.merge = false;  // the pipeline's merge stage does it, on its own thread
+  return o;
+}
+}  // namespace
+
+AssemblyStage::AssemblyStage(assemble::AssemblerOptions assembler, AssemblyOptions options, pipeline::Pipeline& out,
+                             pipeline::LogFn log)
+    : out_(out),
+      opt_(options),
+      log_(std::move(log)),
+      inbox_(options.queue, pipeline::Overflow::DropNewest),
+      assembler_(unmerged(std::move(assembler))) {}
+
+AssemblyStage::~AssemblyStage() { stop(); }
+
+void AssemblyStage::start() {
+  if (started_) return;
+  started_ = true;
+  thread_ = std::thread([this] { run(); });
+}
+
+void AssemblyStage::stop() {
+  if (stopped_) return;
+  stopped_ = true;
+  inbox_.close();
+  if (thread_.joinable()) thread_.join();
+}
+
+bool AssemblyStage::post(uint16_t node_id, Input in) {
+  if (inbox_.push(std::move(in))) return true;
+  if (inbox_.closed_and_empty()) return false;
+  // Dropped: the stages are behind by a whole queue. Counted per node; a line at most every 5 s.
+  uint64_t now = session::monotonic_ns(), total = 0, since = 0;
+  bool say = false;
+  {
+    std::lock_guard<std::mutex> g(mu_);
+    drops_[node_id]++;
+    for (const auto& [n, d] : drops_) total += d;
+    if (last_drop_log_ns_ == 0 || now - last_drop_log_ns_ >= 5'000'000'000u) {
+      say = true;
+      last_drop_log_ns_ = now;
+      since = total - drops_logged_;
+      drops_logged_ = total;
+    }
+  }
+  if (say && log_)
+    log_(1, fmt::format("assemble: queue full ({} messages): dropping what the nodes send ({} dropped so far, "
+                        "{} since the last such line)",
+                        opt_.queue, total, since));
+  return false;
+}
+
+bool AssemblyStage::post_hull(assemble::PartialHull hull) {
+  uint16_t node = hull.node_id;
+  return post(node, std::move(hull));
+}
+
+bool AssemblyStage::post_features(uint16_t node_id, uint64_t seq, uint64_t t_trigger_ns, const vc_features& f) {
+  return post(node_id, Features{node_id, seq, t_trigger_ns, f});
+}
+
+bool AssemblyStage::post_stats(uint16_t node_id, const vc_stats& s) { return post(node_id, Stats{node_id, s}); }
+
+void AssemblyStage::set_running(uint16_t node_id, bool running) { inbox_.push_always(Running{node_id, running}); }
+
+void AssemblyStage::forward(std::vector<assemble::MergedFrame>& frames) {
+  for (auto& f : frames) out_.push(std::make_shared<pipeline::Frame>(std::move(f)));
+  frames.clear();
+}
+
+void AssemblyStage::run() {
+  using Clock = std::chrono::steady_clock;
+  const auto poll = std::chrono::milliseconds(opt_.poll_ms);
+  const uint64_t poll_ns = static_cast<uint64_t>(opt_.poll_ms) * 1'000'000u;
+  uint64_t last_poll = 0;
+  std::vector<assemble::MergedFrame> out;
+  for (;;) {
+    std::optional<Input> in = inbox_.pop_for(poll);
+    auto t0 = Clock::now();
+    uint64_t now = session::monotonic_ns();
+    {
+      std::lock_guard<std::mutex> g(mu_);
+      if (in) {
+        if (auto* h = std::get_if<assemble::PartialHull>(&*in)) {
+          assembler_.add(std::move(*h), now, out);
+        } else if (auto* f = std::get_if<Features>(&*in)) {
+          assembler_.add_features(f->node_id, f->seq, f->t_trigger_ns, f->features, now, out);
+        } else if (auto* s = std::get_if<Stats>(&*in)) {
+          assembler_.add_stats(s->node_id, s->stats);
+        } else if (auto* r = std::get_if<Running>(&*in)) {
+          assembler_.set_running(r->node_id, r->running);
+        }
+      }
+      if (!in || now - last_poll >= poll_ns) {
+        assembler_.poll(now, out);
+        last_poll = now;
+      }
+      if (in) {
+        processed_++;
+        double ns = std::chrono::duration<double, std::nano>(Clock::now() - t0).count();
+        busy_ns_sum_ += ns;
+        if (ns > busy_ns_max_) busy_ns_max_ = ns;
+      }
+    }
+    forward(out);
+    if (!in && inbox_.closed_and_empty()) break;
+  }
+  {
+    std::lock_guard<std::mutex> g(mu_);
+    assembler_.flush(session::monotonic_ns(), out);
+  }
+  forward(out);
+}
+
+assemble::AssemblerStats AssemblyStage::stats() const {
+  std::lock_guard<std::mutex> g(mu_);
+  return assembler_.stats();
+}
+
+size_t AssemblyStage::pending() const {
+  std::lock_guard<std::mutex> g(mu_);
+  return assembler_.pending();
+}
+
+std::map<uint16_t, uint64_t> AssemblyStage::drops() const {
+  std::lock_guard<std::mutex> g(mu_);
+  return drops_;
+}
+
+pipeline::StageReport AssemblyStage::report() const {
+  pipeline::StageReport r;
+  r.name = "assemble";
+  r.overflow = pipeline::Overflow::DropNewest;
+  r.queue = inbox_.counters();
+  std::lock_guard<std::mutex> g(mu_);
+  r.processed = processed_;
+  r.busy_ms_mean = processed_ ? busy_ns_sum_ / double(processed_) / 1e6 : 0;
+  r.busy_ms_max = busy_ns_max_ / 1e6;
+  return r;
+}
+
+}  // namespace vc::aggregator

@@ -1,0 +1,143 @@
+// The assembly stage between the session thread and the pipeline: posting never waits, a full queue
+// drops and counts per node, frames leave in order, stop() flushes what is pending.
+#include "voxcap/aggregator/assembly_stage.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
+
+#include "voxcap/rle.h"
+#include "voxcap/session/server.hpp"
+
+namespace vc::aggregator {
+namespace {
+
+using namespace std::chrono_literals;
+
+// A consumer that waits at a gate before each frame.
+struct Gate : pipeline::Stage {
+  std::mutex mu;
+  std::condition_variable cv;
+  bool open = false;
+  std::vector<uint64_t> seqs;
+  std::vector<size_t> features;
+  std::string name() const override { return "gate"; }
+  void process(pipeline::Frame& f) override {
+    std::unique_lock<std::mutex> l(mu);
+    cv.wait(l, [&] { return open; });
+    seqs.push_back(f.seq);
+    features.push_back(f.node(1) ? f.node(1)->features.size() : 0);
+  }
+  void release() {
+    {
+      std::lock_guard<std::mutex> g(mu);
+      open = true;
+    }
+    cv.notify_all();
+  }
+};
+
+assemble::AssemblerOptions options() {
+  assemble::AssemblerOptions o;
+  o.nodes = {1, 2};
+  o.grid_id = 7;
+  o.voxel_count = 64;
+  o.deadline_ns = 1'000'000'000'000ull;  // never: frames complete by their hulls, or at stop
+  return o;
+}
+
+assemble::PartialHull hull(uint16_t node, uint64_t seq) {
+  std::vector<uint8_t> bits(8, 0xFF), rle(vc_rle_max_encoded_size(64));
+  size_t len = 0;
+  EXPECT_EQ(vc_rle_encode(bits.data(), 64, rle.data(), rle.size(), &len), 0);
+  rle.resize(len);
+  assemble::PartialHull h;
+  h.node_id = node;
+  h.seq = seq;
+  h.t_trigger_ns = session::monotonic_ns();  // the deadline counts from the pulse
+  h.t_received_ns = h.t_trigger_ns;
+  h.grid_id = 7;
+  h.voxel_count = 64;
+  h.occupied = 64;
+  h.rle = rle;
+  return h;
+}
+
+TEST(AssemblyStage, PostingNeverWaitsAndAFullQueueDropsCountedPerNode) {
+  pipeline::Pipeline p(pipeline::StageContext{});
+  Gate& gate = p.tap(std::make_unique<Gate>(), {1, pipeline::Overflow::Block});
+  p.start();
+  std::vector<std::string> warnings;
+  AssemblyStage a(options(), {8, 1}, p, [&](int level, const std::string& line) {
+    if (level == 1) warnings.push_back(line);
+  });
+  a.set_running(1, true);
+  a.set_running(2, true);
+  a.start();
+  // The gate is shut: the pipeline holds one frame in the stage and one in its queue, the assembly
+  // thread waits to push the third; then its own queue fills up.
+  auto t0 = std::chrono::steady_clock::now();
+  uint64_t accepted = 0, refused = 0;
+  vc_features f{};
+  f.feature_count = 1;
+  for (uint64_t seq = 1; seq <= 200; seq++) {
+    a.post_features(1, seq, session::monotonic_ns(), f);
+    bool h1 = a.post_hull(hull(1, seq));
+    bool h2 = a.post_hull(hull(2, seq));
+    (h1 && h2 ? accepted : refused)++;  // a frame needs both hulls
+  }
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 1s) << "the session thread never waits";
+  EXPECT_GT(refused, 150u);
+  EXPECT_GE(accepted, 2u) << "the queue's 8 places hold the first two seqs";
+  std::map<uint16_t, uint64_t> drops = a.drops();
+  EXPECT_GT(drops[1], 0u);
+  EXPECT_GT(drops[2], 0u);
+  pipeline::StageReport r = a.report();
+  EXPECT_EQ(r.name, "assemble");
+  EXPECT_EQ(r.overflow, pipeline::Overflow::DropNewest);
+  EXPECT_EQ(r.queue.dropped, drops[1] + drops[2]);
+  EXPECT_LE(r.queue.max_depth, 8u);
+  ASSERT_EQ(warnings.size(), 1u) << "one line, not one per message";
+  EXPECT_NE(warnings[0].find("queue full"), std::string::npos);
+  gate.release();
+  a.stop();
+  p.stop();
+  // The seqs whose two hulls were accepted became frames (a seq that lost a hull is dropped at
+  // stop by the policy, Drop), in seq order, each with node 1's FEATURES.
+  ASSERT_EQ(gate.seqs.size(), accepted);
+  for (size_t i = 1; i < gate.seqs.size(); i++) EXPECT_LT(gate.seqs[i - 1], gate.seqs[i]);
+  EXPECT_EQ(gate.seqs[0], 1u);
+  EXPECT_EQ(gate.features[0], 1u);
+  EXPECT_EQ(a.stats().complete + a.stats().degraded, gate.seqs.size());
+  EXPECT_FALSE(a.post_hull(hull(1, 999))) << "stopped";
+}
+
+TEST(AssemblyStage, WaitsOnlyForRunningNodesAndFlushesPendingFramesAtStop) {
+  pipeline::Pipeline p(pipeline::StageContext{});
+  Gate& gate = p.tap(std::make_unique<Gate>(), {16, pipeline::Overflow::Block});
+  gate.release();
+  p.start();
+  assemble::AssemblerOptions o = options();
+  o.policy = assemble::MissingPolicy::Degraded;
+  AssemblyStage a(o, {}, p, {});
+  a.set_running(1, true);
+  a.set_running(2, false);  // node 2 not running: frames do not wait for it
+  a.start();
+  ASSERT_TRUE(a.post_hull(hull(1, 5)));
+  for (int i = 0; i < 200 && a.stats().degraded == 0; i++) std::this_thread::sleep_for(5ms);
+  EXPECT_EQ(a.stats().degraded, 1u);
+  a.set_running(2, true);
+  ASSERT_TRUE(a.post_hull(hull(1, 6)));  // waits for node 2 now
+  std::this_thread::sleep_for(50ms);
+  EXPECT_EQ(a.pending(), 1u);
+  a.stop();  // flushed: merged without node 2
+  p.stop();
+  EXPECT_EQ(gate.seqs, (std::vector<uint64_t>{5, 6}));
+  EXPECT_EQ(a.stats().degraded, 2u);
+}
+
+}  // namespace
+}  // namespace vc::aggregator

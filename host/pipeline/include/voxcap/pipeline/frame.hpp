@@ -1,0 +1,56 @@
+// One frame of the rig, assembled by trigger `seq`: what every node sent for it, the merged hull, and
+// (later) the pose. It travels down the host's stage pipeline (pipeline.hpp): the assembly stage
+// creates it, the merge stage fills `rle`, later stages (triangulation, fitting) add their results,
+// and the consumers at the end (recording, the emulated rig's scorer, a viewer) read it.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "voxcap/proto.h"
+
+namespace vc::pipeline {
+
+// What one node sent for one frame.
+struct NodePart {
+  uint16_t node_id = 0;
+  bool has_hull = false;
+  uint64_t t_received_ns = 0;         // host CLOCK_MONOTONIC when its HULL was received
+  uint64_t occupied = 0;              // occupied voxels of its partial hull, as the edge said
+  std::vector<uint8_t> rle;           // its partial hull (proto/ RLE, voxcap/rle.h); empty without a HULL
+  std::vector<vc_features> features;  // its FEATURES for this seq, one per camera, in arrival order
+  std::vector<vc_stats> stats;        // STATS it sent while this frame was being assembled (not per seq)
+};
+
+struct Frame {
+  uint64_t seq = 0;                              // the trigger pulse counter
+  uint64_t t_trigger_ns = 0;                     // host CLOCK_MONOTONIC of the pulse
+  uint64_t t_first_rx_ns = 0, t_last_rx_ns = 0;  // first and last partial hull received
+  uint64_t t_assembled_ns = 0;                   // left the assembler (complete, or its deadline passed)
+  uint64_t t_merged_ns = 0;                      // the merged hull was ready
+  uint32_t grid_id = 0;
+  uint64_t voxel_count = 0;
+  uint64_t occupied = 0;                         // occupied voxels of the merged hull
+  bool degraded = false;                         // some configured node is missing
+  bool merged = false;                           // `rle` and `occupied` hold the merged hull
+  std::vector<uint16_t> present, missing;        // node ids, ascending
+  std::vector<NodePart> nodes;                   // one per node that sent anything for it, by node id
+  std::vector<uint8_t> rle;                      // the merged hull (AND of the partial hulls)
+
+  // ---- The pose goes here. ----
+  // The fitting issue adds the skeleton's pose for this frame (and triangulation its 3D features) as
+  // fields of their own types; there is deliberately no placeholder type until then.
+
+  const NodePart* node(uint16_t id) const {
+    for (const NodePart& p : nodes)
+      if (p.node_id == id) return &p;
+    return nullptr;
+  }
+};
+
+// Frames move between stages by shared pointer: a stage in the chain owns the frame alone while it
+// runs; the consumers at the end share it and only read it.
+using FramePtr = std::shared_ptr<Frame>;
+
+}  // namespace vc::pipeline

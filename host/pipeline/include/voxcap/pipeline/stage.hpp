@@ -1,0 +1,45 @@
+// The host's one stage lifecycle (after rpicam-apps' PostProcessingStage and libcamera's pipeline
+// handlers): configure → start → process(frame)… → stop.
+//
+//   configure(ctx)  on the caller's thread, once, before start: read what the stage needs from the
+//                   narrow context (the rig configuration, a log); throw on bad input (nothing runs then)
+//   start()         on the caller's thread, before the first frame
+//   process(frame)  on the stage's own thread (StageRunner), one frame at a time, in the order the
+//                   frames reached it. An exception is counted and logged by the runner and the frame
+//                   goes no further down the chain; the stage and the rig go on.
+//   stop()          on the caller's thread, after the last process()
+//
+// A stage sees nothing of the aggregator: no sessions, no sockets, no other stage.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+
+#include "voxcap/pipeline/frame.hpp"
+
+namespace vc::config {
+struct RigConfig;
+}
+
+namespace vc::pipeline {
+
+using LogFn = std::function<void(int level, const std::string& line)>;  // 0 info, 1 warning, 2 error
+
+// What a stage may know of the host. Borrowed: lives as long as the pipeline that passes it.
+struct StageContext {
+  const config::RigConfig* rig = nullptr;  // the rig being run (nodes, grid, calibration, ...)
+  LogFn log;                               // lines are prefixed with the stage's name by the runner
+};
+
+class Stage {
+ public:
+  virtual ~Stage() = default;
+  virtual std::string name() const = 0;  // short, for the log and the report: "merge", "record"
+  virtual void configure(const StageContext& ctx) { (void)ctx; }
+  virtual void start() {}
+  virtual void process(Frame& frame) = 0;
+  virtual void stop() {}
+};
+
+}  // namespace vc::pipeline

@@ -1,0 +1,266 @@
+// The stage runner and the pipeline: order, both overflow policies of the stages, stop while a
+// producer is blocked, exceptions in a stage, the lifecycle and the context.
+#include "voxcap/pipeline/pipeline.hpp"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <future>
+#include <mutex>
+#include <thread>
+
+namespace vc::pipeline {
+namespace {
+
+using namespace std::chrono_literals;
+
+FramePtr frame(uint64_t seq) {
+  auto f = std::make_shared<Frame>();
+  f->seq = seq;
+  return f;
+}
+
+// Records the seqs it saw (and the lifecycle calls); optionally waits on a gate in process().
+class Probe : public Stage {
+ public:
+  explicit Probe(std::string name) : name_(std::move(name)) {}
+  std::string name() const override { return name_; }
+  void configure(const StageContext& ctx) override {
+    calls.push_back("configure");
+    rig = ctx.rig;
+    if (ctx.log) ctx.log(0, "configured");
+  }
+  void start() override { calls.push_back("start"); }
+  void process(Frame& f) override {
+    {
+      std::unique_lock<std::mutex> l(mu);
+      entered++;
+      cv.notify_all();
+      cv.wait(l, [&] { return open; });
+      seen.push_back(f.seq);
+    }
+    if (throw_on && f.seq == throw_on) throw std::runtime_error("bad frame");
+    if (sleep_ms) std::this_thread::sleep_for(std::chrono::milliseconds(sleep_ms));
+    f.occupied += 1;  // a chain stage may change the frame
+  }
+  void stop() override { calls.push_back("stop"); }
+
+  void close_gate() {
+    std::lock_guard<std::mutex> g(mu);
+    open = false;
+  }
+  void open_gate() {
+    {
+      std::lock_guard<std::mutex> g(mu);
+      open = true;
+    }
+    cv.notify_all();
+  }
+  void wait_entered(int n) {
+    std::unique_lock<std::mutex> l(mu);
+    cv.wait_for(l, 5s, [&] { return entered >= n; });
+  }
+  std::vector<uint64_t> seqs() {
+    std::lock_guard<std::mutex> g(mu);
+    return seen;
+  }
+
+  std::string name_;
+  std::vector<std::string> calls;
+  const config::RigConfig* rig = nullptr;
+  uint64_t throw_on = 0;
+  int sleep_ms = 0;
+  std::mutex mu;
+  std::condition_variable cv;
+  bool open = true;
+  int entered = 0;
+  std::vector<uint64_t> seen;
+};
+
+std::vector<uint64_t> range(uint64_t a, uint64_t b) {
+  std::vector<uint64_t> v;
+  for (uint64_t s = a; s < b; s++) v.push_back(s);
+  return v;
+}
+
+TEST(Pipeline, EveryStageSeesFramesInOrderThroughTheChainAndEveryConsumer) {
+  std::vector<std::string> lines;
+  std::mutex lines_mu;
+  StageContext ctx;
+  ctx.log = [&](int, const std::string& l) {
+    std::lock_guard<std::mutex> g(lines_mu);
+    lines.push_back(l);
+  };
+  Pipeline p(ctx);
+  Probe& a = p.then(std::make_unique<Probe>("a"), {4, Overflow::Block});
+  Probe& b = p.then(std::make_unique<Probe>("b"), {4, Overflow::Block});
+  Probe& c = p.tap(std::make_unique<Probe>("c"), {4, Overflow::Block});
+  Probe& d = p.tap(std::make_unique<Probe>("d"), {4, Overflow::Block});
+  EXPECT_THROW(p.then(std::make_unique<Probe>("late"), {}), std::logic_error);
+  p.start();
+  EXPECT_THROW(p.tap(std::make_unique<Probe>("after-start"), {}), std::logic_error);
+  std::vector<FramePtr> frames;
+  for (uint64_t s = 1; s <= 200; s++) {
+    frames.push_back(frame(s));
+    ASSERT_TRUE(p.push(frames.back()));
+  }
+  p.stop();
+  for (Probe* s : {&a, &b, &c, &d}) {
+    EXPECT_EQ(s->seqs(), range(1, 201)) << s->name();
+    EXPECT_EQ(s->calls, (std::vector<std::string>{"configure", "start", "stop"})) << s->name();
+  }
+  for (const FramePtr& f : frames) EXPECT_EQ(f->occupied, 4u) << "each stage ran once on frame " << f->seq;
+  PipelineReport r = p.report();
+  ASSERT_EQ(r.stages.size(), 4u);
+  EXPECT_EQ(r.stages[0].name, "a");
+  EXPECT_EQ(r.stages[3].name, "d");
+  for (const StageReport& s : r.stages) {
+    EXPECT_EQ(s.processed, 200u) << s.name;
+    EXPECT_EQ(s.queue.dropped, 0u) << s.name;
+    EXPECT_LE(s.queue.max_depth, 4u) << s.name;
+    EXPECT_EQ(s.queue.depth, 0u) << s.name;
+  }
+  std::lock_guard<std::mutex> g(lines_mu);
+  EXPECT_NE(std::find(lines.begin(), lines.end(), "c: configured"), lines.end()) << "lines carry the stage's name";
+}
+
+TEST(Pipeline, AStalledLiveConsumerDropsTheOldestWhileARecordingConsumerGetsEveryFrame) {
+  Pipeline p(StageContext{});
+  Probe& live = p.tap(std::make_unique<Probe>("live"), {3, Overflow::DropOldest});
+  Probe& rec = p.tap(std::make_unique<Probe>("record"), {512, Overflow::Block});
+  p.start();
+  live.close_gate();
+  ASSERT_TRUE(p.push(frame(1)));
+  live.wait_entered(1);  // the live stage is stuck inside frame 1
+  for (uint64_t s = 2; s <= 100; s++) p.push(frame(s));
+  live.open_gate();
+  p.stop();
+  PipelineReport r = p.report();
+  const StageReport* lr = r.stage("live");
+  ASSERT_NE(lr, nullptr);
+  EXPECT_EQ(live.seqs(), (std::vector<uint64_t>{1, 98, 99, 100})) << "the stall's frames were dropped, the newest kept";
+  EXPECT_EQ(lr->queue.dropped, 96u);
+  EXPECT_EQ(lr->processed + lr->queue.dropped, 100u) << "every frame accounted";
+  EXPECT_EQ(rec.seqs(), range(1, 101));
+  EXPECT_EQ(r.stage("record")->queue.dropped, 0u);
+}
+
+TEST(Pipeline, ABlockingStageHoldsBackTheStageBeforeItNotTheProducerOfTheChain) {
+  Pipeline p(StageContext{});
+  Probe& merge = p.then(std::make_unique<Probe>("merge"), {64, Overflow::Block});
+  Probe& rec = p.tap(std::make_unique<Probe>("record"), {2, Overflow::Block});
+  p.start();
+  rec.close_gate();
+  for (uint64_t s = 1; s <= 10; s++) ASSERT_TRUE(p.push(frame(s)));  // never waits: 64 places
+  rec.wait_entered(1);
+  std::this_thread::sleep_for(50ms);
+  EXPECT_LT(merge.seqs().size(), 10u) << "merge waits for room in record's queue";
+  EXPECT_GT(p.report().stage("record")->queue.blocked, 0u);
+  rec.open_gate();
+  p.stop();
+  EXPECT_EQ(merge.seqs(), range(1, 11));
+  EXPECT_EQ(rec.seqs(), range(1, 11));
+}
+
+TEST(StageRunner, StopWhileAProducerIsBlockedWakesItAndFinishesTheQueuedFrames) {
+  auto probe = std::make_unique<Probe>("slow");
+  Probe& slow = *probe;
+  StageRunner r(std::move(probe), {2, Overflow::Block});
+  r.configure({});
+  r.start();
+  slow.close_gate();
+  ASSERT_TRUE(r.push(frame(1)));
+  slow.wait_entered(1);
+  ASSERT_TRUE(r.push(frame(2)));
+  ASSERT_TRUE(r.push(frame(3)));  // the queue is full now
+  std::promise<bool> pushed;
+  std::thread producer([&] { pushed.set_value(r.push(frame(4))); });
+  std::future<bool> result = pushed.get_future();
+  EXPECT_EQ(result.wait_for(100ms), std::future_status::timeout) << "blocked: no room";
+  std::thread stopper([&] { r.stop(); });
+  ASSERT_EQ(result.wait_for(2s), std::future_status::ready) << "stop() woke the blocked producer";
+  EXPECT_FALSE(result.get()) << "its frame was refused, not lost silently";
+  slow.open_gate();
+  stopper.join();
+  producer.join();
+  EXPECT_EQ(slow.seqs(), (std::vector<uint64_t>{1, 2, 3}));
+  StageReport rep = r.report();
+  EXPECT_EQ(rep.processed, 3u);
+  EXPECT_EQ(rep.queue.refused_closed, 1u);
+  EXPECT_EQ(slow.calls.back(), "stop");
+  EXPECT_FALSE(r.push(frame(5)));
+}
+
+TEST(StageRunner, AnExceptionInAStageIsCountedAndTheFrameGoesNoFurther) {
+  std::atomic<int> errors_logged{0};
+  StageContext ctx;
+  ctx.log = [&](int level, const std::string& line) {
+    if (level == 2 && line.find("bad frame") != std::string::npos) errors_logged++;
+  };
+  Pipeline p(ctx);
+  Probe& a = p.then(std::make_unique<Probe>("a"), {8, Overflow::Block});
+  Probe& b = p.tap(std::make_unique<Probe>("b"), {8, Overflow::Block});
+  a.throw_on = 3;
+  p.start();
+  for (uint64_t s = 1; s <= 6; s++) p.push(frame(s));
+  p.stop();
+  EXPECT_EQ(a.seqs(), range(1, 7));
+  EXPECT_EQ(b.seqs(), (std::vector<uint64_t>{1, 2, 4, 5, 6}));
+  PipelineReport rep = p.report();
+  const StageReport* ra = rep.stage("a");
+  ASSERT_NE(ra, nullptr);
+  EXPECT_EQ(ra->errors, 1u);
+  EXPECT_EQ(ra->processed, 5u);
+  EXPECT_EQ(ra->last_error, "bad frame");
+  EXPECT_EQ(errors_logged.load(), 1);
+}
+
+TEST(Pipeline, ConfigureGetsTheContextAndItsErrorsStopTheStart) {
+  struct Refuses : Stage {
+    std::string name() const override { return "refuses"; }
+    void configure(const StageContext&) override { throw std::invalid_argument("no rig"); }
+    void process(Frame&) override {}
+  };
+  StageContext ctx;
+  ctx.rig = reinterpret_cast<const config::RigConfig*>(&ctx);  // any address: stages borrow it
+  Pipeline p(ctx);
+  Probe& a = p.then(std::make_unique<Probe>("a"), {});
+  p.tap(std::make_unique<Refuses>(), {});
+  EXPECT_THROW(p.start(), std::invalid_argument);
+  EXPECT_EQ(a.rig, ctx.rig);
+  EXPECT_EQ(a.calls, (std::vector<std::string>{"configure"})) << "nothing started";
+  p.stop();
+  EXPECT_EQ(a.calls, (std::vector<std::string>{"configure"})) << "a stage never started is not stopped";
+}
+
+TEST(Pipeline, WithoutAChainFramesGoStraightToTheConsumers) {
+  Pipeline p(StageContext{});
+  Probe& c = p.tap(std::make_unique<Probe>("c"), {4, Overflow::Block});
+  p.start();
+  for (uint64_t s = 1; s <= 3; s++) EXPECT_TRUE(p.push(frame(s)));
+  p.stop();
+  EXPECT_EQ(c.seqs(), range(1, 4));
+  EXPECT_FALSE(p.push(frame(4))) << "stopped";
+}
+
+TEST(StageRunner, ReportsTimeInProcess) {
+  auto probe = std::make_unique<Probe>("sleepy");
+  probe->sleep_ms = 20;
+  StageRunner r(std::move(probe), {4, Overflow::Block});
+  r.configure({});
+  r.start();
+  r.push(frame(1));
+  r.push(frame(2));
+  r.stop();
+  StageReport rep = r.report();
+  EXPECT_EQ(rep.processed, 2u);
+  EXPECT_GE(rep.busy_ms_mean, 19.0);
+  EXPECT_GE(rep.busy_ms_max, rep.busy_ms_mean);
+  EXPECT_EQ(rep.overflow, Overflow::Block);
+  EXPECT_STREQ(overflow_name(Overflow::DropOldest), "drop-oldest");
+}
+
+}  // namespace
+}  // namespace vc::pipeline
