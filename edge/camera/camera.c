@@ -8,6 +8,7 @@
 #include <strings.h>
 
 #include "voxcap/edge/camera_backend.h"
+#include "voxcap/edge/why.h"
 
 #define VC_CAMERA_MAX_HELD 16
 
@@ -62,12 +63,12 @@ void vc_camera_config_init(vc_camera_config* cfg) {
 
 int vc_camera_set_verror(vc_camera* cam, int code, const char* fmt, va_list ap) {
   char msg[384];
-  vsnprintf(msg, sizeof msg, fmt, ap);
+  vc_whyv(msg, sizeof msg, fmt, ap);
   cam->err = code;
   if (cam->device[0])
-    snprintf(cam->errmsg, sizeof cam->errmsg, "%s: %s: %s", cam->be->name, cam->device, msg);
+    vc_why(cam->errmsg, sizeof cam->errmsg, "%s: %s: %s", cam->be->name, cam->device, msg);
   else
-    snprintf(cam->errmsg, sizeof cam->errmsg, "%s: %s", cam->be->name, msg);
+    vc_why(cam->errmsg, sizeof cam->errmsg, "%s: %s", cam->be->name, msg);
   return code;
 }
 
@@ -104,7 +105,7 @@ static int check_config(const vc_camera_config* cfg, char* why, size_t why_len) 
   if (!bad && cfg->n_controls && !cfg->controls) bad = "n_controls > 0 but controls is NULL";
   if (!bad && vc_pixfmt_name(cfg->pixfmt) == NULL) bad = "unknown pixel format";
   if (!bad) return 0;
-  if (why && why_len) snprintf(why, why_len, "camera config: %s", bad);
+  vc_why(why, why_len, "camera config: %s", bad);
   return -EINVAL;
 }
 
@@ -120,9 +121,9 @@ int vc_camera_open_backend_arg(const vc_camera_backend* backend, const vc_camera
   int rc;
   vc_camera* cam;
   if (out) *out = NULL;
-  if (why && why_len) why[0] = '\0';
+  vc_why_clear(why, why_len);
   if (!backend || !cfg || !out) {
-    if (why && why_len) snprintf(why, why_len, "camera: invalid arguments");
+    vc_why(why, why_len, "camera: invalid arguments");
     return -EINVAL;
   }
   rc = check_config(cfg, why, why_len);
@@ -130,7 +131,7 @@ int vc_camera_open_backend_arg(const vc_camera_backend* backend, const vc_camera
 
   cam = calloc(1, sizeof *cam);
   if (!cam) {
-    if (why && why_len) snprintf(why, why_len, "%s: out of memory", backend->name);
+    vc_why(why, why_len, "%s: out of memory", backend->name);
     return -ENOMEM;
   }
   cam->be = backend;
@@ -168,7 +169,7 @@ int vc_camera_open_backend_arg(const vc_camera_backend* backend, const vc_camera
 err_backend:
   backend->free_priv(cam->priv);
 err_msg:
-  if (why && why_len) snprintf(why, why_len, "%s", cam->errmsg);
+  vc_why(why, why_len, "%s", cam->errmsg);
   free_slots(cam);
   free(cam);
   return rc;

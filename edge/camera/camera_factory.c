@@ -6,6 +6,7 @@
 
 #include "camera_sim_entry.h"
 #include "voxcap/edge/camera_backend.h"
+#include "voxcap/edge/why.h"
 
 static const vc_camera_backend* const backends[] = {
     &vc_camera_backend_v4l2,
@@ -21,11 +22,11 @@ const char* const* vc_camera_backend_names(void) { return vc_camera_sim_entry ? 
 int vc_camera_open(const vc_camera_config* cfg, vc_camera** out, char* why, size_t why_len) {
   if (out) *out = NULL;
   if (!cfg || !out) {
-    if (why && why_len) snprintf(why, why_len, "camera: invalid arguments");
+    vc_why(why, why_len, "camera: invalid arguments");
     return -EINVAL;
   }
   if (!cfg->backend || !cfg->backend[0]) {
-    if (why && why_len) snprintf(why, why_len, "camera config: no backend given (one of v4l2, libcamera, file, sim)");
+    vc_why(why, why_len, "camera config: no backend given (one of v4l2, libcamera, file, sim)");
     return -EINVAL;
   }
   for (size_t i = 0; i < sizeof backends / sizeof backends[0]; i++)
@@ -33,13 +34,12 @@ int vc_camera_open(const vc_camera_config* cfg, vc_camera** out, char* why, size
       return vc_camera_open_backend(backends[i], cfg, out, why, why_len);
   if (strcmp(cfg->backend, "sim") == 0) {
     if (vc_camera_sim_entry) return vc_camera_open_backend(vc_camera_sim_entry, cfg, out, why, why_len);
-    if (why && why_len)
-      snprintf(why, why_len,
-               "camera config: sim backend not built in (this voxcap-edge was built with -DVOXCAP_SIM=OFF; "
-               "use v4l2, libcamera or file)");
+    vc_why(why, why_len,
+           "camera config: sim backend not built in (this voxcap-edge was built with -DVOXCAP_SIM=OFF; "
+           "use v4l2, libcamera or file)");
     return -ENOTSUP;
   }
-  if (why && why_len)
-    snprintf(why, why_len, "camera config: unknown backend '%s' (one of v4l2, libcamera, file, sim)", cfg->backend);
+  vc_why(why, why_len, "camera config: unknown backend '%s' (one of v4l2, libcamera, file, sim)",
+         cfg->backend);
   return -EINVAL;
 }

@@ -101,11 +101,11 @@ int EmulatedTiming::next(vc_camera* cam, int timeout_ms, Shot* shot) {
     uint64_t now = vc_clock_monotonic_ns();
     if (shot->t_ns > now) {
       if (timeout_ms >= 0 && shot->t_ns - now > (uint64_t)timeout_ms * 1000000ull) {
-        struct timespec ts = {timeout_ms / 1000, (long)(timeout_ms % 1000) * 1000000L};
+        const struct timespec ts = vc_clock_timespec((uint64_t)timeout_ms * 1000000ull);
         nanosleep(&ts, nullptr);
         return vc_camera_set_error(cam, -ETIMEDOUT, "camera stopped delivering: no frame within %d ms", timeout_ms);
       }
-      struct timespec ts = {(time_t)(shot->t_ns / 1000000000ull), (long)(shot->t_ns % 1000000000ull)};
+      const struct timespec ts = vc_clock_timespec(shot->t_ns);  // an absolute MONOTONIC time
       while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {
       }
     }

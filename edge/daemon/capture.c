@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "voxcap/edge/clock.h"
+#include "voxcap/edge/why.h"
 #include "voxcap/proto.h"
 
 typedef struct camthread {
@@ -60,17 +61,6 @@ static uint64_t mono_ms(void) {
   return vc_clock_monotonic_ns() / 1000000u;
 }
 
-static void logf_(vc_capture* cap, int level, const char* fmt, ...) __attribute__((format(printf, 3, 4)));
-static void logf_(vc_capture* cap, int level, const char* fmt, ...) {
-  if (!cap->cb.log) return;
-  char line[512];
-  va_list ap;
-  va_start(ap, fmt);
-  vsnprintf(line, sizeof(line), fmt, ap);
-  va_end(ap);
-  cap->cb.log(cap->cb.user, level, line);
-}
-
 static void errorf(vc_capture* cap, uint32_t code, const char* fmt, ...)
     __attribute__((format(printf, 3, 4)));
 static void errorf(vc_capture* cap, uint32_t code, const char* fmt, ...) {
@@ -83,13 +73,9 @@ static void errorf(vc_capture* cap, uint32_t code, const char* fmt, ...) {
   cap->cb.error(cap->cb.user, code, text);
 }
 
-static void deadline_in_ms(struct timespec* dl, long ms) {
-  clock_gettime(CLOCK_MONOTONIC, dl);
-  dl->tv_nsec += ms * 1000000L;
-  if (dl->tv_nsec >= 1000000000L) {
-    dl->tv_sec++;
-    dl->tv_nsec -= 1000000000L;
-  }
+/* An absolute MONOTONIC deadline for the condition variables (all made with CLOCK_MONOTONIC). */
+static struct timespec deadline_in_ms(int ms) {
+  return vc_clock_deadline_ns(ms > 0 ? (uint64_t)ms * 1000000u : 0);
 }
 
 /* ---- camera threads ----------------------------------------------------------------------------- */
@@ -104,8 +90,7 @@ static void* cam_main(void* arg) {
       /* This camera exposes a frame only when triggered: wait for the next pulse. */
       pthread_mutex_lock(&cap->mu);
       if (!ct->has_pending) {
-        struct timespec dl;
-        deadline_in_ms(&dl, 50);
+        const struct timespec dl = deadline_in_ms(50);
         pthread_cond_timedwait(&ct->mbox_cv, &cap->mu, &dl);
       }
       if (!ct->has_pending) {
@@ -195,16 +180,17 @@ static void* trig_main(void* arg) {
 
 /* ---- cameras: open, rewind, threads ------------------------------------------------------------- */
 
-static int open_camera(vc_capture* cap, const vc_camera_config* base, vc_camera** out) {
-  char why[256] = "";
-  int rc = vc_camera_open(base, out, why, sizeof(why));
+static int open_camera(const vc_camera_config* base, vc_camera** out, char* why, size_t why_len) {
+  char cwhy[256] = "";
+  int rc = vc_camera_open(base, out, cwhy, sizeof(cwhy));
   if (rc < 0) {
-    logf_(cap, 0, "camera %d (%s %s): %s", base->index, base->backend, base->device ? base->device : "", why);
+    vc_why(why, why_len, "camera %d (%s %s): %s", base->index, base->backend,
+           base->device ? base->device : "", cwhy);
     return rc;
   }
   rc = vc_camera_start(*out);
   if (rc < 0) {
-    logf_(cap, 0, "camera %d: cannot start: %s", base->index, vc_camera_last_error(*out));
+    vc_why(why, why_len, "camera %d: cannot start: %s", base->index, vc_camera_last_error(*out));
     vc_camera_free(*out);
     *out = NULL;
   }
@@ -266,12 +252,21 @@ int vc_capture_set_phase(vc_capture* cap, vc_capture_phase ph, uint64_t seq_base
 
 /* ---- lifecycle ---------------------------------------------------------------------------------- */
 
-int vc_capture_new(const vc_capture_options* opt, const vc_capture_callbacks* cb, vc_capture** out) {
+int vc_capture_new(const vc_capture_options* opt, const vc_capture_callbacks* cb, vc_capture** out, char* why,
+                   size_t why_len) {
   int rc;
-  char why[256] = "";
-  *out = NULL;
+  char part[256] = "";
+  vc_why_clear(why, why_len);
+  if (out) *out = NULL;
+  if (!opt || !opt->trigger || !out) {
+    vc_why(why, why_len, "capture: invalid arguments");
+    return -EINVAL;
+  }
   vc_capture* cap = calloc(1, sizeof(*cap));
-  if (!cap) return -ENOMEM;
+  if (!cap) {
+    vc_why(why, why_len, "capture: out of memory");
+    return -ENOMEM;
+  }
   cap->opt = *opt;
   if (cb) cap->cb = *cb;
   cap->nslots = opt->frame_slots
@@ -285,8 +280,8 @@ int vc_capture_new(const vc_capture_options* opt, const vc_capture_callbacks* cb
   for (int c = 0; c < VC_FRAMEQ_CAMS; c++) pthread_cond_init(&cap->cams[c].mbox_cv, &ca);
   pthread_condattr_destroy(&ca);
 
-  if ((rc = vc_trigger_open(opt->trigger, &cap->trig, why, sizeof(why))) < 0) {
-    logf_(cap, 0, "trigger: %s", why);
+  if ((rc = vc_trigger_open(opt->trigger, &cap->trig, part, sizeof(part))) < 0) {
+    vc_why(why, why_len, "trigger: %s", part);
     goto err;
   }
   for (int c = 0; c < VC_FRAMEQ_CAMS; c++) {
@@ -294,7 +289,7 @@ int vc_capture_new(const vc_capture_options* opt, const vc_capture_callbacks* cb
     ct->cap = cap;
     ct->idx = c;
     ct->cfg = &cap->opt.cameras[c];
-    if ((rc = open_camera(cap, ct->cfg, &ct->cam)) < 0) goto err;
+    if ((rc = open_camera(ct->cfg, &ct->cam, why, why_len)) < 0) goto err;
     uint32_t caps = vc_camera_caps(ct->cam);
     ct->soft_trigger = (caps & VC_CAMERA_CAP_SOFT_TRIGGER) != 0;
     ct->rewind = (caps & VC_CAMERA_CAP_REWIND) != 0;
@@ -307,6 +302,7 @@ int vc_capture_new(const vc_capture_options* opt, const vc_capture_callbacks* cb
       ct->slot_rgb[s] = malloc(ct->stride * (size_t)ci.height);
       if (!ct->slot_rgb[s]) {
         rc = -ENOMEM;
+        vc_why(why, why_len, "camera %d: out of memory for %u frame slots", ct->cfg->index, cap->nslots);
         goto err;
       }
     }
@@ -316,8 +312,8 @@ int vc_capture_new(const vc_capture_options* opt, const vc_capture_callbacks* cb
   pc.ncams = VC_FRAMEQ_CAMS;
   pc.pulse_slots = 16;
   pc.frame_slots = cap->nslots;
-  if ((rc = vc_frameq_new(&pc, cap->nslots, &cap->q, why, sizeof(why))) < 0) {
-    logf_(cap, 0, "pairing: %s", why[0] ? why : strerror(-rc));
+  if ((rc = vc_frameq_new(&pc, cap->nslots, &cap->q, part, sizeof(part))) < 0) {
+    vc_why(why, why_len, "pairing: %s", part);
     goto err;
   }
   *out = cap;
@@ -381,8 +377,7 @@ uint64_t vc_capture_last_pulse_seq(vc_capture* cap) {
 bool vc_capture_next(vc_capture* cap, int timeout_ms, vc_capture_pair* out) {
   pthread_mutex_lock(&cap->mu);
   if (vc_frameq_ready(cap->q) == 0 && !cap->wake) {
-    struct timespec dl;
-    deadline_in_ms(&dl, timeout_ms);
+    const struct timespec dl = deadline_in_ms(timeout_ms);
     pthread_cond_timedwait(&cap->cv, &cap->mu, &dl);
   }
   cap->wake = false;

@@ -50,8 +50,6 @@ typedef struct vc_capture_callbacks {
   /* A camera or the trigger failed at run time (code: VC_ERR_CAMERA or VC_ERR_TRIGGER): the daemon
    * logs it and tells the host. Called from the capture threads. */
   void (*error)(void* user, uint32_t code, const char* text);
-  /* level 0 error, 1 warning, 2 info, 3 debug. Called from any thread. */
-  void (*log)(void* user, int level, const char* text);
   void* user;
 } vc_capture_callbacks;
 
@@ -70,8 +68,10 @@ typedef struct vc_capture_stats {
 } vc_capture_stats;
 
 /* Opens the trigger input and both cameras, allocates the slots; no thread runs yet (phase IDLE).
- * On failure returns a negative code, logs why (cb->log) and *out = NULL. *out owns the capture. */
-int vc_capture_new(const vc_capture_options* opt, const vc_capture_callbacks* cb, vc_capture** out);
+ * *out owns the capture. On failure returns a negative code, *out = NULL and a one-line reason in why
+ * (if given). */
+int vc_capture_new(const vc_capture_options* opt, const vc_capture_callbacks* cb, vc_capture** out, char* why,
+                   size_t why_len);
 /* Stops the threads, closes cameras and trigger. NULL is a no-op. */
 void vc_capture_free(vc_capture* cap);
 

@@ -12,6 +12,7 @@
 #include <string.h>
 
 #include "capture.h"
+#include "log.h"
 #include "node.h"
 #include "voxcap/edge/clock.h"
 
@@ -41,20 +42,6 @@ void vc_edged_request_stop(void) { atomic_store(&g_stop, true); }
 
 static uint64_t mono_ms(void) { return vc_clock_monotonic_ns() / 1000000u; }
 
-static int g_verbosity;
-static void logm(int level, const char* fmt, ...) __attribute__((format(printf, 2, 3)));
-static void logm(int level, const char* fmt, ...) {
-  /* level 0 error, 1 warning, 2 info, 3 debug */
-  if (level > g_verbosity + 1) return;
-  static const char* names[] = {"error", "warning", "info", "debug"};
-  char line[600];
-  va_list ap;
-  va_start(ap, fmt);
-  vsnprintf(line, sizeof(line), fmt, ap);
-  va_end(ap);
-  fprintf(stderr, "voxcap-edge: %s: %s\n", names[level], line);
-}
-
 static void send_error(edged* d, uint32_t code, uint16_t severity, uint16_t about, const char* fmt, ...)
     __attribute__((format(printf, 5, 6)));
 static void send_error(edged* d, uint32_t code, uint16_t severity, uint16_t about, const char* fmt, ...) {
@@ -64,7 +51,7 @@ static void send_error(edged* d, uint32_t code, uint16_t severity, uint16_t abou
   int n = vsnprintf(text, sizeof(text), fmt, ap);
   va_end(ap);
   if (n < 0) return;
-  logm(severity == VC_SEVERITY_WARNING ? 1 : 0, "%s", text);
+  vc_log(severity == VC_SEVERITY_WARNING ? VC_LOG_WARN : VC_LOG_ERROR, "%s", text);
   if (!d->link) return;
   uint8_t buf[VC_PROTO_HEADER_SIZE + 16 + VC_PROTO_MAX_ERROR_TEXT];
   size_t len = 0;
@@ -83,17 +70,12 @@ static void capture_error(void* user, uint32_t code, const char* text) {
   send_error(user, code, VC_SEVERITY_ERROR, 0, "%s", text);
 }
 
-static void capture_log(void* user, int level, const char* text) {
-  (void)user;
-  logm(level, "%s", text);
-}
-
 /* ---- the link's callbacks (link thread) ---------------------------------------------------------- */
 
 static void on_message(void* user, const vc_msg* m) {
   edged* d = user;
   if (!m->known) {
-    logm(2, "ignoring a message of unknown type %u from the host", m->hdr.type);
+    vc_log(VC_LOG_INFO, "ignoring a message of unknown type %u from the host", m->hdr.type);
     return;
   }
   switch (m->hdr.type) {
@@ -105,16 +87,16 @@ static void on_message(void* user, const vc_msg* m) {
     case VC_MSG_HEARTBEAT:
       return;
     case VC_MSG_ERROR:
-      logm(1, "host says: %.*s", (int)m->u.error.text_len, m->u.error.text);
+      vc_log(VC_LOG_WARN, "host says: %.*s", (int)m->u.error.text_len, m->u.error.text);
       return;
     default:
-      logm(1, "unexpected %s from the host", vc_msg_type_name(m->hdr.type));
+      vc_log(VC_LOG_WARN, "unexpected %s from the host", vc_msg_type_name(m->hdr.type));
       return;
   }
   pthread_mutex_lock(&d->mu);
   if (d->in_count == INBOUND) {
     pthread_mutex_unlock(&d->mu);
-    logm(0, "too many host commands pending; dropping %s", vc_msg_type_name(m->hdr.type));
+    vc_log(VC_LOG_ERROR, "too many host commands pending; dropping %s", vc_msg_type_name(m->hdr.type));
     return;
   }
   ctl* c = &d->inbound[(d->in_head + d->in_count) % INBOUND];
@@ -129,18 +111,13 @@ static void on_message(void* user, const vc_msg* m) {
 
 static void on_connection(void* user, bool up) {
   edged* d = user;
-  logm(up ? 2 : 1, "host connection %s", up ? "up" : "down");
+  vc_log(up ? VC_LOG_INFO : VC_LOG_WARN, "host connection %s", up ? "up" : "down");
   (void)d;
 }
 
 static uint32_t node_state_cb(void* user) {
   edged* d = user;
   return atomic_load(&d->node_state);
-}
-
-static void link_log(void* user, int level, const char* line) {
-  (void)user;
-  logm(level == 0 ? 2 : (level == 1 ? 1 : 0), "link: %s", line);
 }
 
 /* ---- the pipeline thread ------------------------------------------------------------------------- */
@@ -169,8 +146,8 @@ static void handle_ctl(edged* d, ctl* c) {
         send_error(d, VC_ERR_CONFIG, VC_SEVERITY_ERROR, VC_MSG_CONFIG, "CONFIG rejected: %s", why);
       } else {
         if (warn[0]) send_error(d, VC_ERR_CONFIG, VC_SEVERITY_WARNING, VC_MSG_CONFIG, "%s", warn);
-        logm(2, "configured: grid %ux%ux%u (id %u)", c->cfg.grid.nx, c->cfg.grid.ny, c->cfg.grid.nz,
-             c->cfg.grid_id);
+        vc_log(VC_LOG_INFO, "configured: grid %ux%ux%u (id %u)", c->cfg.grid.nx, c->cfg.grid.ny, c->cfg.grid.nz,
+               c->cfg.grid_id);
       }
       break;
     case VC_MSG_BACKGROUND:
@@ -180,7 +157,7 @@ static void handle_ctl(edged* d, ctl* c) {
         break;
       }
       vc_capture_set_phase(d->cap, VC_CAPTURE_BACKGROUND, vc_capture_last_pulse_seq(d->cap) + 1);
-      logm(2, "learning the background");
+      vc_log(VC_LOG_INFO, "learning the background");
       break;
     case VC_MSG_START:
       rc = vc_node_start(d->node, c->seq);
@@ -189,12 +166,12 @@ static void handle_ctl(edged* d, ctl* c) {
         break;
       }
       vc_capture_set_phase(d->cap, VC_CAPTURE_RUNNING, c->seq);
-      logm(2, "running from seq %llu", (unsigned long long)c->seq);
+      vc_log(VC_LOG_INFO, "running from seq %llu", (unsigned long long)c->seq);
       break;
     case VC_MSG_STOP:
       vc_node_stop(d->node);
       vc_capture_set_phase(d->cap, VC_CAPTURE_IDLE, 0);
-      logm(2, "stopped");
+      vc_log(VC_LOG_INFO, "stopped");
       break;
   }
   publish_state(d);
@@ -208,10 +185,12 @@ static void handle_work(edged* d, const vc_capture_pair* p) {
   if (st == VC_STATE_BACKGROUND) {
     int rc = vc_node_background_add(d->node, rgb, stride);
     if (rc == 1) {
-      logm(2, "background learnt");
+      vc_log(VC_LOG_INFO, "background learnt");
       if (d->opt->state_dir) {
         int src = vc_node_save_background(d->node, d->opt->state_dir);
-        if (src < 0) logm(1, "cannot keep the background model in %s: %s", d->opt->state_dir, strerror(-src));
+        if (src < 0)
+          vc_log(VC_LOG_WARN, "cannot keep the background model in %s: %s", d->opt->state_dir,
+                 strerror(-src));
       }
       vc_capture_set_phase(d->cap, VC_CAPTURE_IDLE, 0);
     } else if (rc < 0) {
@@ -302,7 +281,7 @@ static uint32_t fourcc_of(vc_pixfmt f) {
 
 static void teardown(edged* d) {
   vc_capture_free(d->cap); /* its threads report through the link: stopped first */
-  vc_link_stop(d->link);
+  vc_link_free(d->link);
   vc_node_free(d->node);
   pthread_mutex_destroy(&d->mu);
 }
@@ -322,11 +301,14 @@ static int setup(edged* d) {
   for (int c = 0; c < 2; c++) co.pairing.latency_ns[c] = opt->camera_latency_ns[c];
   co.frame_slots = opt->frame_slots;
   co.camera_timeout_ms = opt->camera_timeout_ms;
-  vc_capture_callbacks ccb = {.error = capture_error, .log = capture_log, .user = d};
-  if ((rc = vc_capture_new(&co, &ccb, &d->cap)) < 0) return rc;
+  vc_capture_callbacks ccb = {.error = capture_error, .user = d};
+  if ((rc = vc_capture_new(&co, &ccb, &d->cap, why, sizeof(why))) < 0) {
+    vc_log(VC_LOG_ERROR, "%s", why);
+    return rc;
+  }
   vc_trigger_info ti;
   vc_capture_get_trigger_info(d->cap, &ti);
-  logm(2, "trigger: %s %s", ti.backend, ti.source);
+  vc_log(VC_LOG_INFO, "trigger: %s %s", ti.backend, ti.source);
 
   vc_node_camera ncam[2];
   for (int c = 0; c < 2; c++) {
@@ -336,21 +318,20 @@ static int setup(edged* d) {
     ncam[c].height = ci.height;
     ncam[c].pixel_format = fourcc_of(ci.pixfmt);
     ncam[c].max_fps_milli = ci.fps_num ? (uint32_t)((uint64_t)ci.fps_num * 1000u / (ci.fps_den ? ci.fps_den : 1)) : 0;
-    logm(2, "camera %d: %s %s %dx%d (%s)", c, ci.backend, ci.device, ci.width, ci.height, ci.driver);
+    vc_log(VC_LOG_INFO, "camera %d: %s %s %dx%d (%s)", c, ci.backend, ci.device, ci.width, ci.height,
+           ci.driver);
   }
 
-  d->node = vc_node_new(opt->node_id, ncam);
-  if (!d->node) {
-    rc = -errno;
-    logm(0, "node: %s", strerror(errno));
+  if ((rc = vc_node_new(opt->node_id, ncam, &d->node, why, sizeof(why))) < 0) {
+    vc_log(VC_LOG_ERROR, "%s", why);
     return rc;
   }
   if (opt->state_dir) {
     int lrc = vc_node_load_background(d->node, opt->state_dir, why, sizeof(why));
     if (lrc == 0)
-      logm(2, "restored the background model kept in %s", opt->state_dir);
+      vc_log(VC_LOG_INFO, "restored the background model kept in %s", opt->state_dir);
     else if (lrc != -ENOENT)
-      logm(1, "not restoring the background model: %s", why);
+      vc_log(VC_LOG_WARN, "not restoring the background model: %s", why);
   }
   atomic_store(&d->node_state, vc_node_state(d->node));
   uint8_t hello[VC_PROTO_HEADER_SIZE + 256];
@@ -359,17 +340,17 @@ static int setup(edged* d) {
   if ((rc = vc_node_hello(d->node, caps, hello, sizeof(hello), &hello_len)) < 0) return rc;
   vc_link_config lc = opt->link;
   lc.node_id = opt->node_id;
-  vc_link_callbacks cb = {.on_message = on_message, .on_connection = on_connection, .state = node_state_cb,
-                          .log = link_log, .user = d};
-  if ((rc = vc_link_start(&lc, &cb, hello, hello_len, &d->link)) < 0) {
-    logm(0, "link: %s", strerror(-rc));
+  vc_link_callbacks cb = {
+      .on_message = on_message, .on_connection = on_connection, .state = node_state_cb, .user = d};
+  if ((rc = vc_link_new(&lc, &cb, hello, hello_len, &d->link, why, sizeof(why))) < 0) {
+    vc_log(VC_LOG_ERROR, "%s", why);
     return rc;
   }
   return vc_capture_start(d->cap);
 }
 
 int vc_edged_run(const vc_edged_options* opt) {
-  g_verbosity = opt->verbosity;
+  vc_log_set_level(vc_log_level_from_verbosity(opt->verbosity));
   edged* d = calloc(1, sizeof(*d));
   if (!d) return -ENOMEM;
   d->opt = opt;
@@ -408,12 +389,13 @@ int vc_edged_run(const vc_edged_options* opt) {
   {
     vc_capture_stats cs;
     vc_capture_get_stats(d->cap, &cs);
-    logm(2, "stopping: frames %llu + %llu, pulses %llu (complete %llu, incomplete %llu), emulated exposures "
-            "missed %llu + %llu, hulls sent %llu",
-         (unsigned long long)cs.frames[0], (unsigned long long)cs.frames[1],
-         (unsigned long long)cs.queue.pairing.pulses, (unsigned long long)cs.queue.pairing.complete,
-         (unsigned long long)cs.queue.pairing.incomplete, (unsigned long long)cs.missed_pulses[0],
-         (unsigned long long)cs.missed_pulses[1], (unsigned long long)d->hulls_sent);
+    vc_log(VC_LOG_INFO,
+           "stopping: frames %llu + %llu, pulses %llu (complete %llu, incomplete %llu), emulated exposures "
+           "missed %llu + %llu, hulls sent %llu",
+           (unsigned long long)cs.frames[0], (unsigned long long)cs.frames[1],
+           (unsigned long long)cs.queue.pairing.pulses, (unsigned long long)cs.queue.pairing.complete,
+           (unsigned long long)cs.queue.pairing.incomplete, (unsigned long long)cs.missed_pulses[0],
+           (unsigned long long)cs.missed_pulses[1], (unsigned long long)d->hulls_sent);
   }
 out:
   teardown(d);

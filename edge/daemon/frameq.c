@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "voxcap/edge/why.h"
 enum { SLOT_FREE = 0, SLOT_FILLED, SLOT_MATCHED, SLOT_WORK };
 
 struct vc_frameq {
@@ -105,8 +106,12 @@ int vc_frameq_new(const vc_pairing_config* pairing, unsigned nslots, vc_frameq**
   const char* bad = NULL;
   int rc;
   vc_frameq* q;
+  vc_why_clear(why, why_len);
   if (out) *out = NULL;
-  if (!pairing || !out) return -EINVAL;
+  if (!pairing || !out) {
+    vc_why(why, why_len, "frame queue: invalid arguments");
+    return -EINVAL;
+  }
   if (nslots < 1 || nslots > VC_FRAMEQ_MAX_SLOTS)
     bad = "frame slots must be 1..8";
   else if (pairing->ncams != VC_FRAMEQ_CAMS)
@@ -118,19 +123,23 @@ int vc_frameq_new(const vc_pairing_config* pairing, unsigned nslots, vc_frameq**
   else if ((rc = vc_pairing_config_check(pairing, why, why_len)) < 0)
     return rc;
   if (bad) {
-    if (why && why_len) snprintf(why, why_len, "frame queue: %s", bad);
+    vc_why(why, why_len, "frame queue: %s", bad);
     return -EINVAL;
   }
   q = calloc(1, sizeof *q);
-  if (!q) return -ENOMEM;
+  if (!q) {
+    vc_why(why, why_len, "frame queue: out of memory");
+    return -ENOMEM;
+  }
   q->nslots = nslots;
-  rc = vc_pairer_new(pairing, on_pair, q, &q->pairer);
+  char pwhy[160];
+  rc = vc_pairer_new(pairing, on_pair, q, &q->pairer, pwhy, sizeof pwhy);
   if (rc < 0) goto err_free;
   *out = q;
   return 0;
 
 err_free:
-  if (why && why_len) snprintf(why, why_len, "frame queue: %s", strerror(-rc));
+  vc_why(why, why_len, "frame queue: %s", pwhy);
   free(q);
   return rc;
 }

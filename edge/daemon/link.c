@@ -9,17 +9,18 @@
 #include <netinet/tcp.h>
 #include <poll.h>
 #include <pthread.h>
-#include <stdarg.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/eventfd.h>
 #include <sys/socket.h>
-#include <time.h>
 #include <unistd.h>
 
+#include "log.h"
 #include "sendq.h"
+#include "voxcap/edge/clock.h"
+#include "voxcap/edge/why.h"
 
 struct vc_link {
   vc_link_config cfg;
@@ -37,27 +38,7 @@ struct vc_link {
 };
 
 static uint64_t mono_ms(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return (uint64_t)ts.tv_sec * 1000u + (uint64_t)ts.tv_nsec / 1000000u;
-}
-static uint64_t mono_ns(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
-}
-
-static void logf_(vc_link* l, int level, const char* fmt, ...) __attribute__((format(printf, 3, 4)));
-static void logf_(vc_link* l, int level, const char* fmt, ...) {
-  char line[512];
-  va_list ap;
-  va_start(ap, fmt);
-  vsnprintf(line, sizeof(line), fmt, ap);
-  va_end(ap);
-  if (l->cb.log)
-    l->cb.log(l->cb.user, level, line);
-  else
-    fprintf(stderr, "voxcap-edge: link: %s\n", line);
+  return vc_clock_monotonic_ns() / 1000000u;
 }
 
 static void stat_add(vc_link* l, uint64_t* field, uint64_t v) {
@@ -88,7 +69,7 @@ static int connect_host(vc_link* l) {
   struct addrinfo* res = NULL;
   int gai = getaddrinfo(l->host, port, &hints, &res);
   if (gai != 0) {
-    logf_(l, 2, "cannot resolve host %s: %s", l->host, gai_strerror(gai));
+    vc_log(VC_LOG_ERROR, "link: cannot resolve host %s: %s", l->host, gai_strerror(gai));
     return -1;
   }
   int fd = -1;
@@ -127,7 +108,7 @@ static void send_heartbeat(vc_link* l) {
   uint8_t buf[VC_PROTO_HEADER_SIZE + 32];
   size_t len = 0;
   vc_header hdr = {.node_id = l->cfg.node_id};
-  vc_heartbeat hb = {.sender_time_ns = mono_ns(),
+  vc_heartbeat hb = {.sender_time_ns = vc_clock_monotonic_ns(),
                      .state = l->cb.state ? l->cb.state(l->cb.user) : VC_STATE_IDLE};
   if (vc_encode_heartbeat(buf, sizeof(buf), &len, &hdr, &hb) == 0) vc_sendq_push(l->q, buf, len);
 }
@@ -153,7 +134,7 @@ static void run_connection(vc_link* l, int fd) {
   vc_decoder* dec = vc_decoder_new(0);
   if (!dec) return;
   if (write_all(l, fd, l->hello, l->hello_len) < 0) {
-    logf_(l, 1, "sending HELLO to %s:%u failed", l->host, l->cfg.port);
+    vc_log(VC_LOG_WARN, "link: sending HELLO to %s:%u failed", l->host, l->cfg.port);
     vc_decoder_free(dec);
     return;
   }
@@ -220,7 +201,8 @@ static void run_connection(vc_link* l, int fd) {
             }
             const vc_proto_diag* d = vc_decoder_diag(dec);
             stat_add(l, &l->st.rejected, 1);
-            logf_(l, 1, "rejected a message from the host: %s (%s)", vc_proto_error_name(rc), d->detail);
+            vc_log(VC_LOG_WARN, "link: rejected a message from the host: %s (%s)", vc_proto_error_name(rc),
+                   d->detail);
             if (vc_proto_error_is_fatal(rc)) {
               fatal = true;
               break;
@@ -253,7 +235,8 @@ static void run_connection(vc_link* l, int fd) {
   atomic_store(&l->connected, false);
   vc_sendq_clear(l->q);
   vc_decoder_free(dec);
-  if (atomic_load(&l->running)) logf_(l, 1, "disconnected from %s:%u: %s", l->host, l->cfg.port, why);
+  if (atomic_load(&l->running))
+    vc_log(VC_LOG_WARN, "link: disconnected from %s:%u: %s", l->host, l->cfg.port, why);
   if (l->cb.on_connection) l->cb.on_connection(l->cb.user, false);
 }
 
@@ -264,7 +247,7 @@ static void* link_main(void* arg) {
   while (atomic_load(&l->running)) {
     int fd = connect_host(l);
     if (fd < 0) {
-      if (!warned) logf_(l, 1, "host %s:%u not reachable; retrying", l->host, l->cfg.port);
+      if (!warned) vc_log(VC_LOG_WARN, "link: host %s:%u not reachable; retrying", l->host, l->cfg.port);
       warned = true;
       sleep_interruptible(l, backoff);
       backoff = backoff * 2 > l->cfg.reconnect_max_ms ? l->cfg.reconnect_max_ms : backoff * 2;
@@ -273,7 +256,7 @@ static void* link_main(void* arg) {
     warned = false;
     backoff = l->cfg.reconnect_min_ms;
     stat_add(l, &l->st.connects, 1);
-    logf_(l, 0, "connected to %s:%u", l->host, l->cfg.port);
+    vc_log(VC_LOG_INFO, "link: connected to %s:%u", l->host, l->cfg.port);
     run_connection(l, fd);
     close(fd);
     stat_add(l, &l->st.disconnects, 1);
@@ -282,12 +265,22 @@ static void* link_main(void* arg) {
   return NULL;
 }
 
-int vc_link_start(const vc_link_config* cfg, const vc_link_callbacks* cb, const uint8_t* hello,
-                  size_t hello_len, vc_link** out) {
-  *out = NULL;
-  if (!cfg || !cfg->host || !cfg->port || !hello || !hello_len) return -EINVAL;
+int vc_link_new(const vc_link_config* cfg, const vc_link_callbacks* cb, const uint8_t* hello,
+                size_t hello_len, vc_link** out, char* why, size_t why_len) {
+  vc_why_clear(why, why_len);
+  if (out) *out = NULL;
+  if (!out || !cfg || !cfg->host || !cfg->port || !hello || !hello_len) {
+    vc_why(why, why_len, "link: %s",
+           !out || !cfg               ? "invalid arguments"
+           : !cfg->host || !cfg->port ? "no host address or port"
+                                      : "no HELLO");
+    return -EINVAL;
+  }
   vc_link* l = calloc(1, sizeof(*l));
-  if (!l) return -ENOMEM;
+  if (!l) {
+    vc_why(why, why_len, "link: out of memory");
+    return -ENOMEM;
+  }
   l->cfg = *cfg;
   snprintf(l->host, sizeof(l->host), "%s", cfg->host);
   l->cfg.host = l->host;
@@ -299,19 +292,27 @@ int vc_link_start(const vc_link_config* cfg, const vc_link_callbacks* cb, const 
   if (!l->cfg.host_timeout_ms) l->cfg.host_timeout_ms = 3000;
   if (cb) l->cb = *cb;
   int rc = -ENOMEM;
+  char qwhy[128] = "out of memory";
   l->hello = malloc(hello_len);
-  l->q = vc_sendq_new(l->cfg.queue_msgs, l->cfg.queue_bytes);
-  if (!l->hello || !l->q) goto err;
+  if (!l->hello || (rc = vc_sendq_new(l->cfg.queue_msgs, l->cfg.queue_bytes, &l->q, qwhy, sizeof qwhy)) < 0) {
+    if (!l->hello) rc = -ENOMEM;
+    vc_why(why, why_len, "link: %s", qwhy);
+    goto err;
+  }
   memcpy(l->hello, hello, hello_len);
   l->hello_len = hello_len;
   l->wake_fd = eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
   if (l->wake_fd < 0) {
     rc = -errno;
+    vc_why(why, why_len, "link: eventfd: %s", strerror(-rc));
     goto err;
   }
   pthread_mutex_init(&l->mu, NULL);
   atomic_store(&l->running, true);
-  if ((rc = -pthread_create(&l->thread, NULL, link_main, l)) != 0) goto err_fd;
+  if ((rc = -pthread_create(&l->thread, NULL, link_main, l)) != 0) {
+    vc_why(why, why_len, "link: cannot start its thread: %s", strerror(-rc));
+    goto err_fd;
+  }
   *out = l;
   return 0;
 err_fd:
@@ -324,7 +325,7 @@ err:
   return rc;
 }
 
-void vc_link_stop(vc_link* l) {
+void vc_link_free(vc_link* l) {
   if (!l) return;
   atomic_store(&l->running, false);
   uint64_t one = 1;

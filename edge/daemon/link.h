@@ -42,8 +42,6 @@ typedef struct vc_link_callbacks {
   void (*on_connection)(void* user, bool up);
   /* The node state for HEARTBEAT (vc_node_state); called on the link thread. */
   uint32_t (*state)(void* user);
-  /* One line for the log (level 0 info, 1 warning, 2 error). May be NULL (stderr). */
-  void (*log)(void* user, int level, const char* line);
   void* user;
 } vc_link_callbacks;
 
@@ -57,11 +55,13 @@ typedef struct vc_link_stats {
   bool connected;
 } vc_link_stats;
 
-/* Starts the link thread. hello[0..hello_len) is copied and sent first on every connection. */
-int vc_link_start(const vc_link_config* cfg, const vc_link_callbacks* cb, const uint8_t* hello,
-                  size_t hello_len, vc_link** out);
+/* Starts the link thread; *out owns the link (vc_link_free). hello[0..hello_len) is copied and sent
+ * first on every connection. 0, or a negative code with *out = NULL and a one-line reason in why (if
+ * given). The link logs through vc_log (log.h). */
+int vc_link_new(const vc_link_config* cfg, const vc_link_callbacks* cb, const uint8_t* hello,
+                size_t hello_len, vc_link** out, char* why, size_t why_len);
 /* Stops the thread, closes the connection, frees everything. NULL is a no-op. */
-void vc_link_stop(vc_link* link);
+void vc_link_free(vc_link* link);
 
 /* Queues a message for the host (copied). Never blocks on the network. 0, -EMSGSIZE or -ENOMEM;
  * while disconnected the message is dropped and counted (returns -ENOTCONN). */

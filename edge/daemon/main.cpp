@@ -2,13 +2,14 @@
 // loop of edged.c until SIGINT/SIGTERM. Exit codes: 0 ok, 1 runtime failure, 2 bad configuration.
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <string>
 
 #include <CLI/CLI.hpp>
-#include <fmt/core.h>
 
 #include "config.hpp"
 #include "edged.h"
+#include "log.h"
 
 namespace {
 
@@ -71,7 +72,7 @@ int main(int argc, char** argv) {
     if (!state_dir.empty()) s.state_dir = state_dir;
     s.validate();
   } catch (const std::exception& e) {
-    fmt::print(stderr, "voxcap-edge: {}\n", e.what());
+    vc_log(VC_LOG_ERROR, "%s", e.what());
     return 2;
   }
   vc_edged_options opt = vc::edge::to_options(s);
@@ -84,7 +85,7 @@ int main(int argc, char** argv) {
   std::signal(SIGPIPE, SIG_IGN);
   int rc = vc_edged_run(&opt);
   if (rc < 0) {
-    fmt::print(stderr, "voxcap-edge: stopped: {}\n", std::string(strerror(-rc)));
+    vc_log(VC_LOG_ERROR, "stopped: %s", strerror(-rc));
     return 1;
   }
   return 0;

@@ -1,5 +1,5 @@
 /* The edge node's state machine and per-frame pipeline (see node.h). */
-#define _GNU_SOURCE /* M_PI, clock_gettime */
+#define _GNU_SOURCE /* M_PI */
 #include "node.h"
 
 #include <errno.h>
@@ -14,6 +14,8 @@
 #include "voxcap/edge/carver.h"
 #include "voxcap/edge/cleanup.h"
 #include "voxcap/crc32c.h"
+#include "voxcap/edge/clock.h"
+#include "voxcap/edge/why.h"
 #include "voxcap/rle.h"
 
 enum { ST_SUBTRACT, ST_CLEANUP, ST_CARVE, ST_ENCODE, ST_COUNT };
@@ -57,9 +59,7 @@ struct vc_node {
 };
 
 static uint64_t now_ns(void) {
-  struct timespec ts;
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return (uint64_t)ts.tv_sec * 1000000000u + (uint64_t)ts.tv_nsec;
+  return vc_clock_monotonic_ns();
 }
 
 static void stage_add(vc_node* n, int st, uint64_t t0, uint64_t t1) {
@@ -68,22 +68,30 @@ static void stage_add(vc_node* n, int st, uint64_t t0, uint64_t t1) {
   if (d > n->stages[st].max_ns) n->stages[st].max_ns = d;
 }
 
-vc_node* vc_node_new(uint16_t node_id, const vc_node_camera cams[VC_NODE_CAMS]) {
+int vc_node_new(uint16_t node_id, const vc_node_camera cams[VC_NODE_CAMS], vc_node** out, char* why,
+                size_t why_len) {
+  vc_why_clear(why, why_len);
+  if (out) *out = NULL;
+  if (!cams || !out) {
+    vc_why(why, why_len, "node: invalid arguments");
+    return -EINVAL;
+  }
   for (int c = 0; c < VC_NODE_CAMS; c++) {
     if (cams[c].width <= 0 || cams[c].height <= 0 || cams[c].width > 16384 || cams[c].height > 16384) {
-      errno = EINVAL;
-      return NULL;
+      vc_why(why, why_len, "node: camera %d is %dx%d (1..16384 each)", c, cams[c].width, cams[c].height);
+      return -EINVAL;
     }
   }
   vc_node* n = calloc(1, sizeof(*n));
   if (!n) {
-    errno = ENOMEM;
-    return NULL;
+    vc_why(why, why_len, "node: out of memory");
+    return -ENOMEM;
   }
   n->id = node_id;
   memcpy(n->cams, cams, sizeof(n->cams));
   n->state = VC_STATE_IDLE;
-  return n;
+  *out = n;
+  return 0;
 }
 
 static void free_models(vc_node* n) {

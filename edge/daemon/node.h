@@ -35,8 +35,10 @@ typedef struct vc_node_camera {
   uint32_t max_fps_milli;
 } vc_node_camera;
 
-/* A node with id node_id and the two cameras described (copied). NULL + errno on failure. */
-vc_node* vc_node_new(uint16_t node_id, const vc_node_camera cams[VC_NODE_CAMS]);
+/* A node with id node_id and the two cameras described (copied); *out owns it (vc_node_free).
+ * 0, -EINVAL or -ENOMEM with *out = NULL and a one-line reason in why (if given). */
+int vc_node_new(uint16_t node_id, const vc_node_camera cams[VC_NODE_CAMS], vc_node** out, char* why,
+                size_t why_len);
 void vc_node_free(vc_node* node); /* NULL is a no-op */
 
 /* The node's HELLO (written to buf, as vc_encode_hello). capabilities: VC_CAP_*. */

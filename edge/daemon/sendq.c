@@ -9,6 +9,9 @@
 #include <string.h>
 #include <time.h>
 
+#include "voxcap/edge/clock.h"
+#include "voxcap/edge/why.h"
+
 typedef struct slot {
   uint8_t* buf;
   size_t cap;
@@ -29,13 +32,18 @@ struct vc_sendq {
   vc_sendq_stats st;
 };
 
-vc_sendq* vc_sendq_new(unsigned max_msgs, size_t max_bytes) {
-  if (max_msgs == 0 || max_msgs > 4096 || max_bytes == 0) {
-    errno = EINVAL;
-    return NULL;
+int vc_sendq_new(unsigned max_msgs, size_t max_bytes, vc_sendq** out, char* why, size_t why_len) {
+  vc_why_clear(why, why_len);
+  if (out) *out = NULL;
+  if (!out || max_msgs == 0 || max_msgs > 4096 || max_bytes == 0) {
+    vc_why(why, why_len, "send queue: %s",
+           !out             ? "invalid arguments"
+           : max_bytes == 0 ? "max_bytes must be > 0"
+                            : "max_msgs must be 1..4096");
+    return -EINVAL;
   }
   vc_sendq* q = calloc(1, sizeof(*q));
-  if (!q) goto err;
+  if (!q) goto err_nomem;
   q->slots = calloc(max_msgs, sizeof(slot));
   if (!q->slots) goto err_q;
   q->max_msgs = max_msgs;
@@ -43,15 +51,16 @@ vc_sendq* vc_sendq_new(unsigned max_msgs, size_t max_bytes) {
   pthread_mutex_init(&q->mu, NULL);
   pthread_condattr_t ca;
   pthread_condattr_init(&ca);
-  pthread_condattr_setclock(&ca, CLOCK_MONOTONIC);
+  pthread_condattr_setclock(&ca, CLOCK_MONOTONIC); /* vc_sendq_wait's deadlines are MONOTONIC */
   pthread_cond_init(&q->cv, &ca);
   pthread_condattr_destroy(&ca);
-  return q;
+  *out = q;
+  return 0;
 err_q:
   free(q);
-err:
-  errno = ENOMEM;
-  return NULL;
+err_nomem:
+  vc_why(why, why_len, "send queue: out of memory");
+  return -ENOMEM;
 }
 
 void vc_sendq_free(vc_sendq* q) {
@@ -155,16 +164,7 @@ void vc_sendq_clear(vc_sendq* q) {
 
 int vc_sendq_wait(vc_sendq* q, int timeout_ms) {
   pthread_mutex_lock(&q->mu);
-  struct timespec deadline;
-  clock_gettime(CLOCK_MONOTONIC, &deadline);
-  if (timeout_ms >= 0) {
-    deadline.tv_sec += timeout_ms / 1000;
-    deadline.tv_nsec += (long)(timeout_ms % 1000) * 1000000L;
-    if (deadline.tv_nsec >= 1000000000L) {
-      deadline.tv_sec++;
-      deadline.tv_nsec -= 1000000000L;
-    }
-  }
+  const struct timespec deadline = vc_clock_deadline_ns(timeout_ms > 0 ? (uint64_t)timeout_ms * 1000000u : 0);
   while (q->count == 0 && !q->woken) {
     if (timeout_ms < 0) {
       pthread_cond_wait(&q->cv, &q->mu);

@@ -29,8 +29,9 @@ typedef struct vc_sendq_stats {
   size_t queued_bytes;
 } vc_sendq_stats;
 
-/* A queue of at most max_msgs (1..4096) messages and max_bytes bytes. NULL + errno on failure. */
-vc_sendq* vc_sendq_new(unsigned max_msgs, size_t max_bytes);
+/* A queue of at most max_msgs (1..4096) messages and max_bytes bytes; *out owns it (vc_sendq_free).
+ * 0, -EINVAL or -ENOMEM with *out = NULL and a one-line reason in why (if given). */
+int vc_sendq_new(unsigned max_msgs, size_t max_bytes, vc_sendq** out, char* why, size_t why_len);
 void vc_sendq_free(vc_sendq* q); /* NULL is a no-op */
 
 /* Copies msg[0..len) in. Drops the oldest messages while the queue would exceed its limits (never

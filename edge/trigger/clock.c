@@ -44,6 +44,16 @@ uint64_t vc_clock_now_ns(vc_clock_id id) {
 
 uint64_t vc_clock_monotonic_ns(void) { return vc_clock_now_ns(VC_CLOCK_MONOTONIC); }
 
+struct timespec vc_clock_timespec(uint64_t t_ns) {
+  struct timespec ts = {.tv_sec = (time_t)(t_ns / 1000000000ull), .tv_nsec = (long)(t_ns % 1000000000ull)};
+  return ts;
+}
+
+struct timespec vc_clock_deadline_ns(uint64_t delay_ns) {
+  uint64_t now = vc_clock_monotonic_ns();
+  return vc_clock_timespec(delay_ns > UINT64_MAX - now ? UINT64_MAX : now + delay_ns);
+}
+
 int vc_clock_offset_from_samples(const vc_clock_sample* samples, size_t n, int64_t* offset_ns,
                                  uint64_t* uncertainty_ns) {
   const vc_clock_sample* best = NULL;

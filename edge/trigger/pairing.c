@@ -8,6 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "voxcap/edge/why.h"
 struct pulse_slot {
   uint64_t seq;
   uint64_t t;
@@ -55,17 +56,23 @@ int vc_pairing_config_check(const vc_pairing_config* cfg, char* why, size_t why_
   else if (cfg->pulse_slots > VC_PAIR_MAX_SLOTS || cfg->frame_slots > VC_PAIR_MAX_SLOTS)
     bad = "pulse_slots / frame_slots must be at most 256";
   if (!bad) return 0;
-  if (why && why_len) snprintf(why, why_len, "pairing config: %s", bad);
+  vc_why(why, why_len, "pairing config: %s", bad);
   return -EINVAL;
 }
 
-int vc_pairer_new(const vc_pairing_config* cfg, vc_pair_cb cb, void* user, vc_pairer** out) {
+int vc_pairer_new(const vc_pairing_config* cfg, vc_pair_cb cb, void* user, vc_pairer** out, char* why,
+                  size_t why_len) {
   vc_pairer* p;
-  int rc = vc_pairing_config_check(cfg, NULL, 0);
+  int rc;
+  vc_why_clear(why, why_len);
   if (out) *out = NULL;
-  if (rc || !cb || !out) return -EINVAL;
+  if ((rc = vc_pairing_config_check(cfg, why, why_len)) < 0) return rc;
+  if (!cb || !out) {
+    vc_why(why, why_len, "pairer: %s", !cb ? "no pair callback" : "no out pointer");
+    return -EINVAL;
+  }
   p = calloc(1, sizeof *p);
-  if (!p) return -ENOMEM;
+  if (!p) goto err_nomem;
   p->cfg = *cfg;
   if (!p->cfg.pulse_slots) p->cfg.pulse_slots = 16;
   if (!p->cfg.frame_slots) p->cfg.frame_slots = 4;
@@ -73,15 +80,16 @@ int vc_pairer_new(const vc_pairing_config* cfg, vc_pair_cb cb, void* user, vc_pa
   p->user = user;
   p->all = (1u << cfg->ncams) - 1;
   p->pulses = calloc(p->cfg.pulse_slots, sizeof *p->pulses);
-  if (!p->pulses) goto err;
+  if (!p->pulses) goto err_nomem;
   for (unsigned c = 0; c < cfg->ncams; c++) {
     p->frames[c] = calloc(p->cfg.frame_slots, sizeof *p->frames[c]);
-    if (!p->frames[c]) goto err;
+    if (!p->frames[c]) goto err_nomem;
   }
   *out = p;
   return 0;
-err:
+err_nomem:
   vc_pairer_free(p);
+  vc_why(why, why_len, "pairer: out of memory");
   return -ENOMEM;
 }
 

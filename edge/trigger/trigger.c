@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "trigger_backend.h"
+#include "voxcap/edge/why.h"
 
 struct vc_trigger {
   const vc_trigger_backend* be;
@@ -32,13 +33,13 @@ int vc_trigger_set_error(vc_trigger* trig, int code, const char* fmt, ...) {
   char msg[320];
   va_list ap;
   va_start(ap, fmt);
-  vsnprintf(msg, sizeof msg, fmt, ap);
+  vc_whyv(msg, sizeof msg, fmt, ap);
   va_end(ap);
   trig->err = code;
   if (trig->source[0])
-    snprintf(trig->errmsg, sizeof trig->errmsg, "%s: %s: %s", trig->be->name, trig->source, msg);
+    vc_why(trig->errmsg, sizeof trig->errmsg, "%s: %s: %s", trig->be->name, trig->source, msg);
   else
-    snprintf(trig->errmsg, sizeof trig->errmsg, "%s: %s", trig->be->name, msg);
+    vc_why(trig->errmsg, sizeof trig->errmsg, "%s: %s", trig->be->name, msg);
   return code;
 }
 
@@ -51,27 +52,26 @@ int vc_trigger_open(const vc_trigger_config* cfg, vc_trigger** out, char* why, s
   vc_trigger* trig;
   int rc;
   if (out) *out = NULL;
-  if (why && why_len) why[0] = '\0';
+  vc_why_clear(why, why_len);
   if (!cfg || !out) {
-    if (why && why_len) snprintf(why, why_len, "trigger: invalid arguments");
+    vc_why(why, why_len, "trigger: invalid arguments");
     return -EINVAL;
   }
   for (size_t i = 0; cfg->backend && i < sizeof backends / sizeof backends[0]; i++)
     if (strcmp(backends[i]->name, cfg->backend) == 0) be = backends[i];
   if (!be) {
-    if (why && why_len)
-      snprintf(why, why_len, "trigger config: %s backend%s%s%s (one of gpiod, udp)",
-               cfg->backend ? "unknown" : "no", cfg->backend ? " '" : "", cfg->backend ? cfg->backend : "",
-               cfg->backend ? "'" : " given");
+    vc_why(why, why_len, "trigger config: %s backend%s%s%s (one of gpiod, udp)",
+           cfg->backend ? "unknown" : "no", cfg->backend ? " '" : "", cfg->backend ? cfg->backend : "",
+           cfg->backend ? "'" : " given");
     return -EINVAL;
   }
   if (!vc_clock_name(cfg->event_clock) || cfg->event_clock == VC_CLOCK_BOOTTIME) {
-    if (why && why_len) snprintf(why, why_len, "trigger config: event_clock must be monotonic or realtime");
+    vc_why(why, why_len, "trigger config: event_clock must be monotonic or realtime");
     return -EINVAL;
   }
   trig = calloc(1, sizeof *trig);
   if (!trig) {
-    if (why && why_len) snprintf(why, why_len, "%s: out of memory", be->name);
+    vc_why(why, why_len, "%s: out of memory", be->name);
     return -ENOMEM;
   }
   trig->be = be;
@@ -79,7 +79,7 @@ int vc_trigger_open(const vc_trigger_config* cfg, vc_trigger** out, char* why, s
   rc = be->open(trig, cfg, &trig->info, &trig->priv);
   if (rc) {
     if (!trig->err) vc_trigger_set_error(trig, rc, "open failed: %s", strerror(-rc));
-    if (why && why_len) snprintf(why, why_len, "%s", trig->errmsg);
+    vc_why(why, why_len, "%s", trig->errmsg);
     free(trig);
     return rc;
   }

@@ -90,7 +90,7 @@ TEST(PairingHil, TriggeredCameraFramesPairWithGpioPulses) {
   std::vector<vc_pair_event> events;
   auto cb = [](void* user, const vc_pair_event* ev) { static_cast<std::vector<vc_pair_event>*>(user)->push_back(*ev); };
   vc_pairer* pr = nullptr;
-  ASSERT_EQ(vc_pairer_new(&pc, cb, &events, &pr), 0);
+  ASSERT_EQ(vc_pairer_new(&pc, cb, &events, &pr, nullptr, 0), 0);
 
   std::mutex mu;
   std::atomic<bool> stop{false};

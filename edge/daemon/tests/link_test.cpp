@@ -1,6 +1,7 @@
 // The edge's link against a fake host on 127.0.0.1: HELLO first, host messages delivered, heartbeats,
 // reconnection after the host goes away, undecodable bytes drop the connection. Loops are bounded.
 #include "link.h"
+#include "log.h"
 
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
@@ -12,7 +13,9 @@
 #include <atomic>
 #include <chrono>
 #include <mutex>
+#include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace {
@@ -96,7 +99,6 @@ struct Sink {
   }
   static void on_connection(void* u, bool up) { (up ? static_cast<Sink*>(u)->ups : static_cast<Sink*>(u)->downs)++; }
   static uint32_t state(void*) { return VC_STATE_READY; }
-  static void log(void*, int, const char*) {}
 };
 
 vc_link* start_link(FakeHost& host, Sink& sink, int host_timeout_ms = 3000) {
@@ -108,10 +110,11 @@ vc_link* start_link(FakeHost& host, Sink& sink, int host_timeout_ms = 3000) {
   cfg.reconnect_max_ms = 100;
   cfg.heartbeat_ms = 50;
   cfg.host_timeout_ms = host_timeout_ms;
-  vc_link_callbacks cb{Sink::on_message, Sink::on_connection, Sink::state, Sink::log, &sink};
+  vc_link_callbacks cb{Sink::on_message, Sink::on_connection, Sink::state, &sink};
   auto hello = hello_bytes();
   vc_link* link = nullptr;
-  EXPECT_EQ(vc_link_start(&cfg, &cb, hello.data(), hello.size(), &link), 0);
+  char why[128] = "";
+  EXPECT_EQ(vc_link_new(&cfg, &cb, hello.data(), hello.size(), &link, why, sizeof why), 0) << why;
   return link;
 }
 
@@ -143,7 +146,7 @@ TEST(Link, HelloFirstThenHeartbeatsAndHostMessagesDelivered) {
     EXPECT_EQ(sink.types[0], VC_MSG_START);
   }
   EXPECT_TRUE(vc_link_connected(link));
-  vc_link_stop(link);
+  vc_link_free(link);
   close(fd);
 }
 
@@ -164,7 +167,7 @@ TEST(Link, QueuedMessagesReachTheHost) {
   size_t stops = 0;
   for (auto t : r.types) stops += t == VC_MSG_STOP;
   EXPECT_EQ(stops, 5u);
-  vc_link_stop(link);
+  vc_link_free(link);
   close(fd);
 }
 
@@ -184,7 +187,7 @@ TEST(Link, ReconnectsAfterTheHostGoesAwayAndSaysHelloAgain) {
   vc_link_stats st;
   vc_link_get_stats(link, &st);
   EXPECT_GE(st.connects, 2u);
-  vc_link_stop(link);
+  vc_link_free(link);
   close(fd2);
 }
 
@@ -202,7 +205,7 @@ TEST(Link, GarbageFromTheHostDropsTheConnection) {
   vc_link_stats st;
   vc_link_get_stats(link, &st);
   EXPECT_GE(st.rejected, 1u);
-  vc_link_stop(link);
+  vc_link_free(link);
   close(fd);
 }
 
@@ -214,8 +217,55 @@ TEST(Link, SilentHostIsDroppedAfterTheTimeout) {
   ASSERT_GE(fd, 0);
   Received r = read_for(fd, 2000);  // we never answer
   EXPECT_TRUE(r.closed);
-  vc_link_stop(link);
+  vc_link_free(link);
   close(fd);
+}
+
+TEST(Link, NewRefusesBadArgumentsAndSaysWhy) {
+  vc_link_config cfg{};
+  cfg.host = "127.0.0.1";
+  cfg.port = 0;
+  vc_link_callbacks cb{};
+  auto hello = hello_bytes();
+  vc_link* link = reinterpret_cast<vc_link*>(0x1);
+  char why[128] = "";
+  EXPECT_EQ(vc_link_new(&cfg, &cb, hello.data(), hello.size(), &link, why, sizeof why), -EINVAL);
+  EXPECT_EQ(link, nullptr);
+  EXPECT_STREQ(why, "link: no host address or port");
+  cfg.port = 1;
+  EXPECT_EQ(vc_link_new(&cfg, &cb, nullptr, 0, &link, why, sizeof why), -EINVAL);
+  EXPECT_STREQ(why, "link: no HELLO");
+  vc_link_free(nullptr);
+}
+
+// The link writes through the daemon's one logger (vc_log), on its own thread.
+TEST(Link, RejectedBytesAreLoggedAsAWarning) {
+  struct Lines {
+    std::mutex mu;
+    std::vector<std::pair<vc_log_level, std::string>> v;
+    static void sink(void* u, vc_log_level level, const char* msg) {
+      auto* l = static_cast<Lines*>(u);
+      std::lock_guard<std::mutex> g(l->mu);
+      l->v.emplace_back(level, msg);
+    }
+  } lines;
+  vc_log_set_sink(Lines::sink, &lines);
+  FakeHost host;
+  Sink sink;
+  vc_link* link = start_link(host, sink);
+  int fd = host.accept_within(2000);
+  ASSERT_GE(fd, 0);
+  read_for(fd, 100, 1);
+  const char junk[64] = "this is not the voxcap protocol, not at all......";
+  send(fd, junk, sizeof(junk), MSG_NOSIGNAL);
+  EXPECT_TRUE(read_for(fd, 2000).closed);
+  vc_link_free(link);  // joins the link thread: no more lines after this
+  close(fd);
+  vc_log_set_sink(nullptr, nullptr);
+  bool warned = false;
+  for (const auto& [level, msg] : lines.v)
+    if (level == VC_LOG_WARN && msg.rfind("link: rejected a message from the host", 0) == 0) warned = true;
+  EXPECT_TRUE(warned);
 }
 
 TEST(Link, SendWhileDisconnectedIsCountedNotQueued) {
@@ -229,7 +279,7 @@ TEST(Link, SendWhileDisconnectedIsCountedNotQueued) {
   vc_link_stats st;
   vc_link_get_stats(link, &st);
   EXPECT_EQ(st.queue_dropped, 1u);
-  vc_link_stop(link);
+  vc_link_free(link);
 }
 
 }  // namespace

@@ -72,7 +72,7 @@ struct NodeFeatures : ::testing::Test {
   void SetUp() override {
     vc_node_camera cams[2] = {{W, H, VC_FOURCC('R', 'G', 'B', '3'), 60000},
                               {W, H, VC_FOURCC('R', 'G', 'B', '3'), 60000}};
-    n = vc_node_new(5, cams);
+    ASSERT_EQ(vc_node_new(5, cams, &n, nullptr, 0), 0);
     ASSERT_NE(n, nullptr);
     vc_features_producer p = {FakeTracker::track, &tracker};
     vc_node_set_features_producer(n, &p);

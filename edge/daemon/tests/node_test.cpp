@@ -75,7 +75,10 @@ std::vector<uint8_t> frame(uint8_t r, uint8_t g, uint8_t b, unsigned seed) {
 
 vc_node* make_node() {
   vc_node_camera cams[2] = {{W, H, VC_FOURCC('R', 'G', 'B', '3'), 60000}, {W, H, VC_FOURCC('R', 'G', 'B', '3'), 60000}};
-  return vc_node_new(3, cams);
+  vc_node* n = nullptr;
+  char why[128] = "";
+  EXPECT_EQ(vc_node_new(3, cams, &n, why, sizeof why), 0) << why;
+  return n;
 }
 
 void learn_background(vc_node* n) {
@@ -88,6 +91,20 @@ void learn_background(vc_node* n) {
     EXPECT_EQ(vc_node_background_add(n, rgb, stride), i == 3 ? 1 : 0);
   }
   EXPECT_EQ(vc_node_state(n), (uint32_t)VC_STATE_READY);
+}
+
+TEST(Node, NewRefusesImpossibleCamerasAndSaysWhy) {
+  vc_node_camera cams[2] = {{W, H, 0, 0}, {0, H, 0, 0}};
+  vc_node* n = reinterpret_cast<vc_node*>(0x1);
+  char why[128] = "stale";
+  EXPECT_EQ(vc_node_new(3, cams, &n, why, sizeof why), -EINVAL);
+  EXPECT_EQ(n, nullptr);
+  EXPECT_STREQ(why, "node: camera 1 is 0x120 (1..16384 each)");
+  cams[1].width = W;
+  ASSERT_EQ(vc_node_new(3, cams, &n, why, sizeof why), 0);
+  EXPECT_STREQ(why, "");
+  vc_node_free(n);
+  vc_node_free(nullptr);
 }
 
 TEST(Node, HelloDescribesTheCameras) {
@@ -258,7 +275,8 @@ TEST(Node, KeptBackgroundIsRestoredAfterARestart) {
 
   // A camera of another size does not take it; a flipped byte is caught.
   vc_node_camera small[2] = {{W / 2, H, 0, 0}, {W / 2, H, 0, 0}};
-  vc_node* other = vc_node_new(3, small);
+  vc_node* other = nullptr;
+  ASSERT_EQ(vc_node_new(3, small, &other, nullptr, 0), 0);
   EXPECT_EQ(vc_node_load_background(other, dir, why, sizeof(why)), -EINVAL);
   EXPECT_NE(std::strstr(why, "learnt at 160x120"), nullptr) << why;
   vc_node_free(other);

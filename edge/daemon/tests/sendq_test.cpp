@@ -8,6 +8,14 @@ namespace {
 
 std::vector<uint8_t> msg(uint8_t tag, size_t len) { return std::vector<uint8_t>(len, tag); }
 
+vc_sendq* new_queue(unsigned max_msgs, size_t max_bytes) {
+  vc_sendq* q = nullptr;
+  char why[128] = "";
+  EXPECT_EQ(vc_sendq_new(max_msgs, max_bytes, &q, why, sizeof why), 0) << why;
+  EXPECT_STREQ(why, "");
+  return q;
+}
+
 uint8_t peek_tag(vc_sendq* q) {
   const uint8_t* d = nullptr;
   size_t len = 0;
@@ -16,7 +24,7 @@ uint8_t peek_tag(vc_sendq* q) {
 }
 
 TEST(SendQueue, FifoOrder) {
-  vc_sendq* q = vc_sendq_new(4, 1 << 20);
+  vc_sendq* q = new_queue(4, 1 << 20);
   for (uint8_t i = 1; i <= 3; i++) ASSERT_EQ(vc_sendq_push(q, msg(i, 10).data(), 10), 0);
   for (uint8_t i = 1; i <= 3; i++) {
     EXPECT_EQ(peek_tag(q), i);
@@ -29,7 +37,7 @@ TEST(SendQueue, FifoOrder) {
 }
 
 TEST(SendQueue, DropsOldestWhenFullByCount) {
-  vc_sendq* q = vc_sendq_new(3, 1 << 20);
+  vc_sendq* q = new_queue(3, 1 << 20);
   for (uint8_t i = 1; i <= 5; i++) ASSERT_EQ(vc_sendq_push(q, msg(i, 10).data(), 10), 0);
   vc_sendq_stats st;
   vc_sendq_get_stats(q, &st);
@@ -40,7 +48,7 @@ TEST(SendQueue, DropsOldestWhenFullByCount) {
 }
 
 TEST(SendQueue, DropsOldestWhenFullByBytes) {
-  vc_sendq* q = vc_sendq_new(100, 250);
+  vc_sendq* q = new_queue(100, 250);
   for (uint8_t i = 1; i <= 4; i++) ASSERT_EQ(vc_sendq_push(q, msg(i, 100).data(), 100), 0);
   vc_sendq_stats st;
   vc_sendq_get_stats(q, &st);
@@ -51,7 +59,7 @@ TEST(SendQueue, DropsOldestWhenFullByBytes) {
 }
 
 TEST(SendQueue, NeverDropsTheMessageBeingSent) {
-  vc_sendq* q = vc_sendq_new(2, 1 << 20);
+  vc_sendq* q = new_queue(2, 1 << 20);
   ASSERT_EQ(vc_sendq_push(q, msg(1, 10).data(), 10), 0);
   const uint8_t* sending = nullptr;
   size_t len = 0;
@@ -65,7 +73,7 @@ TEST(SendQueue, NeverDropsTheMessageBeingSent) {
 }
 
 TEST(SendQueue, OversizeMessageRejectedAndCounted) {
-  vc_sendq* q = vc_sendq_new(4, 100);
+  vc_sendq* q = new_queue(4, 100);
   EXPECT_EQ(vc_sendq_push(q, msg(1, 101).data(), 101), -EMSGSIZE);
   vc_sendq_stats st;
   vc_sendq_get_stats(q, &st);
@@ -75,7 +83,7 @@ TEST(SendQueue, OversizeMessageRejectedAndCounted) {
 }
 
 TEST(SendQueue, ClearCountsDrops) {
-  vc_sendq* q = vc_sendq_new(8, 1 << 20);
+  vc_sendq* q = new_queue(8, 1 << 20);
   for (uint8_t i = 1; i <= 3; i++) vc_sendq_push(q, msg(i, 10).data(), 10);
   vc_sendq_clear(q);
   vc_sendq_stats st;
@@ -87,5 +95,17 @@ TEST(SendQueue, ClearCountsDrops) {
 }
 
 TEST(SendQueue, FreeNullIsNoop) { vc_sendq_free(nullptr); }
+
+TEST(SendQueue, BadLimitsSayWhy) {
+  vc_sendq* q = reinterpret_cast<vc_sendq*>(0x1);
+  char why[128];
+  EXPECT_EQ(vc_sendq_new(0, 100, &q, why, sizeof why), -EINVAL);
+  EXPECT_EQ(q, nullptr);
+  EXPECT_STREQ(why, "send queue: max_msgs must be 1..4096");
+  EXPECT_EQ(vc_sendq_new(4097, 100, &q, why, sizeof why), -EINVAL);
+  EXPECT_EQ(vc_sendq_new(4, 0, &q, why, sizeof why), -EINVAL);
+  EXPECT_STREQ(why, "send queue: max_bytes must be > 0");
+  EXPECT_EQ(vc_sendq_new(4, 100, nullptr, nullptr, 0), -EINVAL);  // no reason buffer: still no crash
+}
 
 }  // namespace

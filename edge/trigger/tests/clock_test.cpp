@@ -96,3 +96,19 @@ TEST(Clock, StaleConverterIsRemeasured) {
   uint64_t converted = vc_clock_to_monotonic(&conv, boot);
   EXPECT_LT(std::llabs((long long)(converted - mono)), 1000000LL) << "the stale offset was used";
 }
+
+TEST(Clock, TimespecAndDeadline) {
+  struct timespec ts = vc_clock_timespec(3'000'000'123ull);
+  EXPECT_EQ(ts.tv_sec, 3);
+  EXPECT_EQ(ts.tv_nsec, 123);
+  const uint64_t before = vc_clock_monotonic_ns();
+  struct timespec dl = vc_clock_deadline_ns(50'000'000ull);
+  const uint64_t after = vc_clock_monotonic_ns();
+  const uint64_t dl_ns = (uint64_t)dl.tv_sec * 1'000'000'000ull + (uint64_t)dl.tv_nsec;
+  EXPECT_GE(dl_ns, before + 50'000'000ull);
+  EXPECT_LE(dl_ns, after + 50'000'000ull);
+  EXPECT_LT(dl.tv_nsec, 1'000'000'000L);
+  // saturates instead of wrapping
+  struct timespec far = vc_clock_deadline_ns(UINT64_MAX);
+  EXPECT_EQ((uint64_t)far.tv_sec, UINT64_MAX / 1'000'000'000ull);
+}

@@ -29,7 +29,9 @@ struct Recorder {
 };
 
 struct Pairer {
-  explicit Pairer(const vc_pairing_config& cfg) { EXPECT_EQ(vc_pairer_new(&cfg, &Recorder::cb, &rec, &p), 0); }
+  explicit Pairer(const vc_pairing_config& cfg) {
+    EXPECT_EQ(vc_pairer_new(&cfg, &Recorder::cb, &rec, &p, nullptr, 0), 0);
+  }
   ~Pairer() { vc_pairer_free(p); }
   vc_pairing_stats stats() const {
     vc_pairing_stats s;
@@ -67,10 +69,18 @@ TEST(PairingConfig, Validates) {
   cfg.pulse_slots = 1000;
   EXPECT_EQ(vc_pairing_config_check(&cfg, why, sizeof why), -EINVAL);
   vc_pairer* p = nullptr;
-  EXPECT_EQ(vc_pairer_new(&cfg, &Recorder::cb, nullptr, &p), -EINVAL);
+  EXPECT_EQ(vc_pairer_new(&cfg, &Recorder::cb, nullptr, &p, why, sizeof why), -EINVAL);
   EXPECT_EQ(p, nullptr);
+  EXPECT_STREQ(why, "pairing config: pulse_slots / frame_slots must be at most 256");
   vc_pairing_config_init(&cfg);
-  EXPECT_EQ(vc_pairer_new(&cfg, nullptr, nullptr, &p), -EINVAL);
+  EXPECT_EQ(vc_pairer_new(&cfg, nullptr, nullptr, &p, why, sizeof why), -EINVAL);
+  EXPECT_EQ(p, nullptr);
+  EXPECT_STREQ(why, "pairer: no pair callback");
+  // a good config clears a stale reason; free(NULL) is a no-op
+  ASSERT_EQ(vc_pairer_new(&cfg, &Recorder::cb, nullptr, &p, why, sizeof why), 0);
+  EXPECT_STREQ(why, "");
+  vc_pairer_free(p);
+  vc_pairer_free(nullptr);
 }
 
 TEST(Pairing, PulseThenFramesCompletes) {

@@ -17,6 +17,7 @@
 
 #include <stddef.h>
 #include <stdint.h>
+#include <time.h>
 
 #ifdef __cplusplus
 extern "C" {
@@ -37,6 +38,12 @@ int vc_clock_from_name(const char* name, vc_clock_id* out);
 uint64_t vc_clock_now_ns(vc_clock_id id);
 /* Shorthand for vc_clock_now_ns(VC_CLOCK_MONOTONIC). */
 uint64_t vc_clock_monotonic_ns(void);
+
+/* MONOTONIC ns as a timespec, and the absolute MONOTONIC deadline delay_ns from now: for
+ * pthread_cond_timedwait on a condition variable whose clock is CLOCK_MONOTONIC
+ * (pthread_condattr_setclock), the only place the edge needs a struct timespec. */
+struct timespec vc_clock_timespec(uint64_t t_ns);
+struct timespec vc_clock_deadline_ns(uint64_t delay_ns);
 
 /* One bracketed reading: mono_before <= (the instant `other` was read) <= mono_after. */
 typedef struct vc_clock_sample {

@@ -82,9 +82,11 @@ typedef struct vc_pairing_stats {
 
 typedef struct vc_pairer vc_pairer;
 
-/* Allocates a pairer (free with vc_pairer_free). cb is required. 0, -EINVAL or -ENOMEM. */
-int vc_pairer_new(const vc_pairing_config* cfg, vc_pair_cb cb, void* user, vc_pairer** out);
-void vc_pairer_free(vc_pairer* p);
+/* Allocates a pairer; *out owns it (free with vc_pairer_free). cb is required. 0, -EINVAL or
+ * -ENOMEM with *out = NULL and a one-line reason in why (if given). */
+int vc_pairer_new(const vc_pairing_config* cfg, vc_pair_cb cb, void* user, vc_pairer** out, char* why,
+                  size_t why_len);
+void vc_pairer_free(vc_pairer* p); /* NULL is a no-op */
 
 /* A trigger pulse. Returns 0, or -EEXIST if seq is already pending (ignored, counted). */
 int vc_pairer_add_pulse(vc_pairer* p, uint64_t seq, uint64_t t_ns);
