@@ -93,8 +93,9 @@ void print_summary(const RigConfig& c) {
              c.grid_source == config::GridSource::Config ? "rig.toml" : "calibration");
   for (size_t i = 0; i < c.nodes.size(); ++i) {
     const config::NodeConfig& n = c.nodes[i];
-    fmt::print("  {:<12} {} ({}) from {}: {} {}\n", i == 0 ? "nodes" : "", n.id, to_string(n.role), n.address,
-               n.cameras[0], n.cameras[1]);
+    fmt::print("  {:<12} {} (node {}, {}) from {}: {} {}\n", i == 0 ? "nodes" : "", n.id,
+               config::node_number(n, i, c.source.string()), to_string(n.role), n.address, n.cameras[0],
+               n.cameras[1]);
   }
   fmt::print("  subtraction  T_u {} T_l {} shadow {} deg, clean-up {} px, {} background frames\n",
              c.subtraction.t_upper, c.subtraction.t_lower, c.subtraction.shadow_angle_deg,

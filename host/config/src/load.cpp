@@ -306,6 +306,8 @@ void read_assembly(Reader& r, AssemblyOptions* o) {
 void read_node(Reader& r, NodeConfig* n) {
   if (!r.get("id", &n->id)) r.ctx().fail(r.key("id"), "missing (every node needs an id)");
   r.get("address", &n->address);
+  uint16_t number = 0;
+  if (r.get_int("number", &number, 0, 65535)) n->number = number;
   n->cameras = r.strings("cameras");
   if (!r.find("cameras")) r.ctx().fail(r.key("cameras"), "missing (the node's two camera names)");
   std::string role;
@@ -407,7 +409,11 @@ RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::pa
       Reader r(*n.as_table(), key, ctx);
       NodeConfig node;
       read_node(r, &node);
-      node.number = parse_node_number(node.id);  // once, here; node_number() names the key when unset
+      if (!node.number) {  // once, here: an explicit `number`, else the number the id is or ends in
+        std::string why;
+        node.number = parse_node_number(node.id, &why);
+        if (!node.number) ctx.fail(key + ".id", why + ", or give the node a `number` (0..65535)");
+      }
       c.nodes.push_back(std::move(node));
     }
   }

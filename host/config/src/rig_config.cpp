@@ -81,7 +81,8 @@ bool RigConfig::valid(std::string* why) const {
     for (size_t j = 0; j < i; ++j)
       if (nodes[j].id == n.id)
         return fail(why, fmt::format("nodes[{}].id: \"{}\" is already the id of nodes[{}]", i, n.id, j));
-    if (n.number != parse_node_number(n.id))
+    const std::optional<uint16_t> from_id = parse_node_number(n.id);
+    if (!n.number || (from_id && *from_id != *n.number))
       return fail(why, fmt::format("nodes[{}].number: {} does not match its id \"{}\"", i,
                                    n.number ? std::to_string(*n.number) : "unset", n.id));
     for (size_t j = 0; j < i; ++j)

@@ -81,12 +81,32 @@ TEST(NodeNumber, ARigBuiltInCodeMustSetNumbersThatMatchTheIds) {
   EXPECT_FALSE(c.valid(&why));
 }
 
-TEST(NodeNumber, AnIdWithoutANumberStillLoadsForChecking) {
+TEST(NodeNumber, AnIdWithoutANumberNeedsANumberKey) {
   TempRig rig;
   std::ofstream(rig.toml_path()) << edit("id = \"node1\"", "id = \"side-b\"");
+  try {
+    load_rig_config(rig.toml_path());
+    FAIL() << "side-b has no number";
+  } catch (const ConfigError& e) {
+    EXPECT_EQ(e.key(), "nodes[1].id");
+    EXPECT_THAT(e.what(), HasSubstr("or give the node a `number` (0..65535)"));
+  }
+  std::ofstream(rig.toml_path()) << edit("id = \"node1\"", "id = \"side-b\"\nnumber = 7");
   const RigConfig c = load_rig_config(rig.toml_path());
-  EXPECT_FALSE(c.nodes[1].number.has_value());
-  EXPECT_THROW(node_number(c.nodes[1], 1, c.source.string()), ConfigError);
+  EXPECT_EQ(c.nodes[1].number, uint16_t{7});
+  EXPECT_EQ(node_number(c.nodes[1], 1, c.source.string()), 7);
+  std::string why;
+  EXPECT_TRUE(c.valid(&why)) << why;
+}
+
+TEST(NodeNumber, AnExplicitNumberMustAgreeWithTheIdsAndBeInRange) {
+  TempRig rig;
+  std::ofstream(rig.toml_path()) << edit("id = \"node1\"", "id = \"node1\"\nnumber = 4");
+  EXPECT_THROW(load_rig_config(rig.toml_path()), ConfigError);  // node1 says 1
+  std::ofstream(rig.toml_path()) << edit("id = \"node1\"", "id = \"side\"\nnumber = 70000");
+  EXPECT_THROW(load_rig_config(rig.toml_path()), ConfigError);
+  std::ofstream(rig.toml_path()) << edit("id = \"node1\"", "id = \"side\"\nnumber = 2");
+  EXPECT_THROW(load_rig_config(rig.toml_path()), ConfigError);  // node2 is 2 already
 }
 
 }  // namespace

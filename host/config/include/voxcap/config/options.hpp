@@ -126,9 +126,9 @@ struct NodeConfig {
   std::string address = "any";       // the edge's IPv4 address/host name, or "any"
   std::vector<std::string> cameras;  // exactly two camera names of the calibration (cam0 ... camN-1)
   NodeRole role = NodeRole::Side;
-  // The protocol's node id (what the edge says in HELLO): the number `id` is or ends in ("node3" → 3),
-  // parsed once by load_rig_config (parse_node_number). Unset when `id` has none: such a rig loads
-  // (`voxcap config check`) but a host cannot run it (config::node_number() says why).
+  // The protocol's node id (what the edge says in HELLO): the node's `number` key, else the number `id`
+  // is or ends in ("node3" → 3), set once by load_rig_config (parse_node_number); a node with neither
+  // does not load. Unset only in a RigConfig built in code without it (config::node_number() says why).
   std::optional<uint16_t> number;
 
   bool valid(std::string* why) const;
