@@ -88,6 +88,7 @@ TEST(LoadRigConfig, DefaultsFillWhatIsLeftOut) {
   const RigConfig c = parse(rig, R"(calibration = "rig.yaml"
 [[nodes]]
 id = "a"
+number = 1
 cameras = ["cam0", "cam1"]
 role = "front"
 [trigger.udp]
