@@ -352,7 +352,9 @@ int vc_link_send(vc_link* l, const uint8_t* msg, size_t len) {
   return rc;
 }
 
-bool vc_link_connected(const vc_link* l) { return atomic_load(&l->connected); }
+bool vc_link_connected(const vc_link* l) {
+  return atomic_load(&l->connected);
+}
 
 void vc_link_get_stats(vc_link* l, vc_link_stats* s) {
   pthread_mutex_lock(&l->mu);

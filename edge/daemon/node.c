@@ -10,10 +10,10 @@
 #include <string.h>
 #include <time.h>
 
+#include "voxcap/crc32c.h"
 #include "voxcap/edge/bgmodel.h"
 #include "voxcap/edge/carver.h"
 #include "voxcap/edge/cleanup.h"
-#include "voxcap/crc32c.h"
 #include "voxcap/edge/clock.h"
 #include "voxcap/edge/why.h"
 #include "voxcap/rle.h"
@@ -142,8 +142,8 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
   for (int c = 0; c < VC_NODE_CAMS; c++) {
     const vc_camera* cc = &cfg->cameras[c];
     if ((int)cc->width != n->cams[c].width || (int)cc->height != n->cams[c].height) {
-      snprintf(why, why_len, "CONFIG camera %d is %ux%u, the camera delivers %dx%d", c, cc->width,
-               cc->height, n->cams[c].width, n->cams[c].height);
+      snprintf(why, why_len, "CONFIG camera %d is %ux%u, the camera delivers %dx%d", c, cc->width, cc->height,
+               n->cams[c].width, n->cams[c].height);
       return -EINVAL;
     }
     const char* bad = NULL;
@@ -358,7 +358,8 @@ int vc_node_load_background(vc_node* n, const char* dir, char* why, size_t why_l
       if (!sg || !models[c]) {
         rc = -ENOMEM;
       } else {
-        for (size_t i = 0; i < px; i++) sg[i] = (uint16_t)(buf[24 + px + 2 * i] | buf[24 + px + 2 * i + 1] << 8);
+        for (size_t i = 0; i < px; i++)
+          sg[i] = (uint16_t)(buf[24 + px + 2 * i] | buf[24 + px + 2 * i + 1] << 8);
         rc = vc_bgmodel_restore(models[c], buf + 24, sg, (int)get_u32(buf + 16));
       }
       free(sg);
@@ -399,8 +400,9 @@ void vc_node_set_features_producer(vc_node* n, const vc_features_producer* produ
 }
 
 /* FEATURES of this frame into out after the HULL; a failing producer costs only these. */
-static void produce_features(vc_node* n, uint64_t seq, uint64_t t_trigger_ns, const uint8_t* const rgb[VC_NODE_CAMS],
-                             const size_t stride[VC_NODE_CAMS], vc_node_output* out) {
+static void produce_features(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
+                             const uint8_t* const rgb[VC_NODE_CAMS], const size_t stride[VC_NODE_CAMS],
+                             vc_node_output* out) {
   vc_features feats[VC_NODE_CAMS];
   memset(feats, 0, sizeof(feats));
   const uint8_t* const masks[VC_NODE_CAMS] = {n->masks[0], n->masks[1]};
@@ -425,9 +427,8 @@ static void produce_features(vc_node* n, uint64_t seq, uint64_t t_trigger_ns, co
   n->counters.features_encoded += (uint64_t)k;
 }
 
-int vc_node_process(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
-                    const uint8_t* const rgb[VC_NODE_CAMS], const size_t stride[VC_NODE_CAMS],
-                    const uint8_t** msg, size_t* len) {
+int vc_node_process(vc_node* n, uint64_t seq, uint64_t t_trigger_ns, const uint8_t* const rgb[VC_NODE_CAMS],
+                    const size_t stride[VC_NODE_CAMS], const uint8_t** msg, size_t* len) {
   vc_node_output out;
   int rc = vc_node_process_frame(n, seq, t_trigger_ns, rgb, stride, &out);
   if (rc == 0) {
@@ -478,7 +479,8 @@ int vc_node_process_frame(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
   out->msg[0] = n->msgbuf;
   out->len[0] = hull_len;
   out->count = 1;
-  if (n->producer.track && n->cfg.feature_role == VC_ROLE_FRONT) produce_features(n, seq, t_trigger_ns, rgb, stride, out);
+  if (n->producer.track && n->cfg.feature_role == VC_ROLE_FRONT)
+    produce_features(n, seq, t_trigger_ns, rgb, stride, out);
   return 0;
 }
 
@@ -496,11 +498,19 @@ const uint8_t* vc_node_bitset(const vc_node* n, uint64_t* voxels) {
   return n->bitset;
 }
 
-uint32_t vc_node_state(const vc_node* n) { return n->state; }
-uint16_t vc_node_id(const vc_node* n) { return n->id; }
-uint64_t vc_node_first_seq(const vc_node* n) { return n->first_seq; }
+uint32_t vc_node_state(const vc_node* n) {
+  return n->state;
+}
+uint16_t vc_node_id(const vc_node* n) {
+  return n->id;
+}
+uint64_t vc_node_first_seq(const vc_node* n) {
+  return n->first_seq;
+}
 
-void vc_node_get_counters(const vc_node* n, vc_node_counters* out) { *out = n->counters; }
+void vc_node_get_counters(const vc_node* n, vc_node_counters* out) {
+  *out = n->counters;
+}
 
 int vc_node_take_stage_times(vc_node* n, vc_stage_time* stages, int max_stages, uint32_t* frames) {
   int k = 0;

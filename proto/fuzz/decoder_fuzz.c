@@ -130,7 +130,8 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   size_t kept = whole.n < MAX_EVENTS ? whole.n : MAX_EVENTS;
   for (size_t i = 0; i < kept; i++) {
     const event *a = &whole.ev[i], *c = &chunked.ev[i];
-    if (a->rc != c->rc || a->offset != c->offset || a->type != c->type || a->payload_len != c->payload_len) abort();
+    if (a->rc != c->rc || a->offset != c->offset || a->type != c->type || a->payload_len != c->payload_len)
+      abort();
   }
   free(b);
   return 0;

@@ -62,9 +62,10 @@ std::vector<uint8_t> reference_subtract(const vc_bgmodel* m, const vc_subtract_p
 
 Scene test_scene() {
   Scene s;
-  s.people = {{100, 120, 30, 70, 200, 60, 50, 0}, {230, 140, 25, 60, 40, 70, 170, 0},
+  s.people = {{100, 120, 30, 70, 200, 60, 50, 0},
+              {230, 140, 25, 60, 40, 70, 170, 0},
               {160, 60, 12, 14, 215, 170, 140, 0},  // skin-coloured head
-              {60, 200, 18, 22, 60, 60, 60, 0}};     // dark grey trousers-like blob
+              {60, 200, 18, 22, 60, 60, 60, 0}};    // dark grey trousers-like blob
   s.shadows = {{130, 215, 90, 20, 0, 0, 0, 0.55}, {250, 200, 40, 25, 0, 0, 0, 0.75}};
   return s;
 }
@@ -241,9 +242,18 @@ TEST_P(SubtractVariants, SeparatesPeopleFromShadowsInTheSyntheticScene) {
   size_t fg = 0, fg_hit = 0, shadow = 0, shadow_bg = 0, bg = 0, bg_hit = 0;
   for (size_t i = 0; i < mask.size(); i++) {
     switch (truth[i]) {
-      case Truth::kForeground: fg++; fg_hit += mask[i] != 0; break;
-      case Truth::kShadow: shadow++; shadow_bg += mask[i] == 0; break;
-      case Truth::kBackground: bg++; bg_hit += mask[i] == 0; break;
+      case Truth::kForeground:
+        fg++;
+        fg_hit += mask[i] != 0;
+        break;
+      case Truth::kShadow:
+        shadow++;
+        shadow_bg += mask[i] == 0;
+        break;
+      case Truth::kBackground:
+        bg++;
+        bg_hit += mask[i] == 0;
+        break;
     }
   }
   EXPECT_GE(static_cast<double>(fg_hit) / fg, 0.99);

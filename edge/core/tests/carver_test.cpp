@@ -8,9 +8,9 @@
 #include <cerrno>
 #include <cmath>
 #include <memory>
-#include <ostream>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
+#include <ostream>
 #include <random>
 #include <vector>
 
