@@ -139,6 +139,7 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
     snprintf(why, why_len, "CONFIG has %u cameras, this node has %d", cfg->camera_count, VC_NODE_CAMS);
     return -EINVAL;
   }
+  char bad[200]; /* a check's reason, passed on with what was checked */
   for (int c = 0; c < VC_NODE_CAMS; c++) {
     const vc_camera* cc = &cfg->cameras[c];
     if ((int)cc->width != n->cams[c].width || (int)cc->height != n->cams[c].height) {
@@ -146,16 +147,14 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
                n->cams[c].width, n->cams[c].height);
       return -EINVAL;
     }
-    const char* bad = NULL;
-    if (vc_camera_check(cc, &bad) < 0) {
-      snprintf(why, why_len, "CONFIG camera %d: %s", c, bad ? bad : "invalid");
+    if (vc_camera_check(cc, bad, sizeof(bad)) < 0) {
+      snprintf(why, why_len, "CONFIG camera %d: %s", c, bad);
       return -EINVAL;
     }
   }
   const vc_voxel_grid* grid = &cfg->grid;
-  const char* bad = NULL;
-  if (vc_grid_check(grid, &bad) < 0) {
-    snprintf(why, why_len, "CONFIG grid: %s", bad ? bad : "invalid");
+  if (vc_grid_check(grid, bad, sizeof(bad)) < 0) {
+    snprintf(why, why_len, "CONFIG grid: %s", bad);
     return -EINVAL;
   }
   vc_subtract_params sub;
@@ -164,8 +163,8 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
   sub.t_lower = cfg->t_lower;
   double ang = cfg->shadow_angle_deg * M_PI / 180.0;
   sub.cos2_angular = cos(ang) * cos(ang);
-  if (vc_subtract_params_check(&sub, &bad) < 0) {
-    snprintf(why, why_len, "CONFIG thresholds: %s", bad ? bad : "invalid");
+  if (vc_subtract_params_check(&sub, bad, sizeof(bad)) < 0) {
+    snprintf(why, why_len, "CONFIG thresholds: %s", bad);
     return -EINVAL;
   }
   if (cfg->cleanup_radius_px > VC_CLEANUP_MAX_RADIUS) { /* the decoder checks it too */

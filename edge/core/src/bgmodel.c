@@ -32,6 +32,7 @@
 #include <string.h>
 
 #include "dispatch.h"
+#include "why.h"
 
 #define VC_MAX_DIM 16384
 #define VC_MAX_FRAMES 65535
@@ -63,24 +64,38 @@ void vc_subtract_params_default(vc_subtract_params* params) {
   params->sigma_floor = VC_SUBTRACT_SIGMA_FLOOR;
 }
 
-int vc_subtract_params_check(const vc_subtract_params* p, const char** why) {
+int vc_subtract_params_check(const vc_subtract_params* p, char* why, size_t why_len) {
   const char* bad = NULL;
-  if (p == NULL)
-    bad = "params is NULL";
-  else if (!(p->t_upper > 0.0 && p->t_upper <= 1000.0))
+  double got = 0.0; /* the offending value, said after the rule */
+  if (p == NULL) {
+    core_why(why, why_len, "params is NULL");
+    return -EINVAL;
+  }
+  if (!(p->t_upper > 0.0 && p->t_upper <= 1000.0)) {
     bad = "t_upper must be in (0, 1000]";
-  else if (!(p->t_lower > 0.0 && p->t_lower <= p->t_upper))
+    got = p->t_upper;
+  } else if (!(p->t_lower > 0.0 && p->t_lower <= p->t_upper)) {
     bad = "t_lower must be in (0, t_upper]";
-  else if (!(p->cos2_angular >= 0.0 && p->cos2_angular <= 1.0))
+    got = p->t_lower;
+  } else if (!(p->cos2_angular >= 0.0 && p->cos2_angular <= 1.0)) {
     bad = "cos2_angular must be in [0, 1]";
-  else if (!(p->shadow_min_gain >= 0.0 && p->shadow_min_gain <= 65536.0))
+    got = p->cos2_angular;
+  } else if (!(p->shadow_min_gain >= 0.0 && p->shadow_min_gain <= 65536.0)) {
     bad = "shadow_min_gain must be in [0, 65536]";
-  else if (!(p->shadow_max_gain >= p->shadow_min_gain && p->shadow_max_gain <= 65536.0))
+    got = p->shadow_min_gain;
+  } else if (!(p->shadow_max_gain >= p->shadow_min_gain && p->shadow_max_gain <= 65536.0)) {
     bad = "shadow_max_gain must be in [shadow_min_gain, 65536]";
-  else if (!(p->sigma_floor > 0.0 && p->sigma_floor <= 255.0))
+    got = p->shadow_max_gain;
+  } else if (!(p->sigma_floor > 0.0 && p->sigma_floor <= 255.0)) {
     bad = "sigma_floor must be in (0, 255]";
-  if (why != NULL) *why = bad;
-  return bad == NULL ? 0 : -EINVAL;
+    got = p->sigma_floor;
+  }
+  if (bad == NULL) {
+    core_why_clear(why, why_len);
+    return 0;
+  }
+  core_why(why, why_len, "%s, not %g", bad, got);
+  return -EINVAL;
 }
 
 vc_bgmodel* vc_bgmodel_new(int width, int height) {
@@ -190,7 +205,7 @@ int vc_bgmodel_restore(vc_bgmodel* m, const uint8_t* mean, const uint16_t* sigma
 }
 
 int vc_bgmodel_set_params(vc_bgmodel* m, const vc_subtract_params* p) {
-  if (m == NULL || vc_subtract_params_check(p, NULL) != 0) return -EINVAL;
+  if (m == NULL || vc_subtract_params_check(p, NULL, 0) != 0) return -EINVAL;
   if (!m->finished) return -EAGAIN;
   const size_t n = (size_t)m->width * (size_t)m->height * 3;
   if (m->tu == NULL) m->tu = malloc(n);

@@ -31,6 +31,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "why.h"
+
 #define TOP 16
 #define MID 8
 #define LEAF 4
@@ -91,54 +93,78 @@ struct vc_carver {
 
 /* ---- configuration ---------------------------------------------------------------------------- */
 
-int vc_camera_check(const vc_camera* c, const char** why) {
-  const char* bad = NULL;
-  if (c == NULL)
-    bad = "camera is NULL";
-  else if (c->width < 1 || c->height < 1 || c->width > 16384 || c->height > 16384)
-    bad = "image size must be 1..16384";
-  else if (!(c->K[0] > 0.0 && c->K[4] > 0.0 && isfinite(c->K[2]) && isfinite(c->K[5])))
-    bad = "K must have positive finite fx, fy and finite cx, cy";
-  else if (c->K[1] != 0.0 || c->K[3] != 0.0 || c->K[6] != 0.0 || c->K[7] != 0.0 || c->K[8] != 1.0)
-    bad = "K must be [fx 0 cx; 0 fy cy; 0 0 1] (OpenCV's projection ignores skew)";
-  if (bad == NULL) {
-    for (int i = 0; i < 5; i++)
-      if (!isfinite(c->dist[i])) bad = "distortion coefficients must be finite";
-    for (int i = 0; i < 9; i++)
-      if (!isfinite(c->R_cam_from_world[i])) bad = "R must be finite";
-    for (int i = 0; i < 3; i++)
-      if (!isfinite(c->t_cam_from_world[i])) bad = "t must be finite";
+int vc_camera_check(const vc_camera* c, char* why, size_t why_len) {
+  core_why_clear(why, why_len);
+  if (c == NULL) {
+    core_why(why, why_len, "camera is NULL");
+    return -EINVAL;
   }
-  if (bad == NULL) {
-    /* R must be a rotation: R R^T = I within 1e-6. */
-    for (int a = 0; a < 3 && bad == NULL; a++)
-      for (int b = 0; b < 3; b++) {
-        double d = 0.0;
-        for (int k = 0; k < 3; k++) d += c->R_cam_from_world[3 * a + k] * c->R_cam_from_world[3 * b + k];
-        if (fabs(d - (a == b ? 1.0 : 0.0)) > 1e-6) {
-          bad = "R must be a rotation matrix";
-          break;
-        }
+  if (c->width < 1 || c->height < 1 || c->width > 16384 || c->height > 16384) {
+    core_why(why, why_len, "image size %ux%u must be 1..16384 each", c->width, c->height);
+    return -EINVAL;
+  }
+  if (!(c->K[0] > 0.0 && c->K[4] > 0.0 && isfinite(c->K[2]) && isfinite(c->K[5]))) {
+    core_why(why, why_len,
+             "K must have positive finite fx, fy and finite cx, cy, not fx %g fy %g cx %g cy %g", c->K[0],
+             c->K[4], c->K[2], c->K[5]);
+    return -EINVAL;
+  }
+  if (c->K[1] != 0.0 || c->K[3] != 0.0 || c->K[6] != 0.0 || c->K[7] != 0.0 || c->K[8] != 1.0) {
+    core_why(why, why_len, "K must be [fx 0 cx; 0 fy cy; 0 0 1] (OpenCV's projection ignores skew)");
+    return -EINVAL;
+  }
+  for (int i = 0; i < 5; i++)
+    if (!isfinite(c->dist[i])) {
+      core_why(why, why_len, "distortion coefficient %d must be finite", i);
+      return -EINVAL;
+    }
+  for (int i = 0; i < 9; i++)
+    if (!isfinite(c->R_cam_from_world[i])) {
+      core_why(why, why_len, "R must be finite");
+      return -EINVAL;
+    }
+  for (int i = 0; i < 3; i++)
+    if (!isfinite(c->t_cam_from_world[i])) {
+      core_why(why, why_len, "t must be finite");
+      return -EINVAL;
+    }
+  /* R must be a rotation: R R^T = I within 1e-6. */
+  for (int a = 0; a < 3; a++)
+    for (int b = 0; b < 3; b++) {
+      double d = 0.0;
+      for (int k = 0; k < 3; k++) d += c->R_cam_from_world[3 * a + k] * c->R_cam_from_world[3 * b + k];
+      if (fabs(d - (a == b ? 1.0 : 0.0)) > 1e-6) {
+        core_why(why, why_len, "R must be a rotation matrix (R R^T is off by %g at row %d, column %d)",
+                 d - (a == b ? 1.0 : 0.0), a, b);
+        return -EINVAL;
       }
-  }
-  if (why != NULL) *why = bad;
-  return bad == NULL ? 0 : -EINVAL;
+    }
+  return 0;
 }
 
-int vc_grid_check(const vc_voxel_grid* g, const char** why) {
-  const char* bad = NULL;
-  if (g == NULL)
-    bad = "grid is NULL";
-  else if (!(g->voxel_m > 0.0 && isfinite(g->voxel_m)))
-    bad = "voxel size must be positive";
-  else if (!isfinite(g->min_m[0]) || !isfinite(g->min_m[1]) || !isfinite(g->min_m[2]))
-    bad = "grid min corner must be finite";
-  else if (g->nx < 1 || g->ny < 1 || g->nz < 1 || g->nx > 4096 || g->ny > 4096 || g->nz > 4096)
-    bad = "grid dimensions must be 1..4096";
-  else if ((uint64_t)g->nx * (uint64_t)g->ny * (uint64_t)g->nz > (1ull << 31))
-    bad = "grid has more than 2^31 voxels";
-  if (why != NULL) *why = bad;
-  return bad == NULL ? 0 : -EINVAL;
+int vc_grid_check(const vc_voxel_grid* g, char* why, size_t why_len) {
+  core_why_clear(why, why_len);
+  if (g == NULL) {
+    core_why(why, why_len, "grid is NULL");
+    return -EINVAL;
+  }
+  if (!(g->voxel_m > 0.0 && isfinite(g->voxel_m))) {
+    core_why(why, why_len, "voxel size must be positive, not %g m", g->voxel_m);
+    return -EINVAL;
+  }
+  if (!isfinite(g->min_m[0]) || !isfinite(g->min_m[1]) || !isfinite(g->min_m[2])) {
+    core_why(why, why_len, "grid min corner must be finite");
+    return -EINVAL;
+  }
+  if (g->nx < 1 || g->ny < 1 || g->nz < 1 || g->nx > 4096 || g->ny > 4096 || g->nz > 4096) {
+    core_why(why, why_len, "grid dimensions must be 1..4096 each, not %ux%ux%u", g->nx, g->ny, g->nz);
+    return -EINVAL;
+  }
+  if ((uint64_t)g->nx * (uint64_t)g->ny * (uint64_t)g->nz > (1ull << 31)) {
+    core_why(why, why_len, "grid has more than 2^31 voxels (%ux%ux%u)", g->nx, g->ny, g->nz);
+    return -EINVAL;
+  }
+  return 0;
 }
 
 /* OpenCV's projectPoints model (modules/calib3d, cvProjectPoints2Internal) for one point. */
@@ -361,7 +387,8 @@ static void frame_free(cam_frame* f) {
 vc_carver* vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_camera* cam1) {
   int err = -EINVAL;
   vc_carver* cv = NULL;
-  if (vc_grid_check(grid, NULL) != 0 || vc_camera_check(cam0, NULL) != 0 || vc_camera_check(cam1, NULL) != 0)
+  if (vc_grid_check(grid, NULL, 0) != 0 || vc_camera_check(cam0, NULL, 0) != 0 ||
+      vc_camera_check(cam1, NULL, 0) != 0)
     goto err;
   err = -ENOMEM;
   cv = calloc(1, sizeof(*cv));

@@ -99,19 +99,36 @@ ModelPtr learn(const Scene& scene, int frames, std::mt19937& rng) {
 TEST(SubtractParams, DefaultsAreValidAndBadOnesAreNamed) {
   vc_subtract_params p;
   vc_subtract_params_default(&p);
-  const char* why = "unset";
-  EXPECT_EQ(vc_subtract_params_check(&p, &why), 0);
-  EXPECT_EQ(why, nullptr);
+  char why[128] = "unset";
+  EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), 0);
+  EXPECT_STREQ(why, "");
   p.t_lower = p.t_upper * 2;
-  EXPECT_EQ(vc_subtract_params_check(&p, &why), -EINVAL);
+  EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), -EINVAL);
   EXPECT_NE(std::string(why).find("t_lower"), std::string::npos);
+  EXPECT_NE(std::string(why).find("not 120"), std::string::npos) << why;  // and the bad value
   vc_subtract_params_default(&p);
   p.cos2_angular = 1.5;
-  EXPECT_EQ(vc_subtract_params_check(&p, &why), -EINVAL);
+  EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), -EINVAL);
   EXPECT_NE(std::string(why).find("cos2"), std::string::npos);
   p.cos2_angular = std::nan("");
-  EXPECT_EQ(vc_subtract_params_check(&p, nullptr), -EINVAL);
-  EXPECT_EQ(vc_subtract_params_check(nullptr, &why), -EINVAL);
+  EXPECT_EQ(vc_subtract_params_check(&p, nullptr, 0), -EINVAL);
+  EXPECT_EQ(vc_subtract_params_check(nullptr, why, sizeof why), -EINVAL);
+  EXPECT_STREQ(why, "params is NULL");
+}
+
+TEST(SubtractParams, ReasonIsTruncatedAndTerminatedLikeVcWhy) {
+  vc_subtract_params p;
+  vc_subtract_params_default(&p);
+  p.sigma_floor = 0;
+  char full[128], tiny[8];
+  ASSERT_EQ(vc_subtract_params_check(&p, full, sizeof full), -EINVAL);
+  EXPECT_STREQ(full, "sigma_floor must be in (0, 255], not 0");
+  std::memset(tiny, 'x', sizeof tiny);
+  EXPECT_EQ(vc_subtract_params_check(&p, tiny, sizeof tiny), -EINVAL);
+  EXPECT_EQ(std::string(tiny), std::string(full).substr(0, sizeof tiny - 1));  // terminated, cut
+  char untouched[4] = "abc";
+  EXPECT_EQ(vc_subtract_params_check(&p, untouched, 0), -EINVAL);  // no room: left alone
+  EXPECT_STREQ(untouched, "abc");
 }
 
 TEST(BgModel, LifecycleErrors) {

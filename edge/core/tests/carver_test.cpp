@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 #include <ostream>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "synth.hpp"
@@ -139,23 +140,31 @@ TEST(Camera, ProjectionMatchesOpenCV) {
 TEST(Camera, ChecksRejectBadModels) {
   std::mt19937 rng(2);
   Rig rig = random_rig(rng, 64, 48);
-  const char* why = nullptr;
-  EXPECT_EQ(vc_camera_check(&rig.cam[0], &why), 0);
+  char why[160] = "unset";
+  EXPECT_EQ(vc_camera_check(&rig.cam[0], why, sizeof why), 0);
+  EXPECT_STREQ(why, "");
   vc_camera c = rig.cam[0];
   c.K[1] = 0.5;
-  EXPECT_EQ(vc_camera_check(&c, &why), -EINVAL);
-  EXPECT_NE(why, nullptr);
+  EXPECT_EQ(vc_camera_check(&c, why, sizeof why), -EINVAL);
+  EXPECT_STRNE(why, "");
+  EXPECT_NE(std::string(why).find("skew"), std::string::npos) << why;
   c = rig.cam[0];
   c.R_cam_from_world[0] *= 2;
-  EXPECT_EQ(vc_camera_check(&c, &why), -EINVAL);
+  EXPECT_EQ(vc_camera_check(&c, why, sizeof why), -EINVAL);
+  EXPECT_EQ(std::string(why).rfind("R must be a rotation matrix", 0), 0u) << why;
   c = rig.cam[0];
   c.width = 0;
-  EXPECT_EQ(vc_camera_check(&c, nullptr), -EINVAL);
+  EXPECT_EQ(vc_camera_check(&c, nullptr, 0), -EINVAL);
+  EXPECT_EQ(vc_camera_check(&c, why, sizeof why), -EINVAL);
+  EXPECT_STREQ(why, "image size 0x48 must be 1..16384 each");
   vc_voxel_grid g{4, 4, 0, {0, 0, 0}, 0.1};
-  EXPECT_EQ(vc_grid_check(&g, &why), -EINVAL);
+  EXPECT_EQ(vc_grid_check(&g, why, sizeof why), -EINVAL);
+  EXPECT_STREQ(why, "grid dimensions must be 1..4096 each, not 4x4x0");
   g.nz = 4;
+  EXPECT_EQ(vc_grid_check(&g, why, sizeof why), 0);
+  EXPECT_STREQ(why, "");
   g.voxel_m = -1;
-  EXPECT_EQ(vc_grid_check(&g, nullptr), -EINVAL);
+  EXPECT_EQ(vc_grid_check(&g, nullptr, 0), -EINVAL);
   EXPECT_EQ(vc_carver_new(&g, &rig.cam[0], &rig.cam[1]), nullptr);
   EXPECT_EQ(errno, EINVAL);
   vc_carver_free(nullptr);

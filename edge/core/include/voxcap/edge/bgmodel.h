@@ -54,9 +54,10 @@ typedef struct vc_subtract_params {
  * T_l 3.5, T_angular 8 degrees, alpha in [0.25, 1.0], sigma floor 1.0. */
 void vc_subtract_params_default(vc_subtract_params* params);
 
-/* 0 if the parameters are usable, -EINVAL otherwise. When `why` is not NULL it receives a static
- * string naming the first bad field (never freed by the caller). */
-int vc_subtract_params_check(const vc_subtract_params* params, const char** why);
+/* 0 if the parameters are usable, -EINVAL otherwise. The reason, when why is given (NULL/0 when not
+ * wanted), is one line naming the first bad field and its value ("" when usable); edge/README.md's
+ * convention. */
+int vc_subtract_params_check(const vc_subtract_params* params, char* why, size_t why_len);
 
 typedef struct vc_bgmodel vc_bgmodel;
 

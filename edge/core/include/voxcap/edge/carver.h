@@ -31,12 +31,13 @@ extern "C" {
  * This is the exact rule vc_carver_run() applies to voxel centres. */
 int vc_camera_project(const vc_camera* cam, const double p_world[3], int* px, int* py);
 
-/* 0 when the camera is usable by the carver, -EINVAL otherwise (why: static string, may be NULL):
- * image 1..16384 pixels each way, K = [fx 0 cx; 0 fy cy; 0 0 1] with fx, fy > 0 (cv::projectPoints
- * ignores skew), finite distortion, R_cam_from_world a rotation within 1e-6, finite t. Grids: finite
- * min_m, voxel_m > 0, nx, ny, nz 1..4096 each and at most 2^31 voxels. */
-int vc_camera_check(const vc_camera* cam, const char** why);
-int vc_grid_check(const vc_voxel_grid* grid, const char** why);
+/* 0 when the camera is usable by the carver, -EINVAL otherwise, with a one-line reason in why when
+ * given (NULL/0 when not wanted; "" when usable; edge/README.md's convention). Cameras: image
+ * 1..16384 pixels each way, K = [fx 0 cx; 0 fy cy; 0 0 1] with fx, fy > 0 (cv::projectPoints ignores
+ * skew), finite distortion, R_cam_from_world a rotation within 1e-6, finite t. Grids: finite min_m,
+ * voxel_m > 0, nx, ny, nz 1..4096 each and at most 2^31 voxels. */
+int vc_camera_check(const vc_camera* cam, char* why, size_t why_len);
+int vc_grid_check(const vc_voxel_grid* grid, char* why, size_t why_len);
 
 typedef struct vc_carver vc_carver;
 
