@@ -173,11 +173,11 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
     return -EINVAL;
   }
 
-  vc_carver* carver = vc_carver_new(grid, &cfg->cameras[0], &cfg->cameras[1]);
-  if (!carver) {
-    snprintf(why, why_len, "CONFIG: cannot build the carver for a %ux%ux%u grid: %s", grid->nx, grid->ny,
-             grid->nz, strerror(errno));
-    return errno == ENOMEM ? -ENOMEM : -EINVAL;
+  vc_carver* carver = NULL;
+  int rc = vc_carver_new(grid, &cfg->cameras[0], &cfg->cameras[1], &carver, bad, sizeof(bad));
+  if (rc < 0) {
+    snprintf(why, why_len, "CONFIG: %s", bad);
+    return rc;
   }
   size_t bits_bytes = vc_carver_bitset_bytes(carver);
   size_t msgcap = VC_PROTO_HEADER_SIZE + 64 + vc_rle_max_encoded_size(vc_carver_voxels(carver));
@@ -241,11 +241,11 @@ int vc_node_background_begin(vc_node* n, uint32_t frames) {
   if (frames < 2) frames = 2;
   free_models(n);
   for (int c = 0; c < VC_NODE_CAMS; c++) {
-    n->bg[c] = vc_bgmodel_new(n->cams[c].width, n->cams[c].height);
-    if (!n->bg[c]) {
+    int rc = vc_bgmodel_new(n->cams[c].width, n->cams[c].height, &n->bg[c], NULL, 0);
+    if (rc < 0) {
       free_models(n);
       n->state = VC_STATE_CONFIGURED;
-      return -ENOMEM;
+      return rc;
     }
   }
   n->bg_wanted = frames;
@@ -353,9 +353,10 @@ int vc_node_load_background(vc_node* n, const char* dir, char* why, size_t why_l
       rc = -EINVAL;
     } else {
       uint16_t* sg = malloc(px * sizeof(uint16_t));
-      models[c] = vc_bgmodel_new(n->cams[c].width, n->cams[c].height);
-      if (!sg || !models[c]) {
-        rc = -ENOMEM;
+      char bad[160] = "out of memory";
+      rc = sg ? vc_bgmodel_new(n->cams[c].width, n->cams[c].height, &models[c], bad, sizeof(bad)) : -ENOMEM;
+      if (rc < 0) {
+        snprintf(why, why_len, "%s: %s", path, bad);
       } else {
         for (size_t i = 0; i < px; i++)
           sg[i] = (uint16_t)(buf[24 + px + 2 * i] | buf[24 + px + 2 * i + 1] << 8);

@@ -102,12 +102,16 @@ struct EdgePipeline {
   EdgePipeline(int width, int height, const vc_voxel_grid& grid, const vc_camera cams[2])
       : w(width), h(height) {
     for (int c = 0; c < 2; c++) {
-      bg[c].reset(vc_bgmodel_new(w, h));
-      if (!bg[c]) throw std::runtime_error("vc_bgmodel_new failed");
+      vc_bgmodel* m = nullptr;
+      char why[200];
+      if (vc_bgmodel_new(w, h, &m, why, sizeof why) < 0) throw std::runtime_error(why);
+      bg[c].reset(m);
       mask[c].resize(static_cast<size_t>(w) * h);
     }
-    carver.reset(vc_carver_new(&grid, &cams[0], &cams[1]));
-    if (!carver) throw std::runtime_error("vc_carver_new failed: errno " + std::to_string(errno));
+    vc_carver* cv = nullptr;
+    char why[200];
+    if (vc_carver_new(&grid, &cams[0], &cams[1], &cv, why, sizeof why) < 0) throw std::runtime_error(why);
+    carver.reset(cv);
     scratch.resize(vc_cleanup_scratch_size(w));
     bits.resize(vc_carver_bitset_bytes(carver.get()));
     rle.resize(vc_rle_max_encoded_size(vc_carver_voxels(carver.get())));

@@ -98,10 +98,17 @@ int vc_subtract_params_check(const vc_subtract_params* p, char* why, size_t why_
   return -EINVAL;
 }
 
-vc_bgmodel* vc_bgmodel_new(int width, int height) {
+int vc_bgmodel_new(int width, int height, vc_bgmodel** out, char* why, size_t why_len) {
+  core_why_clear(why, why_len);
+  if (out) *out = NULL;
+  if (!out) {
+    core_why(why, why_len, "background model: no place for the model");
+    return -EINVAL;
+  }
   if (width < 1 || height < 1 || width > VC_MAX_DIM || height > VC_MAX_DIM) {
-    errno = EINVAL;
-    return NULL;
+    core_why(why, why_len, "background model: frame size %dx%d must be 1..%d each", width, height,
+             VC_MAX_DIM);
+    return -EINVAL;
   }
   size_t n = (size_t)width * (size_t)height * 3;
   vc_bgmodel* m = calloc(1, sizeof(*m));
@@ -111,12 +118,13 @@ vc_bgmodel* vc_bgmodel_new(int width, int height) {
   m->sum = calloc(n, sizeof(*m->sum));
   m->sumsq = calloc(n, sizeof(*m->sumsq));
   if (m->sum == NULL || m->sumsq == NULL) goto err_nomem;
-  return m;
+  *out = m;
+  return 0;
 
 err_nomem:
   vc_bgmodel_free(m);
-  errno = ENOMEM;
-  return NULL;
+  core_why(why, why_len, "background model: out of memory for %dx%d frames", width, height);
+  return -ENOMEM;
 }
 
 void vc_bgmodel_free(vc_bgmodel* m) {

@@ -384,12 +384,27 @@ static void frame_free(cam_frame* f) {
   free(f->full);
 }
 
-vc_carver* vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_camera* cam1) {
+int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_camera* cam1, vc_carver** out,
+                  char* why, size_t why_len) {
   int err = -EINVAL;
   vc_carver* cv = NULL;
-  if (vc_grid_check(grid, NULL, 0) != 0 || vc_camera_check(cam0, NULL, 0) != 0 ||
-      vc_camera_check(cam1, NULL, 0) != 0)
-    goto err;
+  char bad[160]; /* a check's reason */
+  core_why_clear(why, why_len);
+  if (out) *out = NULL;
+  if (!out) {
+    core_why(why, why_len, "carver: no place for the carver");
+    return -EINVAL;
+  }
+  if (vc_grid_check(grid, bad, sizeof(bad)) != 0) {
+    core_why(why, why_len, "carver: %s", bad);
+    return -EINVAL;
+  }
+  const vc_camera* cam[2] = {cam0, cam1};
+  for (int c = 0; c < 2; c++)
+    if (vc_camera_check(cam[c], bad, sizeof(bad)) != 0) {
+      core_why(why, why_len, "carver: camera %d: %s", c, bad);
+      return -EINVAL;
+    }
   err = -ENOMEM;
   cv = calloc(1, sizeof(*cv));
   if (cv == NULL) goto err;
@@ -398,7 +413,6 @@ vc_carver* vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const
                       (int)grid->nx,
                       (int)grid->ny,
                       (int)grid->nz};
-  const vc_camera* cam[2] = {cam0, cam1};
   for (int c = 0; c < 2; c++) {
     cv->W[c] = (int)cam[c]->width;
     cv->H[c] = (int)cam[c]->height;
@@ -451,12 +465,14 @@ vc_carver* vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const
     const cam_frame* f = &cv->fr[c];
     cv->memory += 2 * (size_t)(f->tw + 1) * (size_t)(f->th + 1) * 4 + 2 * (size_t)f->tw * (size_t)f->th;
   }
-  return cv;
+  *out = cv;
+  return 0;
 
-err:
+err: /* only allocations fail past the checks */
   vc_carver_free(cv);
-  errno = -err;
-  return NULL;
+  core_why(why, why_len, "carver: out of memory for the tables of a %ux%ux%u grid", grid->nx, grid->ny,
+           grid->nz);
+  return err;
 }
 
 void vc_carver_free(vc_carver* cv) {

@@ -24,6 +24,14 @@ struct ModelDeleter {
 };
 using ModelPtr = std::unique_ptr<vc_bgmodel, ModelDeleter>;
 
+// A new model (null, with the reason reported, when vc_bgmodel_new fails).
+ModelPtr new_model(int width, int height) {
+  vc_bgmodel* m = nullptr;
+  char why[128];
+  EXPECT_EQ(vc_bgmodel_new(width, height, &m, why, sizeof why), 0) << why;
+  return ModelPtr(m);
+}
+
 // Eq. 1 and 2 in doubles, with acos, on the model's own mean and sigma.
 std::vector<uint8_t> reference_subtract(const vc_bgmodel* m, const vc_subtract_params& p,
                                         const std::vector<uint8_t>& rgb) {
@@ -85,7 +93,7 @@ ModelPtr learn(const Scene& scene, int frames, std::mt19937& rng) {
   Scene empty = scene;
   empty.people.clear();
   empty.shadows.clear();
-  ModelPtr m(vc_bgmodel_new(scene.width, scene.height));
+  ModelPtr m = new_model(scene.width, scene.height);
   EXPECT_NE(m, nullptr);
   std::vector<uint8_t> rgb;
   for (int i = 0; i < frames; i++) {
@@ -132,10 +140,22 @@ TEST(SubtractParams, ReasonIsTruncatedAndTerminatedLikeVcWhy) {
 }
 
 TEST(BgModel, LifecycleErrors) {
-  EXPECT_EQ(vc_bgmodel_new(0, 10), nullptr);
-  EXPECT_EQ(errno, EINVAL);
+  char why[128] = "unset";
+  vc_bgmodel* failed = reinterpret_cast<vc_bgmodel*>(why);  // must come back NULL
+  EXPECT_EQ(vc_bgmodel_new(0, 10, &failed, why, sizeof why), -EINVAL);
+  EXPECT_EQ(failed, nullptr);
+  EXPECT_STREQ(why, "background model: frame size 0x10 must be 1..16384 each");
+  EXPECT_EQ(vc_bgmodel_new(8, 16385, &failed, nullptr, 0), -EINVAL);
+  EXPECT_EQ(failed, nullptr);
+  EXPECT_EQ(vc_bgmodel_new(8, 4, nullptr, why, sizeof why), -EINVAL);  // nowhere to put it
   vc_bgmodel_free(nullptr);
-  ModelPtr m(vc_bgmodel_new(8, 4));
+  ModelPtr m;
+  {
+    vc_bgmodel* made = nullptr;
+    ASSERT_EQ(vc_bgmodel_new(8, 4, &made, why, sizeof why), 0);
+    m.reset(made);
+  }
+  EXPECT_STREQ(why, "");
   ASSERT_NE(m, nullptr);
   std::vector<uint8_t> rgb(8 * 4 * 3, 100), mask(8 * 4);
   vc_subtract_params p;
@@ -161,7 +181,7 @@ TEST(BgModel, LifecycleErrors) {
 TEST(BgModel, MeanAndSigmaMatchTheSamples) {
   // Two frames per pixel with known values: mean and sample deviation are exact.
   const int w = 5, h = 3;
-  ModelPtr m(vc_bgmodel_new(w, h));
+  ModelPtr m = new_model(w, h);
   std::vector<uint8_t> a(w * h * 3), b(w * h * 3), c(w * h * 3);
   for (size_t i = 0; i < a.size(); i++) {
     a[i] = static_cast<uint8_t>(i * 7);

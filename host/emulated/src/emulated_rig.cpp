@@ -101,8 +101,10 @@ class TruthScorer : public pipeline::Stage {
     for (int k = 0; k < opt.nodes; k++) {
       vc_camera a = rig::to_c_camera(cal.cameras[2 * static_cast<size_t>(k)]);
       vc_camera b = rig::to_c_camera(cal.cameras[2 * static_cast<size_t>(k) + 1]);
-      vc_carver* c = vc_carver_new(&g, &a, &b);
-      if (!c) throw std::runtime_error("truth: cannot build a carver for the rig");
+      vc_carver* c = nullptr;
+      char why[200];
+      if (vc_carver_new(&g, &a, &b, &c, why, sizeof why) < 0)
+        throw std::runtime_error(std::string("truth: cannot build a carver for the rig: ") + why);
       carvers_.push_back(c);
     }
     voxels_ = static_cast<uint64_t>(grid.nx) * grid.ny * grid.nz;

@@ -1,6 +1,6 @@
 /* Background model and shadow-aware background subtraction (the method's section 5, eq. 1 and 2).
  *
- * Lifecycle, per camera:  vc_bgmodel_new(w, h)
+ * Lifecycle, per camera:  vc_bgmodel_new(w, h, &m, why, why_len)
  *                         vc_bgmodel_learn(m, frame) × n      (frames of the empty scene)
  *                         vc_bgmodel_finish(m)                (mean and standard deviation images)
  *                         vc_bgmodel_set_params(m, &params)   (thresholds from the host's CONFIG;
@@ -61,9 +61,10 @@ int vc_subtract_params_check(const vc_subtract_params* params, char* why, size_t
 
 typedef struct vc_bgmodel vc_bgmodel;
 
-/* New empty model for width x height frames (1..16384 each). Returns NULL and sets errno (EINVAL,
- * ENOMEM) on failure. The caller owns the model and releases it with vc_bgmodel_free(). */
-vc_bgmodel* vc_bgmodel_new(int width, int height);
+/* New empty model for width x height frames (1..16384 each) into *out. Returns 0, -EINVAL or -ENOMEM
+ * with *out NULL and a one-line reason in why when given (NULL/0 when not wanted; "" on success):
+ * edge/README.md's constructor shape. *out owns the model; release it with vc_bgmodel_free(). */
+int vc_bgmodel_new(int width, int height, vc_bgmodel** out, char* why, size_t why_len);
 
 /* Frees the model; NULL is a no-op. */
 void vc_bgmodel_free(vc_bgmodel* model);

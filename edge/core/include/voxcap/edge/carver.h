@@ -41,11 +41,14 @@ int vc_grid_check(const vc_voxel_grid* grid, char* why, size_t why_len);
 
 typedef struct vc_carver vc_carver;
 
-/* Builds the carver's tables for `grid` seen by `cam0` and `cam1` (all three borrowed for the call).
- * Returns NULL and sets errno: EINVAL (bad camera or grid), ENOMEM. The caller owns the carver and
- * frees it with vc_carver_free(). Time and memory grow with the voxel count: about 4.5 bytes per
- * voxel seen by both cameras (more for voxels that project larger than 64 pixels). */
-vc_carver* vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_camera* cam1);
+/* Builds the carver's tables for `grid` seen by `cam0` and `cam1` (all three borrowed for the call)
+ * into *out. Returns 0, -EINVAL (bad camera or grid: the checks' reason) or -ENOMEM, with *out NULL
+ * and a one-line reason in why when given (NULL/0 when not wanted; "" on success): edge/README.md's
+ * constructor shape. *out owns the carver; free it with vc_carver_free(). Time and memory grow with the voxel
+ * count: about 4.5 bytes per voxel seen by both cameras (more for voxels that project larger than 64 pixels).
+ */
+int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_camera* cam1, vc_carver** out,
+                  char* why, size_t why_len);
 
 /* Frees the carver; NULL is a no-op. */
 void vc_carver_free(vc_carver* carver);
