@@ -259,7 +259,8 @@ void BM_DecodeHullStream(benchmark::State& state) {
   size_t len = 0;
   if (vc_encode_hull_bits(msg.data(), msg.size(), &len, &hdr, 1, h.a.bytes.data(), h.a.nbits) != 0)
     std::abort();
-  vc_decoder* dec = vc_decoder_new(0);
+  vc_decoder* dec = nullptr;
+  if (vc_decoder_new(0, &dec, nullptr, 0) < 0) std::abort();
   auto out = std::make_unique<vc_msg>();
   for ([[maybe_unused]] auto _ : state) {
     for (size_t off = 0; off < len;) {

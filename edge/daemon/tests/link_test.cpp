@@ -51,7 +51,8 @@ struct Received {
 };
 Received read_for(int fd, int ms, size_t stop_after = 1000) {
   Received r;
-  vc_decoder* dec = vc_decoder_new(0);
+  vc_decoder* dec = nullptr;
+  EXPECT_EQ(vc_decoder_new(0, &dec, nullptr, 0), 0);
   auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
   uint8_t buf[65536];
   while (std::chrono::steady_clock::now() < end && r.types.size() < stop_after) {

@@ -91,10 +91,17 @@ port = )" + std::to_string(free_port()) +
   return config::load_rig_config(dir / "rig.toml");
 }
 
+vc_decoder* new_decoder() {
+  vc_decoder* dec = nullptr;
+  char why[128];
+  EXPECT_EQ(vc_decoder_new(0, &dec, why, sizeof why), 0) << why;
+  return dec;
+}
+
 struct FakeEdge {
   int fd = -1;
   uint16_t id;
-  vc_decoder* dec = vc_decoder_new(0);
+  vc_decoder* dec = new_decoder();
   FakeEdge(uint16_t port, uint16_t node, int w = 64) : id(node) {
     fd = socket(AF_INET, SOCK_STREAM, 0);
     sockaddr_in a{};

@@ -317,7 +317,11 @@ void Server::run() {
         char ip[INET_ADDRSTRLEN] = "?";
         inet_ntop(AF_INET, &peer.sin_addr, ip, sizeof(ip));
         c->peer = fmt::format("{}:{}", ip, ntohs(peer.sin_port));
-        c->dec = vc_decoder_new(0);
+        char why[128];
+        if (vc_decoder_new(0, &c->dec, why, sizeof(why)) < 0) {
+          log(0, fmt::format("connection from {} refused: {}", c->peer, why));
+          continue;  // ~Conn closes the socket
+        }
         c->created_ns = c->last_rx_ns = now;
         std::lock_guard<std::mutex> g(mu_);
         c->id = next_id_++;
