@@ -134,27 +134,28 @@ int vc_node_hello(const vc_node* n, uint32_t capabilities, uint8_t* buf, size_t 
 
 int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_len, char* warning,
                       size_t warning_len) {
+  vc_why_clear(why, why_len);
   if (warning && warning_len) warning[0] = '\0';
   if (cfg->camera_count != VC_NODE_CAMS) {
-    snprintf(why, why_len, "CONFIG has %u cameras, this node has %d", cfg->camera_count, VC_NODE_CAMS);
+    vc_why(why, why_len, "CONFIG has %u cameras, this node has %d", cfg->camera_count, VC_NODE_CAMS);
     return -EINVAL;
   }
   char bad[200]; /* a check's reason, passed on with what was checked */
   for (int c = 0; c < VC_NODE_CAMS; c++) {
     const vc_camera* cc = &cfg->cameras[c];
     if ((int)cc->width != n->cams[c].width || (int)cc->height != n->cams[c].height) {
-      snprintf(why, why_len, "CONFIG camera %d is %ux%u, the camera delivers %dx%d", c, cc->width, cc->height,
-               n->cams[c].width, n->cams[c].height);
+      vc_why(why, why_len, "CONFIG camera %d is %ux%u, the camera delivers %dx%d", c, cc->width, cc->height,
+             n->cams[c].width, n->cams[c].height);
       return -EINVAL;
     }
     if (vc_camera_check(cc, bad, sizeof(bad)) < 0) {
-      snprintf(why, why_len, "CONFIG camera %d: %s", c, bad);
+      vc_why(why, why_len, "CONFIG camera %d: %s", c, bad);
       return -EINVAL;
     }
   }
   const vc_voxel_grid* grid = &cfg->grid;
   if (vc_grid_check(grid, bad, sizeof(bad)) < 0) {
-    snprintf(why, why_len, "CONFIG grid: %s", bad);
+    vc_why(why, why_len, "CONFIG grid: %s", bad);
     return -EINVAL;
   }
   vc_subtract_params sub;
@@ -164,19 +165,19 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
   double ang = cfg->shadow_angle_deg * M_PI / 180.0;
   sub.cos2_angular = cos(ang) * cos(ang);
   if (vc_subtract_params_check(&sub, bad, sizeof(bad)) < 0) {
-    snprintf(why, why_len, "CONFIG thresholds: %s", bad);
+    vc_why(why, why_len, "CONFIG thresholds: %s", bad);
     return -EINVAL;
   }
   if (cfg->cleanup_radius_px > VC_CLEANUP_MAX_RADIUS) { /* the decoder checks it too */
-    snprintf(why, why_len, "CONFIG cleanup_radius_px %u: this edge runs 0..%d", cfg->cleanup_radius_px,
-             VC_CLEANUP_MAX_RADIUS);
+    vc_why(why, why_len, "CONFIG cleanup_radius_px %u: this edge runs 0..%d", cfg->cleanup_radius_px,
+           VC_CLEANUP_MAX_RADIUS);
     return -EINVAL;
   }
 
   vc_carver* carver = NULL;
   int rc = vc_carver_new(grid, &cfg->cameras[0], &cfg->cameras[1], &carver, bad, sizeof(bad));
   if (rc < 0) {
-    snprintf(why, why_len, "CONFIG: %s", bad);
+    vc_why(why, why_len, "CONFIG: %s", bad);
     return rc;
   }
   size_t bits_bytes = vc_carver_bitset_bytes(carver);
@@ -190,7 +191,7 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
   for (int c = 0; c < VC_NODE_CAMS; c++)
     masks[c] = calloc((size_t)n->cams[c].width * (size_t)n->cams[c].height, 1);
   if (!bitset || !msgbuf || !scratch || !masks[0] || !masks[1]) {
-    snprintf(why, why_len, "CONFIG: out of memory");
+    vc_why(why, why_len, "CONFIG: out of memory");
     free(bitset);
     free(msgbuf);
     free(scratch);
@@ -319,6 +320,7 @@ int vc_node_save_background(const vc_node* n, const char* dir) {
 }
 
 int vc_node_load_background(vc_node* n, const char* dir, char* why, size_t why_len) {
+  vc_why_clear(why, why_len);
   vc_bgmodel* models[VC_NODE_CAMS] = {NULL, NULL};
   uint8_t* buf = NULL;
   int rc = 0;
@@ -328,7 +330,7 @@ int vc_node_load_background(vc_node* n, const char* dir, char* why, size_t why_l
     FILE* f = fopen(path, "rb");
     if (!f) {
       rc = errno == ENOENT ? -ENOENT : -errno;
-      snprintf(why, why_len, "%s: %s", path, strerror(errno));
+      vc_why(why, why_len, "%s: %s", path, strerror(errno));
       break;
     }
     size_t px = (size_t)n->cams[c].width * (size_t)n->cams[c].height * 3;
@@ -341,22 +343,22 @@ int vc_node_load_background(vc_node* n, const char* dir, char* why, size_t why_l
       break;
     }
     if (got < 24 || get_u32(buf) != BG_MAGIC || get_u32(buf + 4) != 1) {
-      snprintf(why, why_len, "%s: not a background model", path);
+      vc_why(why, why_len, "%s: not a background model", path);
       rc = -EINVAL;
     } else if ((int)get_u32(buf + 8) != n->cams[c].width || (int)get_u32(buf + 12) != n->cams[c].height ||
                got != len) {
-      snprintf(why, why_len, "%s: learnt at %ux%u, camera %d delivers %dx%d", path, get_u32(buf + 8),
-               get_u32(buf + 12), c, n->cams[c].width, n->cams[c].height);
+      vc_why(why, why_len, "%s: learnt at %ux%u, camera %d delivers %dx%d", path, get_u32(buf + 8),
+             get_u32(buf + 12), c, n->cams[c].width, n->cams[c].height);
       rc = -EINVAL;
     } else if (vc_crc32c(0, buf + 24, len - 24) != get_u32(buf + 20)) {
-      snprintf(why, why_len, "%s: checksum mismatch (corrupt file)", path);
+      vc_why(why, why_len, "%s: checksum mismatch (corrupt file)", path);
       rc = -EINVAL;
     } else {
       uint16_t* sg = malloc(px * sizeof(uint16_t));
       char bad[160] = "out of memory";
       rc = sg ? vc_bgmodel_new(n->cams[c].width, n->cams[c].height, &models[c], bad, sizeof(bad)) : -ENOMEM;
       if (rc < 0) {
-        snprintf(why, why_len, "%s: %s", path, bad);
+        vc_why(why, why_len, "%s: %s", path, bad);
       } else {
         for (size_t i = 0; i < px; i++)
           sg[i] = (uint16_t)(buf[24 + px + 2 * i] | buf[24 + px + 2 * i + 1] << 8);
