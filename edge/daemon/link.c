@@ -131,8 +131,12 @@ static void send_protocol_error(vc_link* l, int fd, const vc_proto_diag* d, uint
 
 /* One connection, until it fails or stop() is called. */
 static void run_connection(vc_link* l, int fd) {
-  vc_decoder* dec = vc_decoder_new(0);
-  if (!dec) return;
+  vc_decoder* dec = NULL;
+  char dec_why[128];
+  if (vc_decoder_new(0, &dec, dec_why, sizeof(dec_why)) < 0) {
+    vc_log(VC_LOG_ERROR, "link: %s", dec_why);
+    return;
+  }
   if (write_all(l, fd, l->hello, l->hello_len) < 0) {
     vc_log(VC_LOG_WARN, "link: sending HELLO to %s:%u failed", l->host, l->cfg.port);
     vc_decoder_free(dec);
@@ -352,7 +356,9 @@ int vc_link_send(vc_link* l, const uint8_t* msg, size_t len) {
   return rc;
 }
 
-bool vc_link_connected(const vc_link* l) { return atomic_load(&l->connected); }
+bool vc_link_connected(const vc_link* l) {
+  return atomic_load(&l->connected);
+}
 
 void vc_link_get_stats(vc_link* l, vc_link_stats* s) {
   pthread_mutex_lock(&l->mu);

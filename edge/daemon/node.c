@@ -10,10 +10,10 @@
 #include <string.h>
 #include <time.h>
 
+#include "voxcap/crc32c.h"
 #include "voxcap/edge/bgmodel.h"
 #include "voxcap/edge/carver.h"
 #include "voxcap/edge/cleanup.h"
-#include "voxcap/crc32c.h"
 #include "voxcap/edge/clock.h"
 #include "voxcap/edge/why.h"
 #include "voxcap/rle.h"
@@ -134,28 +134,28 @@ int vc_node_hello(const vc_node* n, uint32_t capabilities, uint8_t* buf, size_t 
 
 int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_len, char* warning,
                       size_t warning_len) {
+  vc_why_clear(why, why_len);
   if (warning && warning_len) warning[0] = '\0';
   if (cfg->camera_count != VC_NODE_CAMS) {
-    snprintf(why, why_len, "CONFIG has %u cameras, this node has %d", cfg->camera_count, VC_NODE_CAMS);
+    vc_why(why, why_len, "CONFIG has %u cameras, this node has %d", cfg->camera_count, VC_NODE_CAMS);
     return -EINVAL;
   }
+  char bad[200]; /* a check's reason, passed on with what was checked */
   for (int c = 0; c < VC_NODE_CAMS; c++) {
     const vc_camera* cc = &cfg->cameras[c];
     if ((int)cc->width != n->cams[c].width || (int)cc->height != n->cams[c].height) {
-      snprintf(why, why_len, "CONFIG camera %d is %ux%u, the camera delivers %dx%d", c, cc->width,
-               cc->height, n->cams[c].width, n->cams[c].height);
+      vc_why(why, why_len, "CONFIG camera %d is %ux%u, the camera delivers %dx%d", c, cc->width, cc->height,
+             n->cams[c].width, n->cams[c].height);
       return -EINVAL;
     }
-    const char* bad = NULL;
-    if (vc_camera_check(cc, &bad) < 0) {
-      snprintf(why, why_len, "CONFIG camera %d: %s", c, bad ? bad : "invalid");
+    if (vc_camera_check(cc, bad, sizeof(bad)) < 0) {
+      vc_why(why, why_len, "CONFIG camera %d: %s", c, bad);
       return -EINVAL;
     }
   }
   const vc_voxel_grid* grid = &cfg->grid;
-  const char* bad = NULL;
-  if (vc_grid_check(grid, &bad) < 0) {
-    snprintf(why, why_len, "CONFIG grid: %s", bad ? bad : "invalid");
+  if (vc_grid_check(grid, bad, sizeof(bad)) < 0) {
+    vc_why(why, why_len, "CONFIG grid: %s", bad);
     return -EINVAL;
   }
   vc_subtract_params sub;
@@ -164,21 +164,21 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
   sub.t_lower = cfg->t_lower;
   double ang = cfg->shadow_angle_deg * M_PI / 180.0;
   sub.cos2_angular = cos(ang) * cos(ang);
-  if (vc_subtract_params_check(&sub, &bad) < 0) {
-    snprintf(why, why_len, "CONFIG thresholds: %s", bad ? bad : "invalid");
+  if (vc_subtract_params_check(&sub, bad, sizeof(bad)) < 0) {
+    vc_why(why, why_len, "CONFIG thresholds: %s", bad);
     return -EINVAL;
   }
   if (cfg->cleanup_radius_px > VC_CLEANUP_MAX_RADIUS) { /* the decoder checks it too */
-    snprintf(why, why_len, "CONFIG cleanup_radius_px %u: this edge runs 0..%d", cfg->cleanup_radius_px,
-             VC_CLEANUP_MAX_RADIUS);
+    vc_why(why, why_len, "CONFIG cleanup_radius_px %u: this edge runs 0..%d", cfg->cleanup_radius_px,
+           VC_CLEANUP_MAX_RADIUS);
     return -EINVAL;
   }
 
-  vc_carver* carver = vc_carver_new(grid, &cfg->cameras[0], &cfg->cameras[1]);
-  if (!carver) {
-    snprintf(why, why_len, "CONFIG: cannot build the carver for a %ux%ux%u grid: %s", grid->nx, grid->ny,
-             grid->nz, strerror(errno));
-    return errno == ENOMEM ? -ENOMEM : -EINVAL;
+  vc_carver* carver = NULL;
+  int rc = vc_carver_new(grid, &cfg->cameras[0], &cfg->cameras[1], &carver, bad, sizeof(bad));
+  if (rc < 0) {
+    vc_why(why, why_len, "CONFIG: %s", bad);
+    return rc;
   }
   size_t bits_bytes = vc_carver_bitset_bytes(carver);
   size_t msgcap = VC_PROTO_HEADER_SIZE + 64 + vc_rle_max_encoded_size(vc_carver_voxels(carver));
@@ -191,7 +191,7 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
   for (int c = 0; c < VC_NODE_CAMS; c++)
     masks[c] = calloc((size_t)n->cams[c].width * (size_t)n->cams[c].height, 1);
   if (!bitset || !msgbuf || !scratch || !masks[0] || !masks[1]) {
-    snprintf(why, why_len, "CONFIG: out of memory");
+    vc_why(why, why_len, "CONFIG: out of memory");
     free(bitset);
     free(msgbuf);
     free(scratch);
@@ -242,11 +242,11 @@ int vc_node_background_begin(vc_node* n, uint32_t frames) {
   if (frames < 2) frames = 2;
   free_models(n);
   for (int c = 0; c < VC_NODE_CAMS; c++) {
-    n->bg[c] = vc_bgmodel_new(n->cams[c].width, n->cams[c].height);
-    if (!n->bg[c]) {
+    int rc = vc_bgmodel_new(n->cams[c].width, n->cams[c].height, &n->bg[c], NULL, 0);
+    if (rc < 0) {
       free_models(n);
       n->state = VC_STATE_CONFIGURED;
-      return -ENOMEM;
+      return rc;
     }
   }
   n->bg_wanted = frames;
@@ -320,6 +320,7 @@ int vc_node_save_background(const vc_node* n, const char* dir) {
 }
 
 int vc_node_load_background(vc_node* n, const char* dir, char* why, size_t why_len) {
+  vc_why_clear(why, why_len);
   vc_bgmodel* models[VC_NODE_CAMS] = {NULL, NULL};
   uint8_t* buf = NULL;
   int rc = 0;
@@ -329,7 +330,7 @@ int vc_node_load_background(vc_node* n, const char* dir, char* why, size_t why_l
     FILE* f = fopen(path, "rb");
     if (!f) {
       rc = errno == ENOENT ? -ENOENT : -errno;
-      snprintf(why, why_len, "%s: %s", path, strerror(errno));
+      vc_why(why, why_len, "%s: %s", path, strerror(errno));
       break;
     }
     size_t px = (size_t)n->cams[c].width * (size_t)n->cams[c].height * 3;
@@ -342,23 +343,25 @@ int vc_node_load_background(vc_node* n, const char* dir, char* why, size_t why_l
       break;
     }
     if (got < 24 || get_u32(buf) != BG_MAGIC || get_u32(buf + 4) != 1) {
-      snprintf(why, why_len, "%s: not a background model", path);
+      vc_why(why, why_len, "%s: not a background model", path);
       rc = -EINVAL;
     } else if ((int)get_u32(buf + 8) != n->cams[c].width || (int)get_u32(buf + 12) != n->cams[c].height ||
                got != len) {
-      snprintf(why, why_len, "%s: learnt at %ux%u, camera %d delivers %dx%d", path, get_u32(buf + 8),
-               get_u32(buf + 12), c, n->cams[c].width, n->cams[c].height);
+      vc_why(why, why_len, "%s: learnt at %ux%u, camera %d delivers %dx%d", path, get_u32(buf + 8),
+             get_u32(buf + 12), c, n->cams[c].width, n->cams[c].height);
       rc = -EINVAL;
     } else if (vc_crc32c(0, buf + 24, len - 24) != get_u32(buf + 20)) {
-      snprintf(why, why_len, "%s: checksum mismatch (corrupt file)", path);
+      vc_why(why, why_len, "%s: checksum mismatch (corrupt file)", path);
       rc = -EINVAL;
     } else {
       uint16_t* sg = malloc(px * sizeof(uint16_t));
-      models[c] = vc_bgmodel_new(n->cams[c].width, n->cams[c].height);
-      if (!sg || !models[c]) {
-        rc = -ENOMEM;
+      char bad[160] = "out of memory";
+      rc = sg ? vc_bgmodel_new(n->cams[c].width, n->cams[c].height, &models[c], bad, sizeof(bad)) : -ENOMEM;
+      if (rc < 0) {
+        vc_why(why, why_len, "%s: %s", path, bad);
       } else {
-        for (size_t i = 0; i < px; i++) sg[i] = (uint16_t)(buf[24 + px + 2 * i] | buf[24 + px + 2 * i + 1] << 8);
+        for (size_t i = 0; i < px; i++)
+          sg[i] = (uint16_t)(buf[24 + px + 2 * i] | buf[24 + px + 2 * i + 1] << 8);
         rc = vc_bgmodel_restore(models[c], buf + 24, sg, (int)get_u32(buf + 16));
       }
       free(sg);
@@ -399,8 +402,9 @@ void vc_node_set_features_producer(vc_node* n, const vc_features_producer* produ
 }
 
 /* FEATURES of this frame into out after the HULL; a failing producer costs only these. */
-static void produce_features(vc_node* n, uint64_t seq, uint64_t t_trigger_ns, const uint8_t* const rgb[VC_NODE_CAMS],
-                             const size_t stride[VC_NODE_CAMS], vc_node_output* out) {
+static void produce_features(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
+                             const uint8_t* const rgb[VC_NODE_CAMS], const size_t stride[VC_NODE_CAMS],
+                             vc_node_output* out) {
   vc_features feats[VC_NODE_CAMS];
   memset(feats, 0, sizeof(feats));
   const uint8_t* const masks[VC_NODE_CAMS] = {n->masks[0], n->masks[1]};
@@ -425,9 +429,8 @@ static void produce_features(vc_node* n, uint64_t seq, uint64_t t_trigger_ns, co
   n->counters.features_encoded += (uint64_t)k;
 }
 
-int vc_node_process(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
-                    const uint8_t* const rgb[VC_NODE_CAMS], const size_t stride[VC_NODE_CAMS],
-                    const uint8_t** msg, size_t* len) {
+int vc_node_process(vc_node* n, uint64_t seq, uint64_t t_trigger_ns, const uint8_t* const rgb[VC_NODE_CAMS],
+                    const size_t stride[VC_NODE_CAMS], const uint8_t** msg, size_t* len) {
   vc_node_output out;
   int rc = vc_node_process_frame(n, seq, t_trigger_ns, rgb, stride, &out);
   if (rc == 0) {
@@ -478,7 +481,8 @@ int vc_node_process_frame(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
   out->msg[0] = n->msgbuf;
   out->len[0] = hull_len;
   out->count = 1;
-  if (n->producer.track && n->cfg.feature_role == VC_ROLE_FRONT) produce_features(n, seq, t_trigger_ns, rgb, stride, out);
+  if (n->producer.track && n->cfg.feature_role == VC_ROLE_FRONT)
+    produce_features(n, seq, t_trigger_ns, rgb, stride, out);
   return 0;
 }
 
@@ -496,11 +500,19 @@ const uint8_t* vc_node_bitset(const vc_node* n, uint64_t* voxels) {
   return n->bitset;
 }
 
-uint32_t vc_node_state(const vc_node* n) { return n->state; }
-uint16_t vc_node_id(const vc_node* n) { return n->id; }
-uint64_t vc_node_first_seq(const vc_node* n) { return n->first_seq; }
+uint32_t vc_node_state(const vc_node* n) {
+  return n->state;
+}
+uint16_t vc_node_id(const vc_node* n) {
+  return n->id;
+}
+uint64_t vc_node_first_seq(const vc_node* n) {
+  return n->first_seq;
+}
 
-void vc_node_get_counters(const vc_node* n, vc_node_counters* out) { *out = n->counters; }
+void vc_node_get_counters(const vc_node* n, vc_node_counters* out) {
+  *out = n->counters;
+}
 
 int vc_node_take_stage_times(vc_node* n, vc_stage_time* stages, int max_stages, uint32_t* frames) {
   int k = 0;

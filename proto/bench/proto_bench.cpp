@@ -63,7 +63,7 @@ void set_counters(benchmark::State& state, const Hulls& h) {
 void BM_RleEncode(benchmark::State& state) {
   const Hulls& h = hulls(static_cast<int>(state.range(0)));
   Bytes out(vc_rle_max_encoded_size(h.a.nbits));
-  for (auto _ : state) {
+  for ([[maybe_unused]] auto _ : state) {
     size_t len = 0;
     benchmark::DoNotOptimize(vc_rle_encode(h.a.bytes.data(), h.a.nbits, out.data(), out.size(), &len));
     benchmark::DoNotOptimize(out.data());
@@ -76,7 +76,7 @@ BENCHMARK(BM_RleEncode)->Arg(128)->Arg(256)->Unit(benchmark::kMicrosecond);
 void BM_RleDecode(benchmark::State& state) {
   const Hulls& h = hulls(static_cast<int>(state.range(0)));
   Bytes bits(h.a.bytes.size());
-  for (auto _ : state) {
+  for ([[maybe_unused]] auto _ : state) {
     benchmark::DoNotOptimize(vc_rle_decode(h.rle_a.data(), h.rle_a.size(), bits.data(), h.a.nbits));
     benchmark::DoNotOptimize(bits.data());
   }
@@ -87,10 +87,10 @@ BENCHMARK(BM_RleDecode)->Arg(128)->Arg(256)->Unit(benchmark::kMicrosecond);
 void BM_RleAnd(benchmark::State& state) {
   const Hulls& h = hulls(static_cast<int>(state.range(0)));
   Bytes out(h.rle_a.size() + h.rle_b.size() + 16);
-  for (auto _ : state) {
+  for ([[maybe_unused]] auto _ : state) {
     size_t len = 0;
-    benchmark::DoNotOptimize(
-        vc_rle_and(h.rle_a.data(), h.rle_a.size(), h.rle_b.data(), h.rle_b.size(), out.data(), out.size(), &len));
+    benchmark::DoNotOptimize(vc_rle_and(h.rle_a.data(), h.rle_a.size(), h.rle_b.data(), h.rle_b.size(),
+                                        out.data(), out.size(), &len));
     benchmark::DoNotOptimize(out.data());
   }
   set_counters(state, h);
@@ -101,7 +101,7 @@ BENCHMARK(BM_RleAnd)->Arg(128)->Arg(256)->Unit(benchmark::kMicrosecond);
 void BM_BitsetAndThenEncode(benchmark::State& state) {
   const Hulls& h = hulls(static_cast<int>(state.range(0)));
   Bytes both(h.a.bytes.size()), out(vc_rle_max_encoded_size(h.a.nbits));
-  for (auto _ : state) {
+  for ([[maybe_unused]] auto _ : state) {
     for (size_t i = 0; i < both.size(); i++) both[i] = h.a.bytes[i] & h.b.bytes[i];
     size_t len = 0;
     benchmark::DoNotOptimize(vc_rle_encode(both.data(), h.a.nbits, out.data(), out.size(), &len));
@@ -170,7 +170,7 @@ void BM_MergeChain(benchmark::State& state) {
                               static_cast<int>(state.range(2)));
   const size_t cap = vc_rle_max_encoded_size(st.nbits);
   Bytes bufs[2] = {Bytes(cap), Bytes(cap)};
-  for (auto _ : state) {
+  for ([[maybe_unused]] auto _ : state) {
     const uint8_t* acc = st.ptrs[0];
     size_t acc_len = st.lens[0];
     for (size_t i = 1; i < st.ptrs.size(); i++) {
@@ -190,7 +190,7 @@ void BM_MergeN(benchmark::State& state) {
   const Streams& st = streams(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)),
                               static_cast<int>(state.range(2)));
   Bytes out(vc_rle_max_encoded_size(st.nbits));
-  for (auto _ : state) {
+  for ([[maybe_unused]] auto _ : state) {
     size_t len = 0;
     if (vc_rle_and_n(st.ptrs.data(), st.lens.data(), st.ptrs.size(), out.data(), out.size(), &len))
       std::abort();
@@ -212,7 +212,7 @@ BENCHMARK(BM_MergeN)->Apply(merge_args)->Unit(benchmark::kMicrosecond);
 
 void BM_RlePopcount(benchmark::State& state) {
   const Hulls& h = hulls(static_cast<int>(state.range(0)));
-  for (auto _ : state) {
+  for ([[maybe_unused]] auto _ : state) {
     uint64_t occ = 0, total = 0;
     benchmark::DoNotOptimize(vc_rle_popcount(h.rle_a.data(), h.rle_a.size(), &occ, &total));
     benchmark::DoNotOptimize(occ);
@@ -222,7 +222,7 @@ BENCHMARK(BM_RlePopcount)->Arg(128)->Arg(256)->Unit(benchmark::kMicrosecond);
 
 void BM_Crc32c(benchmark::State& state) {
   Bytes data(static_cast<size_t>(state.range(0)), 0x5A);
-  for (auto _ : state) benchmark::DoNotOptimize(vc_crc32c(0, data.data(), data.size()));
+  for ([[maybe_unused]] auto _ : state) benchmark::DoNotOptimize(vc_crc32c(0, data.data(), data.size()));
   state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * data.size()));
   state.SetLabel(vc_crc32c_impl());
 }
@@ -230,7 +230,8 @@ BENCHMARK(BM_Crc32c)->Arg(64 << 10)->Arg(1 << 20);
 
 void BM_Crc32cPortable(benchmark::State& state) {
   Bytes data(static_cast<size_t>(state.range(0)), 0x5A);
-  for (auto _ : state) benchmark::DoNotOptimize(vc_crc32c_portable(0, data.data(), data.size()));
+  for ([[maybe_unused]] auto _ : state)
+    benchmark::DoNotOptimize(vc_crc32c_portable(0, data.data(), data.size()));
   state.SetBytesProcessed(static_cast<int64_t>(state.iterations() * data.size()));
 }
 BENCHMARK(BM_Crc32cPortable)->Arg(64 << 10)->Arg(1 << 20);
@@ -241,7 +242,7 @@ void BM_EncodeHullFromBits(benchmark::State& state) {
   Bytes msg(VC_PROTO_HEADER_SIZE + 24 + vc_rle_max_encoded_size(h.a.nbits));
   vc_header hdr{};
   hdr.node_id = 1;
-  for (auto _ : state) {
+  for ([[maybe_unused]] auto _ : state) {
     size_t len = 0;
     hdr.seq++;
     benchmark::DoNotOptimize(
@@ -256,10 +257,12 @@ void BM_DecodeHullStream(benchmark::State& state) {
   Bytes msg(VC_PROTO_HEADER_SIZE + 24 + h.rle_a.size());
   vc_header hdr{};
   size_t len = 0;
-  if (vc_encode_hull_bits(msg.data(), msg.size(), &len, &hdr, 1, h.a.bytes.data(), h.a.nbits) != 0) std::abort();
-  vc_decoder* dec = vc_decoder_new(0);
+  if (vc_encode_hull_bits(msg.data(), msg.size(), &len, &hdr, 1, h.a.bytes.data(), h.a.nbits) != 0)
+    std::abort();
+  vc_decoder* dec = nullptr;
+  if (vc_decoder_new(0, &dec, nullptr, 0) < 0) std::abort();
   auto out = std::make_unique<vc_msg>();
-  for (auto _ : state) {
+  for ([[maybe_unused]] auto _ : state) {
     for (size_t off = 0; off < len;) {
       size_t used = 0;
       vc_decoder_feed(dec, msg.data() + off, std::min<size_t>(len - off, 64 << 10), &used);

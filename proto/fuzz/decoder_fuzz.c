@@ -80,8 +80,8 @@ static void check_reencode(const vc_msg* m) {
 
 /* Decodes b[0..n) with chunk sizes from `seed` (0: one chunk). */
 static void decode(const uint8_t* b, size_t n, size_t max_payload, uint64_t seed, trace* t, vc_msg* m) {
-  vc_decoder* dec = vc_decoder_new(max_payload);
-  if (!dec) abort();
+  vc_decoder* dec = NULL;
+  if (vc_decoder_new(max_payload, &dec, NULL, 0) < 0) abort();
   t->n = 0;
   size_t pos = 0;
   int fatal = 0;
@@ -130,7 +130,8 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   size_t kept = whole.n < MAX_EVENTS ? whole.n : MAX_EVENTS;
   for (size_t i = 0; i < kept; i++) {
     const event *a = &whole.ev[i], *c = &chunked.ev[i];
-    if (a->rc != c->rc || a->offset != c->offset || a->type != c->type || a->payload_len != c->payload_len) abort();
+    if (a->rc != c->rc || a->offset != c->offset || a->type != c->type || a->payload_len != c->payload_len)
+      abort();
   }
   free(b);
   return 0;

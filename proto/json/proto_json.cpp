@@ -295,9 +295,10 @@ struct DecoderDeleter {
 using DecoderPtr = std::unique_ptr<vc_decoder, DecoderDeleter>;
 
 DecoderPtr make_decoder(size_t max_payload) {
-  DecoderPtr dec(vc_decoder_new(max_payload));
-  if (!dec) throw std::runtime_error(fmt::format("cannot create a decoder for max_payload {}", max_payload));
-  return dec;
+  vc_decoder* dec = nullptr;
+  char why[128];
+  if (vc_decoder_new(max_payload, &dec, why, sizeof why) < 0) throw std::runtime_error(why);
+  return DecoderPtr(dec);
 }
 
 // Drains every message the decoder can produce now into `sink`; false after a fatal error.

@@ -8,6 +8,8 @@
  * after it the stream cannot be resynchronised, which SPEC.md tells receivers to handle by dropping
  * the connection. */
 #include <errno.h>
+#include <stdarg.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -26,11 +28,30 @@ struct vc_decoder {
   vc_proto_diag diag;
 };
 
-vc_decoder* vc_decoder_new(size_t max_payload) {
+/* Fills a constructor's `char* why, size_t why_len` reason with the rules of the edge's vc_why()
+ * (edge/README.md): printf-style, always terminated, silently truncated, a no-op without a buffer.
+ * proto links nothing of the edge, so the decoder keeps this private twin. */
+static void decoder_why(char* why, size_t why_len, const char* fmt, ...) VC_PRINTF(3, 4);
+static void decoder_why(char* why, size_t why_len, const char* fmt, ...) {
+  if (!why || why_len == 0) return;
+  va_list ap;
+  va_start(ap, fmt);
+  if (vsnprintf(why, why_len, fmt, ap) < 0) why[0] = '\0'; /* encoding error: no half line */
+  va_end(ap);
+}
+
+int vc_decoder_new(size_t max_payload, vc_decoder** out, char* why, size_t why_len) {
+  if (why && why_len) why[0] = '\0'; /* "" on success */
+  if (out) *out = NULL;
+  if (!out) {
+    decoder_why(why, why_len, "decoder: no place for the decoder");
+    return -EINVAL;
+  }
   if (max_payload == 0) max_payload = VC_PROTO_MAX_PAYLOAD;
   if (max_payload > VC_PROTO_MAX_PAYLOAD) {
-    errno = EINVAL;
-    return NULL;
+    decoder_why(why, why_len, "decoder: max_payload %zu is above the protocol's %u bytes", max_payload,
+                (unsigned)VC_PROTO_MAX_PAYLOAD);
+    return -EINVAL;
   }
   vc_decoder* dec = calloc(1, sizeof *dec);
   if (!dec) goto err_alloc;
@@ -39,13 +60,14 @@ vc_decoder* vc_decoder_new(size_t max_payload) {
   dec->cap = dec->cap_max < DECODER_INITIAL_CAP ? dec->cap_max : DECODER_INITIAL_CAP;
   dec->buf = malloc(dec->cap);
   if (!dec->buf) goto err_buf;
-  return dec;
+  *out = dec;
+  return 0;
 
 err_buf:
   free(dec);
 err_alloc:
-  errno = ENOMEM;
-  return NULL;
+  decoder_why(why, why_len, "decoder: out of memory");
+  return -ENOMEM;
 }
 
 void vc_decoder_free(vc_decoder* dec) {

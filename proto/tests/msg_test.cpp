@@ -413,11 +413,19 @@ struct DecoderDeleter {
 };
 using DecoderPtr = std::unique_ptr<vc_decoder, DecoderDeleter>;
 
+// A new decoder (null, with the reason reported, when vc_decoder_new fails).
+DecoderPtr new_decoder(size_t max_payload) {
+  vc_decoder* d = nullptr;
+  char why[128];
+  EXPECT_EQ(vc_decoder_new(max_payload, &d, why, sizeof why), 0) << why;
+  return DecoderPtr(d);
+}
+
 // Feeds `stream` in chunks from `chunk_size`, returns the types of messages yielded (negative codes
 // for errors) and the final code of finish.
 std::vector<int> run_stream(const Bytes& stream, size_t max_payload,
                             const std::function<size_t()>& chunk_size) {
-  DecoderPtr dec(vc_decoder_new(max_payload));
+  DecoderPtr dec = new_decoder(max_payload);
   EXPECT_TRUE(dec);
   std::vector<int> seen;
   auto msg = std::make_unique<vc_msg>();
@@ -478,7 +486,7 @@ TEST(Decoder, FatalErrorsAreStickyNonFatalOnesSkipOneMessage) {
   stream.insert(stream.end(), good.begin(), good.end());
   stream.push_back('!');
   stream.insert(stream.end(), good.begin(), good.end());
-  DecoderPtr dec(vc_decoder_new(0));
+  DecoderPtr dec = new_decoder(0);
   size_t used = 0;
   ASSERT_EQ(vc_decoder_feed(dec.get(), stream.data(), stream.size(), &used), 0);
   EXPECT_EQ(used, stream.size());
@@ -499,7 +507,7 @@ TEST(Decoder, FatalErrorsAreStickyNonFatalOnesSkipOneMessage) {
 TEST(Decoder, FinishInsideAMessageIsEof) {
   auto hb = sample(VC_MSG_HEARTBEAT, {}, "");
   Bytes b = encode(*hb);
-  DecoderPtr dec(vc_decoder_new(0));
+  DecoderPtr dec = new_decoder(0);
   size_t used = 0;
   ASSERT_EQ(vc_decoder_feed(dec.get(), b.data(), b.size() - 1, &used), 0);
   auto msg = std::make_unique<vc_msg>();
@@ -507,7 +515,7 @@ TEST(Decoder, FinishInsideAMessageIsEof) {
   EXPECT_EQ(vc_decoder_pending(dec.get()), b.size() - 1);
   EXPECT_EQ(vc_decoder_finish(dec.get()), VC_PROTO_EEOF);
   EXPECT_EQ(vc_decoder_diag(dec.get())->code, VC_PROTO_EEOF);
-  DecoderPtr clean(vc_decoder_new(0));
+  DecoderPtr clean = new_decoder(0);
   ASSERT_EQ(vc_decoder_feed(clean.get(), b.data(), b.size(), &used), 0);
   EXPECT_EQ(vc_decoder_next(clean.get(), msg.get()), 1);
   EXPECT_EQ(vc_decoder_next(clean.get(), msg.get()), 0);
@@ -522,7 +530,7 @@ TEST(Decoder, MemoryIsBoundedAndFeedAlwaysProgresses) {
   const Bytes one = encode(*hb);
   Bytes stream;
   for (int i = 0; i < 200; i++) stream.insert(stream.end(), one.begin(), one.end());
-  DecoderPtr dec(vc_decoder_new(100));
+  DecoderPtr dec = new_decoder(100);
   auto msg = std::make_unique<vc_msg>();
   size_t pos = 0, messages = 0;
   while (pos < stream.size()) {
@@ -538,18 +546,27 @@ TEST(Decoder, MemoryIsBoundedAndFeedAlwaysProgresses) {
   // A payload over the limit is refused from the header alone.
   auto config = sample(VC_MSG_CONFIG, {}, "");
   const Bytes big = encode(*config);  // 294-byte payload
-  DecoderPtr small(vc_decoder_new(100));
+  DecoderPtr small = new_decoder(100);
   size_t used = 0;
   ASSERT_EQ(vc_decoder_feed(small.get(), big.data(), 40, &used), 0);
   EXPECT_EQ(vc_decoder_next(small.get(), msg.get()), VC_PROTO_EOVERSIZE);
 }
 
 TEST(Decoder, RejectsBadArguments) {
-  errno = 0;
-  EXPECT_EQ(vc_decoder_new(VC_PROTO_MAX_PAYLOAD + 1), nullptr);
-  EXPECT_EQ(errno, EINVAL);
+  char why[128] = "unset";
+  vc_decoder* failed = reinterpret_cast<vc_decoder*>(why);  // must come back NULL
+  EXPECT_EQ(vc_decoder_new(VC_PROTO_MAX_PAYLOAD + 1, &failed, why, sizeof why), -EINVAL);
+  EXPECT_EQ(failed, nullptr);
+  EXPECT_STREQ(why, "decoder: max_payload 8388609 is above the protocol's 8388608 bytes");
+  EXPECT_EQ(vc_decoder_new(0, nullptr, why, sizeof why), -EINVAL);  // nowhere to put it
+  char tiny[9];
+  EXPECT_EQ(vc_decoder_new(VC_PROTO_MAX_PAYLOAD + 1, &failed, tiny, sizeof tiny), -EINVAL);
+  EXPECT_STREQ(tiny, "decoder:");  // truncated and terminated, like the edge's vc_why
+  EXPECT_EQ(vc_decoder_new(VC_PROTO_MAX_PAYLOAD, &failed, why, sizeof why), 0);
+  EXPECT_STREQ(why, "");
+  vc_decoder_free(failed);
   vc_decoder_free(nullptr);
-  DecoderPtr dec(vc_decoder_new(0));
+  DecoderPtr dec = new_decoder(0);
   size_t used = 0;
   EXPECT_EQ(vc_decoder_feed(dec.get(), nullptr, 3, &used), -EINVAL);
   EXPECT_EQ(vc_decoder_feed(dec.get(), nullptr, 0, &used), 0);

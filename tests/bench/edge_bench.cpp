@@ -102,12 +102,16 @@ struct EdgePipeline {
   EdgePipeline(int width, int height, const vc_voxel_grid& grid, const vc_camera cams[2])
       : w(width), h(height) {
     for (int c = 0; c < 2; c++) {
-      bg[c].reset(vc_bgmodel_new(w, h));
-      if (!bg[c]) throw std::runtime_error("vc_bgmodel_new failed");
+      vc_bgmodel* m = nullptr;
+      char why[200];
+      if (vc_bgmodel_new(w, h, &m, why, sizeof why) < 0) throw std::runtime_error(why);
+      bg[c].reset(m);
       mask[c].resize(static_cast<size_t>(w) * h);
     }
-    carver.reset(vc_carver_new(&grid, &cams[0], &cams[1]));
-    if (!carver) throw std::runtime_error("vc_carver_new failed: errno " + std::to_string(errno));
+    vc_carver* cv = nullptr;
+    char why[200];
+    if (vc_carver_new(&grid, &cams[0], &cams[1], &cv, why, sizeof why) < 0) throw std::runtime_error(why);
+    carver.reset(cv);
     scratch.resize(vc_cleanup_scratch_size(w));
     bits.resize(vc_carver_bitset_bytes(carver.get()));
     rle.resize(vc_rle_max_encoded_size(vc_carver_voxels(carver.get())));
@@ -152,8 +156,9 @@ struct LutCarver {
             double p[3] = {g.min_m[0] + (i + 0.5) * g.voxel_m, g.min_m[1] + (j + 0.5) * g.voxel_m,
                            g.min_m[2] + (k + 0.5) * g.voxel_m};
             int x, y;
-            lut[c][n] = vc_camera_project(&cams[c], p, &x, &y) ? uint32_t(y) * uint32_t(cams[c].width) + uint32_t(x)
-                                                               : kUnseen;
+            lut[c][n] = vc_camera_project(&cams[c], p, &x, &y)
+                            ? uint32_t(y) * uint32_t(cams[c].width) + uint32_t(x)
+                            : kUnseen;
           }
     }
   }
@@ -178,7 +183,9 @@ double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
-size_t frame_bytes(const EdgeBenchOptions& o) { return size_t(o.width) * o.height * 3; }
+size_t frame_bytes(const EdgeBenchOptions& o) {
+  return size_t(o.width) * o.height * 3;
+}
 
 // Frames file layout: bg_frames x (cam0, cam1), then frames x (cam0, cam1), raw RGB.
 struct FrameReader {
@@ -199,7 +206,7 @@ long vm_hwm_kb() {
   std::string line;
   while (std::getline(st, line))
     if (line.rfind("VmHWM:", 0) == 0) return std::atol(line.c_str() + 6);
-  struct rusage ru{};
+  struct rusage ru {};
   getrusage(RUSAGE_SELF, &ru);
   return ru.ru_maxrss;
 }
@@ -246,7 +253,8 @@ json parse_callgrind_dir(const fs::path& dir) {
     while (std::getline(in, line)) {
       const std::string trig = "desc: Trigger: Client Request: ";
       if (line.rfind(trig, 0) == 0) name = line.substr(trig.size());
-      if (line.rfind("totals:", 0) == 0 || line.rfind("summary:", 0) == 0) total = std::atoll(line.c_str() + line.find(':') + 1);
+      if (line.rfind("totals:", 0) == 0 || line.rfind("summary:", 0) == 0)
+        total = std::atoll(line.c_str() + line.find(':') + 1);
     }
     if (!name.empty() && total >= 0) totals[name] = total;
   }
@@ -255,7 +263,8 @@ json parse_callgrind_dir(const fs::path& dir) {
 
 }  // namespace
 
-json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode, const std::string& frames_file) {
+json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
+                          const std::string& frames_file) {
   const EdgeScene scene(o.width, o.height, 1);  // cameras only: nothing is rendered here
   const vc_camera cams[2] = {scene.camera_model(0), scene.camera_model(1)};
   const vc_voxel_grid grid = EdgeScene::grid(o.grid);
@@ -491,9 +500,10 @@ json run_edge_bench(const EdgeBenchOptions& o) {
   } else {
     fs::path cg_dir = tmp / "callgrind";
     fs::create_directories(cg_dir);
-    std::string cmd = "valgrind --tool=callgrind --instr-atstart=no --collect-atstart=no --callgrind-out-file=" +
-                      shell_quote((cg_dir / "cg.out").string()) + " " + child_command(o, "callgrind", frames_file) +
-                      " > " + shell_quote((tmp / "cg.log").string()) + " 2>&1";
+    std::string cmd =
+        "valgrind --tool=callgrind --instr-atstart=no --collect-atstart=no --callgrind-out-file=" +
+        shell_quote((cg_dir / "cg.out").string()) + " " + child_command(o, "callgrind", frames_file) + " > " +
+        shell_quote((tmp / "cg.log").string()) + " 2>&1";
     int status = std::system(cmd.c_str());
     json totals = parse_callgrind_dir(cg_dir);
     if (status != 0 || !totals.contains("carve")) {
@@ -501,14 +511,17 @@ json run_edge_bench(const EdgeBenchOptions& o) {
       std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
       cg_status = "failed: valgrind exit " + std::to_string(status) + ": " + text.substr(0, 400);
     } else {
-      auto per = [&](const char* k, double d) { return totals.contains(k) ? json(double(totals[k]) / d) : json(); };
+      auto per = [&](const char* k, double d) {
+        return totals.contains(k) ? json(double(totals[k]) / d) : json();
+      };
       double clean = totals.contains("cleanup") && totals.contains("copy_masks")
                          ? double(totals["cleanup"]) - double(totals["copy_masks"])
                          : -1;
       ir_px = {{"subtract", per("subtract", pixels)},
                {"cleanup", clean >= 0 ? json(clean / pixels) : json()},
                {"mog2", per("mog2", pixels)}};
-      ir_vox = {{"carve", per("carve", nvox)}, {"rle", per("rle", nvox)}, {"lut_carve", per("lut_carve", nvox)}};
+      ir_vox = {
+          {"carve", per("carve", nvox)}, {"rle", per("rle", nvox)}, {"lut_carve", per("lut_carve", nvox)}};
     }
   }
   j["ir_per_pixel"] = ir_px;
@@ -526,7 +539,8 @@ json run_edge_bench(const EdgeBenchOptions& o) {
   goals["carve_speedup_min"] = 5.0;
   goals["carve_speedup_met"] = j["speedup_carve_vs_lut"].get<double>() >= 5.0;
   goals["peak_rss_mb_max"] = rss_goal;
-  goals["peak_rss_mb_met"] = j["peak_rss_mb"].is_null() ? json() : json(j["peak_rss_mb"].get<double>() < rss_goal);
+  goals["peak_rss_mb_met"] =
+      j["peak_rss_mb"].is_null() ? json() : json(j["peak_rss_mb"].get<double>() < rss_goal);
   j["goals"] = goals;
   return j;
 }

@@ -32,6 +32,7 @@
 #include <string.h>
 
 #include "dispatch.h"
+#include "why.h"
 
 #define VC_MAX_DIM 16384
 #define VC_MAX_FRAMES 65535
@@ -41,18 +42,18 @@ struct vc_bgmodel {
   int width, height;
   int frames;
   bool finished, ready;
-  uint32_t *sum;      /* [3*w*h] sum of samples, while learning */
-  uint32_t *sumsq;    /* [3*w*h] sum of squared samples, while learning */
-  uint8_t *mean;      /* [3*w*h] rounded mean, grey levels */
-  uint16_t *sigma_q8; /* [3*w*h] Q8.8 standard deviation, grey levels */
-  uint8_t *tu;        /* [3*w*h] floor(T_u*sigma) clamped to 255: foreground when d > tu */
-  uint8_t *tl;        /* [3*w*h] ceil(T_l*sigma)-1 clamped to 255: band when d > tl */
+  uint32_t* sum;      /* [3*w*h] sum of samples, while learning */
+  uint32_t* sumsq;    /* [3*w*h] sum of squared samples, while learning */
+  uint8_t* mean;      /* [3*w*h] rounded mean, grey levels */
+  uint16_t* sigma_q8; /* [3*w*h] Q8.8 standard deviation, grey levels */
+  uint8_t* tu;        /* [3*w*h] floor(T_u*sigma) clamped to 255: foreground when d > tu */
+  uint8_t* tl;        /* [3*w*h] ceil(T_l*sigma)-1 clamped to 255: band when d > tl */
   uint64_t c2_q24;    /* Q0.24 cos^2(T_angular) */
   uint64_t glo_q16;   /* Q16.16 lowest brightness ratio of a shadow */
   uint64_t ghi_q16;   /* Q16.16 highest brightness ratio of a shadow */
 };
 
-void vc_subtract_params_default(vc_subtract_params *params) {
+void vc_subtract_params_default(vc_subtract_params* params) {
   if (params == NULL) return;
   const double angle = VC_SUBTRACT_SHADOW_ANGLE_DEG * (acos(-1.0) / 180.0);
   params->t_upper = VC_SUBTRACT_T_UPPER;
@@ -63,48 +64,70 @@ void vc_subtract_params_default(vc_subtract_params *params) {
   params->sigma_floor = VC_SUBTRACT_SIGMA_FLOOR;
 }
 
-int vc_subtract_params_check(const vc_subtract_params *p, const char **why) {
-  const char *bad = NULL;
-  if (p == NULL)
-    bad = "params is NULL";
-  else if (!(p->t_upper > 0.0 && p->t_upper <= 1000.0))
+int vc_subtract_params_check(const vc_subtract_params* p, char* why, size_t why_len) {
+  const char* bad = NULL;
+  double got = 0.0; /* the offending value, said after the rule */
+  if (p == NULL) {
+    core_why(why, why_len, "params is NULL");
+    return -EINVAL;
+  }
+  if (!(p->t_upper > 0.0 && p->t_upper <= 1000.0)) {
     bad = "t_upper must be in (0, 1000]";
-  else if (!(p->t_lower > 0.0 && p->t_lower <= p->t_upper))
+    got = p->t_upper;
+  } else if (!(p->t_lower > 0.0 && p->t_lower <= p->t_upper)) {
     bad = "t_lower must be in (0, t_upper]";
-  else if (!(p->cos2_angular >= 0.0 && p->cos2_angular <= 1.0))
+    got = p->t_lower;
+  } else if (!(p->cos2_angular >= 0.0 && p->cos2_angular <= 1.0)) {
     bad = "cos2_angular must be in [0, 1]";
-  else if (!(p->shadow_min_gain >= 0.0 && p->shadow_min_gain <= 65536.0))
+    got = p->cos2_angular;
+  } else if (!(p->shadow_min_gain >= 0.0 && p->shadow_min_gain <= 65536.0)) {
     bad = "shadow_min_gain must be in [0, 65536]";
-  else if (!(p->shadow_max_gain >= p->shadow_min_gain && p->shadow_max_gain <= 65536.0))
+    got = p->shadow_min_gain;
+  } else if (!(p->shadow_max_gain >= p->shadow_min_gain && p->shadow_max_gain <= 65536.0)) {
     bad = "shadow_max_gain must be in [shadow_min_gain, 65536]";
-  else if (!(p->sigma_floor > 0.0 && p->sigma_floor <= 255.0))
+    got = p->shadow_max_gain;
+  } else if (!(p->sigma_floor > 0.0 && p->sigma_floor <= 255.0)) {
     bad = "sigma_floor must be in (0, 255]";
-  if (why != NULL) *why = bad;
-  return bad == NULL ? 0 : -EINVAL;
+    got = p->sigma_floor;
+  }
+  if (bad == NULL) {
+    core_why_clear(why, why_len);
+    return 0;
+  }
+  core_why(why, why_len, "%s, not %g", bad, got);
+  return -EINVAL;
 }
 
-vc_bgmodel *vc_bgmodel_new(int width, int height) {
+int vc_bgmodel_new(int width, int height, vc_bgmodel** out, char* why, size_t why_len) {
+  core_why_clear(why, why_len);
+  if (out) *out = NULL;
+  if (!out) {
+    core_why(why, why_len, "background model: no place for the model");
+    return -EINVAL;
+  }
   if (width < 1 || height < 1 || width > VC_MAX_DIM || height > VC_MAX_DIM) {
-    errno = EINVAL;
-    return NULL;
+    core_why(why, why_len, "background model: frame size %dx%d must be 1..%d each", width, height,
+             VC_MAX_DIM);
+    return -EINVAL;
   }
   size_t n = (size_t)width * (size_t)height * 3;
-  vc_bgmodel *m = calloc(1, sizeof(*m));
+  vc_bgmodel* m = calloc(1, sizeof(*m));
   if (m == NULL) goto err_nomem;
   m->width = width;
   m->height = height;
   m->sum = calloc(n, sizeof(*m->sum));
   m->sumsq = calloc(n, sizeof(*m->sumsq));
   if (m->sum == NULL || m->sumsq == NULL) goto err_nomem;
-  return m;
+  *out = m;
+  return 0;
 
 err_nomem:
   vc_bgmodel_free(m);
-  errno = ENOMEM;
-  return NULL;
+  core_why(why, why_len, "background model: out of memory for %dx%d frames", width, height);
+  return -ENOMEM;
 }
 
-void vc_bgmodel_free(vc_bgmodel *m) {
+void vc_bgmodel_free(vc_bgmodel* m) {
   if (m == NULL) return;
   free(m->sum);
   free(m->sumsq);
@@ -115,15 +138,15 @@ void vc_bgmodel_free(vc_bgmodel *m) {
   free(m);
 }
 
-int vc_bgmodel_learn(vc_bgmodel *m, const uint8_t *rgb, size_t stride) {
+int vc_bgmodel_learn(vc_bgmodel* m, const uint8_t* rgb, size_t stride) {
   if (m == NULL || rgb == NULL || stride < (size_t)m->width * 3) return -EINVAL;
   if (m->finished) return -EBUSY;
   if (m->frames >= VC_MAX_FRAMES) return -EOVERFLOW;
   const size_t row = (size_t)m->width * 3;
   for (int y = 0; y < m->height; y++) {
-    const uint8_t *restrict src = rgb + (size_t)y * stride;
-    uint32_t *restrict s = m->sum + (size_t)y * row;
-    uint32_t *restrict q = m->sumsq + (size_t)y * row;
+    const uint8_t* restrict src = rgb + (size_t)y * stride;
+    uint32_t* restrict s = m->sum + (size_t)y * row;
+    uint32_t* restrict q = m->sumsq + (size_t)y * row;
     for (size_t i = 0; i < row; i++) {
       uint32_t v = src[i];
       s[i] += v;
@@ -134,7 +157,7 @@ int vc_bgmodel_learn(vc_bgmodel *m, const uint8_t *rgb, size_t stride) {
   return 0;
 }
 
-int vc_bgmodel_finish(vc_bgmodel *m) {
+int vc_bgmodel_finish(vc_bgmodel* m) {
   if (m == NULL) return -EINVAL;
   if (m->finished) return -EBUSY;
   if (m->frames < 2) return -ENODATA;
@@ -166,12 +189,12 @@ err_nomem:
   return -ENOMEM;
 }
 
-int vc_bgmodel_restore(vc_bgmodel *m, const uint8_t *mean, const uint16_t *sigma_q8, int frames) {
+int vc_bgmodel_restore(vc_bgmodel* m, const uint8_t* mean, const uint16_t* sigma_q8, int frames) {
   if (m == NULL || mean == NULL || sigma_q8 == NULL || frames < 2) return -EINVAL;
   if (m->finished || m->frames != 0) return -EBUSY;
   const size_t n = (size_t)m->width * (size_t)m->height * 3;
-  uint8_t *mu = malloc(n);
-  uint16_t *sg = malloc(n * sizeof(*sg));
+  uint8_t* mu = malloc(n);
+  uint16_t* sg = malloc(n * sizeof(*sg));
   if (mu == NULL || sg == NULL) {
     free(mu);
     free(sg);
@@ -189,8 +212,8 @@ int vc_bgmodel_restore(vc_bgmodel *m, const uint8_t *mean, const uint16_t *sigma
   return 0;
 }
 
-int vc_bgmodel_set_params(vc_bgmodel *m, const vc_subtract_params *p) {
-  if (m == NULL || vc_subtract_params_check(p, NULL) != 0) return -EINVAL;
+int vc_bgmodel_set_params(vc_bgmodel* m, const vc_subtract_params* p) {
+  if (m == NULL || vc_subtract_params_check(p, NULL, 0) != 0) return -EINVAL;
   if (!m->finished) return -EAGAIN;
   const size_t n = (size_t)m->width * (size_t)m->height * 3;
   if (m->tu == NULL) m->tu = malloc(n);
@@ -210,58 +233,72 @@ int vc_bgmodel_set_params(vc_bgmodel *m, const vc_subtract_params *p) {
   return 0;
 }
 
-int vc_bgmodel_frames(const vc_bgmodel *m) { return m ? m->frames : 0; }
-int vc_bgmodel_width(const vc_bgmodel *m) { return m ? m->width : 0; }
-int vc_bgmodel_height(const vc_bgmodel *m) { return m ? m->height : 0; }
-const uint8_t *vc_bgmodel_mean(const vc_bgmodel *m) { return m ? m->mean : NULL; }
-const uint16_t *vc_bgmodel_sigma_q8(const vc_bgmodel *m) { return m ? m->sigma_q8 : NULL; }
+int vc_bgmodel_frames(const vc_bgmodel* m) {
+  return m ? m->frames : 0;
+}
+int vc_bgmodel_width(const vc_bgmodel* m) {
+  return m ? m->width : 0;
+}
+int vc_bgmodel_height(const vc_bgmodel* m) {
+  return m ? m->height : 0;
+}
+const uint8_t* vc_bgmodel_mean(const vc_bgmodel* m) {
+  return m ? m->mean : NULL;
+}
+const uint16_t* vc_bgmodel_sigma_q8(const vc_bgmodel* m) {
+  return m ? m->sigma_q8 : NULL;
+}
 
 /* ---- per-frame kernels ---------------------------------------------------------------------- */
 
-static inline uint8_t u8max(uint8_t a, uint8_t b) { return a > b ? a : b; }
-static inline uint8_t u8min(uint8_t a, uint8_t b) { return a < b ? a : b; }
+static inline uint8_t u8max(uint8_t a, uint8_t b) {
+  return a > b ? a : b;
+}
+static inline uint8_t u8min(uint8_t a, uint8_t b) {
+  return a < b ? a : b;
+}
 
 /* Pass A over one row: out[i] = 0 (background), 1 (band) or 0xFF (foreground). Written as min/max
  * byte arithmetic so that gcc and clang both vectorise the first loop; the second loop folds the
  * three channel codes of each pixel (a stride-3 gather, vectorised where the ISA has byte shuffles). */
-VC_HOT uint8_t classify_row_body(const uint8_t *restrict px, const uint8_t *restrict mean,
-                                 const uint8_t *restrict tu, const uint8_t *restrict tl,
-                                 uint8_t *restrict out, int n) {
+VC_HOT uint8_t classify_row_body(const uint8_t* restrict px, const uint8_t* restrict mean,
+                                 const uint8_t* restrict tu, const uint8_t* restrict tl,
+                                 uint8_t* restrict out, int n) {
   uint8_t code[3 * VC_CHUNK];
   uint8_t any_band = 0; /* nonzero when some pixel of the row is in the band (value 1) */
   for (int x0 = 0; x0 < n; x0 += VC_CHUNK) {
     const int len = n - x0 < VC_CHUNK ? n - x0 : VC_CHUNK;
     const int nb = 3 * len;
-    const uint8_t *restrict p = px + 3 * x0;
-    const uint8_t *restrict mu = mean + 3 * x0;
-    const uint8_t *restrict u = tu + 3 * x0;
-    const uint8_t *restrict l = tl + 3 * x0;
+    const uint8_t* restrict p = px + 3 * x0;
+    const uint8_t* restrict mu = mean + 3 * x0;
+    const uint8_t* restrict u = tu + 3 * x0;
+    const uint8_t* restrict l = tl + 3 * x0;
     for (int b = 0; b < nb; b++) {
       uint8_t d = (uint8_t)(u8max(p[b], mu[b]) - u8min(p[b], mu[b]));
       uint8_t over_l = (uint8_t)(d - u8min(d, l[b])); /* > 0 iff d > tl */
       uint8_t over_u = (uint8_t)(d - u8min(d, u[b])); /* > 0 iff d > tu */
       code[b] = (uint8_t)(u8min(over_l, 1) | (uint8_t)(0u - u8min(over_u, 1)));
     }
-    uint8_t *restrict o = out + x0;
+    uint8_t* restrict o = out + x0;
     for (int i = 0; i < len; i++) {
       uint8_t v = (uint8_t)(code[3 * i] | code[3 * i + 1] | code[3 * i + 2]);
       o[i] = v;
-      any_band |= (uint8_t)(v & (uint8_t)~(v >> 1) & 1u); /* 1 only for the band value 0x01 */
+      any_band |= (uint8_t)(v & (uint8_t) ~(v >> 1) & 1u); /* 1 only for the band value 0x01 */
     }
   }
   return any_band;
 }
 
-static uint8_t classify_row_generic(const uint8_t *restrict px, const uint8_t *restrict mean,
-                                    const uint8_t *restrict tu, const uint8_t *restrict tl,
-                                    uint8_t *restrict out, int n) {
+static uint8_t classify_row_generic(const uint8_t* restrict px, const uint8_t* restrict mean,
+                                    const uint8_t* restrict tu, const uint8_t* restrict tl,
+                                    uint8_t* restrict out, int n) {
   return classify_row_body(px, mean, tu, tl, out, n);
 }
 
 #if VC_HAVE_AVX2_VARIANT
-VC_TARGET_AVX2 static uint8_t classify_row_avx2(const uint8_t *restrict px, const uint8_t *restrict mean,
-                                                const uint8_t *restrict tu, const uint8_t *restrict tl,
-                                                uint8_t *restrict out, int n) {
+VC_TARGET_AVX2 static uint8_t classify_row_avx2(const uint8_t* restrict px, const uint8_t* restrict mean,
+                                                const uint8_t* restrict tu, const uint8_t* restrict tl,
+                                                uint8_t* restrict out, int n) {
   return classify_row_body(px, mean, tu, tl, out, n);
 }
 #endif
@@ -270,8 +307,8 @@ VC_TARGET_AVX2 static uint8_t classify_row_avx2(const uint8_t *restrict px, cons
  * a band byte (0x01) is the only value whose bit 0 differs from its bit 1 (0x00 and 0xFF do not), so
  * (w ^ w >> 1) & 0x01..01 marks them, and count-trailing-zeros walks the marks without a branch per
  * pixel. Words without band pixels (the vast majority) cost a load and a test. */
-static void shadow_row(const vc_bgmodel *m, const uint8_t *px, const uint8_t *mean, uint8_t *out, int n,
-                       vc_subtract_stats *stats) {
+static void shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mean, uint8_t* out, int n,
+                       vc_subtract_stats* stats) {
   const uint64_t lsb = 0x0101010101010101ull;
   uint32_t band = 0, shadow = 0;
   const uint64_t c2 = m->c2_q24, glo = m->glo_q16, ghi = m->ghi_q16;
@@ -303,12 +340,12 @@ static void shadow_row(const vc_bgmodel *m, const uint8_t *px, const uint8_t *me
   }
 }
 
-int vc_subtract(const vc_bgmodel *m, const uint8_t *rgb, size_t stride, uint8_t *mask,
-                vc_subtract_stats *stats) {
+int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t* mask,
+                vc_subtract_stats* stats) {
   if (m == NULL || rgb == NULL || mask == NULL || stride < (size_t)m->width * 3) return -EINVAL;
   if (!m->ready) return -EAGAIN;
-  uint8_t (*classify)(const uint8_t *restrict, const uint8_t *restrict, const uint8_t *restrict,
-                      const uint8_t *restrict, uint8_t *restrict, int) = classify_row_generic;
+  uint8_t (*classify)(const uint8_t* restrict, const uint8_t* restrict, const uint8_t* restrict,
+                      const uint8_t* restrict, uint8_t* restrict, int) = classify_row_generic;
 #if VC_HAVE_AVX2_VARIANT
   if (vc__use_avx2()) classify = classify_row_avx2;
 #endif
@@ -316,9 +353,9 @@ int vc_subtract(const vc_bgmodel *m, const uint8_t *rgb, size_t stride, uint8_t 
   const int w = m->width;
   const size_t row = (size_t)w * 3;
   for (int y = 0; y < m->height; y++) {
-    const uint8_t *px = rgb + (size_t)y * stride;
+    const uint8_t* px = rgb + (size_t)y * stride;
     const size_t off = (size_t)y * row;
-    uint8_t *out = mask + (size_t)y * (size_t)w;
+    uint8_t* out = mask + (size_t)y * (size_t)w;
     if (classify(px, m->mean + off, m->tu + off, m->tl + off, out, w))
       shadow_row(m, px, m->mean + off, out, w, stats);
   }

@@ -31,6 +31,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "why.h"
+
 #define TOP 16
 #define MID 8
 #define LEAF 4
@@ -60,9 +62,9 @@ typedef struct leaf_tab {
 } leaf_tab;
 
 typedef struct cam_frame {
-  int tw, th;        /* tiles across and down */
-  uint32_t *sat_any; /* (tw+1)*(th+1) summed-area table of "tile has foreground" */
-  uint32_t *sat_full;/* same for "tile is all foreground" */
+  int tw, th;          /* tiles across and down */
+  uint32_t* sat_any;   /* (tw+1)*(th+1) summed-area table of "tile has foreground" */
+  uint32_t* sat_full;  /* same for "tile is all foreground" */
   uint8_t *any, *full; /* tw*th per-tile flags (scratch) */
 } cam_frame;
 
@@ -76,12 +78,12 @@ typedef struct grid_i {
 struct vc_carver {
   grid_i grid;
   int W[2], H[2];
-  int tbx, tby, tbz; /* top blocks per axis */
-  node *top, *mid, *leaf;   /* [ntop], [8*ntop], [64*ntop] */
-  uint32_t *leaf_tab_idx;   /* [64*ntop]: index into tabs or NO_TAB */
-  leaf_tab *tabs;           /* [ntabs] */
-  uint16_t *entries;        /* [ntabs * 2 * 64]: (du | dv << 8) per camera and voxel */
-  uint32_t *wide;           /* [nwide * 2 * 64]: pixel index per camera and voxel (wide leaves) */
+  int tbx, tby, tbz;      /* top blocks per axis */
+  node *top, *mid, *leaf; /* [ntop], [8*ntop], [64*ntop] */
+  uint32_t* leaf_tab_idx; /* [64*ntop]: index into tabs or NO_TAB */
+  leaf_tab* tabs;         /* [ntabs] */
+  uint16_t* entries;      /* [ntabs * 2 * 64]: (du | dv << 8) per camera and voxel */
+  uint32_t* wide;         /* [nwide * 2 * 64]: pixel index per camera and voxel (wide leaves) */
   size_t ntabs, nwide, wide_cap;
   uint64_t nvox;
   double unseen_fraction;
@@ -91,58 +93,82 @@ struct vc_carver {
 
 /* ---- configuration ---------------------------------------------------------------------------- */
 
-int vc_camera_check(const vc_camera *c, const char **why) {
-  const char *bad = NULL;
-  if (c == NULL)
-    bad = "camera is NULL";
-  else if (c->width < 1 || c->height < 1 || c->width > 16384 || c->height > 16384)
-    bad = "image size must be 1..16384";
-  else if (!(c->K[0] > 0.0 && c->K[4] > 0.0 && isfinite(c->K[2]) && isfinite(c->K[5])))
-    bad = "K must have positive finite fx, fy and finite cx, cy";
-  else if (c->K[1] != 0.0 || c->K[3] != 0.0 || c->K[6] != 0.0 || c->K[7] != 0.0 || c->K[8] != 1.0)
-    bad = "K must be [fx 0 cx; 0 fy cy; 0 0 1] (OpenCV's projection ignores skew)";
-  if (bad == NULL) {
-    for (int i = 0; i < 5; i++)
-      if (!isfinite(c->dist[i])) bad = "distortion coefficients must be finite";
-    for (int i = 0; i < 9; i++)
-      if (!isfinite(c->R_cam_from_world[i])) bad = "R must be finite";
-    for (int i = 0; i < 3; i++)
-      if (!isfinite(c->t_cam_from_world[i])) bad = "t must be finite";
+int vc_camera_check(const vc_camera* c, char* why, size_t why_len) {
+  core_why_clear(why, why_len);
+  if (c == NULL) {
+    core_why(why, why_len, "camera is NULL");
+    return -EINVAL;
   }
-  if (bad == NULL) {
-    /* R must be a rotation: R R^T = I within 1e-6. */
-    for (int a = 0; a < 3 && bad == NULL; a++)
-      for (int b = 0; b < 3; b++) {
-        double d = 0.0;
-        for (int k = 0; k < 3; k++) d += c->R_cam_from_world[3 * a + k] * c->R_cam_from_world[3 * b + k];
-        if (fabs(d - (a == b ? 1.0 : 0.0)) > 1e-6) {
-          bad = "R must be a rotation matrix";
-          break;
-        }
+  if (c->width < 1 || c->height < 1 || c->width > 16384 || c->height > 16384) {
+    core_why(why, why_len, "image size %ux%u must be 1..16384 each", c->width, c->height);
+    return -EINVAL;
+  }
+  if (!(c->K[0] > 0.0 && c->K[4] > 0.0 && isfinite(c->K[2]) && isfinite(c->K[5]))) {
+    core_why(why, why_len,
+             "K must have positive finite fx, fy and finite cx, cy, not fx %g fy %g cx %g cy %g", c->K[0],
+             c->K[4], c->K[2], c->K[5]);
+    return -EINVAL;
+  }
+  if (c->K[1] != 0.0 || c->K[3] != 0.0 || c->K[6] != 0.0 || c->K[7] != 0.0 || c->K[8] != 1.0) {
+    core_why(why, why_len, "K must be [fx 0 cx; 0 fy cy; 0 0 1] (OpenCV's projection ignores skew)");
+    return -EINVAL;
+  }
+  for (int i = 0; i < 5; i++)
+    if (!isfinite(c->dist[i])) {
+      core_why(why, why_len, "distortion coefficient %d must be finite", i);
+      return -EINVAL;
+    }
+  for (int i = 0; i < 9; i++)
+    if (!isfinite(c->R_cam_from_world[i])) {
+      core_why(why, why_len, "R must be finite");
+      return -EINVAL;
+    }
+  for (int i = 0; i < 3; i++)
+    if (!isfinite(c->t_cam_from_world[i])) {
+      core_why(why, why_len, "t must be finite");
+      return -EINVAL;
+    }
+  /* R must be a rotation: R R^T = I within 1e-6. */
+  for (int a = 0; a < 3; a++)
+    for (int b = 0; b < 3; b++) {
+      double d = 0.0;
+      for (int k = 0; k < 3; k++) d += c->R_cam_from_world[3 * a + k] * c->R_cam_from_world[3 * b + k];
+      if (fabs(d - (a == b ? 1.0 : 0.0)) > 1e-6) {
+        core_why(why, why_len, "R must be a rotation matrix (R R^T is off by %g at row %d, column %d)",
+                 d - (a == b ? 1.0 : 0.0), a, b);
+        return -EINVAL;
       }
-  }
-  if (why != NULL) *why = bad;
-  return bad == NULL ? 0 : -EINVAL;
+    }
+  return 0;
 }
 
-int vc_grid_check(const vc_voxel_grid *g, const char **why) {
-  const char *bad = NULL;
-  if (g == NULL)
-    bad = "grid is NULL";
-  else if (!(g->voxel_m > 0.0 && isfinite(g->voxel_m)))
-    bad = "voxel size must be positive";
-  else if (!isfinite(g->min_m[0]) || !isfinite(g->min_m[1]) || !isfinite(g->min_m[2]))
-    bad = "grid min corner must be finite";
-  else if (g->nx < 1 || g->ny < 1 || g->nz < 1 || g->nx > 4096 || g->ny > 4096 || g->nz > 4096)
-    bad = "grid dimensions must be 1..4096";
-  else if ((uint64_t)g->nx * (uint64_t)g->ny * (uint64_t)g->nz > (1ull << 31))
-    bad = "grid has more than 2^31 voxels";
-  if (why != NULL) *why = bad;
-  return bad == NULL ? 0 : -EINVAL;
+int vc_grid_check(const vc_voxel_grid* g, char* why, size_t why_len) {
+  core_why_clear(why, why_len);
+  if (g == NULL) {
+    core_why(why, why_len, "grid is NULL");
+    return -EINVAL;
+  }
+  if (!(g->voxel_m > 0.0 && isfinite(g->voxel_m))) {
+    core_why(why, why_len, "voxel size must be positive, not %g m", g->voxel_m);
+    return -EINVAL;
+  }
+  if (!isfinite(g->min_m[0]) || !isfinite(g->min_m[1]) || !isfinite(g->min_m[2])) {
+    core_why(why, why_len, "grid min corner must be finite");
+    return -EINVAL;
+  }
+  if (g->nx < 1 || g->ny < 1 || g->nz < 1 || g->nx > 4096 || g->ny > 4096 || g->nz > 4096) {
+    core_why(why, why_len, "grid dimensions must be 1..4096 each, not %ux%ux%u", g->nx, g->ny, g->nz);
+    return -EINVAL;
+  }
+  if ((uint64_t)g->nx * (uint64_t)g->ny * (uint64_t)g->nz > (1ull << 31)) {
+    core_why(why, why_len, "grid has more than 2^31 voxels (%ux%ux%u)", g->nx, g->ny, g->nz);
+    return -EINVAL;
+  }
+  return 0;
 }
 
 /* OpenCV's projectPoints model (modules/calib3d, cvProjectPoints2Internal) for one point. */
-int vc_camera_project(const vc_camera *c, const double p[3], int *px, int *py) {
+int vc_camera_project(const vc_camera* c, const double p[3], int* px, int* py) {
   const double *R = c->R_cam_from_world, *t = c->t_cam_from_world;
   double X = R[0] * p[0] + R[1] * p[1] + R[2] * p[2] + t[0];
   double Y = R[3] * p[0] + R[4] * p[1] + R[5] * p[2] + t[1];
@@ -151,7 +177,7 @@ int vc_camera_project(const vc_camera *c, const double p[3], int *px, int *py) {
   double z = 1.0 / Z;
   double x = X * z, y = Y * z;
   double r2 = x * x + y * y, r4 = r2 * r2, r6 = r4 * r2;
-  const double *k = c->dist; /* k1 k2 p1 p2 k3 */
+  const double* k = c->dist; /* k1 k2 p1 p2 k3 */
   double radial = 1.0 + k[0] * r2 + k[1] * r4 + k[4] * r6;
   double a1 = 2.0 * x * y, a2 = r2 + 2.0 * x * x, a3 = r2 + 2.0 * y * y;
   double xd = x * radial + k[2] * a1 + k[3] * a2;
@@ -165,8 +191,12 @@ int vc_camera_project(const vc_camera *c, const double p[3], int *px, int *py) {
   return 1;
 }
 
-static int imin(int a, int b) { return a < b ? a : b; }
-static int imax(int a, int b) { return a > b ? a : b; }
+static int imin(int a, int b) {
+  return a < b ? a : b;
+}
+static int imax(int a, int b) {
+  return a > b ? a : b;
+}
 
 /* Pixel rectangle accumulator of one camera over a block. */
 typedef struct prect {
@@ -174,13 +204,13 @@ typedef struct prect {
   uint64_t seen; /* voxels seen */
 } prect;
 
-static void prect_init(prect *r) {
+static void prect_init(prect* r) {
   r->x0 = r->y0 = INT32_MAX;
   r->x1 = r->y1 = -1;
   r->seen = 0;
 }
 
-static void prect_add(prect *r, int x, int y) {
+static void prect_add(prect* r, int x, int y) {
   r->x0 = imin(r->x0, x);
   r->y0 = imin(r->y0, y);
   r->x1 = imax(r->x1, x);
@@ -188,7 +218,7 @@ static void prect_add(prect *r, int x, int y) {
   r->seen++;
 }
 
-static void prect_union(prect *r, const prect *s) {
+static void prect_union(prect* r, const prect* s) {
   if (s->seen == 0) return;
   r->x0 = imin(r->x0, s->x0);
   r->y0 = imin(r->y0, s->y0);
@@ -203,14 +233,14 @@ typedef struct bsum {
   bool skip, all0, all1;
 } bsum;
 
-static void bsum_init(bsum *b) {
+static void bsum_init(bsum* b) {
   prect_init(&b->r[0]);
   prect_init(&b->r[1]);
   b->skip = true;
   b->all0 = b->all1 = true;
 }
 
-static void bsum_merge(bsum *b, const bsum *c) {
+static void bsum_merge(bsum* b, const bsum* c) {
   b->all0 = b->all0 && c->all0;
   b->all1 = b->all1 && c->all1;
   if (c->skip) return;
@@ -219,7 +249,7 @@ static void bsum_merge(bsum *b, const bsum *c) {
   prect_union(&b->r[1], &c->r[1]);
 }
 
-static void node_set(node *n, const bsum *b) {
+static void node_set(node* n, const bsum* b) {
   memset(n, 0, sizeof(*n));
   n->flags = (uint8_t)((b->skip ? F_SKIP : 0) | (b->all0 ? F_ALL0 : 0) | (b->all1 ? F_ALL1 : 0));
   for (int c = 0; c < 2; c++) {
@@ -235,7 +265,7 @@ static void node_set(node *n, const bsum *b) {
   if (n->flags & (F_NONE0 | F_NONE1)) n->flags |= F_SKIP;
 }
 
-static void voxel_centre(const grid_i *g, int i, int j, int k, double p[3]) {
+static void voxel_centre(const grid_i* g, int i, int j, int k, double p[3]) {
   p[0] = g->min[0] + ((double)i + 0.5) * g->voxel_m;
   p[1] = g->min[1] + ((double)j + 0.5) * g->voxel_m;
   p[2] = g->min[2] + ((double)k + 0.5) * g->voxel_m;
@@ -250,9 +280,9 @@ typedef struct leaf_proj {
 
 /* Builds one leaf at voxel origin (i0, j0, k0): its node, and its table when both cameras see it.
  * Returns 0 or -ENOMEM. */
-static int build_leaf(vc_carver *cv, const vc_camera *cam[2], int i0, int j0, int k0,
-                      size_t li, bsum *out, size_t *tab_cap) {
-  const grid_i *g = &cv->grid;
+static int build_leaf(vc_carver* cv, const vc_camera* cam[2], int i0, int j0, int k0, size_t li, bsum* out,
+                      size_t* tab_cap) {
+  const grid_i* g = &cv->grid;
   leaf_proj lp;
   memset(lp.seen, 0, sizeof(lp.seen));
   lp.in_grid = 0;
@@ -290,35 +320,34 @@ static int build_leaf(vc_carver *cv, const vc_camera *cam[2], int i0, int j0, in
     if (r[c].x1 - r[c].x0 > 255 || r[c].y1 - r[c].y0 > 255) wide = true;
   if (cv->ntabs == *tab_cap) {
     size_t cap = *tab_cap ? *tab_cap * 2 : 1024;
-    leaf_tab *t = realloc(cv->tabs, cap * sizeof(*t));
+    leaf_tab* t = realloc(cv->tabs, cap * sizeof(*t));
     if (t == NULL) return -ENOMEM;
     cv->tabs = t;
-    uint16_t *e = realloc(cv->entries, cap * 2 * 64 * sizeof(*e));
+    uint16_t* e = realloc(cv->entries, cap * 2 * 64 * sizeof(*e));
     if (e == NULL) return -ENOMEM;
     cv->entries = e;
     *tab_cap = cap;
   }
   size_t ti = cv->ntabs++;
-  leaf_tab *t = &cv->tabs[ti];
+  leaf_tab* t = &cv->tabs[ti];
   t->valid = both;
   t->wide = NO_TAB;
-  uint16_t *e = cv->entries + ti * 2 * 64;
+  uint16_t* e = cv->entries + ti * 2 * 64;
   if (wide) {
     if (cv->nwide == cv->wide_cap) {
       size_t cap = cv->wide_cap ? cv->wide_cap * 2 : 64;
-      uint32_t *wt = realloc(cv->wide, cap * 2 * 64 * sizeof(*wt));
+      uint32_t* wt = realloc(cv->wide, cap * 2 * 64 * sizeof(*wt));
       if (wt == NULL) return -ENOMEM;
       cv->wide = wt;
       cv->wide_cap = cap;
     }
     t->wide = (uint32_t)cv->nwide++;
-    uint32_t *we = cv->wide + (size_t)t->wide * 2 * 64;
+    uint32_t* we = cv->wide + (size_t)t->wide * 2 * 64;
     for (int c = 0; c < 2; c++) {
       t->base[c] = 0;
       for (int v = 0; v < 64; v++)
-        we[c * 64 + v] = (lp.seen[c] >> v & 1)
-                             ? (uint32_t)lp.py[c][v] * (uint32_t)cv->W[c] + (uint32_t)lp.px[c][v]
-                             : 0;
+        we[c * 64 + v] =
+            (lp.seen[c] >> v & 1) ? (uint32_t)lp.py[c][v] * (uint32_t)cv->W[c] + (uint32_t)lp.px[c][v] : 0;
     }
     memset(e, 0, 2 * 64 * sizeof(*e));
     cv->leaf_tab_idx[li] = (uint32_t)ti;
@@ -328,8 +357,7 @@ static int build_leaf(vc_carver *cv, const vc_camera *cam[2], int i0, int j0, in
     t->base[c] = (uint32_t)r[c].y0 * (uint32_t)cv->W[c] + (uint32_t)r[c].x0;
     for (int v = 0; v < 64; v++) {
       uint16_t q = 0; /* unseen voxels point at the rectangle's corner; `valid` masks them */
-      if (lp.seen[c] >> v & 1)
-        q = (uint16_t)((lp.px[c][v] - r[c].x0) | (lp.py[c][v] - r[c].y0) << 8);
+      if (lp.seen[c] >> v & 1) q = (uint16_t)((lp.px[c][v] - r[c].x0) | (lp.py[c][v] - r[c].y0) << 8);
       e[c * 64 + v] = q;
     }
   }
@@ -337,7 +365,7 @@ static int build_leaf(vc_carver *cv, const vc_camera *cam[2], int i0, int j0, in
   return 0;
 }
 
-static int frame_alloc(cam_frame *f, int W, int H) {
+static int frame_alloc(cam_frame* f, int W, int H) {
   f->tw = (W + (1 << TILE_SHIFT) - 1) >> TILE_SHIFT;
   f->th = (H + (1 << TILE_SHIFT) - 1) >> TILE_SHIFT;
   size_t ns = (size_t)(f->tw + 1) * (size_t)(f->th + 1);
@@ -349,26 +377,42 @@ static int frame_alloc(cam_frame *f, int W, int H) {
   return (f->sat_any && f->sat_full && f->any && f->full) ? 0 : -ENOMEM;
 }
 
-static void frame_free(cam_frame *f) {
+static void frame_free(cam_frame* f) {
   free(f->sat_any);
   free(f->sat_full);
   free(f->any);
   free(f->full);
 }
 
-vc_carver *vc_carver_new(const vc_voxel_grid *grid, const vc_camera *cam0,
-                         const vc_camera *cam1) {
+int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_camera* cam1, vc_carver** out,
+                  char* why, size_t why_len) {
   int err = -EINVAL;
-  vc_carver *cv = NULL;
-  if (vc_grid_check(grid, NULL) != 0 || vc_camera_check(cam0, NULL) != 0 ||
-      vc_camera_check(cam1, NULL) != 0)
-    goto err;
+  vc_carver* cv = NULL;
+  char bad[160]; /* a check's reason */
+  core_why_clear(why, why_len);
+  if (out) *out = NULL;
+  if (!out) {
+    core_why(why, why_len, "carver: no place for the carver");
+    return -EINVAL;
+  }
+  if (vc_grid_check(grid, bad, sizeof(bad)) != 0) {
+    core_why(why, why_len, "carver: %s", bad);
+    return -EINVAL;
+  }
+  const vc_camera* cam[2] = {cam0, cam1};
+  for (int c = 0; c < 2; c++)
+    if (vc_camera_check(cam[c], bad, sizeof(bad)) != 0) {
+      core_why(why, why_len, "carver: camera %d: %s", c, bad);
+      return -EINVAL;
+    }
   err = -ENOMEM;
   cv = calloc(1, sizeof(*cv));
   if (cv == NULL) goto err;
-  cv->grid = (grid_i){{grid->min_m[0], grid->min_m[1], grid->min_m[2]}, grid->voxel_m, (int)grid->nx,
-                      (int)grid->ny, (int)grid->nz};
-  const vc_camera *cam[2] = {cam0, cam1};
+  cv->grid = (grid_i){{grid->min_m[0], grid->min_m[1], grid->min_m[2]},
+                      grid->voxel_m,
+                      (int)grid->nx,
+                      (int)grid->ny,
+                      (int)grid->nz};
   for (int c = 0; c < 2; c++) {
     cv->W[c] = (int)cam[c]->width;
     cv->H[c] = (int)cam[c]->height;
@@ -418,18 +462,20 @@ vc_carver *vc_carver_new(const vc_voxel_grid *grid, const vc_camera *cam0,
                cv->ntabs * (sizeof(leaf_tab) + 2 * 64 * sizeof(uint16_t)) +
                cv->nwide * 2 * 64 * sizeof(uint32_t);
   for (int c = 0; c < 2; c++) {
-    const cam_frame *f = &cv->fr[c];
+    const cam_frame* f = &cv->fr[c];
     cv->memory += 2 * (size_t)(f->tw + 1) * (size_t)(f->th + 1) * 4 + 2 * (size_t)f->tw * (size_t)f->th;
   }
-  return cv;
+  *out = cv;
+  return 0;
 
-err:
+err: /* only allocations fail past the checks */
   vc_carver_free(cv);
-  errno = -err;
-  return NULL;
+  core_why(why, why_len, "carver: out of memory for the tables of a %ux%ux%u grid", grid->nx, grid->ny,
+           grid->nz);
+  return err;
 }
 
-void vc_carver_free(vc_carver *cv) {
+void vc_carver_free(vc_carver* cv) {
   if (cv == NULL) return;
   free(cv->top);
   free(cv->mid);
@@ -443,14 +489,22 @@ void vc_carver_free(vc_carver *cv) {
   free(cv);
 }
 
-uint64_t vc_carver_voxels(const vc_carver *cv) { return cv ? cv->nvox : 0; }
-size_t vc_carver_bitset_bytes(const vc_carver *cv) { return cv ? (size_t)((cv->nvox + 7) / 8) : 0; }
-double vc_carver_unseen_fraction(const vc_carver *cv) { return cv ? cv->unseen_fraction : 1.0; }
-size_t vc_carver_memory_bytes(const vc_carver *cv) { return cv ? cv->memory : 0; }
+uint64_t vc_carver_voxels(const vc_carver* cv) {
+  return cv ? cv->nvox : 0;
+}
+size_t vc_carver_bitset_bytes(const vc_carver* cv) {
+  return cv ? (size_t)((cv->nvox + 7) / 8) : 0;
+}
+double vc_carver_unseen_fraction(const vc_carver* cv) {
+  return cv ? cv->unseen_fraction : 1.0;
+}
+size_t vc_carver_memory_bytes(const vc_carver* cv) {
+  return cv ? cv->memory : 0;
+}
 
 /* ---- per frame ------------------------------------------------------------------------------ */
 
-static inline uint64_t load64(const uint8_t *p) {
+static inline uint64_t load64(const uint8_t* p) {
   uint64_t w;
   memcpy(&w, p, 8);
   return w;
@@ -462,12 +516,12 @@ static inline uint64_t has_zero_byte(uint64_t w) {
 }
 
 /* Tile flags and their summed-area tables for one mask. */
-static void summarise(cam_frame *f, const uint8_t *mask, int W, int H) {
+static void summarise(cam_frame* f, const uint8_t* mask, int W, int H) {
   const int ts = 1 << TILE_SHIFT;
   const int full_tiles = W >> TILE_SHIFT; /* tiles with all 8 columns inside the image */
   for (int ty = 0; ty < f->th; ty++) {
-    uint8_t *any = f->any + (size_t)ty * (size_t)f->tw;
-    uint8_t *full = f->full + (size_t)ty * (size_t)f->tw;
+    uint8_t* any = f->any + (size_t)ty * (size_t)f->tw;
+    uint8_t* full = f->full + (size_t)ty * (size_t)f->tw;
     int y0 = ty * ts, y1 = imin(H, y0 + ts);
     for (int tx = 0; tx < full_tiles; tx++) {
       uint64_t or_ = 0, zero = 0;
@@ -499,20 +553,21 @@ static void summarise(cam_frame *f, const uint8_t *mask, int W, int H) {
       ra += f->any[(size_t)ty * (size_t)f->tw + (size_t)tx];
       rf += f->full[(size_t)ty * (size_t)f->tw + (size_t)tx];
       f->sat_any[(size_t)(ty + 1) * sw + (size_t)tx + 1] = f->sat_any[(size_t)ty * sw + (size_t)tx + 1] + ra;
-      f->sat_full[(size_t)(ty + 1) * sw + (size_t)tx + 1] = f->sat_full[(size_t)ty * sw + (size_t)tx + 1] + rf;
+      f->sat_full[(size_t)(ty + 1) * sw + (size_t)tx + 1] =
+          f->sat_full[(size_t)ty * sw + (size_t)tx + 1] + rf;
     }
   }
 }
 
-static inline uint32_t sat_count(const uint32_t *s, size_t sw, const uint16_t r[4]) {
+static inline uint32_t sat_count(const uint32_t* s, size_t sw, const uint16_t r[4]) {
   size_t x0 = r[0], y0 = r[1], x1 = (size_t)r[2] + 1, y1 = (size_t)r[3] + 1;
   return s[y1 * sw + x1] - s[y0 * sw + x1] - s[y1 * sw + x0] + s[y0 * sw + x0];
 }
 
 /* State of a block in camera c: empty, undecided or all foreground. */
-static inline int cam_state(const cam_frame *f, const node *n, int c) {
+static inline int cam_state(const cam_frame* f, const node* n, int c) {
   if (n->flags & (c == 0 ? F_NONE0 : F_NONE1)) return S_OUT;
-  const uint16_t *r = n->r[c];
+  const uint16_t* r = n->r[c];
   const size_t sw = (size_t)f->tw + 1;
   if (sat_count(f->sat_any, sw, r) == 0) return S_OUT;
   if (!(n->flags & (c == 0 ? F_ALL0 : F_ALL1))) return S_PART;
@@ -521,7 +576,7 @@ static inline int cam_state(const cam_frame *f, const node *n, int c) {
 }
 
 /* Sets bits [pos, pos+len) of the (zeroed) bitset. */
-static void set_bits(uint8_t *bits, uint64_t pos, unsigned len) {
+static void set_bits(uint8_t* bits, uint64_t pos, unsigned len) {
   while (len > 0 && (pos & 7) != 0) {
     bits[pos >> 3] |= (uint8_t)(1u << (pos & 7));
     pos++;
@@ -540,7 +595,7 @@ static void set_bits(uint8_t *bits, uint64_t pos, unsigned len) {
 }
 
 /* Fills the voxels [i0, i0+s) x [j0, j0+s) x [k0, k0+s) clipped to the grid. */
-static uint64_t fill_block(const grid_i *g, uint8_t *bits, int i0, int j0, int k0, int s) {
+static uint64_t fill_block(const grid_i* g, uint8_t* bits, int i0, int j0, int k0, int s) {
   int i1 = imin(g->nx, i0 + s), j1 = imin(g->ny, j0 + s), k1 = imin(g->nz, k0 + s);
   for (int k = k0; k < k1; k++)
     for (int j = j0; j < j1; j++)
@@ -550,8 +605,8 @@ static uint64_t fill_block(const grid_i *g, uint8_t *bits, int i0, int j0, int k
 }
 
 /* Bit v of the result: the mask pixel of voxel v is foreground. */
-static inline uint64_t leaf_lookup(const uint8_t *mask, uint32_t base, size_t W, const uint16_t *e) {
-  const uint8_t *b = mask + base;
+static inline uint64_t leaf_lookup(const uint8_t* mask, uint32_t base, size_t W, const uint16_t* e) {
+  const uint8_t* b = mask + base;
   uint64_t bits = 0;
   for (int v = 0; v < 64; v++) {
     uint16_t q = e[v];
@@ -561,7 +616,7 @@ static inline uint64_t leaf_lookup(const uint8_t *mask, uint32_t base, size_t W,
 }
 
 /* Same for a wide leaf: full pixel indices. */
-static inline uint64_t leaf_lookup_wide(const uint8_t *mask, const uint32_t *e) {
+static inline uint64_t leaf_lookup_wide(const uint8_t* mask, const uint32_t* e) {
   uint64_t bits = 0;
   for (int v = 0; v < 64; v++) bits |= (uint64_t)(mask[e[v]] != 0) << v;
   return bits;
@@ -569,25 +624,26 @@ static inline uint64_t leaf_lookup_wide(const uint8_t *mask, const uint32_t *e) 
 
 /* ORs a leaf's 64 bits (x + 4y + 16z) into the bitset at voxel origin (i0, j0, k0). Bits of voxels
  * outside the grid are zero, so no byte past a row's last voxel is written. */
-static void write_leaf(const grid_i *g, uint8_t *bits, int i0, int j0, int k0, uint64_t b) {
+static void write_leaf(const grid_i* g, uint8_t* bits, int i0, int j0, int k0, uint64_t b) {
   for (int z = 0; z < LEAF; z++)
     for (int y = 0; y < LEAF; y++) {
       unsigned nib = (unsigned)(b >> (LEAF * (y + LEAF * z))) & 0xFu;
       if (nib == 0) continue;
-      uint64_t pos = (uint64_t)i0 + (uint64_t)g->nx * ((uint64_t)(j0 + y) + (uint64_t)g->ny * (uint64_t)(k0 + z));
+      uint64_t pos =
+          (uint64_t)i0 + (uint64_t)g->nx * ((uint64_t)(j0 + y) + (uint64_t)g->ny * (uint64_t)(k0 + z));
       unsigned sh = (unsigned)(pos & 7);
       bits[pos >> 3] |= (uint8_t)(nib << sh);
       if ((nib << sh) > 0xFFu) bits[(pos >> 3) + 1] |= (uint8_t)(nib >> (8 - sh));
     }
 }
 
-int vc_carver_run(vc_carver *cv, const uint8_t *mask0, const uint8_t *mask1, uint8_t *bitset,
-                  vc_carve_stats *stats) {
+int vc_carver_run(vc_carver* cv, const uint8_t* mask0, const uint8_t* mask1, uint8_t* bitset,
+                  vc_carve_stats* stats) {
   if (cv == NULL || mask0 == NULL || mask1 == NULL || bitset == NULL) return -EINVAL;
-  const uint8_t *mask[2] = {mask0, mask1};
+  const uint8_t* mask[2] = {mask0, mask1};
   for (int c = 0; c < 2; c++) summarise(&cv->fr[c], mask[c], cv->W[c], cv->H[c]);
   memset(bitset, 0, vc_carver_bitset_bytes(cv));
-  const grid_i *g = &cv->grid;
+  const grid_i* g = &cv->grid;
   const size_t W0 = (size_t)cv->W[0], W1 = (size_t)cv->W[1];
   uint64_t occupied = 0;
   uint32_t skipped = 0, filled = 0, tested = 0;
@@ -596,7 +652,7 @@ int vc_carver_run(vc_carver *cv, const uint8_t *mask0, const uint8_t *mask1, uin
     for (int ty = 0; ty < cv->tby; ty++)
       for (int tx = 0; tx < cv->tbx; tx++) {
         size_t ti = (size_t)tx + (size_t)cv->tbx * ((size_t)ty + (size_t)cv->tby * (size_t)tz);
-        const node *tn = &cv->top[ti];
+        const node* tn = &cv->top[ti];
         if (tn->flags & F_SKIP) continue;
         int t0 = cam_state(&cv->fr[0], tn, 0);
         int t1 = t0 == S_OUT ? S_OUT : cam_state(&cv->fr[1], tn, 1);
@@ -611,13 +667,13 @@ int vc_carver_run(vc_carver *cv, const uint8_t *mask0, const uint8_t *mask1, uin
         }
         for (int m = 0; m < 8; m++) {
           size_t mi = ti * 8 + (size_t)m;
-          const node *mn = &cv->mid[mi];
+          const node* mn = &cv->mid[mi];
           if (mn->flags & F_SKIP) continue;
           int mi0 = tx * TOP + (m & 1) * MID, mj0 = ty * TOP + (m >> 1 & 1) * MID,
               mk0 = tz * TOP + (m >> 2) * MID;
           int m0 = t0 == S_FULL ? S_FULL : cam_state(&cv->fr[0], mn, 0);
-          int m1 = (t1 == S_FULL || m0 == S_OUT) ? (m0 == S_OUT ? S_OUT : S_FULL)
-                                                 : cam_state(&cv->fr[1], mn, 1);
+          int m1 =
+              (t1 == S_FULL || m0 == S_OUT) ? (m0 == S_OUT ? S_OUT : S_FULL) : cam_state(&cv->fr[1], mn, 1);
           if (m0 == S_OUT || m1 == S_OUT) {
             skipped++;
             continue;
@@ -629,27 +685,27 @@ int vc_carver_run(vc_carver *cv, const uint8_t *mask0, const uint8_t *mask1, uin
           }
           for (int l = 0; l < 8; l++) {
             size_t li = mi * 8 + (size_t)l;
-            const node *ln = &cv->leaf[li];
+            const node* ln = &cv->leaf[li];
             if (ln->flags & F_SKIP) continue;
             int i0 = mi0 + (l & 1) * LEAF, j0 = mj0 + (l >> 1 & 1) * LEAF, k0 = mk0 + (l >> 2) * LEAF;
             int l0 = m0 == S_FULL ? S_FULL : cam_state(&cv->fr[0], ln, 0);
-            int l1 = (m1 == S_FULL || l0 == S_OUT) ? (l0 == S_OUT ? S_OUT : S_FULL)
-                                                   : cam_state(&cv->fr[1], ln, 1);
+            int l1 =
+                (m1 == S_FULL || l0 == S_OUT) ? (l0 == S_OUT ? S_OUT : S_FULL) : cam_state(&cv->fr[1], ln, 1);
             if (l0 == S_OUT || l1 == S_OUT) {
               skipped++;
               continue;
             }
-            const leaf_tab *t = &cv->tabs[cv->leaf_tab_idx[li]];
+            const leaf_tab* t = &cv->tabs[cv->leaf_tab_idx[li]];
             uint64_t b = t->valid;
             if (l0 == S_FULL && l1 == S_FULL) {
               filled++;
             } else {
               if (t->wide != NO_TAB) {
-                const uint32_t *we = cv->wide + (size_t)t->wide * 2 * 64;
+                const uint32_t* we = cv->wide + (size_t)t->wide * 2 * 64;
                 if (l0 == S_PART) b &= leaf_lookup_wide(mask0, we);
                 if (l1 == S_PART && b != 0) b &= leaf_lookup_wide(mask1, we + 64);
               } else {
-                const uint16_t *e = cv->entries + (size_t)cv->leaf_tab_idx[li] * 2 * 64;
+                const uint16_t* e = cv->entries + (size_t)cv->leaf_tab_idx[li] * 2 * 64;
                 if (l0 == S_PART) b &= leaf_lookup(mask0, t->base[0], W0, e);
                 if (l1 == S_PART && b != 0) b &= leaf_lookup(mask1, t->base[1], W1, e + 64);
               }

@@ -24,6 +24,14 @@ struct ModelDeleter {
 };
 using ModelPtr = std::unique_ptr<vc_bgmodel, ModelDeleter>;
 
+// A new model (null, with the reason reported, when vc_bgmodel_new fails).
+ModelPtr new_model(int width, int height) {
+  vc_bgmodel* m = nullptr;
+  char why[128];
+  EXPECT_EQ(vc_bgmodel_new(width, height, &m, why, sizeof why), 0) << why;
+  return ModelPtr(m);
+}
+
 // Eq. 1 and 2 in doubles, with acos, on the model's own mean and sigma.
 std::vector<uint8_t> reference_subtract(const vc_bgmodel* m, const vc_subtract_params& p,
                                         const std::vector<uint8_t>& rgb) {
@@ -62,9 +70,10 @@ std::vector<uint8_t> reference_subtract(const vc_bgmodel* m, const vc_subtract_p
 
 Scene test_scene() {
   Scene s;
-  s.people = {{100, 120, 30, 70, 200, 60, 50, 0}, {230, 140, 25, 60, 40, 70, 170, 0},
+  s.people = {{100, 120, 30, 70, 200, 60, 50, 0},
+              {230, 140, 25, 60, 40, 70, 170, 0},
               {160, 60, 12, 14, 215, 170, 140, 0},  // skin-coloured head
-              {60, 200, 18, 22, 60, 60, 60, 0}};     // dark grey trousers-like blob
+              {60, 200, 18, 22, 60, 60, 60, 0}};    // dark grey trousers-like blob
   s.shadows = {{130, 215, 90, 20, 0, 0, 0, 0.55}, {250, 200, 40, 25, 0, 0, 0, 0.75}};
   return s;
 }
@@ -84,7 +93,7 @@ ModelPtr learn(const Scene& scene, int frames, std::mt19937& rng) {
   Scene empty = scene;
   empty.people.clear();
   empty.shadows.clear();
-  ModelPtr m(vc_bgmodel_new(scene.width, scene.height));
+  ModelPtr m = new_model(scene.width, scene.height);
   EXPECT_NE(m, nullptr);
   std::vector<uint8_t> rgb;
   for (int i = 0; i < frames; i++) {
@@ -98,26 +107,55 @@ ModelPtr learn(const Scene& scene, int frames, std::mt19937& rng) {
 TEST(SubtractParams, DefaultsAreValidAndBadOnesAreNamed) {
   vc_subtract_params p;
   vc_subtract_params_default(&p);
-  const char* why = "unset";
-  EXPECT_EQ(vc_subtract_params_check(&p, &why), 0);
-  EXPECT_EQ(why, nullptr);
+  char why[128] = "unset";
+  EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), 0);
+  EXPECT_STREQ(why, "");
   p.t_lower = p.t_upper * 2;
-  EXPECT_EQ(vc_subtract_params_check(&p, &why), -EINVAL);
+  EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), -EINVAL);
   EXPECT_NE(std::string(why).find("t_lower"), std::string::npos);
+  EXPECT_NE(std::string(why).find("not 120"), std::string::npos) << why;  // and the bad value
   vc_subtract_params_default(&p);
   p.cos2_angular = 1.5;
-  EXPECT_EQ(vc_subtract_params_check(&p, &why), -EINVAL);
+  EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), -EINVAL);
   EXPECT_NE(std::string(why).find("cos2"), std::string::npos);
   p.cos2_angular = std::nan("");
-  EXPECT_EQ(vc_subtract_params_check(&p, nullptr), -EINVAL);
-  EXPECT_EQ(vc_subtract_params_check(nullptr, &why), -EINVAL);
+  EXPECT_EQ(vc_subtract_params_check(&p, nullptr, 0), -EINVAL);
+  EXPECT_EQ(vc_subtract_params_check(nullptr, why, sizeof why), -EINVAL);
+  EXPECT_STREQ(why, "params is NULL");
+}
+
+TEST(SubtractParams, ReasonIsTruncatedAndTerminatedLikeVcWhy) {
+  vc_subtract_params p;
+  vc_subtract_params_default(&p);
+  p.sigma_floor = 0;
+  char full[128], tiny[8];
+  ASSERT_EQ(vc_subtract_params_check(&p, full, sizeof full), -EINVAL);
+  EXPECT_STREQ(full, "sigma_floor must be in (0, 255], not 0");
+  std::memset(tiny, 'x', sizeof tiny);
+  EXPECT_EQ(vc_subtract_params_check(&p, tiny, sizeof tiny), -EINVAL);
+  EXPECT_EQ(std::string(tiny), std::string(full).substr(0, sizeof tiny - 1));  // terminated, cut
+  char untouched[4] = "abc";
+  EXPECT_EQ(vc_subtract_params_check(&p, untouched, 0), -EINVAL);  // no room: left alone
+  EXPECT_STREQ(untouched, "abc");
 }
 
 TEST(BgModel, LifecycleErrors) {
-  EXPECT_EQ(vc_bgmodel_new(0, 10), nullptr);
-  EXPECT_EQ(errno, EINVAL);
+  char why[128] = "unset";
+  vc_bgmodel* failed = reinterpret_cast<vc_bgmodel*>(why);  // must come back NULL
+  EXPECT_EQ(vc_bgmodel_new(0, 10, &failed, why, sizeof why), -EINVAL);
+  EXPECT_EQ(failed, nullptr);
+  EXPECT_STREQ(why, "background model: frame size 0x10 must be 1..16384 each");
+  EXPECT_EQ(vc_bgmodel_new(8, 16385, &failed, nullptr, 0), -EINVAL);
+  EXPECT_EQ(failed, nullptr);
+  EXPECT_EQ(vc_bgmodel_new(8, 4, nullptr, why, sizeof why), -EINVAL);  // nowhere to put it
   vc_bgmodel_free(nullptr);
-  ModelPtr m(vc_bgmodel_new(8, 4));
+  ModelPtr m;
+  {
+    vc_bgmodel* made = nullptr;
+    ASSERT_EQ(vc_bgmodel_new(8, 4, &made, why, sizeof why), 0);
+    m.reset(made);
+  }
+  EXPECT_STREQ(why, "");
   ASSERT_NE(m, nullptr);
   std::vector<uint8_t> rgb(8 * 4 * 3, 100), mask(8 * 4);
   vc_subtract_params p;
@@ -143,7 +181,7 @@ TEST(BgModel, LifecycleErrors) {
 TEST(BgModel, MeanAndSigmaMatchTheSamples) {
   // Two frames per pixel with known values: mean and sample deviation are exact.
   const int w = 5, h = 3;
-  ModelPtr m(vc_bgmodel_new(w, h));
+  ModelPtr m = new_model(w, h);
   std::vector<uint8_t> a(w * h * 3), b(w * h * 3), c(w * h * 3);
   for (size_t i = 0; i < a.size(); i++) {
     a[i] = static_cast<uint8_t>(i * 7);
@@ -241,9 +279,18 @@ TEST_P(SubtractVariants, SeparatesPeopleFromShadowsInTheSyntheticScene) {
   size_t fg = 0, fg_hit = 0, shadow = 0, shadow_bg = 0, bg = 0, bg_hit = 0;
   for (size_t i = 0; i < mask.size(); i++) {
     switch (truth[i]) {
-      case Truth::kForeground: fg++; fg_hit += mask[i] != 0; break;
-      case Truth::kShadow: shadow++; shadow_bg += mask[i] == 0; break;
-      case Truth::kBackground: bg++; bg_hit += mask[i] == 0; break;
+      case Truth::kForeground:
+        fg++;
+        fg_hit += mask[i] != 0;
+        break;
+      case Truth::kShadow:
+        shadow++;
+        shadow_bg += mask[i] == 0;
+        break;
+      case Truth::kBackground:
+        bg++;
+        bg_hit += mask[i] == 0;
+        break;
     }
   }
   EXPECT_GE(static_cast<double>(fg_hit) / fg, 0.99);

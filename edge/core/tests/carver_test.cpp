@@ -8,10 +8,11 @@
 #include <cerrno>
 #include <cmath>
 #include <memory>
-#include <ostream>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
+#include <ostream>
 #include <random>
+#include <string>
 #include <vector>
 
 #include "synth.hpp"
@@ -24,6 +25,14 @@ struct CarverDeleter {
   void operator()(vc_carver* c) const { vc_carver_free(c); }
 };
 using CarverPtr = std::unique_ptr<vc_carver, CarverDeleter>;
+
+// A new carver (null, with the reason reported, when vc_carver_new fails).
+CarverPtr new_carver(const vc_voxel_grid& g, const vc_camera& cam0, const vc_camera& cam1) {
+  vc_carver* c = nullptr;
+  char why[200];
+  EXPECT_EQ(vc_carver_new(&g, &cam0, &cam1, &c, why, sizeof why), 0) << why;
+  return CarverPtr(c);
+}
 
 // Pixel of every voxel centre in one camera via cv::projectPoints, or -1 when unseen.
 std::vector<int> reference_pixels(const vc_voxel_grid& g, const vc_camera& cam) {
@@ -139,25 +148,43 @@ TEST(Camera, ProjectionMatchesOpenCV) {
 TEST(Camera, ChecksRejectBadModels) {
   std::mt19937 rng(2);
   Rig rig = random_rig(rng, 64, 48);
-  const char* why = nullptr;
-  EXPECT_EQ(vc_camera_check(&rig.cam[0], &why), 0);
+  char why[160] = "unset";
+  EXPECT_EQ(vc_camera_check(&rig.cam[0], why, sizeof why), 0);
+  EXPECT_STREQ(why, "");
   vc_camera c = rig.cam[0];
   c.K[1] = 0.5;
-  EXPECT_EQ(vc_camera_check(&c, &why), -EINVAL);
-  EXPECT_NE(why, nullptr);
+  EXPECT_EQ(vc_camera_check(&c, why, sizeof why), -EINVAL);
+  EXPECT_STRNE(why, "");
+  EXPECT_NE(std::string(why).find("skew"), std::string::npos) << why;
   c = rig.cam[0];
   c.R_cam_from_world[0] *= 2;
-  EXPECT_EQ(vc_camera_check(&c, &why), -EINVAL);
+  EXPECT_EQ(vc_camera_check(&c, why, sizeof why), -EINVAL);
+  EXPECT_EQ(std::string(why).rfind("R must be a rotation matrix", 0), 0u) << why;
   c = rig.cam[0];
   c.width = 0;
-  EXPECT_EQ(vc_camera_check(&c, nullptr), -EINVAL);
+  EXPECT_EQ(vc_camera_check(&c, nullptr, 0), -EINVAL);
+  EXPECT_EQ(vc_camera_check(&c, why, sizeof why), -EINVAL);
+  EXPECT_STREQ(why, "image size 0x48 must be 1..16384 each");
   vc_voxel_grid g{4, 4, 0, {0, 0, 0}, 0.1};
-  EXPECT_EQ(vc_grid_check(&g, &why), -EINVAL);
+  EXPECT_EQ(vc_grid_check(&g, why, sizeof why), -EINVAL);
+  EXPECT_STREQ(why, "grid dimensions must be 1..4096 each, not 4x4x0");
   g.nz = 4;
+  EXPECT_EQ(vc_grid_check(&g, why, sizeof why), 0);
+  EXPECT_STREQ(why, "");
   g.voxel_m = -1;
-  EXPECT_EQ(vc_grid_check(&g, nullptr), -EINVAL);
-  EXPECT_EQ(vc_carver_new(&g, &rig.cam[0], &rig.cam[1]), nullptr);
-  EXPECT_EQ(errno, EINVAL);
+  EXPECT_EQ(vc_grid_check(&g, nullptr, 0), -EINVAL);
+  vc_carver* failed = reinterpret_cast<vc_carver*>(why);  // must come back NULL
+  EXPECT_EQ(vc_carver_new(&g, &rig.cam[0], &rig.cam[1], &failed, why, sizeof why), -EINVAL);
+  EXPECT_EQ(failed, nullptr);
+  EXPECT_STREQ(why, "carver: voxel size must be positive, not -1 m");
+  g.voxel_m = 0.1;
+  EXPECT_EQ(vc_carver_new(&g, &rig.cam[0], &c, &failed, why, sizeof why), -EINVAL);  // c: width 0
+  EXPECT_EQ(failed, nullptr);
+  EXPECT_STREQ(why, "carver: camera 1: image size 0x48 must be 1..16384 each");
+  EXPECT_EQ(vc_carver_new(&g, &rig.cam[0], &rig.cam[1], nullptr, why, sizeof why), -EINVAL);
+  EXPECT_EQ(vc_carver_new(&g, &rig.cam[0], &rig.cam[1], &failed, why, sizeof why), 0);
+  EXPECT_STREQ(why, "");
+  vc_carver_free(failed);
   vc_carver_free(nullptr);
 }
 
@@ -178,8 +205,8 @@ TEST_P(CarverVsReference, EqualsFloatReferenceVoxelForVoxel) {
   std::mt19937 rng(static_cast<unsigned>(gc.grid.nx * 131 + gc.grid.nz));
   for (int rep = 0; rep < 3; rep++) {
     Rig rig = random_rig(rng, gc.width, gc.height);
-    CarverPtr cv(vc_carver_new(&gc.grid, &rig.cam[0], &rig.cam[1]));
-    ASSERT_NE(cv, nullptr) << "errno " << errno;
+    CarverPtr cv = new_carver(gc.grid, rig.cam[0], rig.cam[1]);
+    ASSERT_NE(cv, nullptr);
     const uint64_t nvox = vc_carver_voxels(cv.get());
     ASSERT_EQ(nvox, static_cast<uint64_t>(gc.grid.nx) * gc.grid.ny * gc.grid.nz);
     std::vector<int> pix0 = reference_pixels(gc.grid, rig.cam[0]);
@@ -230,7 +257,7 @@ TEST(Carver, CamerasBehindAndBesideTheGridSeeNothing) {
   const double dist[5] = {0, 0, 0, 0, 0};
   vc_camera c1 = look_at(eye, away, 320, 240, 200, dist);
   vc_voxel_grid g{20, 60, 20, {-3, -3, 0}, 0.1};  // x in [-3, -1]: behind the camera
-  CarverPtr cv(vc_carver_new(&g, &rig.cam[0], &c1));
+  CarverPtr cv = new_carver(g, rig.cam[0], c1);
   ASSERT_NE(cv, nullptr);
   EXPECT_DOUBLE_EQ(vc_carver_unseen_fraction(cv.get()), 1.0);
   std::vector<uint8_t> full(320 * 240, 255), bits(vc_carver_bitset_bytes(cv.get()), 0xFF);
@@ -242,7 +269,7 @@ TEST(Carver, RunRejectsNullArguments) {
   std::mt19937 rng(4);
   Rig rig = random_rig(rng, 64, 48);
   vc_voxel_grid g{8, 8, 8, {-1, -1, 0}, 0.25};
-  CarverPtr cv(vc_carver_new(&g, &rig.cam[0], &rig.cam[1]));
+  CarverPtr cv = new_carver(g, rig.cam[0], rig.cam[1]);
   ASSERT_NE(cv, nullptr);
   EXPECT_GT(vc_carver_memory_bytes(cv.get()), 0u);
   std::vector<uint8_t> m(64 * 48), bits(vc_carver_bitset_bytes(cv.get()));

@@ -13,12 +13,12 @@
 #include <memory>
 #include <vector>
 
+#include <opencv2/imgproc.hpp>
 #include "voxcap/edge/bgmodel.h"
 #include "voxcap/edge/carver.h"
 #include "voxcap/edge/cleanup.h"
 #include "voxcap/rig/c_models.hpp"
 #include "voxcap/sim/scene.hpp"
-#include <opencv2/imgproc.hpp>
 
 namespace {
 
@@ -51,7 +51,10 @@ TEST(SimTruth, SubtractionMatchesTrueSilhouettesAndDropsShadows) {
   const int frames[] = {0, 17, 41};
   for (int cam = 0; cam < 2; cam++) {
     const auto& c = scene.calibration().cameras[cam];
-    std::unique_ptr<vc_bgmodel, void (*)(vc_bgmodel*)> m(vc_bgmodel_new(c.width, c.height), vc_bgmodel_free);
+    vc_bgmodel* made = nullptr;
+    char why[128];
+    ASSERT_EQ(vc_bgmodel_new(c.width, c.height, &made, why, sizeof why), 0) << why;
+    std::unique_ptr<vc_bgmodel, void (*)(vc_bgmodel*)> m(made, vc_bgmodel_free);
     ASSERT_NE(m, nullptr);
     cv::Mat rgb, sil, shadow;
     for (int i = 0; i < 20; i++) {
@@ -61,7 +64,8 @@ TEST(SimTruth, SubtractionMatchesTrueSilhouettesAndDropsShadows) {
     ASSERT_EQ(vc_bgmodel_finish(m.get()), 0);
     vc_subtract_params p = sim_params();
     ASSERT_EQ(vc_bgmodel_set_params(m.get(), &p), 0);
-    std::vector<uint8_t> mask(static_cast<size_t>(c.width) * c.height), scratch(vc_cleanup_scratch_size(c.width));
+    std::vector<uint8_t> mask(static_cast<size_t>(c.width) * c.height),
+        scratch(vc_cleanup_scratch_size(c.width));
     for (int f : frames) {
       scene.render(f, cam, rgb, &sil, &shadow);
       ASSERT_EQ(vc_subtract(m.get(), rgb.data, rgb.step, mask.data(), nullptr), 0);
@@ -95,7 +99,10 @@ TEST(SimTruth, PartialHullContainsTheBodySeenByBothCameras) {
   const vc::rig::VoxelGrid& g = *calib.grid;
   vc_voxel_grid grid = vc::rig::to_c_grid(g);
   vc_camera cams[2] = {vc::rig::to_c_camera(calib.cameras[0]), vc::rig::to_c_camera(calib.cameras[1])};
-  std::unique_ptr<vc_carver, void (*)(vc_carver*)> cv(vc_carver_new(&grid, &cams[0], &cams[1]), vc_carver_free);
+  vc_carver* made = nullptr;
+  char why[200];
+  ASSERT_EQ(vc_carver_new(&grid, &cams[0], &cams[1], &made, why, sizeof why), 0) << why;
+  std::unique_ptr<vc_carver, void (*)(vc_carver*)> cv(made, vc_carver_free);
   ASSERT_NE(cv, nullptr);
   std::vector<uint8_t> bits(vc_carver_bitset_bytes(cv.get())), grown_bits(bits.size()), body;
   for (int f : {0, 23, 57}) {

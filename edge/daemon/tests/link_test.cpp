@@ -30,7 +30,7 @@ struct FakeHost {
     sockaddr_in a{};
     a.sin_family = AF_INET;
     a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-    bind(lfd, reinterpret_cast<sockaddr*>(&a), sizeof(a));
+    EXPECT_EQ(bind(lfd, reinterpret_cast<sockaddr*>(&a), sizeof(a)), 0);
     listen(lfd, 4);
     socklen_t len = sizeof(a);
     getsockname(lfd, reinterpret_cast<sockaddr*>(&a), &len);
@@ -51,7 +51,8 @@ struct Received {
 };
 Received read_for(int fd, int ms, size_t stop_after = 1000) {
   Received r;
-  vc_decoder* dec = vc_decoder_new(0);
+  vc_decoder* dec = nullptr;
+  EXPECT_EQ(vc_decoder_new(0, &dec, nullptr, 0), 0);
   auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
   uint8_t buf[65536];
   while (std::chrono::steady_clock::now() < end && r.types.size() < stop_after) {
@@ -97,7 +98,9 @@ struct Sink {
     std::lock_guard<std::mutex> g(s->mu);
     s->types.push_back(m->hdr.type);
   }
-  static void on_connection(void* u, bool up) { (up ? static_cast<Sink*>(u)->ups : static_cast<Sink*>(u)->downs)++; }
+  static void on_connection(void* u, bool up) {
+    (up ? static_cast<Sink*>(u)->ups : static_cast<Sink*>(u)->downs)++;
+  }
   static uint32_t state(void*) { return VC_STATE_READY; }
 };
 
@@ -156,7 +159,8 @@ TEST(Link, QueuedMessagesReachTheHost) {
   vc_link* link = start_link(host, sink);
   int fd = host.accept_within(2000);
   ASSERT_GE(fd, 0);
-  for (int i = 0; i < 200 && !vc_link_connected(link); i++) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  for (int i = 0; i < 200 && !vc_link_connected(link); i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   uint8_t buf[128];
   size_t len = 0;
   vc_header hdr{};

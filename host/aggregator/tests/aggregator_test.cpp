@@ -39,7 +39,7 @@ int free_port() {
   sockaddr_in a{};
   a.sin_family = AF_INET;
   a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a));
+  EXPECT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)), 0);
   socklen_t len = sizeof(a);
   getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
   close(fd);
@@ -85,15 +85,23 @@ deadline_ms = 500
 missing_node_policy = "degraded"
 [network]
 listen = "127.0.0.1"
-port = )" + std::to_string(free_port()) + "\n";
+port = )" + std::to_string(free_port()) +
+                     "\n";
   std::ofstream(dir / "rig.toml") << toml;
   return config::load_rig_config(dir / "rig.toml");
+}
+
+vc_decoder* new_decoder() {
+  vc_decoder* dec = nullptr;
+  char why[128];
+  EXPECT_EQ(vc_decoder_new(0, &dec, why, sizeof why), 0) << why;
+  return dec;
 }
 
 struct FakeEdge {
   int fd = -1;
   uint16_t id;
-  vc_decoder* dec = vc_decoder_new(0);
+  vc_decoder* dec = new_decoder();
   FakeEdge(uint16_t port, uint16_t node, int w = 64) : id(node) {
     fd = socket(AF_INET, SOCK_STREAM, 0);
     sockaddr_in a{};
@@ -176,8 +184,7 @@ struct FakeEdge {
     uint8_t b[8192];
     while (std::chrono::steady_clock::now() < end) {
       vc_msg m;
-      int rc;
-      while ((rc = vc_decoder_next(dec, &m)) > 0)
+      while (vc_decoder_next(dec, &m) > 0)
         if (m.hdr.type == type) return (int64_t)m.hdr.seq;
       pollfd p{fd, POLLIN, 0};
       if (poll(&p, 1, 20) <= 0) continue;
@@ -257,7 +264,8 @@ TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
   EXPECT_EQ(origin, 118);  // last pulse + the margin (0.3 s at 60 Hz)
   e1.state(VC_STATE_RUNNING);
   e2.state(VC_STATE_RUNNING);
-  for (int i = 0; i < 100 && !agg.all_running(); i++) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  for (int i = 0; i < 100 && !agg.all_running(); i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   ASSERT_TRUE(agg.all_running());
 
   uint32_t gid = grid_id(make_rig(tmp.p).grid);
@@ -283,7 +291,8 @@ TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
   // Node 2 leaves: the next frame is merged without it (degraded) at the deadline.
   close(e2.fd);
   e2.fd = socket(AF_INET, SOCK_STREAM, 0);
-  for (int i = 0; i < 200 && agg.report().nodes[1].connected; i++) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  for (int i = 0; i < 200 && agg.report().nodes[1].connected; i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   e1.hull(119, session::monotonic_ns(), gid, a);
   for (int i = 0; i < 400; i++) {
     {
@@ -326,7 +335,8 @@ int64_t bring_up(Aggregator& agg, FakeEdge& e1, FakeEdge& e2) {
   EXPECT_EQ(e2.expect(VC_MSG_START), origin);
   e1.state(VC_STATE_RUNNING);
   e2.state(VC_STATE_RUNNING);
-  for (int i = 0; i < 200 && !agg.all_running(); i++) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  for (int i = 0; i < 200 && !agg.all_running(); i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   EXPECT_TRUE(agg.all_running());
   return origin;
 }
@@ -354,7 +364,8 @@ TEST(Aggregator, FeaturesAndStatsTravelWithTheirFrameThroughEveryStageIntoTheRec
   e1.features(seq, t, 1);
   e2.hull(seq, t, gid, b);
   // The frame is complete on the last hull; FEATURES that come after it are late.
-  for (int i = 0; i < 400 && agg.merged_frames() < 1; i++) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  for (int i = 0; i < 400 && agg.merged_frames() < 1; i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   ASSERT_EQ(agg.merged_frames(), 1u);
   agg.stop();
   {

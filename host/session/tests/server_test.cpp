@@ -176,7 +176,8 @@ TEST(SessionServer, SilentNodeTimesOutAndServerSendsHeartbeats) {
   int fd = connect_to(s.port());
   send_hello(fd, 5);
   // We read the server's heartbeats but say nothing: dropped after ~400 ms.
-  vc_decoder* dec = vc_decoder_new(0);
+  vc_decoder* dec = nullptr;
+  ASSERT_EQ(vc_decoder_new(0, &dec, nullptr, 0), 0);
   int heartbeats = 0;
   bool closed = false;
   auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(2000);
@@ -221,7 +222,8 @@ TEST(SessionServer, SendReachesTheEdge) {
   ASSERT_EQ(vc_encode_start(buf, sizeof(buf), &len, &hdr), 0);
   EXPECT_TRUE(s.send(conns[0].id, buf, len));
   EXPECT_TRUE(s.drain(2000)) << "the queued START was written";
-  vc_decoder* dec = vc_decoder_new(0);
+  vc_decoder* dec = nullptr;
+  ASSERT_EQ(vc_decoder_new(0, &dec, nullptr, 0), 0);
   bool got = false;
   auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(2000);
   uint8_t b[4096];

@@ -361,9 +361,11 @@ int vc_msg_decode(const uint8_t* buf, size_t len, size_t max_payload, vc_msg* ou
  * Not thread-safe per decoder; separate decoders are independent. */
 typedef struct vc_decoder vc_decoder;
 
-/* A decoder accepting payloads up to max_payload bytes (0: VC_PROTO_MAX_PAYLOAD). NULL with errno
- * EINVAL if max_payload > VC_PROTO_MAX_PAYLOAD, ENOMEM if out of memory. Free with vc_decoder_free. */
-vc_decoder* vc_decoder_new(size_t max_payload);
+/* A decoder accepting payloads up to max_payload bytes (0: VC_PROTO_MAX_PAYLOAD) into *out. Returns 0,
+ * -EINVAL (max_payload > VC_PROTO_MAX_PAYLOAD, or no out) or -ENOMEM, with *out NULL and a one-line
+ * reason in why when given (NULL/0 when not wanted; "" on success): the edge's constructor shape
+ * (edge/README.md). *out owns the decoder; free it with vc_decoder_free. */
+int vc_decoder_new(size_t max_payload, vc_decoder** out, char* why, size_t why_len);
 void vc_decoder_free(vc_decoder* dec); /* NULL is a no-op */
 
 /* Copies up to len bytes into the decoder; *consumed = how many. It takes fewer (possibly 0) only when

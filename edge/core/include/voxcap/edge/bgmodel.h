@@ -1,6 +1,6 @@
 /* Background model and shadow-aware background subtraction (the method's section 5, eq. 1 and 2).
  *
- * Lifecycle, per camera:  vc_bgmodel_new(w, h)
+ * Lifecycle, per camera:  vc_bgmodel_new(w, h, &m, why, why_len)
  *                         vc_bgmodel_learn(m, frame) × n      (frames of the empty scene)
  *                         vc_bgmodel_finish(m)                (mean and standard deviation images)
  *                         vc_bgmodel_set_params(m, &params)   (thresholds from the host's CONFIG;
@@ -52,49 +52,51 @@ typedef struct vc_subtract_params {
 
 /* Fills the defaults of voxcap/subtraction.h (the ones the host's rig.toml starts from): T_u 60,
  * T_l 3.5, T_angular 8 degrees, alpha in [0.25, 1.0], sigma floor 1.0. */
-void vc_subtract_params_default(vc_subtract_params *params);
+void vc_subtract_params_default(vc_subtract_params* params);
 
-/* 0 if the parameters are usable, -EINVAL otherwise. When `why` is not NULL it receives a static
- * string naming the first bad field (never freed by the caller). */
-int vc_subtract_params_check(const vc_subtract_params *params, const char **why);
+/* 0 if the parameters are usable, -EINVAL otherwise. The reason, when why is given (NULL/0 when not
+ * wanted), is one line naming the first bad field and its value ("" when usable); edge/README.md's
+ * convention. */
+int vc_subtract_params_check(const vc_subtract_params* params, char* why, size_t why_len);
 
 typedef struct vc_bgmodel vc_bgmodel;
 
-/* New empty model for width x height frames (1..16384 each). Returns NULL and sets errno (EINVAL,
- * ENOMEM) on failure. The caller owns the model and releases it with vc_bgmodel_free(). */
-vc_bgmodel *vc_bgmodel_new(int width, int height);
+/* New empty model for width x height frames (1..16384 each) into *out. Returns 0, -EINVAL or -ENOMEM
+ * with *out NULL and a one-line reason in why when given (NULL/0 when not wanted; "" on success):
+ * edge/README.md's constructor shape. *out owns the model; release it with vc_bgmodel_free(). */
+int vc_bgmodel_new(int width, int height, vc_bgmodel** out, char* why, size_t why_len);
 
 /* Frees the model; NULL is a no-op. */
-void vc_bgmodel_free(vc_bgmodel *model);
+void vc_bgmodel_free(vc_bgmodel* model);
 
 /* Accumulates one frame of the empty scene (borrowed for the call only). Returns 0, -EINVAL on a
  * bad argument (stride < 3*width), -EBUSY after vc_bgmodel_finish(), -EOVERFLOW after 65535 frames. */
-int vc_bgmodel_learn(vc_bgmodel *model, const uint8_t *rgb, size_t stride);
+int vc_bgmodel_learn(vc_bgmodel* model, const uint8_t* rgb, size_t stride);
 
 /* Computes the mean and standard deviation images from the learnt frames and releases the
  * accumulators. Returns 0, -ENODATA if fewer than 2 frames were learnt, -EBUSY if already finished. */
-int vc_bgmodel_finish(vc_bgmodel *model);
+int vc_bgmodel_finish(vc_bgmodel* model);
 
 /* Restores a finished model from a saved mean and sigma (as vc_bgmodel_mean()/vc_bgmodel_sigma_q8()
  * returned them, both copied) learnt from `frames` frames: an edge that restarts mid-session cannot
  * learn the empty scene again with a person in it. Only on a new model (no frame learnt). Returns 0,
  * -EINVAL, -EBUSY (frames learnt or finished already) or -ENOMEM. */
-int vc_bgmodel_restore(vc_bgmodel *model, const uint8_t *mean, const uint16_t *sigma_q8, int frames);
+int vc_bgmodel_restore(vc_bgmodel* model, const uint8_t* mean, const uint16_t* sigma_q8, int frames);
 
 /* Derives the per-pixel integer thresholds from `params` (floats are used here, not per frame).
  * Returns 0, -EINVAL for bad parameters, -EAGAIN before vc_bgmodel_finish(). */
-int vc_bgmodel_set_params(vc_bgmodel *model, const vc_subtract_params *params);
+int vc_bgmodel_set_params(vc_bgmodel* model, const vc_subtract_params* params);
 
 /* Frames learnt so far (also after finish). */
-int vc_bgmodel_frames(const vc_bgmodel *model);
-int vc_bgmodel_width(const vc_bgmodel *model);
-int vc_bgmodel_height(const vc_bgmodel *model);
+int vc_bgmodel_frames(const vc_bgmodel* model);
+int vc_bgmodel_width(const vc_bgmodel* model);
+int vc_bgmodel_height(const vc_bgmodel* model);
 
 /* The model's mean (uint8, interleaved RGB, stride 3*width) and sigma (uint16 Q8.8 grey levels,
  * interleaved RGB, 3*width elements per row), before the sigma floor is applied. Borrowed pointers,
  * valid until the model is freed; NULL before vc_bgmodel_finish(). */
-const uint8_t *vc_bgmodel_mean(const vc_bgmodel *model);
-const uint16_t *vc_bgmodel_sigma_q8(const vc_bgmodel *model);
+const uint8_t* vc_bgmodel_mean(const vc_bgmodel* model);
+const uint16_t* vc_bgmodel_sigma_q8(const vc_bgmodel* model);
 
 /* Per-frame counters (optional output of vc_subtract). */
 typedef struct vc_subtract_stats {
@@ -105,16 +107,16 @@ typedef struct vc_subtract_stats {
 /* Classifies one frame. `rgb` (stride bytes per row) and `mask` (width bytes per row, width*height
  * bytes, caller-owned) are borrowed for the call. `stats` may be NULL. No allocation, no floating
  * point. Returns 0, -EINVAL on a bad argument, -EAGAIN before vc_bgmodel_set_params(). */
-int vc_subtract(const vc_bgmodel *model, const uint8_t *rgb, size_t stride, uint8_t *mask,
-                vc_subtract_stats *stats);
+int vc_subtract(const vc_bgmodel* model, const uint8_t* rgb, size_t stride, uint8_t* mask,
+                vc_subtract_stats* stats);
 
 /* Name of the kernel variant in use ("generic" or "avx2"). */
-const char *vc_edge_kernel_name(void);
+const char* vc_edge_kernel_name(void);
 
 /* Selects the kernel variant for all subsequent calls of this library: "auto" (the best one this CPU
  * runs), "generic" (portable C, what every CPU runs), "avx2" (x86-64 with AVX2). Returns 0, or
  * -ENOTSUP when the variant cannot run here. Meant for tests and benchmarks; not thread-safe. */
-int vc_edge_kernel_select(const char *name);
+int vc_edge_kernel_select(const char* name);
 
 #ifdef __cplusplus
 }

@@ -29,37 +29,40 @@ extern "C" {
 /* Projects p_world with the carver's camera model. Returns 1 and the pixel in *px, *py when the point
  * is in front of the camera and its pixel lies inside the image, 0 otherwise (*px, *py untouched).
  * This is the exact rule vc_carver_run() applies to voxel centres. */
-int vc_camera_project(const vc_camera *cam, const double p_world[3], int *px, int *py);
+int vc_camera_project(const vc_camera* cam, const double p_world[3], int* px, int* py);
 
-/* 0 when the camera is usable by the carver, -EINVAL otherwise (why: static string, may be NULL):
- * image 1..16384 pixels each way, K = [fx 0 cx; 0 fy cy; 0 0 1] with fx, fy > 0 (cv::projectPoints
- * ignores skew), finite distortion, R_cam_from_world a rotation within 1e-6, finite t. Grids: finite
- * min_m, voxel_m > 0, nx, ny, nz 1..4096 each and at most 2^31 voxels. */
-int vc_camera_check(const vc_camera *cam, const char **why);
-int vc_grid_check(const vc_voxel_grid *grid, const char **why);
+/* 0 when the camera is usable by the carver, -EINVAL otherwise, with a one-line reason in why when
+ * given (NULL/0 when not wanted; "" when usable; edge/README.md's convention). Cameras: image
+ * 1..16384 pixels each way, K = [fx 0 cx; 0 fy cy; 0 0 1] with fx, fy > 0 (cv::projectPoints ignores
+ * skew), finite distortion, R_cam_from_world a rotation within 1e-6, finite t. Grids: finite min_m,
+ * voxel_m > 0, nx, ny, nz 1..4096 each and at most 2^31 voxels. */
+int vc_camera_check(const vc_camera* cam, char* why, size_t why_len);
+int vc_grid_check(const vc_voxel_grid* grid, char* why, size_t why_len);
 
 typedef struct vc_carver vc_carver;
 
-/* Builds the carver's tables for `grid` seen by `cam0` and `cam1` (all three borrowed for the call).
- * Returns NULL and sets errno: EINVAL (bad camera or grid), ENOMEM. The caller owns the carver and
- * frees it with vc_carver_free(). Time and memory grow with the voxel count: about 4.5 bytes per
- * voxel seen by both cameras (more for voxels that project larger than 64 pixels). */
-vc_carver *vc_carver_new(const vc_voxel_grid *grid, const vc_camera *cam0,
-                         const vc_camera *cam1);
+/* Builds the carver's tables for `grid` seen by `cam0` and `cam1` (all three borrowed for the call)
+ * into *out. Returns 0, -EINVAL (bad camera or grid: the checks' reason) or -ENOMEM, with *out NULL
+ * and a one-line reason in why when given (NULL/0 when not wanted; "" on success): edge/README.md's
+ * constructor shape. *out owns the carver; free it with vc_carver_free(). Time and memory grow with the voxel
+ * count: about 4.5 bytes per voxel seen by both cameras (more for voxels that project larger than 64 pixels).
+ */
+int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_camera* cam1, vc_carver** out,
+                  char* why, size_t why_len);
 
 /* Frees the carver; NULL is a no-op. */
-void vc_carver_free(vc_carver *carver);
+void vc_carver_free(vc_carver* carver);
 
 /* Number of voxels, and bytes of a bitset holding them (ceil(voxels / 8)). */
-uint64_t vc_carver_voxels(const vc_carver *carver);
-size_t vc_carver_bitset_bytes(const vc_carver *carver);
+uint64_t vc_carver_voxels(const vc_carver* carver);
+size_t vc_carver_bitset_bytes(const vc_carver* carver);
 
 /* Fraction of the grid's voxels whose centre is not seen by both cameras (outside an image or
  * behind a camera): those voxels are always empty. The edge warns at CONFIG when this is > 0. */
-double vc_carver_unseen_fraction(const vc_carver *carver);
+double vc_carver_unseen_fraction(const vc_carver* carver);
 
 /* Bytes of tables the carver holds (for memory budgets and the benchmark). */
-size_t vc_carver_memory_bytes(const vc_carver *carver);
+size_t vc_carver_memory_bytes(const vc_carver* carver);
 
 /* What a run did (optional output of vc_carver_run). */
 typedef struct vc_carve_stats {
@@ -74,8 +77,8 @@ typedef struct vc_carve_stats {
  * fully overwritten (bits past the last voxel are 0). `stats` may be NULL. Integer-only, no
  * allocation. The carver keeps per-frame scratch, so one carver runs one frame at a time.
  * Returns 0 or -EINVAL. */
-int vc_carver_run(vc_carver *carver, const uint8_t *mask0, const uint8_t *mask1, uint8_t *bitset,
-                  vc_carve_stats *stats);
+int vc_carver_run(vc_carver* carver, const uint8_t* mask0, const uint8_t* mask1, uint8_t* bitset,
+                  vc_carve_stats* stats);
 
 #ifdef __cplusplus
 }
