@@ -24,6 +24,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "voxcap/base/clock.hpp"
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/proto.hpp"
 #include "voxcap/trigger/generator.hpp"
@@ -267,7 +268,7 @@ void run_listen(const ListenArgs& a) {
     if (rc <= 0) break;  // quiet for --timeout: the sender is done
     uint8_t buf[256];
     const ssize_t n = recv(fd, buf, sizeof buf, 0);
-    const int64_t now = trigger::monotonic_ns();
+    const int64_t now = static_cast<int64_t>(vc::monotonic_ns());
     const auto pulse = n < 0 ? std::nullopt : proto::decode_trigger({buf, static_cast<size_t>(n)});
     if (!pulse) {
       ++invalid;

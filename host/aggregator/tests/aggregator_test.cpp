@@ -2,6 +2,7 @@
 // noted by the test). Loops are bounded in time.
 #include "voxcap/aggregator/aggregator.hpp"
 #include "voxcap/aggregator/record_stage.hpp"
+#include "voxcap/base/clock.hpp"
 
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
@@ -85,7 +86,8 @@ deadline_ms = 500
 missing_node_policy = "degraded"
 [network]
 listen = "127.0.0.1"
-port = )" + std::to_string(free_port()) + "\n";
+port = )" + std::to_string(free_port()) +
+                     "\n";
   std::ofstream(dir / "rig.toml") << toml;
   return config::load_rig_config(dir / "rig.toml");
 }
@@ -257,12 +259,13 @@ TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
   EXPECT_EQ(origin, 118);  // last pulse + the margin (0.3 s at 60 Hz)
   e1.state(VC_STATE_RUNNING);
   e2.state(VC_STATE_RUNNING);
-  for (int i = 0; i < 100 && !agg.all_running(); i++) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  for (int i = 0; i < 100 && !agg.all_running(); i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   ASSERT_TRUE(agg.all_running());
 
   uint32_t gid = grid_id(make_rig(tmp.p).grid);
   std::vector<uint8_t> a(8, 0xF0), b(8, 0x3C);
-  uint64_t t106 = session::monotonic_ns();
+  uint64_t t106 = vc::monotonic_ns();
   e1.hull(118, t106, gid, a);
   e2.hull(118, t106, gid, b);
   for (int i = 0; i < 200; i++) {
@@ -283,8 +286,9 @@ TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
   // Node 2 leaves: the next frame is merged without it (degraded) at the deadline.
   close(e2.fd);
   e2.fd = socket(AF_INET, SOCK_STREAM, 0);
-  for (int i = 0; i < 200 && agg.report().nodes[1].connected; i++) std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  e1.hull(119, session::monotonic_ns(), gid, a);
+  for (int i = 0; i < 200 && agg.report().nodes[1].connected; i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  e1.hull(119, vc::monotonic_ns(), gid, a);
   for (int i = 0; i < 400; i++) {
     {
       std::lock_guard<std::mutex> g(sink.mu);
@@ -326,7 +330,8 @@ int64_t bring_up(Aggregator& agg, FakeEdge& e1, FakeEdge& e2) {
   EXPECT_EQ(e2.expect(VC_MSG_START), origin);
   e1.state(VC_STATE_RUNNING);
   e2.state(VC_STATE_RUNNING);
-  for (int i = 0; i < 200 && !agg.all_running(); i++) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  for (int i = 0; i < 200 && !agg.all_running(); i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
   EXPECT_TRUE(agg.all_running());
   return origin;
 }
@@ -346,7 +351,7 @@ TEST(Aggregator, FeaturesAndStatsTravelWithTheirFrameThroughEveryStageIntoTheRec
   FakeEdge e1(agg.port(), 1), e2(agg.port(), 2);
   int64_t origin = bring_up(agg, e1, e2);
   ASSERT_GT(origin, 0);
-  uint64_t seq = static_cast<uint64_t>(origin), t = session::monotonic_ns();
+  uint64_t seq = static_cast<uint64_t>(origin), t = vc::monotonic_ns();
   std::vector<uint8_t> a(8, 0xF0), b(8, 0x3C);
   e1.stats();
   e1.features(seq, t, 0);  // the front node's features, before and after its hull
@@ -354,7 +359,8 @@ TEST(Aggregator, FeaturesAndStatsTravelWithTheirFrameThroughEveryStageIntoTheRec
   e1.features(seq, t, 1);
   e2.hull(seq, t, gid, b);
   // The frame is complete on the last hull; FEATURES that come after it are late.
-  for (int i = 0; i < 400 && agg.merged_frames() < 1; i++) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  for (int i = 0; i < 400 && agg.merged_frames() < 1; i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   ASSERT_EQ(agg.merged_frames(), 1u);
   agg.stop();
   {

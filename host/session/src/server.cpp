@@ -13,16 +13,11 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
-#include <ctime>
 #include <stdexcept>
 
-namespace vc::session {
+#include "voxcap/base/clock.hpp"
 
-uint64_t monotonic_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<uint64_t>(ts.tv_sec) * 1'000'000'000u + static_cast<uint64_t>(ts.tv_nsec);
-}
+namespace vc::session {
 
 bool ServerOptions::valid(std::string* why) const {
   auto fail = [&](const char* m) {
@@ -30,7 +25,8 @@ bool ServerOptions::valid(std::string* why) const {
     return false;
   };
   if (heartbeat_interval_ms < 10) return fail("heartbeat_interval_ms: must be >= 10");
-  if (heartbeat_timeout_ms <= heartbeat_interval_ms) return fail("heartbeat_timeout_ms: must exceed the interval");
+  if (heartbeat_timeout_ms <= heartbeat_interval_ms)
+    return fail("heartbeat_timeout_ms: must exceed the interval");
   if (hello_timeout_ms < 10) return fail("hello_timeout_ms: must be >= 10");
   if (max_out_bytes < 4096) return fail("max_out_bytes: must be >= 4096");
   if (poll_interval_ms < 1 || poll_interval_ms > 1000) return fail("poll_interval_ms: must be in 1..1000");
@@ -62,7 +58,9 @@ Server::Server(ServerOptions options, Handler& handler, LogFn log)
   if (!opt_.valid(&why)) throw std::invalid_argument("session server: " + why);
 }
 
-Server::~Server() { stop(); }
+Server::~Server() {
+  stop();
+}
 
 void Server::log(int level, const std::string& line) const {
   if (log_)
@@ -146,7 +144,8 @@ bool Server::drain(int timeout_ms) {
 void Server::close(ConnId id, const std::string& reason) {
   std::lock_guard<std::mutex> g(mu_);
   auto it = conns_.find(id);
-  if (it != conns_.end() && it->second->closing.empty()) it->second->closing = reason.empty() ? "closed" : reason;
+  if (it != conns_.end() && it->second->closing.empty())
+    it->second->closing = reason.empty() ? "closed" : reason;
   uint64_t one = 1;
   if (write(wake_fd_, &one, sizeof(one)) < 0) {
   }
@@ -233,8 +232,9 @@ void Server::handle_readable(Conn& c, uint64_t now_ns) {
         c.st.messages_in++;
         if (!c.hello) {
           if (m.hdr.type != VC_MSG_HELLO) {
-            std::string why = fmt::format("first message was {} instead of HELLO",
-                                          vc_msg_type_name(m.hdr.type) ? vc_msg_type_name(m.hdr.type) : "unknown");
+            std::string why =
+                fmt::format("first message was {} instead of HELLO",
+                            vc_msg_type_name(m.hdr.type) ? vc_msg_type_name(m.hdr.type) : "unknown");
             send_error_now(c.fd, VC_ERR_STATE, VC_SEVERITY_FATAL, why);
             std::lock_guard<std::mutex> g(mu_);
             stats_.hello_rejected++;

@@ -111,6 +111,4 @@ class Server {
   ServerStats stats_;
 };
 
-uint64_t monotonic_ns();
-
 }  // namespace vc::session
