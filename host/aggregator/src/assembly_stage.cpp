@@ -16,10 +16,10 @@ assemble::AssemblerOptions unmerged(assemble::AssemblerOptions o) {
 }  // namespace
 
 AssemblyStage::AssemblyStage(assemble::AssemblerOptions assembler, AssemblyOptions options,
-                             pipeline::Pipeline& out, pipeline::LogFn log)
+                             pipeline::Pipeline& out, log::Fn log)
     : out_(out),
       opt_(options),
-      log_(std::move(log)),
+      log_(log::or_spdlog(std::move(log), "voxcap-host")),
       inbox_(options.queue, pipeline::Overflow::DropNewest),
       assembler_(unmerged(std::move(assembler))) {}
 
@@ -57,8 +57,8 @@ bool AssemblyStage::post(uint16_t node_id, Input in) {
       drops_logged_ = total;
     }
   }
-  if (say && log_)
-    log_(1,
+  if (say)
+    log_(log::Level::warn,
          fmt::format("assemble: queue full ({} messages): dropping what the nodes send ({} dropped so far, "
                      "{} since the last such line)",
                      opt_.queue, total, since));

@@ -238,7 +238,7 @@ TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
   TmpDir tmp;
   Options o;
   o.start_trigger = false;
-  o.log = [](int, const std::string&) {};
+  o.log = [](log::Level, const std::string&) {};
   Aggregator agg(make_rig(tmp.p), o);
   FrameSink& sink = agg.pipeline().tap(std::make_unique<FrameSink>(), {64, pipeline::Overflow::Block});
   agg.start();
@@ -340,7 +340,7 @@ TEST(Aggregator, FeaturesAndStatsTravelWithTheirFrameThroughEveryStageIntoTheRec
   TmpDir tmp;
   Options o;
   o.start_trigger = false;
-  o.log = [](int, const std::string&) {};
+  o.log = [](log::Level, const std::string&) {};
   config::RigConfig rig = make_rig(tmp.p);
   uint32_t gid = grid_id(rig.grid);
   Aggregator agg(rig, o);
@@ -410,7 +410,7 @@ TEST(Aggregator, RejectsUnknownNodesAndWrongCameras) {
   TmpDir tmp;
   Options o;
   o.start_trigger = false;
-  o.log = [](int, const std::string&) {};
+  o.log = [](log::Level, const std::string&) {};
   Aggregator agg(make_rig(tmp.p), o);
   agg.start();
   FakeEdge stranger(agg.port(), 9);

@@ -71,8 +71,8 @@ TEST(AssemblyStage, PostingNeverWaitsAndAFullQueueDropsCountedPerNode) {
   Gate& gate = p.tap(std::make_unique<Gate>(), {1, pipeline::Overflow::Block});
   p.start();
   std::vector<std::string> warnings;
-  AssemblyStage a(options(), {8, 1}, p, [&](int level, const std::string& line) {
-    if (level == 1) warnings.push_back(line);
+  AssemblyStage a(options(), {8, 1}, p, [&](log::Level level, const std::string& line) {
+    if (level == log::Level::warn) warnings.push_back(line);
   });
   a.set_running(1, true);
   a.set_running(2, true);

@@ -42,10 +42,12 @@ bool Options::valid(std::string* why) const {
     return false;
   };
   if (nodes < 1 || nodes > 16) return fail(fmt::format("nodes: must be in 1..16, got {}", nodes));
-  if (width < 32 || height < 32 || width > 4096 || height > 4096) return fail("size: must be 32..4096 per side");
+  if (width < 32 || height < 32 || width > 4096 || height > 4096)
+    return fail("size: must be 32..4096 per side");
   if (rate_hz <= 0 || rate_hz > 240) return fail("rate: must be in (0, 240] Hz");
   if (grid < 8 || grid > 512) return fail("grid: must be in 8..512 voxels per axis");
-  if (missing_policy != "drop" && missing_policy != "degraded") return fail("missing policy: drop or degraded");
+  if (missing_policy != "drop" && missing_policy != "degraded")
+    return fail("missing policy: drop or degraded");
   if (deadline_ms <= 0) return fail("deadline: must be > 0");
   if (truth_every < 0) return fail("truth_every: must be >= 0");
   if (motion.empty()) return fail("motion: must be set");
@@ -60,8 +62,12 @@ static long status_kb(const char* key) {
     if (line.compare(0, n, key) == 0) return std::stol(line.substr(n + 1));
   return 0;
 }
-long rss_kb() { return status_kb("VmRSS"); }
-long peak_rss_kb() { return status_kb("VmHWM"); }
+long rss_kb() {
+  return status_kb("VmRSS");
+}
+long peak_rss_kb() {
+  return status_kb("VmHWM");
+}
 
 static int free_port(int type) {
   int fd = socket(AF_INET, type, 0);
@@ -83,7 +89,8 @@ static int free_port(int type) {
 // counted as the stage's drops — never from the rig). Every truth_every-th frame of the run is scored.
 class TruthScorer : public pipeline::Stage {
  public:
-  TruthScorer(const Options& opt, const rig::Calibration& cal, const rig::VoxelGrid& grid, const std::string& spec_cal)
+  TruthScorer(const Options& opt, const rig::Calibration& cal, const rig::VoxelGrid& grid,
+              const std::string& spec_cal)
       : opt_(opt), grid_(grid) {
     sim::SceneOptions so;
     so.motion.source = opt.motion;
@@ -118,7 +125,8 @@ class TruthScorer : public pipeline::Stage {
   void set_origin(uint64_t origin) { origin_ = origin; }
   void process(pipeline::Frame& f) override {
     const uint64_t origin = origin_;
-    if (opt_.truth_every <= 0 || f.seq < origin || (f.seq - origin) % static_cast<uint64_t>(opt_.truth_every) != 0)
+    if (opt_.truth_every <= 0 || f.seq < origin ||
+        (f.seq - origin) % static_cast<uint64_t>(opt_.truth_every) != 0)
       return;
     score(static_cast<int>(f.seq - origin), f.rle);
   }
@@ -138,8 +146,8 @@ class TruthScorer : public pipeline::Stage {
       std::fill(truth.begin(), truth.end(), 0xFF);
       for (int k = 0; k < opt_.nodes; k++) {
         for (int c = 0; c < 2; c++) scene_->render_clean(frame, 2 * k + c, rgb, &sil[static_cast<size_t>(c)]);
-        vc_carver_run(carvers_[static_cast<size_t>(k)], sil[0].ptr<uint8_t>(), sil[1].ptr<uint8_t>(), part.data(),
-                      nullptr);
+        vc_carver_run(carvers_[static_cast<size_t>(k)], sil[0].ptr<uint8_t>(), sil[1].ptr<uint8_t>(),
+                      part.data(), nullptr);
         for (size_t i = 0; i < bytes; i++) truth[i] &= part[i];
       }
       scene_->occupancy(grid_, frame, &body);
@@ -185,7 +193,8 @@ namespace {
 // emulated rig is — its nodes (node0 the front one) and grid, the udp trigger to each edge's port, the
 // host on loopback, and the simulator's subtraction settings.
 config::RigConfig rig_config(const Options& o, const rig::Calibration& cal, const fs::path& cal_path,
-                             const fs::path& toml_path, const std::vector<int>& trigger_ports, int host_port) {
+                             const fs::path& toml_path, const std::vector<int>& trigger_ports,
+                             int host_port) {
   config::RigConfig c;
   c.source = toml_path;
   c.name = "emulated";
@@ -263,8 +272,10 @@ void write_rig_toml(const config::RigConfig& c, const fs::path& path) {
                                   {"late_threshold_us", c.trigger.late_threshold_us},
                                   {"udp", toml::table{{"targets", targets}}}});
   t.insert("assembly", toml::table{{"deadline_ms", c.assembly.deadline_ms},
-                                   {"missing_node_policy", std::string(config::to_string(c.assembly.missing_node_policy))}});
-  t.insert("network", toml::table{{"listen", c.network.listen}, {"port", static_cast<int64_t>(c.network.port)}});
+                                   {"missing_node_policy",
+                                    std::string(config::to_string(c.assembly.missing_node_policy))}});
+  t.insert("network",
+           toml::table{{"listen", c.network.listen}, {"port", static_cast<int64_t>(c.network.port)}});
   {
     std::ofstream f(path);
     f << "# Written by voxcap's emulated rig from its RigConfig (host/emulated).\n" << t << "\n";
@@ -278,7 +289,8 @@ void write_rig_toml(const config::RigConfig& c, const fs::path& path) {
     same = back.nodes[k].id == c.nodes[k].id && back.nodes[k].number == c.nodes[k].number &&
            back.nodes[k].role == c.nodes[k].role;
   if (!same)
-    throw std::logic_error(fmt::format("emulated rig: {} does not read back as the rig it was written from", path.string()));
+    throw std::logic_error(
+        fmt::format("emulated rig: {} does not read back as the rig it was written from", path.string()));
 }
 
 }  // namespace
@@ -293,19 +305,34 @@ struct EmulatedRig::Impl {
   std::vector<int> trigger_ports;
   std::vector<pid_t> pids;
   std::unique_ptr<aggregator::Aggregator> agg;
-  TruthScorer* scorer = nullptr;             // stages of agg's pipeline (owned there)
+  TruthScorer* scorer = nullptr;  // stages of agg's pipeline (owned there)
   aggregator::RecordStage* recorder = nullptr;
   Clock::time_point t_start;
   long rss_start = 0;
   bool stopped = false;
 
   void spawn(int k) {
-    std::vector<std::string> args = {
-        edge_bin.string(), "--node-id", std::to_string(k), "--host", "127.0.0.1", "--port", std::to_string(host_port),
-        "--trigger", "udp", "--trigger-port", std::to_string(trigger_ports[static_cast<size_t>(k)]),
-        "--camera0", "sim:" + sim_spec, "--camera1", "sim:" + sim_spec,
-        "--size", fmt::format("{}x{}", opt.width, opt.height), "--verbosity", opt.quiet ? "0" : "1",
-        "--state-dir", (dir / fmt::format("node{}", k)).string()};
+    std::vector<std::string> args = {edge_bin.string(),
+                                     "--node-id",
+                                     std::to_string(k),
+                                     "--host",
+                                     "127.0.0.1",
+                                     "--port",
+                                     std::to_string(host_port),
+                                     "--trigger",
+                                     "udp",
+                                     "--trigger-port",
+                                     std::to_string(trigger_ports[static_cast<size_t>(k)]),
+                                     "--camera0",
+                                     "sim:" + sim_spec,
+                                     "--camera1",
+                                     "sim:" + sim_spec,
+                                     "--size",
+                                     fmt::format("{}x{}", opt.width, opt.height),
+                                     "--verbosity",
+                                     opt.quiet ? "0" : "1",
+                                     "--state-dir",
+                                     (dir / fmt::format("node{}", k)).string()};
     fs::create_directories(dir / fmt::format("node{}", k));
     std::vector<char*> argv;
     for (auto& a : args) argv.push_back(a.data());
@@ -385,9 +412,11 @@ void EmulatedRig::start(double timeout_s) {
     m.dir = o.workdir;
     fs::create_directories(m.dir);
   }
-  m.edge_bin = o.edge_binary.empty() ? fs::read_symlink("/proc/self/exe").parent_path() / "voxcap-edge" : o.edge_binary;
+  m.edge_bin = o.edge_binary.empty() ? fs::read_symlink("/proc/self/exe").parent_path() / "voxcap-edge"
+                                     : o.edge_binary;
   if (!fs::exists(m.edge_bin))
-    throw std::runtime_error(fmt::format("edge binary {} not found (build the voxcap-edge target)", m.edge_bin.string()));
+    throw std::runtime_error(
+        fmt::format("edge binary {} not found (build the voxcap-edge target)", m.edge_bin.string()));
 
   // The virtual rig: the simulator's ring of 2 cameras per node, and a grid over the volume.
   sim::RigLayout layout;
@@ -409,12 +438,13 @@ void EmulatedRig::start(double timeout_s) {
   config::RigConfig rig = rig_config(o, cal, cal_path, m.dir / "rig.toml", m.trigger_ports, m.host_port);
   write_rig_toml(rig, rig.source);  // for the workdir and the session recording's copy
 
-  m.sim_spec = fmt::format("motion={},fps={},seed={},noise={},calibration={}", o.motion, o.rate_hz, o.seed, o.noise,
-                           cal_path.string());
+  m.sim_spec = fmt::format("motion={},fps={},seed={},noise={},calibration={}", o.motion, o.rate_hz, o.seed,
+                           o.noise, cal_path.string());
   aggregator::Options ao;
-  if (o.quiet) ao.log = [](int level, const std::string& line) {
-    if (level >= 2) fmt::print(stderr, "voxcap-host: {}\n", line);
-  };
+  if (o.quiet)
+    ao.log = [out = log::to_spdlog("voxcap-host")](log::Level level, const std::string& line) {
+      if (level >= log::Level::err) out(level, line);
+    };
   m.agg = std::make_unique<aggregator::Aggregator>(rig, ao);
   // The host's pipeline: assemble -> merge -> the recording (every frame) and the scorer (live).
   if (!o.record_dir.empty())
@@ -447,21 +477,32 @@ void EmulatedRig::start(double timeout_s) {
   m.t_start = Clock::now();
 }
 
-uint64_t EmulatedRig::merged_frames() const { return impl_->agg ? impl_->agg->merged_frames() : 0; }
-aggregator::Report EmulatedRig::report() const { return impl_->agg->report(); }
-uint16_t EmulatedRig::host_port() const { return static_cast<uint16_t>(impl_->host_port); }
-const fs::path& EmulatedRig::workdir() const { return impl_->dir; }
+uint64_t EmulatedRig::merged_frames() const {
+  return impl_->agg ? impl_->agg->merged_frames() : 0;
+}
+aggregator::Report EmulatedRig::report() const {
+  return impl_->agg->report();
+}
+uint16_t EmulatedRig::host_port() const {
+  return static_cast<uint16_t>(impl_->host_port);
+}
+const fs::path& EmulatedRig::workdir() const {
+  return impl_->dir;
+}
 
 void EmulatedRig::run_frames(uint64_t frames, double timeout_s) {
   auto end = Clock::now() + std::chrono::duration<double>(timeout_s);
-  while (merged_frames() < frames && Clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  while (merged_frames() < frames && Clock::now() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
 }
 
 void EmulatedRig::run_seconds(double seconds) {
   std::this_thread::sleep_for(std::chrono::duration<double>(seconds));
 }
 
-void EmulatedRig::kill_node(int k, int sig) { impl_->reap(k, sig, 2.0); }
+void EmulatedRig::kill_node(int k, int sig) {
+  impl_->reap(k, sig, 2.0);
+}
 
 void EmulatedRig::signal_node(int k, int sig) {
   pid_t pid = impl_->pids.at(static_cast<size_t>(k));
