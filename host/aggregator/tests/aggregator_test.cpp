@@ -11,7 +11,9 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
@@ -40,7 +42,8 @@ int free_port() {
   sockaddr_in a{};
   a.sin_family = AF_INET;
   a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a));
+  if (bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)) != 0)
+    ADD_FAILURE() << "bind: " << std::strerror(errno);
   socklen_t len = sizeof(a);
   getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
   close(fd);
@@ -178,8 +181,7 @@ struct FakeEdge {
     uint8_t b[8192];
     while (std::chrono::steady_clock::now() < end) {
       vc_msg m;
-      int rc;
-      while ((rc = vc_decoder_next(dec, &m)) > 0)
+      while (vc_decoder_next(dec, &m) > 0)
         if (m.hdr.type == type) return (int64_t)m.hdr.seq;
       pollfd p{fd, POLLIN, 0};
       if (poll(&p, 1, 20) <= 0) continue;
