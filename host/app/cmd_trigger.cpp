@@ -23,7 +23,10 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <spdlog/spdlog.h>
+
 #include "commands.hpp"
+#include "voxcap/base/clock.hpp"
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/proto.hpp"
 #include "voxcap/trigger/generator.hpp"
@@ -172,9 +175,9 @@ void run_test(const TestArgs& a) {
     }
   });
   if (!a.json)
-    fmt::print(stderr, "voxcap: trigger test on {}: {} Hz, {} us, {}\n", gen->describe(), options.rate_hz,
-               options.pulse_width_us,
-               a.count ? fmt::format("{} pulses", a.count) : std::string("until Ctrl-C"));
+    spdlog::info("trigger test on {}: {} Hz, {} us, {}", gen->describe(), options.rate_hz,
+                 options.pulse_width_us,
+                 a.count ? fmt::format("{} pulses", a.count) : std::string("until Ctrl-C"));
 
   InterruptScope interrupt;
   const auto t0 = std::chrono::steady_clock::now();
@@ -254,7 +257,7 @@ void run_listen(const ListenArgs& a) {
     throw std::runtime_error(fmt::format("cannot bind {}:{}: {}", a.bind, a.port, std::strerror(errno)));
   socklen_t len = sizeof sa;
   getsockname(fd, reinterpret_cast<sockaddr*>(&sa), &len);
-  fmt::print(stderr, "voxcap: listening for trigger datagrams on {}:{}\n", a.bind, ntohs(sa.sin_port));
+  spdlog::info("listening for trigger datagrams on {}:{}", a.bind, ntohs(sa.sin_port));
 
   InterruptScope interrupt;
   uint64_t received = 0, missing = 0, invalid = 0;
@@ -267,7 +270,7 @@ void run_listen(const ListenArgs& a) {
     if (rc <= 0) break;  // quiet for --timeout: the sender is done
     uint8_t buf[256];
     const ssize_t n = recv(fd, buf, sizeof buf, 0);
-    const int64_t now = trigger::monotonic_ns();
+    const int64_t now = static_cast<int64_t>(vc::monotonic_ns());
     const auto pulse = n < 0 ? std::nullopt : proto::decode_trigger({buf, static_cast<size_t>(n)});
     if (!pulse) {
       ++invalid;

@@ -1,33 +1,46 @@
 // voxcap-host: the aggregator of a real rig, as a daemon (systemd unit, or by hand). Thin: reads the
 // rig.toml, runs the aggregator until SIGINT/SIGTERM, prints the figures. `voxcap rig` runs the same
-// aggregator (and, with --emulated, the edges too).
+// aggregator (and, with --emulated, the edges too). Exit codes: 0 ok, 1 runtime failure, 2 bad input.
+// No exception leaves main.
 #include <atomic>
 #include <chrono>
 #include <csignal>
+#include <cstdio>
+#include <exception>
 #include <thread>
 
-#include <CLI/CLI.hpp>
 #include <fmt/core.h>
+#include <CLI/CLI.hpp>
 
 #include "voxcap/aggregator/aggregator.hpp"
 #include "voxcap/aggregator/record_stage.hpp"
+#include "voxcap/base/log.hpp"
 #include "voxcap/config/rig_config.hpp"
 
 namespace {
 std::atomic<bool> g_stop{false};
-void on_signal(int) { g_stop = true; }
+void on_signal(int) {
+  g_stop = true;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"voxcap-host — the host aggregator of a voxcap rig: triggers the cameras, runs the edge "
-               "sessions, merges the partial hulls. Configuration: rig.toml (host/config/README.md)."};
-  std::string config;
-  double seconds = 0;
-  app.add_option("-c,--config", config, "rig.toml (default: $VOXCAP_RIG, else ./rig.toml)");
-  app.add_option("--seconds", seconds, "stop after this long (default: until SIGINT/SIGTERM)");
-  CLI11_PARSE(app, argc, argv);
   try {
-    std::filesystem::path path = config.empty() ? vc::config::default_rig_config_path() : std::filesystem::path(config);
+    vc::log::init("voxcap-host");  // log lines: "[time] [level] voxcap-host: ..." on stderr
+    CLI::App app{
+        "voxcap-host — the host aggregator of a voxcap rig: triggers the cameras, runs the edge "
+        "sessions, merges the partial hulls. Configuration: rig.toml (host/config/README.md)."};
+    std::string config;
+    double seconds = 0;
+    app.add_option("-c,--config", config, "rig.toml (default: $VOXCAP_RIG, else ./rig.toml)");
+    app.add_option("--seconds", seconds, "stop after this long (default: until SIGINT/SIGTERM)");
+    try {
+      app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+      return app.exit(e);
+    }
+    std::filesystem::path path =
+        config.empty() ? vc::config::default_rig_config_path() : std::filesystem::path(config);
     vc::config::RigConfig rig = vc::config::load_rig_config(path);
     vc::aggregator::Aggregator agg(rig, {});
     // The pipeline after merge: the recording (every frame). Triangulation, fitting, a viewer and
@@ -39,16 +52,17 @@ int main(int argc, char** argv) {
     agg.start();
     fmt::print("voxcap-host: recording to {}\n", recording.dir().string());
     auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds > 0 ? seconds : 1e12);
-    while (!g_stop && std::chrono::steady_clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    while (!g_stop && std::chrono::steady_clock::now() < end)
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
     agg.stop();
     auto r = agg.report();
     fmt::print("voxcap-host: {} frames merged ({} complete, {} degraded, {} dropped), {:.1f} fps\n", r.frames,
                r.complete, r.degraded, r.dropped, r.fps);
   } catch (const vc::config::ConfigError& e) {
-    fmt::print(stderr, "voxcap-host: {}\n", e.what());
+    std::fprintf(stderr, "voxcap-host: %s\n", e.what());
     return 2;
   } catch (const std::exception& e) {
-    fmt::print(stderr, "voxcap-host: {}\n", e.what());
+    std::fprintf(stderr, "voxcap-host: %s\n", e.what());
     return 1;
   }
   return 0;

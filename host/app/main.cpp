@@ -6,9 +6,11 @@
 #include <CLI/CLI.hpp>
 
 #include "commands.hpp"
+#include "voxcap/base/log.hpp"
 
 int main(int argc, char** argv) {
   try {
+    vc::log::init("voxcap");  // log lines: "[time] [level] voxcap: ..." on stderr
     CLI::App app{"voxcap — marker-less motion capture with hardware-triggered cameras and visual hulls"};
     app.set_version_flag("--version", "voxcap 0.1.0");
     app.require_subcommand(1, 1);

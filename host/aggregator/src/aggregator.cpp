@@ -99,7 +99,10 @@ class Aggregator::Figures : public pipeline::Stage {
 };
 
 Aggregator::Aggregator(config::RigConfig rig, Options options)
-    : rig_(std::move(rig)), opt_(std::move(options)), grid_id_(grid_id(rig_.grid)) {
+    : rig_(std::move(rig)),
+      opt_(std::move(options)),
+      log_(log::or_spdlog(opt_.log, "voxcap-host")),
+      grid_id_(grid_id(rig_.grid)) {
   std::string why;
   if (!rig_.valid(&why)) throw config::ConfigError(rig_.source.string(), "", why);
   assemble::AssemblerOptions ao;
@@ -107,8 +110,9 @@ Aggregator::Aggregator(config::RigConfig rig, Options options)
   ao.voxel_count = static_cast<uint64_t>(rig_.grid.nx) * static_cast<uint64_t>(rig_.grid.ny) *
                    static_cast<uint64_t>(rig_.grid.nz);
   ao.deadline_ns = static_cast<uint64_t>(rig_.assembly.deadline_ms * 1e6);
-  ao.policy = rig_.assembly.missing_node_policy == config::MissingNodePolicy::Drop ? assemble::MissingPolicy::Drop
-                                                                                   : assemble::MissingPolicy::Degraded;
+  ao.policy = rig_.assembly.missing_node_policy == config::MissingNodePolicy::Drop
+                  ? assemble::MissingPolicy::Drop
+                  : assemble::MissingPolicy::Degraded;
   for (size_t k = 0; k < rig_.nodes.size(); k++) {
     auto n = std::make_unique<Node>();
     n->cfg = &rig_.nodes[k];
@@ -129,7 +133,7 @@ Aggregator::Aggregator(config::RigConfig rig, Options options)
   }
   pipeline::StageContext ctx;
   ctx.rig = &rig_;
-  ctx.log = [this](int level, const std::string& line) { log(level, line); };
+  ctx.log = log_;
   pipeline_ = std::make_unique<pipeline::Pipeline>(ctx);
   pipeline_->then(std::make_unique<assemble::MergeStage>(), {64, pipeline::Overflow::Block});
   assembly_ = std::make_unique<AssemblyStage>(ao, opt_.assembly, *pipeline_, ctx.log);
@@ -137,23 +141,25 @@ Aggregator::Aggregator(config::RigConfig rig, Options options)
   session::ServerOptions so;
   so.listen = rig_.network.listen;
   so.port = rig_.network.port;
-  server_ = std::make_unique<session::Server>(so, *this, opt_.log);
+  server_ = std::make_unique<session::Server>(so, *this, log_);
   if (opt_.start_trigger) {
     trigger_ = trigger::make_generator(rig_.trigger);
-    trigger_->set_observer([this](const trigger::Pulse& p) { note_pulse(p.seq, static_cast<uint64_t>(p.t_ns)); });
+    trigger_->set_observer(
+        [this](const trigger::Pulse& p) { note_pulse(p.seq, static_cast<uint64_t>(p.t_ns)); });
   }
 }
 
-Aggregator::~Aggregator() { stop(); }
-
-void Aggregator::log(int level, const std::string& line) const {
-  if (opt_.log)
-    opt_.log(level, line);
-  else
-    fmt::print(stderr, "voxcap-host: {}\n", line);
+Aggregator::~Aggregator() {
+  stop();
 }
 
-uint16_t Aggregator::port() const { return server_->port(); }
+void Aggregator::log(log::Level level, const std::string& line) const {
+  log_(level, line);
+}
+
+uint16_t Aggregator::port() const {
+  return server_->port();
+}
 
 void Aggregator::start() {
   // The figures consumer goes last, after every stage the caller added.
@@ -161,10 +167,11 @@ void Aggregator::start() {
   pipeline_->start();
   assembly_->start();
   server_->start();
-  log(0, fmt::format("listening on {}:{} for {} nodes", rig_.network.listen, server_->port(), nodes_.size()));
+  log(log::Level::info,
+      fmt::format("listening on {}:{} for {} nodes", rig_.network.listen, server_->port(), nodes_.size()));
   if (trigger_) {
     trigger_->start(trigger::PulseTrain::from(rig_.trigger));
-    log(0, fmt::format("trigger: {} at {} Hz", trigger_->describe(), rig_.trigger.rate_hz));
+    log(log::Level::info, fmt::format("trigger: {} at {} Hz", trigger_->describe(), rig_.trigger.rate_hz));
   }
 }
 
@@ -180,7 +187,7 @@ void Aggregator::stop() {
         if (n->connected) server_->send(n->conn, buf.data(), len);
   }
   if (trigger_) trigger_->stop();
-  if (!server_->drain(500)) log(1, "some nodes did not take their STOP within 0.5 s");
+  if (!server_->drain(500)) log(log::Level::warn, "some nodes did not take their STOP within 0.5 s");
   server_->stop();
   // Upstream first: what was received goes through assembly (pending frames flushed), then every
   // stage drains its queue.
@@ -190,7 +197,9 @@ void Aggregator::stop() {
   server_.reset();
 }
 
-uint64_t Aggregator::merged_frames() const { return figures_ ? figures_->count.load() : 0; }
+uint64_t Aggregator::merged_frames() const {
+  return figures_ ? figures_->count.load() : 0;
+}
 
 void Aggregator::note_pulse(uint64_t seq, uint64_t t_ns) {
   (void)t_ns;
@@ -204,7 +213,9 @@ Aggregator::Node* Aggregator::by_conn(session::ConnId conn) {
   return nullptr;
 }
 
-void Aggregator::send(Node& n, const std::vector<uint8_t>& msg) { server_->send(n.conn, msg); }
+void Aggregator::send(Node& n, const std::vector<uint8_t>& msg) {
+  server_->send(n.conn, msg);
+}
 
 std::string Aggregator::on_hello(session::ConnId conn, const vc_msg& m, const std::string& peer) {
   std::lock_guard<std::mutex> g(mu_);
@@ -214,9 +225,11 @@ std::string Aggregator::on_hello(session::ConnId conn, const vc_msg& m, const st
     if (x->id == h.node_id) n = x.get();
   if (!n) return fmt::format("node {} is not in rig '{}'", h.node_id, rig_.name);
   if (h.camera_count != n->cfg->cameras.size())
-    return fmt::format("node {} has {} cameras, the rig gives it {}", h.node_id, h.camera_count, n->cfg->cameras.size());
+    return fmt::format("node {} has {} cameras, the rig gives it {}", h.node_id, h.camera_count,
+                       n->cfg->cameras.size());
   for (size_t k = 0; k < n->cfg->cameras.size(); k++) {
-    const rig::Camera& cam = rig_.calibration.cameras.at(static_cast<size_t>(rig_.camera_index(n->cfg->cameras[k])));
+    const rig::Camera& cam =
+        rig_.calibration.cameras.at(static_cast<size_t>(rig_.camera_index(n->cfg->cameras[k])));
     if (h.cameras[k].width != cam.width || h.cameras[k].height != cam.height)
       return fmt::format("node {} camera {} delivers {}x{}, {} is calibrated at {}x{}", h.node_id, k,
                          h.cameras[k].width, h.cameras[k].height, cam.name, cam.width, cam.height);
@@ -232,7 +245,7 @@ std::string Aggregator::on_hello(session::ConnId conn, const vc_msg& m, const st
   n->state = VC_STATE_IDLE;
   n->background_sent = n->start_sent = false;
   n->rep.joins++;
-  log(0, fmt::format("node {} ({}) joined from {}", n->id, n->cfg->id, peer));
+  log(log::Level::info, fmt::format("node {} ({}) joined from {}", n->id, n->cfg->id, peer));
   // The server delivers HELLO's acceptance after this returns; the CONFIG is queued behind nothing.
   send(*n, n->config_msg);
   return "";
@@ -248,7 +261,7 @@ void Aggregator::advance(Node& n) {
       buf.resize(len);
       send(n, buf);
       n.background_sent = true;
-      log(0, fmt::format("node {}: learning the background ({} frames)", n.id, b.frame_count));
+      log(log::Level::info, fmt::format("node {}: learning the background ({} frames)", n.id, b.frame_count));
     }
   }
   if (n.state == VC_STATE_READY && !n.start_sent) {
@@ -257,8 +270,10 @@ void Aggregator::advance(Node& n) {
                              [](const auto& x) { return x->connected && x->state == VC_STATE_READY; });
       if (!all) return;
       run_started_ = true;
-      origin_ = last_pulse_seq_ + std::max<uint64_t>(6, static_cast<uint64_t>(std::ceil(opt_.start_margin_s * rig_.trigger.rate_hz)));
-      log(0, fmt::format("every node is ready: the run starts at seq {}", origin_));
+      origin_ =
+          last_pulse_seq_ +
+          std::max<uint64_t>(6, static_cast<uint64_t>(std::ceil(opt_.start_margin_s * rig_.trigger.rate_hz)));
+      log(log::Level::info, fmt::format("every node is ready: the run starts at seq {}", origin_));
       for (auto& x : nodes_) {
         x->start_sent = false;
         if (x.get() != &n) advance(*x);
@@ -332,10 +347,17 @@ void Aggregator::on_message(session::ConnId conn, const vc_msg& m, uint64_t t_rx
       for (int i = 0; i < s.counter_count; i++) {
         uint64_t v = s.counters[i].value;
         switch (s.counters[i].counter_id) {
-          case VC_COUNTER_SEND_QUEUE_DROPS: n->rep.edge_queue_drops = v; break;
-          case VC_COUNTER_FRAMES_WITHOUT_PULSE: n->rep.edge_frames_without_pulse = v; break;
-          case VC_COUNTER_PULSES_WITHOUT_FRAME: n->rep.edge_pulses_without_frame = v; break;
-          default: break;
+          case VC_COUNTER_SEND_QUEUE_DROPS:
+            n->rep.edge_queue_drops = v;
+            break;
+          case VC_COUNTER_FRAMES_WITHOUT_PULSE:
+            n->rep.edge_frames_without_pulse = v;
+            break;
+          case VC_COUNTER_PULSES_WITHOUT_FRAME:
+            n->rep.edge_pulses_without_frame = v;
+            break;
+          default:
+            break;
         }
       }
       assembly_->post_stats(n->id, s);
@@ -345,14 +367,16 @@ void Aggregator::on_message(session::ConnId conn, const vc_msg& m, uint64_t t_rx
       const vc_error& e = m.u.error;
       n->rep.errors++;
       n->rep.last_error.assign(e.text, e.text_len);
-      log(e.severity == VC_SEVERITY_WARNING ? 1 : 2,
-          fmt::format("node {} {}: {}", n->id, vc_error_severity_name(e.severity) ? vc_error_severity_name(e.severity) : "?",
+      log(e.severity == VC_SEVERITY_WARNING ? log::Level::warn : log::Level::err,
+          fmt::format("node {} {}: {}", n->id,
+                      vc_error_severity_name(e.severity) ? vc_error_severity_name(e.severity) : "?",
                       n->rep.last_error));
       break;
     }
     default:
-      log(1, fmt::format("node {}: unexpected {}", n->id,
-                         vc_msg_type_name(m.hdr.type) ? vc_msg_type_name(m.hdr.type) : "message"));
+      log(log::Level::warn,
+          fmt::format("node {}: unexpected {}", n->id,
+                      vc_msg_type_name(m.hdr.type) ? vc_msg_type_name(m.hdr.type) : "message"));
       break;
   }
 }
@@ -365,7 +389,7 @@ void Aggregator::on_disconnect(session::ConnId conn, const std::string& reason) 
   n->state = VC_STATE_IDLE;
   n->rep.leaves++;
   set_running(*n);
-  log(1, fmt::format("node {} ({}) left: {}", n->id, n->cfg->id, reason));
+  log(log::Level::warn, fmt::format("node {} ({}) left: {}", n->id, n->cfg->id, reason));
 }
 
 void Aggregator::on_tick(uint64_t now_ns) {
@@ -385,18 +409,19 @@ void Aggregator::on_tick(uint64_t now_ns) {
     for (const auto& n : nodes_) {
       auto it = st.nodes.find(n->id);
       auto hd = host_drops.find(n->id);
-      nodes += fmt::format(" | {} {} edge {:.2f} ms late {} missing {} drops {}", n->cfg->id,
-                           n->connected ? (vc_node_state_name(n->state) ? vc_node_state_name(n->state) : "?") : "gone",
-                           n->rep.edge_frame_ms, it != st.nodes.end() ? it->second.late : 0,
-                           it != st.nodes.end() ? it->second.missing : 0,
-                           n->rep.edge_queue_drops + n->rep.edge_pulses_without_frame +
-                               (hd != host_drops.end() ? hd->second : 0));
+      nodes += fmt::format(
+          " | {} {} edge {:.2f} ms late {} missing {} drops {}", n->cfg->id,
+          n->connected ? (vc_node_state_name(n->state) ? vc_node_state_name(n->state) : "?") : "gone",
+          n->rep.edge_frame_ms, it != st.nodes.end() ? it->second.late : 0,
+          it != st.nodes.end() ? it->second.missing : 0,
+          n->rep.edge_queue_drops + n->rep.edge_pulses_without_frame +
+              (hd != host_drops.end() ? hd->second : 0));
     }
   }
   std::string stages;
   for (const pipeline::StageReport& s : pipeline_report().stages)
-    stages += fmt::format(" | {} {:.2f} ms q {}/{} drops {}", s.name, s.busy_ms_mean, s.queue.depth, s.queue.capacity,
-                          s.queue.dropped);
+    stages += fmt::format(" | {} {:.2f} ms q {}/{} drops {}", s.name, s.busy_ms_mean, s.queue.depth,
+                          s.queue.capacity, s.queue.dropped);
   uint64_t frames = 0;
   double p50 = 0, p99 = 0;
   {
@@ -406,10 +431,12 @@ void Aggregator::on_tick(uint64_t now_ns) {
     p99 = figures_->window.percentile_ms(0.99);
     figures_->window = Latency{};
   }
-  log(0, fmt::format("{:.1f} fps, trigger->merged p50 {:.2f} ms p99 {:.2f} ms, frames {} ({} complete, {} degraded, "
-                     "{} dropped){}{}",
-                     double(frames - frames_at_log_) / dt, p50, p99, frames, st.complete, st.degraded, st.dropped,
-                     nodes, stages));
+  log(log::Level::info,
+      fmt::format(
+          "{:.1f} fps, trigger->merged p50 {:.2f} ms p99 {:.2f} ms, frames {} ({} complete, {} degraded, "
+          "{} dropped){}{}",
+          double(frames - frames_at_log_) / dt, p50, p99, frames, st.complete, st.degraded, st.dropped, nodes,
+          stages));
   frames_at_log_ = frames;
   last_log_ns_ = now_ns;
 }

@@ -4,7 +4,7 @@
 
 #include <chrono>
 
-#include "voxcap/session/server.hpp"
+#include "voxcap/base/clock.hpp"
 
 namespace vc::aggregator {
 
@@ -15,15 +15,17 @@ assemble::AssemblerOptions unmerged(assemble::AssemblerOptions o) {
 }
 }  // namespace
 
-AssemblyStage::AssemblyStage(assemble::AssemblerOptions assembler, AssemblyOptions options, pipeline::Pipeline& out,
-                             pipeline::LogFn log)
+AssemblyStage::AssemblyStage(assemble::AssemblerOptions assembler, AssemblyOptions options,
+                             pipeline::Pipeline& out, log::Fn log)
     : out_(out),
       opt_(options),
-      log_(std::move(log)),
+      log_(log::or_spdlog(std::move(log), "voxcap-host")),
       inbox_(options.queue, pipeline::Overflow::DropNewest),
       assembler_(unmerged(std::move(assembler))) {}
 
-AssemblyStage::~AssemblyStage() { stop(); }
+AssemblyStage::~AssemblyStage() {
+  stop();
+}
 
 void AssemblyStage::start() {
   if (started_) return;
@@ -42,7 +44,7 @@ bool AssemblyStage::post(uint16_t node_id, Input in) {
   if (inbox_.push(std::move(in))) return true;
   if (inbox_.closed_and_empty()) return false;
   // Dropped: the stages are behind by a whole queue. Counted per node; a line at most every 5 s.
-  uint64_t now = session::monotonic_ns(), total = 0, since = 0;
+  uint64_t now = vc::monotonic_ns(), total = 0, since = 0;
   bool say = false;
   {
     std::lock_guard<std::mutex> g(mu_);
@@ -55,10 +57,11 @@ bool AssemblyStage::post(uint16_t node_id, Input in) {
       drops_logged_ = total;
     }
   }
-  if (say && log_)
-    log_(1, fmt::format("assemble: queue full ({} messages): dropping what the nodes send ({} dropped so far, "
-                        "{} since the last such line)",
-                        opt_.queue, total, since));
+  if (say)
+    log_(log::Level::warn,
+         fmt::format("assemble: queue full ({} messages): dropping what the nodes send ({} dropped so far, "
+                     "{} since the last such line)",
+                     opt_.queue, total, since));
   return false;
 }
 
@@ -67,13 +70,18 @@ bool AssemblyStage::post_hull(assemble::PartialHull hull) {
   return post(node, std::move(hull));
 }
 
-bool AssemblyStage::post_features(uint16_t node_id, uint64_t seq, uint64_t t_trigger_ns, const vc_features& f) {
+bool AssemblyStage::post_features(uint16_t node_id, uint64_t seq, uint64_t t_trigger_ns,
+                                  const vc_features& f) {
   return post(node_id, Features{node_id, seq, t_trigger_ns, f});
 }
 
-bool AssemblyStage::post_stats(uint16_t node_id, const vc_stats& s) { return post(node_id, Stats{node_id, s}); }
+bool AssemblyStage::post_stats(uint16_t node_id, const vc_stats& s) {
+  return post(node_id, Stats{node_id, s});
+}
 
-void AssemblyStage::set_running(uint16_t node_id, bool running) { inbox_.push_always(Running{node_id, running}); }
+void AssemblyStage::set_running(uint16_t node_id, bool running) {
+  inbox_.push_always(Running{node_id, running});
+}
 
 void AssemblyStage::forward(std::vector<assemble::MergedFrame>& frames) {
   for (auto& f : frames) out_.push(std::make_shared<pipeline::Frame>(std::move(f)));
@@ -89,7 +97,7 @@ void AssemblyStage::run() {
   for (;;) {
     std::optional<Input> in = inbox_.pop_for(poll);
     auto t0 = Clock::now();
-    uint64_t now = session::monotonic_ns();
+    uint64_t now = vc::monotonic_ns();
     {
       std::lock_guard<std::mutex> g(mu_);
       if (in) {
@@ -119,7 +127,7 @@ void AssemblyStage::run() {
   }
   {
     std::lock_guard<std::mutex> g(mu_);
-    assembler_.flush(session::monotonic_ns(), out);
+    assembler_.flush(vc::monotonic_ns(), out);
   }
   forward(out);
 }

@@ -6,9 +6,9 @@
 #include <ctime>
 #include <stdexcept>
 
+#include "voxcap/base/clock.hpp"
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/record/from_proto.hpp"
-#include "voxcap/session/server.hpp"
 
 namespace vc::aggregator {
 
@@ -16,7 +16,8 @@ static std::filesystem::path session_dir(const config::RigConfig& rig, const std
   std::time_t now = std::time(nullptr);
   std::tm utc{};
   gmtime_r(&now, &utc);
-  std::filesystem::path p = parent / fmt::format("{}-{:%Y%m%dT%H%M%SZ}", rig.name.empty() ? "rig" : rig.name, utc);
+  std::filesystem::path p =
+      parent / fmt::format("{}-{:%Y%m%dT%H%M%SZ}", rig.name.empty() ? "rig" : rig.name, utc);
   for (int k = 2; std::filesystem::exists(p); k++)
     p = parent / fmt::format("{}-{:%Y%m%dT%H%M%SZ}-{}", rig.name.empty() ? "rig" : rig.name, utc, k);
   return p;
@@ -33,8 +34,9 @@ void RecordStage::configure(const pipeline::StageContext& ctx) {
   if (!ctx.rig) throw std::invalid_argument("record: the stage needs the rig configuration");
   const config::RigConfig& rig = *ctx.rig;
   dir_ = session_dir(rig, parent_);
-  rec_.emplace(record::Recorder::create(dir_, rig.source, rig.calibration_path,
-                                        fmt::format(R"({{"rig":"{}","nodes":{}}})", rig.name, rig.nodes.size())));
+  rec_.emplace(
+      record::Recorder::create(dir_, rig.source, rig.calibration_path,
+                               fmt::format(R"({{"rig":"{}","nodes":{}}})", rig.name, rig.nodes.size())));
   last_sync_ = std::chrono::steady_clock::now();
 }
 
@@ -50,7 +52,7 @@ void RecordStage::process(pipeline::Frame& f) {
   frame_.nodes_missing.assign(f.missing.begin(), f.missing.end());
   frame_.rle.assign(f.rle.begin(), f.rle.end());
   rec_->append(frame_);
-  const uint64_t now = session::monotonic_ns();
+  const uint64_t now = vc::monotonic_ns();
   for (const pipeline::NodePart& p : f.nodes) {
     for (const vc_features& feat : p.features) {
       record::to_record(p.node_id, f.seq, feat, &features_);

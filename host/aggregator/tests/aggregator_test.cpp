@@ -2,6 +2,7 @@
 // noted by the test). Loops are bounded in time.
 #include "voxcap/aggregator/aggregator.hpp"
 #include "voxcap/aggregator/record_stage.hpp"
+#include "voxcap/base/clock.hpp"
 
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
@@ -10,7 +11,9 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
@@ -39,7 +42,8 @@ int free_port() {
   sockaddr_in a{};
   a.sin_family = AF_INET;
   a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  EXPECT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)), 0);
+  if (bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)) != 0)
+    ADD_FAILURE() << "bind: " << std::strerror(errno);
   socklen_t len = sizeof(a);
   getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
   close(fd);
@@ -243,7 +247,7 @@ TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
   TmpDir tmp;
   Options o;
   o.start_trigger = false;
-  o.log = [](int, const std::string&) {};
+  o.log = [](log::Level, const std::string&) {};
   Aggregator agg(make_rig(tmp.p), o);
   FrameSink& sink = agg.pipeline().tap(std::make_unique<FrameSink>(), {64, pipeline::Overflow::Block});
   agg.start();
@@ -270,7 +274,7 @@ TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
 
   uint32_t gid = grid_id(make_rig(tmp.p).grid);
   std::vector<uint8_t> a(8, 0xF0), b(8, 0x3C);
-  uint64_t t106 = session::monotonic_ns();
+  uint64_t t106 = vc::monotonic_ns();
   e1.hull(118, t106, gid, a);
   e2.hull(118, t106, gid, b);
   for (int i = 0; i < 200; i++) {
@@ -293,7 +297,7 @@ TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
   e2.fd = socket(AF_INET, SOCK_STREAM, 0);
   for (int i = 0; i < 200 && agg.report().nodes[1].connected; i++)
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  e1.hull(119, session::monotonic_ns(), gid, a);
+  e1.hull(119, vc::monotonic_ns(), gid, a);
   for (int i = 0; i < 400; i++) {
     {
       std::lock_guard<std::mutex> g(sink.mu);
@@ -345,7 +349,7 @@ TEST(Aggregator, FeaturesAndStatsTravelWithTheirFrameThroughEveryStageIntoTheRec
   TmpDir tmp;
   Options o;
   o.start_trigger = false;
-  o.log = [](int, const std::string&) {};
+  o.log = [](log::Level, const std::string&) {};
   config::RigConfig rig = make_rig(tmp.p);
   uint32_t gid = grid_id(rig.grid);
   Aggregator agg(rig, o);
@@ -356,7 +360,7 @@ TEST(Aggregator, FeaturesAndStatsTravelWithTheirFrameThroughEveryStageIntoTheRec
   FakeEdge e1(agg.port(), 1), e2(agg.port(), 2);
   int64_t origin = bring_up(agg, e1, e2);
   ASSERT_GT(origin, 0);
-  uint64_t seq = static_cast<uint64_t>(origin), t = session::monotonic_ns();
+  uint64_t seq = static_cast<uint64_t>(origin), t = vc::monotonic_ns();
   std::vector<uint8_t> a(8, 0xF0), b(8, 0x3C);
   e1.stats();
   e1.features(seq, t, 0);  // the front node's features, before and after its hull
@@ -415,7 +419,7 @@ TEST(Aggregator, RejectsUnknownNodesAndWrongCameras) {
   TmpDir tmp;
   Options o;
   o.start_trigger = false;
-  o.log = [](int, const std::string&) {};
+  o.log = [](log::Level, const std::string&) {};
   Aggregator agg(make_rig(tmp.p), o);
   agg.start();
   FakeEdge stranger(agg.port(), 9);

@@ -9,8 +9,8 @@
 #include <mutex>
 #include <thread>
 
+#include "voxcap/base/clock.hpp"
 #include "voxcap/rle.h"
-#include "voxcap/session/server.hpp"
 
 namespace vc::aggregator {
 namespace {
@@ -57,7 +57,7 @@ assemble::PartialHull hull(uint16_t node, uint64_t seq) {
   assemble::PartialHull h;
   h.node_id = node;
   h.seq = seq;
-  h.t_trigger_ns = session::monotonic_ns();  // the deadline counts from the pulse
+  h.t_trigger_ns = vc::monotonic_ns();  // the deadline counts from the pulse
   h.t_received_ns = h.t_trigger_ns;
   h.grid_id = 7;
   h.voxel_count = 64;
@@ -71,8 +71,8 @@ TEST(AssemblyStage, PostingNeverWaitsAndAFullQueueDropsCountedPerNode) {
   Gate& gate = p.tap(std::make_unique<Gate>(), {1, pipeline::Overflow::Block});
   p.start();
   std::vector<std::string> warnings;
-  AssemblyStage a(options(), {8, 1}, p, [&](int level, const std::string& line) {
-    if (level == 1) warnings.push_back(line);
+  AssemblyStage a(options(), {8, 1}, p, [&](log::Level level, const std::string& line) {
+    if (level == log::Level::warn) warnings.push_back(line);
   });
   a.set_running(1, true);
   a.set_running(2, true);
@@ -84,7 +84,7 @@ TEST(AssemblyStage, PostingNeverWaitsAndAFullQueueDropsCountedPerNode) {
   vc_features f{};
   f.feature_count = 1;
   for (uint64_t seq = 1; seq <= 200; seq++) {
-    a.post_features(1, seq, session::monotonic_ns(), f);
+    a.post_features(1, seq, vc::monotonic_ns(), f);
     bool h1 = a.post_hull(hull(1, seq));
     bool h2 = a.post_hull(hull(2, seq));
     (h1 && h2 ? accepted : refused)++;  // a frame needs both hulls

@@ -443,8 +443,8 @@ void EmulatedRig::start(double timeout_s) {
                            o.noise, cal_path.string());
   aggregator::Options ao;
   if (o.quiet)
-    ao.log = [](int level, const std::string& line) {
-      if (level >= 2) fmt::print(stderr, "voxcap-host: {}\n", line);
+    ao.log = [out = log::to_spdlog("voxcap-host")](log::Level level, const std::string& line) {
+      if (level >= log::Level::err) out(level, line);
     };
   m.agg = std::make_unique<aggregator::Aggregator>(rig, ao);
   // The host's pipeline: assemble -> merge -> the recording (every frame) and the scorer (live).

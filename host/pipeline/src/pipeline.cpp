@@ -10,9 +10,12 @@ namespace vc::pipeline {
 
 const char* overflow_name(Overflow o) {
   switch (o) {
-    case Overflow::Block: return "block";
-    case Overflow::DropOldest: return "drop-oldest";
-    case Overflow::DropNewest: return "drop-newest";
+    case Overflow::Block:
+      return "block";
+    case Overflow::DropOldest:
+      return "drop-oldest";
+    case Overflow::DropNewest:
+      return "drop-newest";
   }
   return "?";
 }
@@ -30,17 +33,15 @@ StageRunner::~StageRunner() {
   }
 }
 
-void StageRunner::log(int level, const std::string& line) const {
-  if (ctx_.log)
-    ctx_.log(level, name_ + ": " + line);
-  else
-    fmt::print(stderr, "voxcap: {}: {}\n", name_, line);
+void StageRunner::log(log::Level level, const std::string& line) const {
+  ctx_.log(level, name_ + ": " + line);
 }
 
 void StageRunner::configure(const StageContext& ctx) {
   ctx_ = ctx;
+  ctx_.log = log::or_spdlog(ctx.log);
   StageContext own = ctx;
-  own.log = [this](int level, const std::string& line) { log(level, line); };
+  own.log = [this](log::Level level, const std::string& line) { log(level, line); };
   stage_->configure(own);
 }
 
@@ -51,7 +52,9 @@ void StageRunner::start() {
   thread_ = std::thread([this] { run(); });
 }
 
-bool StageRunner::push(FramePtr frame) { return queue_.push(std::move(frame)); }
+bool StageRunner::push(FramePtr frame) {
+  return queue_.push(std::move(frame));
+}
 
 void StageRunner::run() {
   using Clock = std::chrono::steady_clock;
@@ -88,8 +91,8 @@ void StageRunner::run() {
       errors_unlogged++;
       auto now = Clock::now();
       if (now - last_error_log >= std::chrono::seconds(1)) {
-        log(2, fmt::format("frame {}: {} ({} frame(s) failed since the last such line)", (*f)->seq, error,
-                           errors_unlogged));
+        log(log::Level::err, fmt::format("frame {}: {} ({} frame(s) failed since the last such line)",
+                                         (*f)->seq, error, errors_unlogged));
         errors_unlogged = 0;
         last_error_log = now;
       }

@@ -30,7 +30,7 @@ class Probe : public Stage {
   void configure(const StageContext& ctx) override {
     calls.push_back("configure");
     rig = ctx.rig;
-    if (ctx.log) ctx.log(0, "configured");
+    if (ctx.log) ctx.log(log::Level::info, "configured");
   }
   void start() override { calls.push_back("start"); }
   void process(Frame& f) override {
@@ -89,7 +89,7 @@ TEST(Pipeline, EveryStageSeesFramesInOrderThroughTheChainAndEveryConsumer) {
   std::vector<std::string> lines;
   std::mutex lines_mu;
   StageContext ctx;
-  ctx.log = [&](int, const std::string& l) {
+  ctx.log = [&](log::Level, const std::string& l) {
     std::lock_guard<std::mutex> g(lines_mu);
     lines.push_back(l);
   };
@@ -123,7 +123,8 @@ TEST(Pipeline, EveryStageSeesFramesInOrderThroughTheChainAndEveryConsumer) {
     EXPECT_EQ(s.queue.depth, 0u) << s.name;
   }
   std::lock_guard<std::mutex> g(lines_mu);
-  EXPECT_NE(std::find(lines.begin(), lines.end(), "c: configured"), lines.end()) << "lines carry the stage's name";
+  EXPECT_NE(std::find(lines.begin(), lines.end(), "c: configured"), lines.end())
+      << "lines carry the stage's name";
 }
 
 TEST(Pipeline, AStalledLiveConsumerDropsTheOldestWhileARecordingConsumerGetsEveryFrame) {
@@ -140,7 +141,8 @@ TEST(Pipeline, AStalledLiveConsumerDropsTheOldestWhileARecordingConsumerGetsEver
   PipelineReport r = p.report();
   const StageReport* lr = r.stage("live");
   ASSERT_NE(lr, nullptr);
-  EXPECT_EQ(live.seqs(), (std::vector<uint64_t>{1, 98, 99, 100})) << "the stall's frames were dropped, the newest kept";
+  EXPECT_EQ(live.seqs(), (std::vector<uint64_t>{1, 98, 99, 100}))
+      << "the stall's frames were dropped, the newest kept";
   EXPECT_EQ(lr->queue.dropped, 96u);
   EXPECT_EQ(lr->processed + lr->queue.dropped, 100u) << "every frame accounted";
   EXPECT_EQ(rec.seqs(), range(1, 101));
@@ -196,8 +198,8 @@ TEST(StageRunner, StopWhileAProducerIsBlockedWakesItAndFinishesTheQueuedFrames) 
 TEST(StageRunner, AnExceptionInAStageIsCountedAndTheFrameGoesNoFurther) {
   std::atomic<int> errors_logged{0};
   StageContext ctx;
-  ctx.log = [&](int level, const std::string& line) {
-    if (level == 2 && line.find("bad frame") != std::string::npos) errors_logged++;
+  ctx.log = [&](log::Level level, const std::string& line) {
+    if (level == log::Level::err && line.find("bad frame") != std::string::npos) errors_logged++;
   };
   Pipeline p(ctx);
   Probe& a = p.then(std::make_unique<Probe>("a"), {8, Overflow::Block});

@@ -34,7 +34,6 @@ void write_new_file(const std::filesystem::path& path, const std::string& data);
 void sync_dir(const std::filesystem::path& dir);
 
 int64_t realtime_ns();
-uint64_t monotonic_ns();
 // "2024-05-01T12:00:00.123Z" (UTC, milliseconds).
 std::string format_utc(int64_t unix_ns);
 

@@ -24,6 +24,7 @@
 #include <nlohmann/json.hpp>
 
 #include "io.hpp"
+#include "voxcap/base/clock.hpp"
 #include "voxcap/crc32c.h"
 #include "voxcap/record/format.hpp"
 
@@ -158,7 +159,7 @@ Recorder Recorder::create(const fs::path& dir, const fs::path& rig_toml, const f
 
     format::BeginRecord begin;
     begin.created_unix_ns = io::realtime_ns();
-    begin.created_mono_ns = io::monotonic_ns();
+    begin.created_mono_ns = vc::monotonic_ns();
     auto file_entry = [](const char* name, const fs::path& source, const std::string& text) {
       std::error_code ec;
       fs::path abs = fs::absolute(source, ec);

@@ -13,16 +13,11 @@
 #include <cerrno>
 #include <chrono>
 #include <cstring>
-#include <ctime>
 #include <stdexcept>
 
-namespace vc::session {
+#include "voxcap/base/clock.hpp"
 
-uint64_t monotonic_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<uint64_t>(ts.tv_sec) * 1'000'000'000u + static_cast<uint64_t>(ts.tv_nsec);
-}
+namespace vc::session {
 
 bool ServerOptions::valid(std::string* why) const {
   auto fail = [&](const char* m) {
@@ -57,21 +52,14 @@ struct Server::Conn {
   }
 };
 
-Server::Server(ServerOptions options, Handler& handler, LogFn log)
-    : opt_(std::move(options)), handler_(handler), log_(std::move(log)) {
+Server::Server(ServerOptions options, Handler& handler, log::Fn log)
+    : opt_(std::move(options)), handler_(handler), log_(log::or_spdlog(std::move(log), "voxcap-host")) {
   std::string why;
   if (!opt_.valid(&why)) throw std::invalid_argument("session server: " + why);
 }
 
 Server::~Server() {
   stop();
-}
-
-void Server::log(int level, const std::string& line) const {
-  if (log_)
-    log_(level, line);
-  else
-    fmt::print(stderr, "voxcap-host: {}\n", line);
 }
 
 void Server::start() {
@@ -169,8 +157,9 @@ ServerStats Server::stats() const {
 }
 
 void Server::drop(Conn& c, const std::string& reason, bool notify) {
-  log(c.hello ? 1 : 0, fmt::format("connection {} ({}{}) dropped: {}", c.id, c.peer,
-                                   c.hello ? fmt::format(", node {}", c.node_id) : "", reason));
+  log(c.hello ? log::Level::warn : log::Level::info,
+      fmt::format("connection {} ({}{}) dropped: {}", c.id, c.peer,
+                  c.hello ? fmt::format(", node {}", c.node_id) : "", reason));
   if (notify && c.hello) handler_.on_disconnect(c.id, reason);
   std::lock_guard<std::mutex> g(mu_);
   stats_.closed++;
@@ -230,7 +219,7 @@ void Server::handle_readable(Conn& c, uint64_t now_ns) {
             c.closing = why;
             return;
           }
-          log(1, fmt::format("connection {}: rejected a message: {}", c.id, why));
+          log(log::Level::warn, fmt::format("connection {}: rejected a message: {}", c.id, why));
           send_error_now(c.fd, VC_ERR_PROTOCOL, VC_SEVERITY_ERROR, why);
           continue;
         }
@@ -319,7 +308,7 @@ void Server::run() {
         c->peer = fmt::format("{}:{}", ip, ntohs(peer.sin_port));
         char why[128];
         if (vc_decoder_new(0, &c->dec, why, sizeof(why)) < 0) {
-          log(0, fmt::format("connection from {} refused: {}", c->peer, why));
+          log(log::Level::warn, fmt::format("connection from {} refused: {}", c->peer, why));
           continue;  // ~Conn closes the socket
         }
         c->created_ns = c->last_rx_ns = now;

@@ -23,6 +23,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "voxcap/base/clock.hpp"
 #include "voxcap/trigger/bitbang.hpp"
 
 namespace vc::trigger::detail {
@@ -88,7 +89,7 @@ class LibftdiIo final : public BitbangIo {
     if (rc < 0 && rc != LIBUSB_ERROR_INTERRUPTED && rc != LIBUSB_ERROR_TIMEOUT)
       throw TriggerError(fmt::format("ftdi: USB event handling failed: {}", libusb_error_name(rc)));
   }
-  int64_t now_ns() const override { return monotonic_ns(); }
+  int64_t now_ns() const override { return static_cast<int64_t>(vc::monotonic_ns()); }
   std::string error() const override { return ftdi_get_error_string(ctx_); }
 
  private:

@@ -3,6 +3,7 @@
 // any inversion, so "active" always means "pulse". Edges are timed by the shared scheduler on the
 // pulse thread; the library's error codes become TriggerErrors here and nowhere else.
 #include "backends.hpp"
+#include "voxcap/base/clock.hpp"
 
 #include <gpiod.h>
 
@@ -143,7 +144,7 @@ void GpiodGenerator::prepare(const PulseTrain& /*train*/) {
 }
 
 void GpiodGenerator::leading_edge(Pulse& pulse) {
-  pulse.t_ns = monotonic_ns();
+  pulse.t_ns = static_cast<int64_t>(vc::monotonic_ns());
   if (gpiod_line_request_set_value(request_, offset_, GPIOD_LINE_VALUE_ACTIVE) < 0)
     throw TriggerError(
         fmt::format("gpiod: setting line {} failed: {}", gpio_.line_str(), std::strerror(errno)));

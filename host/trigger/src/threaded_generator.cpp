@@ -13,15 +13,10 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "voxcap/base/clock.hpp"
 #include "voxcap/trigger/scheduler.hpp"
 
 namespace vc::trigger {
-
-int64_t monotonic_ns() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return static_cast<int64_t>(ts.tv_sec) * 1'000'000'000 + ts.tv_nsec;
-}
 
 bool PulseTrain::valid(std::string* why) const {
   auto fail = [why](std::string m) {
@@ -153,7 +148,7 @@ void ThreadedGenerator::record_pulse(const Pulse& pulse) {
 bool ScheduledGenerator::sleep_until(int64_t t_ns) const {
   for (;;) {
     if (stop_requested()) return false;
-    const int64_t now = monotonic_ns();
+    const int64_t now = static_cast<int64_t>(vc::monotonic_ns());
     if (now >= t_ns) return true;
     sleep_abs(std::min(t_ns, now + kSleepSliceNs));
   }
@@ -161,7 +156,7 @@ bool ScheduledGenerator::sleep_until(int64_t t_ns) const {
 
 void ScheduledGenerator::run(const PulseTrain& train) {
   ScheduleOptions so;
-  so.start_ns = monotonic_ns() + kStartLeadNs;
+  so.start_ns = static_cast<int64_t>(vc::monotonic_ns()) + kStartLeadNs;
   so.rate_hz = train.rate_hz;
   so.first_seq = train.first_seq;
   so.count = train.count;
@@ -171,7 +166,7 @@ void ScheduledGenerator::run(const PulseTrain& train) {
 
   while (!scheduler.done()) {
     if (!sleep_until(scheduler.next_due_ns())) break;
-    const std::optional<Due> due = scheduler.take(monotonic_ns());
+    const std::optional<Due> due = scheduler.take(static_cast<int64_t>(vc::monotonic_ns()));
     update_stats([&](Stats& s) {
       const ScheduleStats& st = scheduler.stats();
       s.late = st.late;

@@ -15,6 +15,7 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "voxcap/base/clock.hpp"
 #include "voxcap/proto.hpp"
 
 namespace vc::trigger::detail {
@@ -57,7 +58,7 @@ void UdpGenerator::prepare(const PulseTrain& /*train*/) {
 }
 
 void UdpGenerator::leading_edge(Pulse& pulse) {
-  pulse.t_ns = monotonic_ns();
+  pulse.t_ns = static_cast<int64_t>(vc::monotonic_ns());
   const proto::TriggerDatagram dgram = proto::encode_trigger(pulse.seq, static_cast<uint64_t>(pulse.t_ns));
   uint64_t failed = 0;
   for (size_t i = 0; i < addrs_.size(); ++i) {

@@ -20,6 +20,7 @@
 #include <thread>
 #include <vector>
 
+#include "voxcap/base/clock.hpp"
 #include "voxcap/proto.h"
 
 namespace vc::trigger {
@@ -89,10 +90,10 @@ TEST(UdpGenerator, SendsOneDatagramPerPulseWithConsecutiveSeqAndSaneTimes) {
     observed.push_back(p);
   });
 
-  const int64_t before = monotonic_ns();
+  const int64_t before = static_cast<int64_t>(vc::monotonic_ns());
   gen->start(PulseTrain{200.0, 100.0, 25, 0});
   ASSERT_TRUE(gen->wait_done(10s));
-  const int64_t after = monotonic_ns();
+  const int64_t after = static_cast<int64_t>(vc::monotonic_ns());
   EXPECT_FALSE(gen->running());
   EXPECT_EQ(gen->last_error(), "");
   EXPECT_EQ(gen->pulses_sent(), 25u);

@@ -31,6 +31,7 @@
 
 #include "voxcap/aggregator/assembly_stage.hpp"
 #include "voxcap/assemble/assembler.hpp"
+#include "voxcap/base/log.hpp"
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/pipeline/pipeline.hpp"
 #include "voxcap/proto.h"
@@ -48,13 +49,13 @@ struct Options {
   // origin = last pulse + this much time in pulses (at least 6): START must reach every node, and each
   // must be streaming (emulated cameras reopen for the run) before the origin pulse.
   double start_margin_s = 0.3;
-  bool start_trigger = true;    // false: tests drive pulses themselves via note_pulse()
-  std::function<void(int level, const std::string&)> log;  // 0 info, 1 warning, 2 error
-  double log_every_s = 5;       // a line of figures (fps, latency, per-node drops, stages) this often; 0: never
-  AssemblyOptions assembly;     // the assembly stage's queue and deadline polling
+  bool start_trigger = true;  // false: tests drive pulses themselves via note_pulse()
+  log::Fn log;  // the aggregator's, the sessions' and the stages' lines; none: spdlog, "voxcap-host: ..."
+  double log_every_s = 5;    // a line of figures (fps, latency, per-node drops, stages) this often; 0: never
+  AssemblyOptions assembly;  // the assembly stage's queue and deadline polling
 };
 
-struct Latency {  // nanoseconds
+struct Latency {                              // nanoseconds
   static constexpr size_t kReservoir = 4096;  // p99 rests on ~40 values above it
   uint64_t n = 0;
   double sum = 0;
@@ -79,21 +80,21 @@ struct NodeReport {
   std::string last_error;
   double edge_frame_ms = 0;  // trigger edge → HULL queued, as the edge's STATS say (mean)
   std::map<std::string, double> edge_stage_ms;  // mean per stage from the last STATS
-  Latency rx;                // trigger → HULL received at the host
+  Latency rx;                                   // trigger → HULL received at the host
 };
 
 struct Report {
   uint64_t pulses = 0;
   uint64_t frames = 0, complete = 0, degraded = 0, dropped = 0, evicted = 0;
   uint64_t first_seq = 0, last_seq = 0;
-  double seconds = 0;   // from the first merged frame to the last
+  double seconds = 0;  // from the first merged frame to the last
   double fps = 0;
-  Latency merged;       // trigger → merged
+  Latency merged;  // trigger → merged
   std::vector<NodeReport> nodes;
-  session::ServerStats server;  // connections accepted, dropped for undecodable bytes, timeouts, ...
-  size_t pending_frames = 0;    // frames waiting in the assembler now
+  session::ServerStats server;        // connections accepted, dropped for undecodable bytes, timeouts, ...
+  size_t pending_frames = 0;          // frames waiting in the assembler now
   pipeline::PipelineReport pipeline;  // every stage: assemble, merge, ..., figures, consumers
-  bool running = false; // the run has started (every node was READY once)
+  bool running = false;               // the run has started (every node was READY once)
   uint64_t origin = 0;
 };
 
@@ -128,7 +129,7 @@ class Aggregator : public session::Handler {
   void send(Node& n, const std::vector<uint8_t>& msg);
   void advance(Node& n);
   void set_running(Node& n);
-  void log(int level, const std::string& line) const;
+  void log(log::Level level, const std::string& line) const;
   pipeline::PipelineReport pipeline_report() const;
 
   // Counts the frames that leave the chain: fps and trigger -> merged latency (a Block consumer).
@@ -136,6 +137,7 @@ class Aggregator : public session::Handler {
 
   config::RigConfig rig_;
   Options opt_;
+  log::Fn log_;  // opt_.log, or spdlog
   uint32_t grid_id_;
   std::unique_ptr<pipeline::Pipeline> pipeline_;
   Figures* figures_ = nullptr;  // owned by pipeline_

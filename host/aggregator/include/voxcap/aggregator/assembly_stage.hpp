@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "voxcap/assemble/assembler.hpp"
+#include "voxcap/base/log.hpp"
 #include "voxcap/pipeline/pipeline.hpp"
 
 namespace vc::aggregator {
@@ -32,7 +33,7 @@ class AssemblyStage {
  public:
   // Frames go to `out` (borrowed; it must outlive this stage and be started before start()).
   AssemblyStage(assemble::AssemblerOptions assembler, AssemblyOptions options, pipeline::Pipeline& out,
-                pipeline::LogFn log);
+                log::Fn log);
   ~AssemblyStage();  // stop()
 
   void start();
@@ -48,7 +49,7 @@ class AssemblyStage {
 
   assemble::AssemblerStats stats() const;
   size_t pending() const;
-  pipeline::StageReport report() const;  // as "assemble"
+  pipeline::StageReport report() const;        // as "assemble"
   std::map<uint16_t, uint64_t> drops() const;  // per node: messages dropped for a full queue
 
  private:
@@ -73,7 +74,7 @@ class AssemblyStage {
 
   pipeline::Pipeline& out_;
   AssemblyOptions opt_;
-  pipeline::LogFn log_;
+  log::Fn log_;
   pipeline::BoundedQueue<Input> inbox_;
   mutable std::mutex mu_;  // the assembler, the figures below
   assemble::Assembler assembler_;

@@ -11,7 +11,8 @@
 // back the stage before it (a pipeline thread); a live consumer uses Overflow::DropOldest (counted).
 //
 // Adding a stage is one line before start():
-//   pipeline.tap(std::make_unique<viewer::ViewStage>(...), {.capacity = 2, .overflow = Overflow::DropOldest});
+//   pipeline.tap(std::make_unique<viewer::ViewStage>(...), {.capacity = 2, .overflow =
+//   Overflow::DropOldest});
 #pragma once
 
 #include <atomic>
@@ -34,9 +35,9 @@ struct QueueOptions {
 struct StageReport {
   std::string name;
   Overflow overflow = Overflow::Block;
-  QueueCounters queue;       // accepted, dropped (by the policy), depth now and at most
-  uint64_t processed = 0;    // process() calls that returned
-  uint64_t errors = 0;       // process() calls that threw
+  QueueCounters queue;     // accepted, dropped (by the policy), depth now and at most
+  uint64_t processed = 0;  // process() calls that returned
+  uint64_t errors = 0;     // process() calls that threw
   std::string last_error;
   double busy_ms_mean = 0, busy_ms_max = 0;  // time in process()
 };
@@ -74,7 +75,7 @@ class StageRunner {
 
  private:
   void run();
-  void log(int level, const std::string& line) const;
+  void log(log::Level level, const std::string& line) const;
 
   std::unique_ptr<Stage> stage_;
   std::string name_;

@@ -16,6 +16,7 @@
 #include <functional>
 #include <string>
 
+#include "voxcap/base/log.hpp"
 #include "voxcap/pipeline/frame.hpp"
 
 namespace vc::config {
@@ -24,12 +25,10 @@ struct RigConfig;
 
 namespace vc::pipeline {
 
-using LogFn = std::function<void(int level, const std::string& line)>;  // 0 info, 1 warning, 2 error
-
 // What a stage may know of the host. Borrowed: lives as long as the pipeline that passes it.
 struct StageContext {
   const config::RigConfig* rig = nullptr;  // the rig being run (nodes, grid, calibration, ...)
-  LogFn log;                               // lines are prefixed with the stage's name by the runner
+  log::Fn log;  // lines are prefixed with the stage's name by the runner; none: spdlog's default logger
 };
 
 class Stage {

@@ -21,6 +21,7 @@
 #include <thread>
 #include <vector>
 
+#include "voxcap/base/log.hpp"
 #include "voxcap/proto.h"
 
 namespace vc::session {
@@ -66,9 +67,8 @@ struct ServerStats {
 
 class Server {
  public:
-  using LogFn = std::function<void(int level, const std::string&)>;  // 0 info, 1 warning, 2 error
-
-  Server(ServerOptions options, Handler& handler, LogFn log = {});
+  // Lines go to log; without one to spdlog as "voxcap-host: ...".
+  Server(ServerOptions options, Handler& handler, log::Fn log = {});
   ~Server();  // stops
   Server(const Server&) = delete;
   Server& operator=(const Server&) = delete;
@@ -95,11 +95,11 @@ class Server {
   void drop(Conn& c, const std::string& reason, bool notify);
   void handle_readable(Conn& c, uint64_t now_ns);
   void flush(Conn& c);
-  void log(int level, const std::string& line) const;
+  void log(log::Level level, const std::string& line) const { log_(level, line); }
 
   ServerOptions opt_;
   Handler& handler_;
-  LogFn log_;
+  log::Fn log_;
   int listen_fd_ = -1;
   int wake_fd_ = -1;
   uint16_t port_ = 0;
@@ -110,7 +110,5 @@ class Server {
   ConnId next_id_ = 1;
   ServerStats stats_;
 };
-
-uint64_t monotonic_ns();
 
 }  // namespace vc::session

@@ -104,7 +104,4 @@ class Generator {
 // The backend named by options.backend, configured from the options (nothing opened yet).
 std::unique_ptr<Generator> make_generator(const config::TriggerOptions& options);
 
-// CLOCK_MONOTONIC now, in nanoseconds.
-int64_t monotonic_ns();
-
 }  // namespace vc::trigger
