@@ -30,8 +30,6 @@
 #include "voxcap/sim/rig_layout.hpp"
 #include "voxcap/sim/scene.hpp"
 
-extern char** environ;
-
 namespace vc::emulated {
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
@@ -101,8 +99,8 @@ class TruthScorer : public pipeline::Stage {
     scene_ = std::make_unique<sim::Scene>(so);
     const vc_voxel_grid g = rig::to_c_grid(grid);
     for (int k = 0; k < opt.nodes; k++) {
-      vc_camera a = rig::to_c_camera(cal.cameras[static_cast<size_t>(2 * k)]);
-      vc_camera b = rig::to_c_camera(cal.cameras[static_cast<size_t>(2 * k + 1)]);
+      vc_camera a = rig::to_c_camera(cal.cameras[2 * static_cast<size_t>(k)]);
+      vc_camera b = rig::to_c_camera(cal.cameras[2 * static_cast<size_t>(k) + 1]);
       vc_carver* c = vc_carver_new(&g, &a, &b);
       if (!c) throw std::runtime_error("truth: cannot build a carver for the rig");
       carvers_.push_back(c);
@@ -335,6 +333,7 @@ struct EmulatedRig::Impl {
                                      (dir / fmt::format("node{}", k)).string()};
     fs::create_directories(dir / fmt::format("node{}", k));
     std::vector<char*> argv;
+    argv.reserve(args.size() + 1);
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
     posix_spawn_file_actions_t fa;
