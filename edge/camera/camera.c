@@ -80,7 +80,9 @@ int vc_camera_set_error(vc_camera* cam, int code, const char* fmt, ...) {
   return code;
 }
 
-void vc_camera_count_corrupted(vc_camera* cam) { cam->stats.corrupted++; }
+void vc_camera_count_corrupted(vc_camera* cam) {
+  cam->stats.corrupted++;
+}
 
 static void clear_error(vc_camera* cam) {
   cam->err = 0;
@@ -109,12 +111,14 @@ static int check_config(const vc_camera_config* cfg, char* why, size_t why_len) 
   return -EINVAL;
 }
 
-int vc_camera_open_backend(const vc_camera_backend* backend, const vc_camera_config* cfg,
-                           vc_camera** out, char* why, size_t why_len) {
+int vc_camera_open_backend(const vc_camera_backend* backend, const vc_camera_config* cfg, vc_camera** out,
+                           char* why, size_t why_len) {
   return vc_camera_open_backend_arg(backend, cfg, NULL, out, why, why_len);
 }
 
-const void* vc_camera_backend_arg(const vc_camera* cam) { return cam->arg; }
+const void* vc_camera_backend_arg(const vc_camera* cam) {
+  return cam->arg;
+}
 
 int vc_camera_open_backend_arg(const vc_camera_backend* backend, const vc_camera_config* cfg, const void* arg,
                                vc_camera** out, char* why, size_t why_len) {
@@ -258,7 +262,8 @@ int vc_camera_rewind(vc_camera* cam, uint64_t seq_base, vc_camera_scene scene) {
   clear_error(cam);
   if (!cam->be->rewind || !(vc_camera_caps(cam) & VC_CAMERA_CAP_REWIND))
     return vc_camera_set_error(cam, -ENOTSUP, "cannot rewind: a real camera sees the room as it is");
-  if (cam->state == CAM_STREAMING) return vc_camera_set_error(cam, -EBUSY, "rewind while streaming: stop first");
+  if (cam->state == CAM_STREAMING)
+    return vc_camera_set_error(cam, -EBUSY, "rewind while streaming: stop first");
   int rc = cam->be->rewind(cam, cam->priv, seq_base, scene);
   if (rc && !cam->err) vc_camera_set_error(cam, rc, "rewind failed: %s", strerror(-rc));
   return rc;
@@ -283,8 +288,12 @@ void vc_camera_free(vc_camera* cam) {
   free(cam);
 }
 
-const char* vc_camera_last_error(const vc_camera* cam) { return cam ? cam->errmsg : ""; }
-int vc_camera_last_errno(const vc_camera* cam) { return cam ? cam->err : 0; }
+const char* vc_camera_last_error(const vc_camera* cam) {
+  return cam ? cam->errmsg : "";
+}
+int vc_camera_last_errno(const vc_camera* cam) {
+  return cam ? cam->err : 0;
+}
 
 void vc_camera_get_info(const vc_camera* cam, vc_camera_info* info) {
   if (cam && info) *info = cam->info;

@@ -17,7 +17,9 @@ static const vc_camera_backend* const backends[] = {
 static const char* const names_with_sim[] = {"v4l2", "libcamera", "file", "sim", NULL};
 static const char* const names_without_sim[] = {"v4l2", "libcamera", "file", NULL};
 
-const char* const* vc_camera_backend_names(void) { return vc_camera_sim_entry ? names_with_sim : names_without_sim; }
+const char* const* vc_camera_backend_names(void) {
+  return vc_camera_sim_entry ? names_with_sim : names_without_sim;
+}
 
 int vc_camera_open(const vc_camera_config* cfg, vc_camera** out, char* why, size_t why_len) {
   if (out) *out = NULL;

@@ -66,8 +66,8 @@ int read_rgb(vc_camera* cam, const std::string& path, int w, int h, uint8_t* rgb
   cv::Mat bgr = cv::imread(path, cv::IMREAD_COLOR);
   if (bgr.empty()) return vc_camera_set_error(cam, -EIO, "cannot read image %s", path.c_str());
   if (bgr.cols != w || bgr.rows != h)
-    return vc_camera_set_error(cam, -EIO, "%s is %dx%d, the sequence is %dx%d", path.c_str(), bgr.cols, bgr.rows, w,
-                               h);
+    return vc_camera_set_error(cam, -EIO, "%s is %dx%d, the sequence is %dx%d", path.c_str(), bgr.cols,
+                               bgr.rows, w, h);
   cv::Mat out(h, w, CV_8UC3, rgb, stride);
   cv::cvtColor(bgr, out, cv::COLOR_BGR2RGB);
   return 0;
@@ -78,9 +78,11 @@ int load_scene(vc_camera* cam, FileCamera* f, vc_camera_scene scene, int* width,
   std::string folder =
       f->dir + (scene == VC_CAMERA_SCENE_EMPTY ? "/background" : "") + "/cam" + std::to_string(f->index);
   if (!is_dir(folder))
-    return vc_camera_set_error(cam, -ENOENT, "no folder %s (is this a `voxcap sim --out` folder?)", folder.c_str());
+    return vc_camera_set_error(cam, -ENOENT, "no folder %s (is this a `voxcap sim --out` folder?)",
+                               folder.c_str());
   auto frames = list_frames(folder);
-  if (frames.empty()) return vc_camera_set_error(cam, -ENOENT, "no <number>.png frames in %s", folder.c_str());
+  if (frames.empty())
+    return vc_camera_set_error(cam, -ENOENT, "no <number>.png frames in %s", folder.c_str());
   cv::Mat first = cv::imread(frames[0].second, cv::IMREAD_COLOR);
   if (first.empty()) return vc_camera_set_error(cam, -EIO, "cannot read image %s", frames[0].second.c_str());
   *width = first.cols;
@@ -106,8 +108,10 @@ int file_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info,
   if (cfg->width > 0 && (cfg->width != f->width || cfg->height != f->height))
     return vc_camera_set_error(cam, -ENOTSUP, "size %dx%d not supported (the images are %dx%d)", cfg->width,
                                cfg->height, f->width, f->height);
-  if (cfg->n_controls) return vc_camera_set_error(cam, -ENOTSUP, "device controls are a v4l2 backend feature");
-  const uint32_t fps_num = cfg->fps_num ? cfg->fps_num : 60, fps_den = cfg->fps_num && cfg->fps_den ? cfg->fps_den : 1;
+  if (cfg->n_controls)
+    return vc_camera_set_error(cam, -ENOTSUP, "device controls are a v4l2 backend feature");
+  const uint32_t fps_num = cfg->fps_num ? cfg->fps_num : 60,
+                 fps_den = cfg->fps_num && cfg->fps_den ? cfg->fps_den : 1;
   f->timing.configure(*cfg, f->opt, 1000000000ull / 60);
   f->loop = f->loop_live = f->opt.loop;
   f->triggered = cfg->external_trigger;
@@ -127,7 +131,9 @@ int file_start(vc_camera*, void* p) {
   return 0;
 }
 
-int file_stop(vc_camera*, void*) { return 0; }
+int file_stop(vc_camera*, void*) {
+  return 0;
+}
 
 // Which frame ordinal `index` shows, honouring loop; false at the end of a non-looping sequence.
 bool frame_at(const FileCamera* f, uint64_t index, size_t* ordinal) {
@@ -170,14 +176,16 @@ int file_rewind(vc_camera* cam, void* p, uint64_t seq_base, vc_camera_scene scen
   int rc = load_scene(cam, f, scene, &w, &h);
   if (rc) return rc;
   if (w != f->width || h != f->height)
-    return vc_camera_set_error(cam, -EIO, "the images of %s are %dx%d, the camera's %dx%d", f->folder.c_str(), w, h,
-                               f->width, f->height);
+    return vc_camera_set_error(cam, -EIO, "the images of %s are %dx%d, the camera's %dx%d", f->folder.c_str(),
+                               w, h, f->width, f->height);
   f->loop = scene == VC_CAMERA_SCENE_EMPTY ? true : f->loop_live;
   f->timing.rewind(seq_base);
   return 0;
 }
 
-void file_free(void* p) { delete static_cast<FileCamera*>(p); }
+void file_free(void* p) {
+  delete static_cast<FileCamera*>(p);
+}
 
 }  // namespace
 }  // namespace vc::edgecam

@@ -129,7 +129,9 @@ struct LcCamera {
   }
 };
 
-int fail(vc_camera* cam, int code, const std::string& msg) { return vc_camera_set_error(cam, code, "%s", msg.c_str()); }
+int fail(vc_camera* cam, int code, const std::string& msg) {
+  return vc_camera_set_error(cam, code, "%s", msg.c_str());
+}
 
 int lc_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info, void** out) {
   *out = nullptr;
@@ -140,7 +142,8 @@ int lc_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info, v
   int rc = vc_clock_converter_init(&c->boottime, VC_CLOCK_BOOTTIME, 0);
   if (rc) return fail(cam, rc, "cannot read CLOCK_BOOTTIME");
   c->mgr = acquire_manager(&rc);
-  if (!c->mgr) return fail(cam, rc < 0 ? rc : -EIO, std::string("camera manager failed to start: ") + strerror(-rc));
+  if (!c->mgr)
+    return fail(cam, rc < 0 ? rc : -EIO, std::string("camera manager failed to start: ") + strerror(-rc));
 
   std::vector<std::shared_ptr<lc::Camera>> cams = c->mgr->cameras();
   std::vector<std::string> ids;
@@ -173,12 +176,16 @@ int lc_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info, v
     return fail(cam, -ENOTSUP, "stream configuration " + sc.toString() + " is invalid");
   c->layout = layout_of(sc.pixelFormat);
   if (c->layout == Layout::kUnsupported)
-    return fail(cam, -ENOTSUP, "format " + sc.pixelFormat.toString() + " not supported (need BGR888, RGB888, "
-                                "XBGR8888, XRGB8888 or YUYV)");
+    return fail(cam, -ENOTSUP,
+                "format " + sc.pixelFormat.toString() +
+                    " not supported (need BGR888, RGB888, "
+                    "XBGR8888, XRGB8888 or YUYV)");
   if (cfg->width > 0 && (sc.size.width != (unsigned)cfg->width || sc.size.height != (unsigned)cfg->height))
-    return fail(cam, -ENOTSUP, "size " + std::to_string(cfg->width) + "x" + std::to_string(cfg->height) +
-                                   " not supported (camera offers " + sc.size.toString() + ")");
-  if (c->camera->configure(c->config.get()) != 0) return fail(cam, -EIO, "configure " + sc.toString() + " failed");
+    return fail(cam, -ENOTSUP,
+                "size " + std::to_string(cfg->width) + "x" + std::to_string(cfg->height) +
+                    " not supported (camera offers " + sc.size.toString() + ")");
+  if (c->camera->configure(c->config.get()) != 0)
+    return fail(cam, -EIO, "configure " + sc.toString() + " failed");
   c->stream = sc.stream();
   c->width = (int)sc.size.width;
   c->height = (int)sc.size.height;
@@ -198,7 +205,8 @@ int lc_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info, v
     Mapping m;
     m.length = plane.offset - aligned + plane.length;
     m.base = mmap(nullptr, m.length, PROT_READ, MAP_SHARED, plane.fd.get(), (off_t)aligned);
-    if (m.base == MAP_FAILED) return fail(cam, -errno, std::string("mmap of a frame buffer: ") + strerror(errno));
+    if (m.base == MAP_FAILED)
+      return fail(cam, -errno, std::string("mmap of a frame buffer: ") + strerror(errno));
     m.data = static_cast<const uint8_t*>(m.base) + (plane.offset - aligned);
     c->maps[buf.get()] = m;
     if ((size_t)c->stride * (size_t)(c->height - 1) + (size_t)c->width > plane.length)
@@ -226,7 +234,8 @@ int lc_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info, v
     c->start_controls.set(lc::controls::ExposureTime, (int32_t)cfg->exposure_us);
   }
   if (cfg->n_controls)
-    return fail(cam, -ENOTSUP, "device controls by name are a v4l2 backend feature; use exposure_us/fps here");
+    return fail(cam, -ENOTSUP,
+                "device controls by name are a v4l2 backend feature; use exposure_us/fps here");
 
   c->camera->requestCompleted.connect(c.get(), &LcCamera::on_request_completed);
   c->camera->disconnected.connect(c.get(), &LcCamera::on_disconnected);
@@ -267,7 +276,8 @@ int lc_stop(vc_camera* cam, void* p) {
 
 int lc_capture(vc_camera* cam, void* p, int timeout_ms, uint8_t* rgb, size_t stride, vc_frame* meta) {
   auto* c = static_cast<LcCamera*>(p);
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms < 0 ? 0 : timeout_ms);
+  const auto deadline =
+      std::chrono::steady_clock::now() + std::chrono::milliseconds(timeout_ms < 0 ? 0 : timeout_ms);
   for (;;) {
     lc::Request* req = nullptr;
     {
@@ -276,7 +286,8 @@ int lc_capture(vc_camera* cam, void* p, int timeout_ms, uint8_t* rgb, size_t str
       if (timeout_ms < 0)
         c->cv.wait(lock, ready);
       else if (!c->cv.wait_until(lock, deadline, ready))
-        return vc_camera_set_error(cam, -ETIMEDOUT, "camera stopped delivering: no frame within %d ms", timeout_ms);
+        return vc_camera_set_error(cam, -ETIMEDOUT, "camera stopped delivering: no frame within %d ms",
+                                   timeout_ms);
       if (c->disconnected) return vc_camera_set_error(cam, -ENODEV, "camera disconnected");
       req = c->done.front();
       c->done.pop_front();
@@ -301,17 +312,27 @@ int lc_capture(vc_camera* cam, void* p, int timeout_ms, uint8_t* rgb, size_t str
       vc_camera_count_corrupted(cam);
     }
     req->reuse(lc::Request::ReuseBuffers);
-    if (c->running && c->camera->queueRequest(req) != 0) return fail(cam, -EIO, "requeueing a request failed");
+    if (c->running && c->camera->queueRequest(req) != 0)
+      return fail(cam, -EIO, "requeueing a request failed");
     if (ok) return 0;
   }
 }
 
-void lc_free(void* p) { delete static_cast<LcCamera*>(p); }
+void lc_free(void* p) {
+  delete static_cast<LcCamera*>(p);
+}
 
 }  // namespace
 }  // namespace vc::edgecam
 
 extern "C" const vc_camera_backend vc_camera_backend_libcamera = {
-    "libcamera", vc::edgecam::lc_open, vc::edgecam::lc_start, vc::edgecam::lc_capture, vc::edgecam::lc_stop,
-    vc::edgecam::lc_free, nullptr, nullptr, nullptr,
+    "libcamera",
+    vc::edgecam::lc_open,
+    vc::edgecam::lc_start,
+    vc::edgecam::lc_capture,
+    vc::edgecam::lc_stop,
+    vc::edgecam::lc_free,
+    nullptr,
+    nullptr,
+    nullptr,
 };

@@ -70,7 +70,8 @@ std::string parse_spec(const std::string& spec, const vc_camera_config& cfg, sim
       o->rig.height = h;
     } else if (!number(&v)) {
       return "unknown key or bad value '" + item +
-             "' (keys: motion, seed, noise, flicker, appearance, fps, cameras, size, distortion, calibration)";
+             "' (keys: motion, seed, noise, flicker, appearance, fps, cameras, size, distortion, "
+             "calibration)";
     } else if (key == "seed") {
       o->seed = (uint64_t)v;
     } else if (key == "noise") {
@@ -85,7 +86,8 @@ std::string parse_spec(const std::string& spec, const vc_camera_config& cfg, sim
       o->rig.distortion = v != 0;
     } else {
       return "unknown key '" + key +
-             "' (keys: motion, seed, noise, flicker, appearance, fps, cameras, size, distortion, calibration)";
+             "' (keys: motion, seed, noise, flicker, appearance, fps, cameras, size, distortion, "
+             "calibration)";
     }
   }
   // the scene's cameras must match a size the caller asked for (the calibration's, if one is given)
@@ -134,8 +136,8 @@ int sim_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info, 
     if (!why.empty()) return vc_camera_set_error(cam, -EINVAL, "scene spec: %s", why.c_str());
     try {
       // fps and the requested size shape the scene too: they are part of its identity
-      std::string key = spec + "|fps=" + std::to_string(o.motion.fps) + "|" + std::to_string(o.rig.width) + "x" +
-                        std::to_string(o.rig.height);
+      std::string key = spec + "|fps=" + std::to_string(o.motion.fps) + "|" + std::to_string(o.rig.width) +
+                        "x" + std::to_string(o.rig.height);
       s->owned = shared_scene(key, o);
     } catch (const std::exception& e) {
       return vc_camera_set_error(cam, -EINVAL, "cannot build the scene: %s", e.what());
@@ -150,13 +152,14 @@ int sim_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info, 
   s->width = calib.cameras[(size_t)s->cam].width;
   s->height = calib.cameras[(size_t)s->cam].height;
   if (cfg->width > 0 && (cfg->width != s->width || cfg->height != s->height))
-    return vc_camera_set_error(cam, -ENOTSUP, "size %dx%d not supported (scene camera %d is %dx%d)", cfg->width,
-                               cfg->height, s->cam, s->width, s->height);
+    return vc_camera_set_error(cam, -ENOTSUP, "size %dx%d not supported (scene camera %d is %dx%d)",
+                               cfg->width, cfg->height, s->cam, s->width, s->height);
   const double fps = s->scene->fps();
   if (cfg->fps_num && std::abs((double)cfg->fps_num / (cfg->fps_den ? cfg->fps_den : 1) - fps) > 1e-6)
-    return vc_camera_set_error(cam, -ENOTSUP, "frame rate %u/%u does not match the scene's %g fps", cfg->fps_num,
-                               cfg->fps_den ? cfg->fps_den : 1, fps);
-  if (cfg->n_controls) return vc_camera_set_error(cam, -ENOTSUP, "device controls are a v4l2 backend feature");
+    return vc_camera_set_error(cam, -ENOTSUP, "frame rate %u/%u does not match the scene's %g fps",
+                               cfg->fps_num, cfg->fps_den ? cfg->fps_den : 1, fps);
+  if (cfg->n_controls)
+    return vc_camera_set_error(cam, -ENOTSUP, "device controls are a v4l2 backend feature");
   vc_camera_config timing_cfg = *cfg;
   timing_cfg.fps_num = 0;  // the scene's rate
   s->timing.configure(timing_cfg, s->opt, (uint64_t)(1e9 / fps + 0.5));
@@ -175,8 +178,8 @@ int sim_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info* info, 
   info->fps_num = (uint32_t)(fps * 1000 + 0.5);
   info->fps_den = 1000;
   info->buffers = 1;
-  snprintf(info->driver, sizeof info->driver, "sim %.40s cam %d/%d", s->scene->options().motion.source.c_str(),
-           s->cam, s->scene->camera_count());
+  snprintf(info->driver, sizeof info->driver, "sim %.40s cam %d/%d",
+           s->scene->options().motion.source.c_str(), s->cam, s->scene->camera_count());
   *out = s.release();
   return 0;
 }
@@ -186,7 +189,9 @@ int sim_start(vc_camera*, void* p) {
   return 0;
 }
 
-int sim_stop(vc_camera*, void*) { return 0; }
+int sim_stop(vc_camera*, void*) {
+  return 0;
+}
 
 int sim_capture(vc_camera* cam, void* p, int timeout_ms, uint8_t* rgb, size_t stride, vc_frame* meta) {
   auto* s = static_cast<SimCamera*>(p);
@@ -202,12 +207,14 @@ int sim_capture(vc_camera* cam, void* p, int timeout_ms, uint8_t* rgb, size_t st
     else
       s->scene->render((int)shot.index, s->cam, s->scratch);
   } catch (const std::exception& e) {
-    return vc_camera_set_error(cam, -EIO, "render of frame %llu failed: %s", (unsigned long long)shot.index, e.what());
+    return vc_camera_set_error(cam, -EIO, "render of frame %llu failed: %s", (unsigned long long)shot.index,
+                               e.what());
   }
   if (s->scratch.type() != CV_8UC3 || s->scratch.cols != s->width || s->scratch.rows != s->height)
     return vc_camera_set_error(cam, -EIO, "renderer returned a %dx%d image of type %d", s->scratch.cols,
                                s->scratch.rows, s->scratch.type());
-  for (int y = 0; y < s->height; y++) std::memcpy(rgb + (size_t)y * stride, s->scratch.ptr(y), (size_t)s->width * 3);
+  for (int y = 0; y < s->height; y++)
+    std::memcpy(rgb + (size_t)y * stride, s->scratch.ptr(y), (size_t)s->width * 3);
   s->timing.delivered();
   meta->t_ns = shot.t_ns;
   meta->sequence = shot.sequence;
@@ -232,7 +239,9 @@ int sim_rewind(vc_camera*, void* p, uint64_t seq_base, vc_camera_scene scene) {
   return 0;
 }
 
-void sim_free(void* p) { delete static_cast<SimCamera*>(p); }
+void sim_free(void* p) {
+  delete static_cast<SimCamera*>(p);
+}
 
 }  // namespace
 }  // namespace vc::edgecam

@@ -25,10 +25,10 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include "v4l2_util.h"
 #include "voxcap/edge/camera_backend.h"
 #include "voxcap/edge/clock.h"
 #include "voxcap/edge/pixconv.h"
-#include "v4l2_util.h"
 
 #define MAX_BUFFERS 32
 
@@ -66,8 +66,8 @@ static void priv_free(void* p) {
     if (v->bufs[i].start && v->bufs[i].start != MAP_FAILED) munmap(v->bufs[i].start, v->bufs[i].length);
   if (v->fd >= 0) {
     if (v->nbufs) {
-      struct v4l2_requestbuffers req = {.count = 0, .type = V4L2_BUF_TYPE_VIDEO_CAPTURE,
-                                        .memory = V4L2_MEMORY_MMAP};
+      struct v4l2_requestbuffers req = {
+          .count = 0, .type = V4L2_BUF_TYPE_VIDEO_CAPTURE, .memory = V4L2_MEMORY_MMAP};
       (void)xioctl(v->fd, VIDIOC_REQBUFS, &req);
     }
     close(v->fd);
@@ -172,8 +172,7 @@ static int v4l2_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info
     rc = vc_camera_set_error(cam, -ENOTSUP, "device has no streaming I/O");
     goto err;
   }
-  snprintf(info->driver, sizeof info->driver, "%.24s/%.32s", (const char*)cap.driver,
-           (const char*)cap.card);
+  snprintf(info->driver, sizeof info->driver, "%.24s/%.32s", (const char*)cap.driver, (const char*)cap.card);
 
   /* the requested format must be one the device offers */
   vc_pixfmt want = cfg->pixfmt == VC_PIXFMT_DEFAULT ? VC_PIXFMT_YUYV : cfg->pixfmt;
@@ -214,9 +213,9 @@ static int v4l2_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info
     goto err;
   }
   if (cfg->width > 0 && ((int)f.fmt.pix.width != cfg->width || (int)f.fmt.pix.height != cfg->height)) {
-    rc = vc_camera_set_error(cam, -ENOTSUP, "size %dx%d not supported for %s (driver offers %ux%u)",
-                             cfg->width, cfg->height, vc_pixfmt_name(want), f.fmt.pix.width,
-                             f.fmt.pix.height);
+    rc =
+        vc_camera_set_error(cam, -ENOTSUP, "size %dx%d not supported for %s (driver offers %ux%u)",
+                            cfg->width, cfg->height, vc_pixfmt_name(want), f.fmt.pix.width, f.fmt.pix.height);
     goto err;
   }
   if (f.fmt.pix.field != V4L2_FIELD_NONE && f.fmt.pix.field != V4L2_FIELD_ANY) {
@@ -248,7 +247,8 @@ static int v4l2_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info
     parm.parm.capture.timeperframe.numerator = den;
     parm.parm.capture.timeperframe.denominator = cfg->fps_num;
     if (xioctl(v->fd, VIDIOC_S_PARM, &parm) != 0) {
-      rc = vc_camera_set_error(cam, -errno, "VIDIOC_S_PARM %u/%u fps: %s", cfg->fps_num, den, strerror(errno));
+      rc =
+          vc_camera_set_error(cam, -errno, "VIDIOC_S_PARM %u/%u fps: %s", cfg->fps_num, den, strerror(errno));
       goto err;
     }
   }
@@ -264,7 +264,8 @@ static int v4l2_open(vc_camera* cam, const vc_camera_config* cfg, vc_camera_info
 
   /* buffers */
   struct v4l2_requestbuffers req = {.count = cfg->buffers ? cfg->buffers : 4,
-                                    .type = V4L2_BUF_TYPE_VIDEO_CAPTURE, .memory = V4L2_MEMORY_MMAP};
+                                    .type = V4L2_BUF_TYPE_VIDEO_CAPTURE,
+                                    .memory = V4L2_MEMORY_MMAP};
   if (req.count > MAX_BUFFERS) req.count = MAX_BUFFERS;
   if (xioctl(v->fd, VIDIOC_REQBUFS, &req) != 0) {
     rc = vc_camera_set_error(cam, errno == EBUSY ? -EBUSY : -EIO, "VIDIOC_REQBUFS (mmap): %s%s",
@@ -364,8 +365,8 @@ static int v4l2_capture(vc_camera* cam, void* p, int timeout_ms, uint8_t* rgb, s
     bool bad = (b.flags & V4L2_BUF_FLAG_ERROR) || b.index >= v->nbufs ||
                (b.bytesused != 0 && b.bytesused < v->frame_bytes);
     if (!bad) {
-      vc_pixconv_to_rgb(v->fmt, v->bufs[b.index].start, v->bytesperline, rgb, stride, v->width,
-                        v->height, &v->yuv);
+      vc_pixconv_to_rgb(v->fmt, v->bufs[b.index].start, v->bytesperline, rgb, stride, v->width, v->height,
+                        &v->yuv);
       if ((b.flags & V4L2_BUF_FLAG_TIMESTAMP_MASK) == V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC &&
           (b.timestamp.tv_sec || b.timestamp.tv_usec)) {
         meta->t_ns = (uint64_t)b.timestamp.tv_sec * 1000000000ull + (uint64_t)b.timestamp.tv_usec * 1000ull;

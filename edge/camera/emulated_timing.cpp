@@ -52,8 +52,10 @@ uint32_t EmulatedOptions::caps(bool triggered) const {
   return VC_CAMERA_CAP_REWIND | (triggered ? VC_CAMERA_CAP_SOFT_TRIGGER : 0u);
 }
 
-void EmulatedTiming::configure(const vc_camera_config& cfg, const EmulatedOptions& opt, uint64_t default_period_ns) {
-  period_ns_ = cfg.fps_num ? 1000000000ull * (cfg.fps_den ? cfg.fps_den : 1) / cfg.fps_num : default_period_ns;
+void EmulatedTiming::configure(const vc_camera_config& cfg, const EmulatedOptions& opt,
+                               uint64_t default_period_ns) {
+  period_ns_ =
+      cfg.fps_num ? 1000000000ull * (cfg.fps_den ? cfg.fps_den : 1) / cfg.fps_num : default_period_ns;
   triggered_ = cfg.external_trigger;
   pace_ = opt.pace;
   latency_ns_ = cfg.trigger_latency_ns;
@@ -82,14 +84,15 @@ int EmulatedTiming::next(vc_camera* cam, int timeout_ms, Shot* shot) {
     if (timeout_ms < 0)
       cv_.wait(lock, ready);
     else if (!cv_.wait_for(lock, std::chrono::milliseconds(timeout_ms), ready))
-      return vc_camera_set_error(cam, -ETIMEDOUT, "camera stopped delivering: no trigger within %d ms", timeout_ms);
+      return vc_camera_set_error(cam, -ETIMEDOUT, "camera stopped delivering: no trigger within %d ms",
+                                 timeout_ms);
     auto [seq, t] = triggers_.front();
     triggers_.pop_front();
     shot->sequence = sequence_++;
     lock.unlock();
     if (seq < seq_base_)
-      return vc_camera_set_error(cam, -EINVAL, "trigger seq %llu is below seq_base %llu", (unsigned long long)seq,
-                                 (unsigned long long)seq_base_);
+      return vc_camera_set_error(cam, -EINVAL, "trigger seq %llu is below seq_base %llu",
+                                 (unsigned long long)seq, (unsigned long long)seq_base_);
     shot->index = seq - seq_base_;
     shot->t_ns = (uint64_t)((int64_t)t + latency_ns_);
     return 0;
@@ -103,7 +106,8 @@ int EmulatedTiming::next(vc_camera* cam, int timeout_ms, Shot* shot) {
       if (timeout_ms >= 0 && shot->t_ns - now > (uint64_t)timeout_ms * 1000000ull) {
         const struct timespec ts = vc_clock_timespec((uint64_t)timeout_ms * 1000000ull);
         nanosleep(&ts, nullptr);
-        return vc_camera_set_error(cam, -ETIMEDOUT, "camera stopped delivering: no frame within %d ms", timeout_ms);
+        return vc_camera_set_error(cam, -ETIMEDOUT, "camera stopped delivering: no frame within %d ms",
+                                   timeout_ms);
       }
       const struct timespec ts = vc_clock_timespec(shot->t_ns);  // an absolute MONOTONIC time
       while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, nullptr) == EINTR) {

@@ -25,10 +25,10 @@
 namespace vc::edgecam {
 
 struct EmulatedOptions {
-  bool pace = false;   // free-running: deliver in real time at the frame rate
-  bool loop = false;   // file: wrap around at the end of the (live) sequence
+  bool pace = false;                             // free-running: deliver in real time at the frame rate
+  bool loop = false;                             // file: wrap around at the end of the (live) sequence
   vc_camera_scene scene = VC_CAMERA_SCENE_LIVE;  // what it shows (empty: file's background folder)
-  uint64_t seq_base = 0;                          // triggered: the frame for pulse seq is seq − seq_base
+  uint64_t seq_base = 0;                         // triggered: the frame for pulse seq is seq − seq_base
 
   // Parses "key=value,..." (NULL or "" = defaults). Returns "" or what is wrong; `loop_key`: whether
   // the backend takes loop.

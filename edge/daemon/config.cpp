@@ -2,8 +2,8 @@
 
 #include <fmt/core.h>
 
-#include <set>
 #include <toml++/toml.h>
+#include <set>
 
 #include "voxcap/edge/clock.h"
 
@@ -63,8 +63,8 @@ void load_edge_toml(const std::string& path, EdgeSettings& s) {
   try {
     root = toml::parse_file(path);
   } catch (const toml::parse_error& e) {
-    throw ConfigError(fmt::format("{}:{}:{}: {}", path, e.source().begin.line, e.source().begin.column,
-                                  e.description()));
+    throw ConfigError(
+        fmt::format("{}:{}:{}: {}", path, e.source().begin.line, e.source().begin.column, e.description()));
   }
   r.check_keys(root, "", {"node_id", "state_dir", "host", "cameras", "trigger", "link", "log"});
   r.get(root, "", "node_id", s.node_id);

@@ -17,16 +17,16 @@ struct ConfigError : std::runtime_error {
 };
 
 struct CameraSettings {
-  std::string backend = "sim";   // v4l2 | libcamera | file | sim
-  std::string device;            // /dev/video0, libcamera id/index, folder, or sim scene spec
-  int index = -1;                // the camera's number in the rig (cam<index>); default: node_id*2 + k
+  std::string backend = "sim";  // v4l2 | libcamera | file | sim
+  std::string device;           // /dev/video0, libcamera id/index, folder, or sim scene spec
+  int index = -1;               // the camera's number in the rig (cam<index>); default: node_id*2 + k
   int width = 0, height = 0;
   std::string format = "default";  // v4l2: yuyv | uyvy | rgb24 | bgr24 | grey
   double fps = 0;
   int64_t exposure_us = 0;
   bool external_trigger = true;
-  double latency_us = 0;         // frame timestamp − trigger edge
-  std::string options;           // backend-specific "key=value,..." (file, sim: pace, loop, scene, seq_base)
+  double latency_us = 0;  // frame timestamp − trigger edge
+  std::string options;    // backend-specific "key=value,..." (file, sim: pace, loop, scene, seq_base)
 };
 
 struct EdgeSettings {
@@ -36,12 +36,12 @@ struct EdgeSettings {
   std::array<CameraSettings, 2> cameras;
   std::string trigger_backend = "udp";  // udp | gpiod
   std::string trigger_bind = "127.0.0.1";
-  int trigger_port = 0;                 // udp; default 47000 + node_id
+  int trigger_port = 0;  // udp; default 47000 + node_id
   std::string gpio_chip = "gpiochip0";
   int gpio_line = -1;
   std::string gpio_line_name;
   bool gpio_active_low = false;
-  std::string gpio_bias = "as-is";      // as-is | disabled | pull-up | pull-down
+  std::string gpio_bias = "as-is";  // as-is | disabled | pull-up | pull-down
   int gpio_debounce_us = 0;
   std::string gpio_event_clock = "monotonic";
   double pair_tolerance_us = 4000;

@@ -38,9 +38,13 @@ typedef struct edged {
 } edged;
 
 static atomic_bool g_stop;
-void vc_edged_request_stop(void) { atomic_store(&g_stop, true); }
+void vc_edged_request_stop(void) {
+  atomic_store(&g_stop, true);
+}
 
-static uint64_t mono_ms(void) { return vc_clock_monotonic_ns() / 1000000u; }
+static uint64_t mono_ms(void) {
+  return vc_clock_monotonic_ns() / 1000000u;
+}
 
 static void send_error(edged* d, uint32_t code, uint16_t severity, uint16_t about, const char* fmt, ...)
     __attribute__((format(printf, 5, 6)));
@@ -146,8 +150,8 @@ static void handle_ctl(edged* d, ctl* c) {
         send_error(d, VC_ERR_CONFIG, VC_SEVERITY_ERROR, VC_MSG_CONFIG, "CONFIG rejected: %s", why);
       } else {
         if (warn[0]) send_error(d, VC_ERR_CONFIG, VC_SEVERITY_WARNING, VC_MSG_CONFIG, "%s", warn);
-        vc_log(VC_LOG_INFO, "configured: grid %ux%ux%u (id %u)", c->cfg.grid.nx, c->cfg.grid.ny, c->cfg.grid.nz,
-               c->cfg.grid_id);
+        vc_log(VC_LOG_INFO, "configured: grid %ux%ux%u (id %u)", c->cfg.grid.nx, c->cfg.grid.ny,
+               c->cfg.grid.nz, c->cfg.grid_id);
       }
       break;
     case VC_MSG_BACKGROUND:
@@ -162,7 +166,8 @@ static void handle_ctl(edged* d, ctl* c) {
     case VC_MSG_START:
       rc = vc_node_start(d->node, c->seq);
       if (rc < 0) {
-        send_error(d, VC_ERR_STATE, VC_SEVERITY_ERROR, VC_MSG_START, "START before the background was learnt");
+        send_error(d, VC_ERR_STATE, VC_SEVERITY_ERROR, VC_MSG_START,
+                   "START before the background was learnt");
         break;
       }
       vc_capture_set_phase(d->cap, VC_CAPTURE_RUNNING, c->seq);
@@ -271,11 +276,16 @@ static void send_stats(edged* d) {
 
 static uint32_t fourcc_of(vc_pixfmt f) {
   switch (f) {
-    case VC_PIXFMT_YUYV: return VC_FOURCC('Y', 'U', 'Y', 'V');
-    case VC_PIXFMT_UYVY: return VC_FOURCC('U', 'Y', 'V', 'Y');
-    case VC_PIXFMT_GREY: return VC_FOURCC('G', 'R', 'E', 'Y');
-    case VC_PIXFMT_BGR24: return VC_FOURCC('B', 'G', 'R', '3');
-    default: return VC_FOURCC('R', 'G', 'B', '3');
+    case VC_PIXFMT_YUYV:
+      return VC_FOURCC('Y', 'U', 'Y', 'V');
+    case VC_PIXFMT_UYVY:
+      return VC_FOURCC('U', 'Y', 'V', 'Y');
+    case VC_PIXFMT_GREY:
+      return VC_FOURCC('G', 'R', 'E', 'Y');
+    case VC_PIXFMT_BGR24:
+      return VC_FOURCC('B', 'G', 'R', '3');
+    default:
+      return VC_FOURCC('R', 'G', 'B', '3');
   }
 }
 
@@ -317,7 +327,8 @@ static int setup(edged* d) {
     ncam[c].width = ci.width;
     ncam[c].height = ci.height;
     ncam[c].pixel_format = fourcc_of(ci.pixfmt);
-    ncam[c].max_fps_milli = ci.fps_num ? (uint32_t)((uint64_t)ci.fps_num * 1000u / (ci.fps_den ? ci.fps_den : 1)) : 0;
+    ncam[c].max_fps_milli =
+        ci.fps_num ? (uint32_t)((uint64_t)ci.fps_num * 1000u / (ci.fps_den ? ci.fps_den : 1)) : 0;
     vc_log(VC_LOG_INFO, "camera %d: %s %s %dx%d (%s)", c, ci.backend, ci.device, ci.width, ci.height,
            ci.driver);
   }
@@ -336,7 +347,8 @@ static int setup(edged* d) {
   atomic_store(&d->node_state, vc_node_state(d->node));
   uint8_t hello[VC_PROTO_HEADER_SIZE + 256];
   size_t hello_len = 0;
-  uint32_t caps = VC_CAP_HULL | (strcmp(opt->trigger.backend, "udp") == 0 ? VC_CAP_UDP_TRIGGER : VC_CAP_GPIO_TRIGGER);
+  uint32_t caps =
+      VC_CAP_HULL | (strcmp(opt->trigger.backend, "udp") == 0 ? VC_CAP_UDP_TRIGGER : VC_CAP_GPIO_TRIGGER);
   if ((rc = vc_node_hello(d->node, caps, hello, sizeof(hello), &hello_len)) < 0) return rc;
   vc_link_config lc = opt->link;
   lc.node_id = opt->node_id;

@@ -11,9 +11,9 @@
 #include <stdbool.h>
 #include <stdint.h>
 
+#include "link.h"
 #include "voxcap/edge/camera.h"
 #include "voxcap/edge/trigger.h"
-#include "link.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -21,17 +21,17 @@ extern "C" {
 
 typedef struct vc_edged_options {
   uint16_t node_id;
-  vc_camera_config cameras[2];   /* strings borrowed for the daemon's lifetime */
-  int64_t camera_latency_ns[2];  /* frame timestamp − pulse time, per camera */
+  vc_camera_config cameras[2];  /* strings borrowed for the daemon's lifetime */
+  int64_t camera_latency_ns[2]; /* frame timestamp − pulse time, per camera */
   vc_trigger_config trigger;
-  uint64_t pair_tolerance_ns;    /* 0 = 4 ms */
-  uint64_t pair_max_delay_ns;    /* 0 = 50 ms */
+  uint64_t pair_tolerance_ns; /* 0 = 4 ms */
+  uint64_t pair_max_delay_ns; /* 0 = 50 ms */
   vc_link_config link;
-  int stats_ms;                  /* STATS period, 0 = 1000 */
-  int camera_timeout_ms;         /* a camera that delivers nothing this long is reported, 0 = 2000 */
-  unsigned frame_slots;          /* copied frames per camera, 0 = 4 */
-  int verbosity;                 /* 0 warnings, 1 info, 2 debug */
-  const char* state_dir;         /* keep the learnt background here and restore it at start (NULL: off) */
+  int stats_ms;          /* STATS period, 0 = 1000 */
+  int camera_timeout_ms; /* a camera that delivers nothing this long is reported, 0 = 2000 */
+  unsigned frame_slots;  /* copied frames per camera, 0 = 4 */
+  int verbosity;         /* 0 warnings, 1 info, 2 debug */
+  const char* state_dir; /* keep the learnt background here and restore it at start (NULL: off) */
 } vc_edged_options;
 
 /* Opens cameras and trigger once to check the configuration and the devices; prints what it found

@@ -27,12 +27,12 @@ typedef struct vc_link_config {
   const char* host; /* IPv4/IPv6 address or name (copied) */
   uint16_t port;
   uint16_t node_id;
-  unsigned queue_msgs;   /* 0 = 64 */
-  size_t queue_bytes;    /* 0 = 32 MiB */
-  int reconnect_min_ms;  /* 0 = 100 */
-  int reconnect_max_ms;  /* 0 = 5000 */
-  int heartbeat_ms;      /* 0 = 250 */
-  int host_timeout_ms;   /* 0 = 3000 */
+  unsigned queue_msgs;  /* 0 = 64 */
+  size_t queue_bytes;   /* 0 = 32 MiB */
+  int reconnect_min_ms; /* 0 = 100 */
+  int reconnect_max_ms; /* 0 = 5000 */
+  int heartbeat_ms;     /* 0 = 250 */
+  int host_timeout_ms;  /* 0 = 3000 */
 } vc_link_config;
 
 typedef struct vc_link_callbacks {
@@ -46,11 +46,11 @@ typedef struct vc_link_callbacks {
 } vc_link_callbacks;
 
 typedef struct vc_link_stats {
-  uint64_t connects;        /* successful connections */
+  uint64_t connects; /* successful connections */
   uint64_t disconnects;
   uint64_t bytes_sent, bytes_received;
   uint64_t messages_received;
-  uint64_t rejected;        /* host messages the decoder rejected */
+  uint64_t rejected; /* host messages the decoder rejected */
   uint64_t queue_pushed, queue_dropped, queue_sent;
   bool connected;
 } vc_link_stats;

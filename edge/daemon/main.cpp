@@ -13,7 +13,9 @@
 
 namespace {
 
-void on_signal(int) { vc_edged_request_stop(); }
+void on_signal(int) {
+  vc_edged_request_stop();
+}
 
 // "BACKEND" or "BACKEND:DEVICE".
 void apply_camera(const std::string& spec, vc::edge::CameraSettings& c) {
@@ -38,16 +40,20 @@ int main(int argc, char** argv) {
   app.add_option("--host", host, "host address (overrides host.address)");
   app.add_option("--port", port, "host TCP port (overrides host.port; default 7600)");
   app.add_option("--trigger", trigger, "trigger input backend: udp | gpiod (overrides trigger.backend)");
-  app.add_option("--trigger-port", trigger_port, "udp trigger port (overrides trigger.port; default 47000+node id)");
+  app.add_option("--trigger-port", trigger_port,
+                 "udp trigger port (overrides trigger.port; default 47000+node id)");
   app.add_option("--gpio-chip", gpio_chip, "gpiod: chip, e.g. gpiochip0 (overrides trigger.chip)");
   app.add_option("--gpio-line", gpio_line, "gpiod: line offset (overrides trigger.line)");
-  app.add_option("--camera0", camera0, "first camera as BACKEND[:DEVICE], e.g. v4l2:/dev/video0, sim, file:DIR");
+  app.add_option("--camera0", camera0,
+                 "first camera as BACKEND[:DEVICE], e.g. v4l2:/dev/video0, sim, file:DIR");
   app.add_option("--camera1", camera1, "second camera as BACKEND[:DEVICE]");
   app.add_option("--size", size, "both cameras' size WxH (overrides cameras[].width/height)");
   app.add_option("-v,--verbosity", verbosity, "0 warnings, 1 info, 2 debug");
-  app.add_option("--state-dir", state_dir,
-                 "keep the learnt background model here and restore it after a restart (overrides state_dir)");
-  app.add_flag("--check", check, "validate the configuration, open the cameras and the trigger, report, and exit");
+  app.add_option(
+      "--state-dir", state_dir,
+      "keep the learnt background model here and restore it after a restart (overrides state_dir)");
+  app.add_flag("--check", check,
+               "validate the configuration, open the cameras and the trigger, report, and exit");
   CLI11_PARSE(app, argc, argv);
 
   vc::edge::EdgeSettings s;

@@ -30,8 +30,8 @@ extern "C" {
 typedef struct vc_node vc_node;
 
 typedef struct vc_node_camera {
-  int width, height;      /* what the camera delivers (RGB24 after conversion) */
-  uint32_t pixel_format;  /* FourCC of the device's native format, as HELLO reports it */
+  int width, height;     /* what the camera delivers (RGB24 after conversion) */
+  uint32_t pixel_format; /* FourCC of the device's native format, as HELLO reports it */
   uint32_t max_fps_milli;
 } vc_node_camera;
 
@@ -81,9 +81,9 @@ typedef struct vc_features_producer {
    * (cams[c].width x height bytes, 0/255). Fills out[0..n-1] (camera, feature_count, features) and
    * returns n (0..VC_NODE_CAMS), or a negative errno (the frame's HULL is still sent). Runs on the
    * pipeline thread; everything it is given is valid during the call only. */
-  int (*track)(void* user, uint64_t seq, const uint8_t* const rgb[VC_NODE_CAMS], const size_t stride[VC_NODE_CAMS],
-               const uint8_t* const mask[VC_NODE_CAMS], const vc_node_camera cams[VC_NODE_CAMS],
-               vc_features out[VC_NODE_CAMS]);
+  int (*track)(void* user, uint64_t seq, const uint8_t* const rgb[VC_NODE_CAMS],
+               const size_t stride[VC_NODE_CAMS], const uint8_t* const mask[VC_NODE_CAMS],
+               const vc_node_camera cams[VC_NODE_CAMS], vc_features out[VC_NODE_CAMS]);
   void* user;
 } vc_features_producer;
 
@@ -118,7 +118,7 @@ const uint8_t* vc_node_mask(const vc_node* node, int cam);
 /* The bitset of the last carved hull and its voxel count (NULL/0 before the first frame). */
 const uint8_t* vc_node_bitset(const vc_node* node, uint64_t* voxels);
 
-uint32_t vc_node_state(const vc_node* node);     /* vc_node_state (proto.h) */
+uint32_t vc_node_state(const vc_node* node); /* vc_node_state (proto.h) */
 uint16_t vc_node_id(const vc_node* node);
 uint64_t vc_node_first_seq(const vc_node* node);
 
@@ -127,8 +127,8 @@ typedef struct vc_node_counters {
   uint64_t frames_processed;
   uint64_t hulls_encoded;
   uint64_t hulls_over_limit;
-  uint64_t features_encoded;  /* FEATURES messages */
-  uint64_t features_failed;   /* frames whose producer failed or gave features that do not encode */
+  uint64_t features_encoded; /* FEATURES messages */
+  uint64_t features_failed;  /* frames whose producer failed or gave features that do not encode */
 } vc_node_counters;
 void vc_node_get_counters(const vc_node* node, vc_node_counters* out);
 

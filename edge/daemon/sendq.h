@@ -21,11 +21,11 @@ extern "C" {
 typedef struct vc_sendq vc_sendq;
 
 typedef struct vc_sendq_stats {
-  uint64_t pushed;        /* messages accepted */
-  uint64_t dropped;       /* messages dropped to make room (drop-oldest) */
+  uint64_t pushed;  /* messages accepted */
+  uint64_t dropped; /* messages dropped to make room (drop-oldest) */
   uint64_t dropped_bytes;
-  uint64_t sent;          /* messages popped after being written */
-  uint32_t queued;        /* messages now in the queue */
+  uint64_t sent;   /* messages popped after being written */
+  uint32_t queued; /* messages now in the queue */
   size_t queued_bytes;
 } vc_sendq_stats;
 

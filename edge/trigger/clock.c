@@ -8,18 +8,24 @@
 
 static clockid_t to_clockid(vc_clock_id id) {
   switch (id) {
-    case VC_CLOCK_BOOTTIME: return CLOCK_BOOTTIME;
-    case VC_CLOCK_REALTIME: return CLOCK_REALTIME;
+    case VC_CLOCK_BOOTTIME:
+      return CLOCK_BOOTTIME;
+    case VC_CLOCK_REALTIME:
+      return CLOCK_REALTIME;
     case VC_CLOCK_MONOTONIC:
-    default: return CLOCK_MONOTONIC;
+    default:
+      return CLOCK_MONOTONIC;
   }
 }
 
 const char* vc_clock_name(vc_clock_id id) {
   switch (id) {
-    case VC_CLOCK_MONOTONIC: return "monotonic";
-    case VC_CLOCK_BOOTTIME: return "boottime";
-    case VC_CLOCK_REALTIME: return "realtime";
+    case VC_CLOCK_MONOTONIC:
+      return "monotonic";
+    case VC_CLOCK_BOOTTIME:
+      return "boottime";
+    case VC_CLOCK_REALTIME:
+      return "realtime";
   }
   return NULL;
 }
@@ -42,7 +48,9 @@ uint64_t vc_clock_now_ns(vc_clock_id id) {
   return (uint64_t)ts.tv_sec * 1000000000ull + (uint64_t)ts.tv_nsec;
 }
 
-uint64_t vc_clock_monotonic_ns(void) { return vc_clock_now_ns(VC_CLOCK_MONOTONIC); }
+uint64_t vc_clock_monotonic_ns(void) {
+  return vc_clock_now_ns(VC_CLOCK_MONOTONIC);
+}
 
 struct timespec vc_clock_timespec(uint64_t t_ns) {
   struct timespec ts = {.tv_sec = (time_t)(t_ns / 1000000000ull), .tv_nsec = (long)(t_ns % 1000000000ull)};

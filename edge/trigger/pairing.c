@@ -100,7 +100,9 @@ void vc_pairer_free(vc_pairer* p) {
   free(p);
 }
 
-static int64_t abs64(int64_t v) { return v < 0 ? -v : v; }
+static int64_t abs64(int64_t v) {
+  return v < 0 ? -v : v;
+}
 
 static void remove_pulse(vc_pairer* p, unsigned i) {
   memmove(&p->pulses[i], &p->pulses[i + 1], (p->npulses - i - 1) * sizeof *p->pulses);
@@ -152,8 +154,13 @@ static void frame_unmatched(vc_pairer* p, unsigned cam, unsigned i) {
 static void match(vc_pairer* p, unsigned cam, unsigned pi, const struct frame_slot* f) {
   struct pulse_slot* s = &p->pulses[pi];
   int64_t err = f->t_e - (int64_t)s->t;
-  vc_pair_event ev = {.type = VC_PAIR_MATCHED, .cam = cam, .seq = s->seq, .pulse_t_ns = s->t,
-                      .frame_t_ns = f->t, .cookie = f->cookie, .error_ns = err};
+  vc_pair_event ev = {.type = VC_PAIR_MATCHED,
+                      .cam = cam,
+                      .seq = s->seq,
+                      .pulse_t_ns = s->t,
+                      .frame_t_ns = f->t,
+                      .cookie = f->cookie,
+                      .error_ns = err};
   s->have |= 1u << cam;
   if (p->st.matched[cam] == 0 || err < p->st.error_min_ns[cam]) p->st.error_min_ns[cam] = err;
   if (p->st.matched[cam] == 0 || err > p->st.error_max_ns[cam]) p->st.error_max_ns[cam] = err;
@@ -254,7 +261,8 @@ int vc_pairer_add_pulse(vc_pairer* p, uint64_t seq, uint64_t t_ns) {
 
 void vc_pairer_advance(vc_pairer* p, uint64_t now_ns) {
   if (!p) return;
-  const int64_t now = (int64_t)now_ns, tol = (int64_t)p->cfg.tolerance_ns, delay = (int64_t)p->cfg.max_delay_ns;
+  const int64_t now = (int64_t)now_ns, tol = (int64_t)p->cfg.tolerance_ns,
+                delay = (int64_t)p->cfg.max_delay_ns;
   for (unsigned c = 0; c < p->cfg.ncams; c++) {
     for (unsigned i = 0; i < p->nframes[c];) {
       if (now > p->frames[c][i].t_e + tol + delay)
@@ -283,7 +291,9 @@ void vc_pairer_get_stats(const vc_pairer* p, vc_pairing_stats* stats) {
   if (p && stats) *stats = p->st;
 }
 
-unsigned vc_pairer_pending_pulses(const vc_pairer* p) { return p ? p->npulses : 0; }
+unsigned vc_pairer_pending_pulses(const vc_pairer* p) {
+  return p ? p->npulses : 0;
+}
 unsigned vc_pairer_pending_frames(const vc_pairer* p, unsigned cam) {
   return p && cam < p->cfg.ncams ? p->nframes[cam] : 0;
 }

@@ -22,7 +22,9 @@ struct vc_trigger {
 static const vc_trigger_backend* const backends[] = {&vc_trigger_backend_gpiod, &vc_trigger_backend_udp};
 static const char* const names[] = {"gpiod", "udp", NULL};
 
-const char* const* vc_trigger_backend_names(void) { return names; }
+const char* const* vc_trigger_backend_names(void) {
+  return names;
+}
 
 void vc_trigger_config_init(vc_trigger_config* cfg) {
   memset(cfg, 0, sizeof *cfg);
@@ -97,11 +99,14 @@ int vc_trigger_wait(vc_trigger* trig, int timeout_ms, vc_pulse* pulse) {
   if (rc == 0)
     trig->stats.pulses++;
   else if (!trig->err)
-    vc_trigger_set_error(trig, rc, "%s", rc == -ETIMEDOUT ? "no trigger pulse within the timeout" : strerror(-rc));
+    vc_trigger_set_error(trig, rc, "%s",
+                         rc == -ETIMEDOUT ? "no trigger pulse within the timeout" : strerror(-rc));
   return rc;
 }
 
-int vc_trigger_fd(const vc_trigger* trig) { return trig ? trig->be->fd(trig->priv) : -1; }
+int vc_trigger_fd(const vc_trigger* trig) {
+  return trig ? trig->be->fd(trig->priv) : -1;
+}
 
 void vc_trigger_free(vc_trigger* trig) {
   if (!trig) return;
@@ -109,8 +114,12 @@ void vc_trigger_free(vc_trigger* trig) {
   free(trig);
 }
 
-const char* vc_trigger_last_error(const vc_trigger* trig) { return trig ? trig->errmsg : ""; }
-int vc_trigger_last_errno(const vc_trigger* trig) { return trig ? trig->err : 0; }
+const char* vc_trigger_last_error(const vc_trigger* trig) {
+  return trig ? trig->errmsg : "";
+}
+int vc_trigger_last_errno(const vc_trigger* trig) {
+  return trig ? trig->err : 0;
+}
 void vc_trigger_get_info(const vc_trigger* trig, vc_trigger_info* info) {
   if (trig && info) *info = trig->info;
 }

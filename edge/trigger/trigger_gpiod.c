@@ -40,10 +40,14 @@ static void gpiod_priv_free(void* p) {
 
 static enum gpiod_line_bias to_bias(vc_trigger_bias b) {
   switch (b) {
-    case VC_TRIGGER_BIAS_DISABLED: return GPIOD_LINE_BIAS_DISABLED;
-    case VC_TRIGGER_BIAS_PULL_UP: return GPIOD_LINE_BIAS_PULL_UP;
-    case VC_TRIGGER_BIAS_PULL_DOWN: return GPIOD_LINE_BIAS_PULL_DOWN;
-    case VC_TRIGGER_BIAS_AS_IS: break;
+    case VC_TRIGGER_BIAS_DISABLED:
+      return GPIOD_LINE_BIAS_DISABLED;
+    case VC_TRIGGER_BIAS_PULL_UP:
+      return GPIOD_LINE_BIAS_PULL_UP;
+    case VC_TRIGGER_BIAS_PULL_DOWN:
+      return GPIOD_LINE_BIAS_PULL_DOWN;
+    case VC_TRIGGER_BIAS_AS_IS:
+      break;
   }
   return GPIOD_LINE_BIAS_AS_IS;
 }
@@ -63,7 +67,8 @@ static int gpiod_open(vc_trigger* trig, const vc_trigger_config* cfg, vc_trigger
   struct gpiod_request_config* rcfg = NULL;
   char path[96], src[128];
   int rc;
-  if (!cfg->chip || !cfg->chip[0]) return vc_trigger_set_error(trig, -EINVAL, "no chip given (e.g. gpiochip0)");
+  if (!cfg->chip || !cfg->chip[0])
+    return vc_trigger_set_error(trig, -EINVAL, "no chip given (e.g. gpiochip0)");
   chip_path(cfg->chip, path, sizeof path);
   vc_trigger_set_source(trig, path);
   g = calloc(1, sizeof *g);
@@ -76,7 +81,8 @@ static int gpiod_open(vc_trigger* trig, const vc_trigger_config* cfg, vc_trigger
   }
   g->chip = gpiod_chip_open(path);
   if (!g->chip) {
-    rc = vc_trigger_set_error(trig, errno ? -errno : -ENODEV, "cannot open chip: %s", strerror(errno ? errno : ENODEV));
+    rc = vc_trigger_set_error(trig, errno ? -errno : -ENODEV, "cannot open chip: %s",
+                              strerror(errno ? errno : ENODEV));
     goto out;
   }
   if (cfg->line_name) {
@@ -122,8 +128,9 @@ static int gpiod_open(vc_trigger* trig, const vc_trigger_config* cfg, vc_trigger
   if (!g->req) {
     int e = errno ? errno : EIO;
     rc = vc_trigger_set_error(trig, -e, "cannot request the line for edge events: %s%s", strerror(e),
-                              e == EBUSY ? " (used by another program?)"
-                              : e == EINVAL ? " (no such line, or edge detection unsupported)" : "");
+                              e == EBUSY    ? " (used by another program?)"
+                              : e == EINVAL ? " (no such line, or edge detection unsupported)"
+                                            : "");
     goto out;
   }
   snprintf(info->source, sizeof info->source, "%s", src);

@@ -18,7 +18,9 @@ namespace vc::cli {
 namespace {
 
 std::atomic<bool> g_interrupted{false};
-void on_sigint(int) { g_interrupted = true; }
+void on_sigint(int) {
+  g_interrupted = true;
+}
 
 nlohmann::json report_json(const aggregator::Report& r) {
   nlohmann::json j;
@@ -37,27 +39,28 @@ nlohmann::json report_json(const aggregator::Report& r) {
   for (const auto& n : r.nodes) {
     nlohmann::json s;
     for (const auto& [k, v] : n.edge_stage_ms) s[k] = v;
-    j["nodes"].push_back({{"id", n.id},
-                          {"name", n.name},
-                          {"connected", n.connected},
-                          {"state", vc_node_state_name(n.state) ? vc_node_state_name(n.state) : "?"},
-                          {"joins", n.joins},
-                          {"leaves", n.leaves},
-                          {"hulls", n.hulls},
-                          {"late", n.late},
-                          {"missing", n.missing},
-                          {"rejected", n.rejected},
-                          {"errors", n.errors},
-                          {"last_error", n.last_error},
-                          {"edge_queue_drops", n.edge_queue_drops},
-                          {"edge_frames_without_pulse", n.edge_frames_without_pulse},
-                          {"edge_pulses_without_frame", n.edge_pulses_without_frame},
-                          {"host_queue_drops", n.host_queue_drops},
-                          {"features", n.features},
-                          {"features_late", n.features_late},
-                          {"edge_stage_ms", s},
-                          {"trigger_to_received_ms",
-                           {{"mean", n.rx.mean_ms()}, {"p50", n.rx.percentile_ms(0.5)}, {"p99", n.rx.percentile_ms(0.99)}}}});
+    j["nodes"].push_back(
+        {{"id", n.id},
+         {"name", n.name},
+         {"connected", n.connected},
+         {"state", vc_node_state_name(n.state) ? vc_node_state_name(n.state) : "?"},
+         {"joins", n.joins},
+         {"leaves", n.leaves},
+         {"hulls", n.hulls},
+         {"late", n.late},
+         {"missing", n.missing},
+         {"rejected", n.rejected},
+         {"errors", n.errors},
+         {"last_error", n.last_error},
+         {"edge_queue_drops", n.edge_queue_drops},
+         {"edge_frames_without_pulse", n.edge_frames_without_pulse},
+         {"edge_pulses_without_frame", n.edge_pulses_without_frame},
+         {"host_queue_drops", n.host_queue_drops},
+         {"features", n.features},
+         {"features_late", n.features_late},
+         {"edge_stage_ms", s},
+         {"trigger_to_received_ms",
+          {{"mean", n.rx.mean_ms()}, {"p50", n.rx.percentile_ms(0.5)}, {"p99", n.rx.percentile_ms(0.99)}}}});
   }
   for (const auto& s : r.pipeline.stages)
     j["stages"].push_back({{"name", s.name},
@@ -80,11 +83,11 @@ void print_report(const aggregator::Report& r) {
     };
     fmt::print(
         "  {:<8} hulls {:>6}  late {:>4}  missing {:>4}  edge: capture {:.2f} ms  subtract {:.2f} ms  "
-        "carve {:.2f} ms  trigger->hull {:.2f} ms  trigger->host p50 {:.2f} ms p99 {:.2f} ms  drops {}  joins {}{}\n",
+        "carve {:.2f} ms  trigger->hull {:.2f} ms  trigger->host p50 {:.2f} ms p99 {:.2f} ms  drops {}  "
+        "joins {}{}\n",
         n.name, n.hulls, n.late, n.missing, st("capture"), st("subtract"), st("carve"), n.edge_frame_ms,
-        n.rx.percentile_ms(0.5),
-        n.rx.percentile_ms(0.99), n.edge_queue_drops + n.edge_pulses_without_frame, n.joins,
-        n.last_error.empty() ? "" : "  last error: " + n.last_error);
+        n.rx.percentile_ms(0.5), n.rx.percentile_ms(0.99), n.edge_queue_drops + n.edge_pulses_without_frame,
+        n.joins, n.last_error.empty() ? "" : "  last error: " + n.last_error);
   }
   fmt::print("frames: {} merged ({} complete, {} degraded, {} dropped) of {} pulses, seq {}..{}\n", r.frames,
              r.complete, r.degraded, r.dropped, r.pulses, r.first_seq, r.last_seq);
@@ -92,15 +95,17 @@ void print_report(const aggregator::Report& r) {
              r.merged.mean_ms(), r.merged.percentile_ms(0.5), r.merged.percentile_ms(0.99));
   fmt::print("stages:");
   for (const auto& s : r.pipeline.stages)
-    fmt::print("  {} {:.3f} ms (max {:.1f}), queue max {}/{}, dropped {}{}", s.name, s.busy_ms_mean, s.busy_ms_max,
-               s.queue.max_depth, s.queue.capacity, s.queue.dropped, s.errors ? fmt::format(", {} errors", s.errors) : "");
+    fmt::print("  {} {:.3f} ms (max {:.1f}), queue max {}/{}, dropped {}{}", s.name, s.busy_ms_mean,
+               s.busy_ms_max, s.queue.max_depth, s.queue.capacity, s.queue.dropped,
+               s.errors ? fmt::format(", {} errors", s.errors) : "");
   fmt::print("\n");
 }
 
 }  // namespace
 
 void add_rig_commands(CLI::App& app) {
-  auto* cmd = app.add_subcommand("rig", "Run a rig: the host aggregator (and with --emulated, the edges too)");
+  auto* cmd =
+      app.add_subcommand("rig", "Run a rig: the host aggregator (and with --emulated, the edges too)");
   auto opt = std::make_shared<emulated::Options>();
   auto emulated = std::make_shared<bool>(false);
   auto frames = std::make_shared<uint64_t>(600);
@@ -108,33 +113,43 @@ void add_rig_commands(CLI::App& app) {
   auto json = std::make_shared<bool>(false);
   auto config = std::make_shared<std::string>();
   auto size = std::make_shared<std::string>("640x480");
-  cmd->add_flag("--emulated", *emulated,
-                "Run the whole rig on this machine: voxcap-edge processes with sim cameras, udp trigger, loopback");
-  cmd->add_option("--config", *config, "rig.toml of a real rig (without --emulated; default $VOXCAP_RIG or ./rig.toml)");
+  cmd->add_flag(
+      "--emulated", *emulated,
+      "Run the whole rig on this machine: voxcap-edge processes with sim cameras, udp trigger, loopback");
+  cmd->add_option("--config", *config,
+                  "rig.toml of a real rig (without --emulated; default $VOXCAP_RIG or ./rig.toml)");
   cmd->add_option("--nodes", opt->nodes, "emulated: edge nodes, two cameras each")->capture_default_str();
-  cmd->add_option("--motion", opt->motion, "emulated: built-in motion (tpose wave walk squat turn arms-close cross) or a BVH file")
+  cmd->add_option("--motion", opt->motion,
+                  "emulated: built-in motion (tpose wave walk squat turn arms-close cross) or a BVH file")
       ->capture_default_str();
   cmd->add_option("--frames", *frames, "emulated: merged frames to run for")->capture_default_str();
   cmd->add_option("--seconds", *seconds, "run this long instead (0: --frames; a real rig: until Ctrl-C)");
   cmd->add_option("--size", *size, "emulated: camera size WxH")->capture_default_str();
   cmd->add_option("--rate", opt->rate_hz, "emulated: trigger rate, Hz")->capture_default_str();
-  cmd->add_option("--grid", opt->grid, "emulated: voxels per axis over the 2.24 m volume")->capture_default_str();
-  cmd->add_option("--noise", opt->noise, "emulated: sensor noise sigma (8-bit levels)")->capture_default_str();
+  cmd->add_option("--grid", opt->grid, "emulated: voxels per axis over the 2.24 m volume")
+      ->capture_default_str();
+  cmd->add_option("--noise", opt->noise, "emulated: sensor noise sigma (8-bit levels)")
+      ->capture_default_str();
   cmd->add_option("--seed", opt->seed, "emulated: simulator seed")->capture_default_str();
-  cmd->add_option("--policy", opt->missing_policy, "emulated: missing-node policy, drop | degraded")->capture_default_str();
-  cmd->add_option("--truth-every", opt->truth_every, "emulated: score every k-th frame against ground truth (0: off)")
+  cmd->add_option("--policy", opt->missing_policy, "emulated: missing-node policy, drop | degraded")
+      ->capture_default_str();
+  cmd->add_option("--truth-every", opt->truth_every,
+                  "emulated: score every k-th frame against ground truth (0: off)")
       ->capture_default_str();
   cmd->add_option("--workdir", opt->workdir, "emulated: keep rig.yaml, rig.toml and edge logs here");
   auto record = std::make_shared<std::string>();
   cmd->add_option("--record", *record,
                   "record the session (merged hulls, features, stats, rig.toml, calibration) in a new folder "
                   "below this one; a real rig records to rig.toml's recording.dir unless this is given");
-  cmd->add_flag("--verbose", [opt](int64_t) { opt->quiet = false; }, "emulated: info logs from host and edges");
-  cmd->add_flag("--json", *json,
-                "print the figures as JSON: frames, complete, degraded, dropped, pulses, fps, trigger_to_merged_ms "
-                "{mean,p50,p99}, nodes[] {id, name, hulls, late, missing, host_queue_drops, edge_stage_ms, trigger_to_received_ms, ...}, "
-                "stages[] {name, overflow, processed, dropped, errors, queue_max, queue_capacity, busy_ms {mean,max}}, "
-                "accuracy {frames, agree, min_agree, iou_silhouette_hull, body_recall} (emulated)");
+  cmd->add_flag(
+      "--verbose", [opt](int64_t) { opt->quiet = false; }, "emulated: info logs from host and edges");
+  cmd->add_flag(
+      "--json", *json,
+      "print the figures as JSON: frames, complete, degraded, dropped, pulses, fps, trigger_to_merged_ms "
+      "{mean,p50,p99}, nodes[] {id, name, hulls, late, missing, host_queue_drops, edge_stage_ms, "
+      "trigger_to_received_ms, ...}, "
+      "stages[] {name, overflow, processed, dropped, errors, queue_max, queue_capacity, busy_ms {mean,max}}, "
+      "accuracy {frames, agree, min_agree, iou_silhouette_hull, body_recall} (emulated)");
   cmd->callback([=] {
     std::signal(SIGINT, on_sigint);
     std::signal(SIGTERM, on_sigint);
@@ -145,7 +160,9 @@ void add_rig_commands(CLI::App& app) {
       std::string why;
       if (!opt->valid(&why)) throw UsageError(why);
       emulated::EmulatedRig rig(*opt);
-      if (!*json) fmt::print("starting {} edge nodes ({} cameras, {}), motion '{}'...\n", opt->nodes, 2 * opt->nodes, *size, opt->motion);
+      if (!*json)
+        fmt::print("starting {} edge nodes ({} cameras, {}), motion '{}'...\n", opt->nodes, 2 * opt->nodes,
+                   *size, opt->motion);
       rig.start();
       if (*seconds > 0) {
         auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(*seconds);
@@ -173,10 +190,11 @@ void add_rig_commands(CLI::App& app) {
       } else {
         print_report(r.report);
         fmt::print(
-            "accuracy ({} frames scored): merged hull vs hull of the true silhouettes: {:.3f} % of voxels agree "
+            "accuracy ({} frames scored): merged hull vs hull of the true silhouettes: {:.3f} % of voxels "
+            "agree "
             "(min {:.3f} %), IoU {:.3f}; true body voxels inside the hull: {:.2f} %\n",
-            r.accuracy.frames, 100 * r.accuracy.agree, 100 * r.accuracy.min_agree, r.accuracy.iou_silhouette_hull,
-            100 * r.accuracy.body_recall);
+            r.accuracy.frames, 100 * r.accuracy.agree, 100 * r.accuracy.min_agree,
+            r.accuracy.iou_silhouette_hull, 100 * r.accuracy.body_recall);
       }
       if (r.report.frames == 0) throw std::runtime_error("no frame was merged");
       return;
@@ -186,19 +204,22 @@ void add_rig_commands(CLI::App& app) {
     std::unique_ptr<aggregator::Aggregator> agg_ptr;
     config::RigConfig rig;
     try {
-      std::filesystem::path path = config->empty() ? config::default_rig_config_path() : std::filesystem::path(*config);
+      std::filesystem::path path =
+          config->empty() ? config::default_rig_config_path() : std::filesystem::path(*config);
       rig = config::load_rig_config(path);
       agg_ptr = std::make_unique<aggregator::Aggregator>(rig, aggregator::Options{});
     } catch (const config::ConfigError& e) {
       throw UsageError(e.what());
     }
     aggregator::Aggregator& agg = *agg_ptr;
-    auto& recording = agg.pipeline().tap(
-        std::make_unique<aggregator::RecordStage>(record->empty() ? rig.recording.dir : std::filesystem::path(*record)),
-        aggregator::RecordStage::kQueue);
+    auto& recording =
+        agg.pipeline().tap(std::make_unique<aggregator::RecordStage>(
+                               record->empty() ? rig.recording.dir : std::filesystem::path(*record)),
+                           aggregator::RecordStage::kQueue);
     agg.start();  // creates the session folder
     fmt::print("recording to {}\n", recording.dir().string());
-    auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(*seconds > 0 ? *seconds : 1e12);
+    auto end =
+        std::chrono::steady_clock::now() + std::chrono::duration<double>(*seconds > 0 ? *seconds : 1e12);
     while (!g_interrupted && std::chrono::steady_clock::now() < end)
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     agg.stop();

@@ -5,8 +5,8 @@
 #include <string>
 #include <thread>
 
-#include <CLI/CLI.hpp>
 #include <fmt/format.h>
+#include <CLI/CLI.hpp>
 
 #include "commands.hpp"
 #include "voxcap/sim/dataset.hpp"
@@ -41,7 +41,8 @@ struct SimArgs {
 
 void list_choices() {
   fmt::print("built-in motions (or a .bvh file):\n");
-  for (const auto& m : sim::builtin_motions()) fmt::print("  {:<14} {} ({} s cycle)\n", m.name, m.description, m.cycle_s);
+  for (const auto& m : sim::builtin_motions())
+    fmt::print("  {:<14} {} ({} s cycle)\n", m.name, m.description, m.cycle_s);
   fmt::print("appearances:\n");
   for (const auto& a : sim::appearance_presets()) fmt::print("  {}\n", a.name);
 }
@@ -105,9 +106,10 @@ void run(const SimArgs& a) {
   }
   const sim::DatasetSummary s = sim::write_dataset(*scene, d, a.out);
   for (const std::string& note : s.notes) fmt::print(stderr, "voxcap sim: {}\n", note);
-  fmt::print("wrote {} cameras x {} frames (+{} background frames) of '{}' to {} in {:.1f} s ({} files; {:.2f} ms "
-             "render per camera frame)\n",
-             s.cameras, s.frames, s.backgrounds, a.motion, a.out, s.seconds, s.files, s.render_ms_per_image);
+  fmt::print(
+      "wrote {} cameras x {} frames (+{} background frames) of '{}' to {} in {:.1f} s ({} files; {:.2f} ms "
+      "render per camera frame)\n",
+      s.cameras, s.frames, s.backgrounds, a.motion, a.out, s.seconds, s.files, s.render_ms_per_image);
 }
 
 }  // namespace
@@ -116,36 +118,45 @@ void add_sim_commands(CLI::App& app) {
   auto args = std::make_shared<SimArgs>();
   CLI::App* cmd = app.add_subcommand(
       "sim", "Render the virtual rig (synthetic performer, room, cameras) with ground truth to a folder");
-  cmd->add_option("--motion", args->motion,
-                  "Built-in motion name (see --list) or a BVH file (*.bvh)")->capture_default_str();
+  cmd->add_option("--motion", args->motion, "Built-in motion name (see --list) or a BVH file (*.bvh)")
+      ->capture_default_str();
   cmd->add_option("--frames", args->frames,
                   "Frames to render (0: the motion's length: 1.5 s lead-in + the clip or one cycle)")
-      ->check(CLI::Range(0, 1000000))->capture_default_str();
-  cmd->add_option("--cameras", args->cameras, "Cameras in the default ring (2..64; the first two are the front pair)")
-      ->check(CLI::Range(2, 64))->capture_default_str();
+      ->check(CLI::Range(0, 1000000))
+      ->capture_default_str();
+  cmd->add_option("--cameras", args->cameras,
+                  "Cameras in the default ring (2..64; the first two are the front pair)")
+      ->check(CLI::Range(2, 64))
+      ->capture_default_str();
   cmd->add_option("--size", args->size, "Image size WxH in pixels")->capture_default_str();
   cmd->add_option("--out", args->out, "Output folder (created; existing files are overwritten)");
   cmd->add_option("--seed", args->seed, "Seed of the sensor noise and flicker")->capture_default_str();
-  cmd->add_option("--noise", args->noise, "Gaussian sensor noise sigma in 8-bit levels (0..50)")->capture_default_str();
+  cmd->add_option("--noise", args->noise, "Gaussian sensor noise sigma in 8-bit levels (0..50)")
+      ->capture_default_str();
   cmd->add_option("--flicker", args->flicker, "Illumination flicker: per-frame gain in [1-f, 1+f] (0..0.5)")
       ->capture_default_str();
   cmd->add_option("--appearance", args->appearance, "Appearance preset (skin and clothes, see --list)")
       ->capture_default_str();
   cmd->add_flag("--distortion", args->distortion, "Mild barrel lens distortion (k1 ~ -0.1, k2 ~ 0.03)");
-  cmd->add_option("--fps", args->fps, "Camera frame rate (frame f is at f/fps seconds)")->capture_default_str();
+  cmd->add_option("--fps", args->fps, "Camera frame rate (frame f is at f/fps seconds)")
+      ->capture_default_str();
   cmd->add_option("--backgrounds", args->backgrounds, "Empty-room frames for learning the background model")
-      ->check(CLI::Range(0, 100000))->capture_default_str();
-  cmd->add_option("--calibration", args->calibration,
-                  "Render with the cameras of this rig.yaml instead of the default ring (ignores --cameras, --size)");
+      ->check(CLI::Range(0, 100000))
+      ->capture_default_str();
+  cmd->add_option(
+      "--calibration", args->calibration,
+      "Render with the cameras of this rig.yaml instead of the default ring (ignores --cameras, --size)");
   cmd->add_option("--height", args->height_m, "Performer height in metres (1.0..2.3)")->capture_default_str();
   cmd->add_flag("--no-shadows", args->no_shadows, "Do not cast the performer's shadow on the floor");
   cmd->add_option("--bvh-fps", args->bvh_fps, "Override the BVH clip's frame rate (0: from the file)")
       ->capture_default_str();
-  cmd->add_option("--bvh-scale", args->bvh_scale,
-                  "Metres per BVH unit (0: by naming convention, rest-pose size in m/cm/mm, else body height)")
+  cmd->add_option(
+         "--bvh-scale", args->bvh_scale,
+         "Metres per BVH unit (0: by naming convention, rest-pose size in m/cm/mm, else body height)")
       ->capture_default_str();
   cmd->add_flag("--loop", args->loop, "Loop a BVH clip instead of holding its last frame");
-  cmd->add_option("--jobs", args->jobs, "Render threads (0: one per hardware thread)")->check(CLI::Range(0, 256))
+  cmd->add_option("--jobs", args->jobs, "Render threads (0: one per hardware thread)")
+      ->check(CLI::Range(0, 256))
       ->capture_default_str();
   cmd->add_flag("--list", args->list, "List the built-in motions and appearances, then exit");
   cmd->add_flag("--quiet", args->quiet, "No progress on stderr");

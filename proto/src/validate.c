@@ -47,11 +47,12 @@ int vc_check_config(const vc_config* m, vc_proto_diag* diag) {
     return vc_diag_set(diag, VC_PROTO_ELIMIT, "CONFIG: camera_count %u > %d", m->camera_count,
                        VC_PROTO_MAX_CAMERAS);
   if (m->grid.nx == 0 || m->grid.ny == 0 || m->grid.nz == 0)
-    return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: grid %ux%ux%u has no voxels", m->grid.nx, m->grid.ny, m->grid.nz);
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: grid %ux%ux%u has no voxels", m->grid.nx, m->grid.ny,
+                       m->grid.nz);
   uint64_t xy = (uint64_t)m->grid.nx * m->grid.ny; /* < 2^64: two u32 */
   if (xy > VC_PROTO_MAX_VOXELS || xy * m->grid.nz > VC_PROTO_MAX_VOXELS)
-    return vc_diag_set(diag, VC_PROTO_ELIMIT, "CONFIG: grid %ux%ux%u has more than %llu voxels", m->grid.nx, m->grid.ny,
-                       m->grid.nz, (unsigned long long)VC_PROTO_MAX_VOXELS);
+    return vc_diag_set(diag, VC_PROTO_ELIMIT, "CONFIG: grid %ux%ux%u has more than %llu voxels", m->grid.nx,
+                       m->grid.ny, m->grid.nz, (unsigned long long)VC_PROTO_MAX_VOXELS);
   if (!all_finite(m->grid.min_m, 3)) return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: min_m is not finite");
   if (!(isfinite(m->grid.voxel_m) && m->grid.voxel_m > 0))
     return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: voxel_m %g is not > 0", m->grid.voxel_m);
@@ -65,7 +66,8 @@ int vc_check_config(const vc_config* m, vc_proto_diag* diag) {
   if (m->cleanup_radius_px > VC_CLEANUP_RADIUS_MAX_PX)
     return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: cleanup_radius_px %u is not in [0, %d]",
                        m->cleanup_radius_px, VC_CLEANUP_RADIUS_MAX_PX);
-  if (m->reserved != 0) return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: reserved is %u, not 0", m->reserved);
+  if (m->reserved != 0)
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: reserved is %u, not 0", m->reserved);
   if (m->background_frames == 0) return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: background_frames 0");
   if (vc_role_name(m->feature_role) == NULL)
     return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: unknown feature_role %u", m->feature_role);

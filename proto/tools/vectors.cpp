@@ -546,8 +546,8 @@ std::vector<Vector> build_streams() {
     r.rejected(patched(features_msg(), [](Bytes& p) { st16(p.data() + 6 + 2, 7); }), VC_PROTO_EFIELD);
   }
   {
-    Vector& r = add("bad_cleanup_radius",
-                    "A CONFIG with cleanup_radius_px 9 (the edge runs 0..8): VC_PROTO_EFIELD");
+    Vector& r =
+        add("bad_cleanup_radius", "A CONFIG with cleanup_radius_px 9 (the edge runs 0..8): VC_PROTO_EFIELD");
     r.rejected(patched(config_msg(), [](Bytes& p) { st32(p.data() + 60, 9); }), VC_PROTO_EFIELD);
   }
   {

@@ -11,14 +11,14 @@
 namespace vc::bench {
 
 struct EdgeBenchOptions {
-  int grid = 128;        // voxels per axis of the cubic grid
-  int frames = 20;       // measured frames (medians are reported)
-  int bg_frames = 16;    // empty-room frames the background model learns from
-  int width = 640;       // per camera
+  int grid = 128;      // voxels per axis of the cubic grid
+  int frames = 20;     // measured frames (medians are reported)
+  int bg_frames = 16;  // empty-room frames the background model learns from
+  int width = 640;     // per camera
   int height = 480;
-  bool callgrind = true; // instruction counts via a child under valgrind --tool=callgrind
-  bool rss = true;       // peak resident memory via a child that runs only the edge pipeline
-  std::string self_exe;  // the voxcap-bench binary, re-run as the measuring child ("" = /proc/self/exe)
+  bool callgrind = true;  // instruction counts via a child under valgrind --tool=callgrind
+  bool rss = true;        // peak resident memory via a child that runs only the edge pipeline
+  std::string self_exe;   // the voxcap-bench binary, re-run as the measuring child ("" = /proc/self/exe)
 
   bool valid(std::string* why) const;
 };

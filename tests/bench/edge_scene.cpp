@@ -64,7 +64,8 @@ EdgeScene::EdgeScene(int width, int height, uint64_t seed) : width_(width), heig
   for (int c = 0; c < 2; c++) {
     double a = angles_deg[c] * M_PI / 180.0;
     cv::Vec3d eye(3.6 * std::cos(a), 3.6 * std::sin(a), 1.7);
-    cams_[c] = vc::rig::Camera::look_at(c == 0 ? "cam0" : "cam1", width, height, f, eye, cv::Vec3d(0, 0, 1.0));
+    cams_[c] =
+        vc::rig::Camera::look_at(c == 0 ? "cam0" : "cam1", width, height, f, eye, cv::Vec3d(0, 0, 1.0));
     cams_[c].K(0, 2) += 3.3;
     cams_[c].K(1, 2) -= 2.1;
     cams_[c].dist = cv::Vec<double, 5>(-0.12, 0.035, 0.0006, -0.0004, 0.0);
@@ -102,9 +103,9 @@ std::vector<Ellipsoid> EdgeScene::body(int frame) const {
   const double s = std::sin(0.25 * frame);
   const cv::Vec3d root(-0.25 + 0.2 * std::sin(0.05 * frame), 0.1 * std::cos(0.07 * frame), 0);
   std::vector<Ellipsoid> parts;
-  parts.push_back(blob(root + cv::Vec3d(0, 0, 1.22), 0.12, 0.19, 0.28, shirt));  // chest
+  parts.push_back(blob(root + cv::Vec3d(0, 0, 1.22), 0.12, 0.19, 0.28, shirt));     // chest
   parts.push_back(blob(root + cv::Vec3d(0, 0, 0.95), 0.11, 0.17, 0.13, trousers));  // pelvis
-  parts.push_back(blob(root + cv::Vec3d(0, 0, 1.62), 0.095, 0.085, 0.12, skin));  // head
+  parts.push_back(blob(root + cv::Vec3d(0, 0, 1.62), 0.095, 0.085, 0.12, skin));    // head
   for (int side = -1; side <= 1; side += 2) {
     double phi = 0.5 * s * side;
     cv::Vec3d shoulder = root + cv::Vec3d(0, 0.21 * side, 1.43);
@@ -136,7 +137,7 @@ void EdgeScene::render(int frame, int cam, std::vector<uint8_t>& rgb) const {
     bc *= 1.0 / parts.size();
     for (const auto& e : parts) {
       double r = 1.0 / std::min({cv::norm(e.unit_from_world.row(0)), cv::norm(e.unit_from_world.row(1)),
-                                  cv::norm(e.unit_from_world.row(2))});
+                                 cv::norm(e.unit_from_world.row(2))});
       br = std::max(br, cv::norm(e.center_world - bc) + r);
     }
   }
@@ -148,7 +149,8 @@ void EdgeScene::render(int frame, int cam, std::vector<uint8_t>& rgb) const {
   prepare_rays(cam);
   const cv::Vec3d eye = cams_[cam].center_world();
   const auto& rays = rays_world_[cam];
-  const uint64_t key0 = splitmix(seed_ ^ (static_cast<uint64_t>(frame + 1000000) << 20) ^ static_cast<uint64_t>(cam));
+  const uint64_t key0 =
+      splitmix(seed_ ^ (static_cast<uint64_t>(frame + 1000000) << 20) ^ static_cast<uint64_t>(cam));
   for (int y = 0; y < height_; y++)
     for (int x = 0; x < width_; x++) {
       const size_t i = static_cast<size_t>(y) * width_ + x;

@@ -43,7 +43,8 @@ std::vector<uint8_t> extrude(const std::vector<uint8_t>& b, int n, double angle,
   int steps = static_cast<int>(reach_m / vox);
   double dx = std::cos(angle), dy = std::sin(angle);
   auto get = [&](int i, int j, int k) {
-    size_t v = static_cast<size_t>(i) + static_cast<size_t>(n) * (static_cast<size_t>(j) + static_cast<size_t>(n) * k);
+    size_t v = static_cast<size_t>(i) +
+               static_cast<size_t>(n) * (static_cast<size_t>(j) + static_cast<size_t>(n) * k);
     return (b[v / 8] >> (v % 8)) & 1;
   };
   for (int k = 0; k < n; k++)
@@ -53,7 +54,8 @@ std::vector<uint8_t> extrude(const std::vector<uint8_t>& b, int n, double angle,
         for (int s = -steps; s <= steps; s++) {
           int ii = i + static_cast<int>(std::lround(s * dx)), jj = j + static_cast<int>(std::lround(s * dy));
           if (ii < 0 || jj < 0 || ii >= n || jj >= n) continue;
-          size_t v = static_cast<size_t>(ii) + static_cast<size_t>(n) * (static_cast<size_t>(jj) + static_cast<size_t>(n) * k);
+          size_t v = static_cast<size_t>(ii) +
+                     static_cast<size_t>(n) * (static_cast<size_t>(jj) + static_cast<size_t>(n) * k);
           out[v / 8] |= static_cast<uint8_t>(1u << (v % 8));
         }
       }
@@ -78,7 +80,8 @@ nlohmann::json run_host_bench(const HostBenchOptions& o) {
     std::vector<uint8_t> b = body(n);
     int max_nodes = *std::max_element(o.nodes.begin(), o.nodes.end());
     std::vector<std::vector<uint8_t>> parts;
-    for (int k = 0; k < max_nodes; k++) parts.push_back(encode(extrude(b, n, M_PI * k / max_nodes, 1.0), nbits));
+    for (int k = 0; k < max_nodes; k++)
+      parts.push_back(encode(extrude(b, n, M_PI * k / max_nodes, 1.0), nbits));
     for (int nodes : o.nodes) {
       std::vector<const std::vector<uint8_t>*> in;
       size_t rle_bytes = 0;

@@ -16,9 +16,9 @@ namespace vc::bench {
 struct HostBenchOptions {
   std::vector<int> grids{64, 128, 256};
   std::vector<int> nodes{3, 4, 8};
-  int repeats = 50;          // merges timed per configuration
-  bool rig = true;           // run the emulated rig part
-  double rig_minutes = 10;   // how long the emulated rig runs
+  int repeats = 50;         // merges timed per configuration
+  bool rig = true;          // run the emulated rig part
+  double rig_minutes = 10;  // how long the emulated rig runs
   int rig_nodes = 3;
   int width = 640, height = 480;
   int rig_grid = 128;

@@ -65,8 +65,9 @@ TEST(PairingHil, TriggeredCameraFramesPairWithGpioPulses) {
   std::string backend = env("VOXCAP_HIL_CAMERA_BACKEND"), device = env("VOXCAP_HIL_CAMERA");
   long hz = env_long("VOXCAP_HIL_TRIGGER_HZ", 0);
   if (backend.empty() || device.empty() || hz <= 0)
-    GTEST_SKIP() << "no rig configured: set VOXCAP_HIL_CAMERA_BACKEND, VOXCAP_HIL_CAMERA, VOXCAP_HIL_TRIGGER_HZ "
-                    "and the VOXCAP_HIL_GPIO_* pair to run";
+    GTEST_SKIP()
+        << "no rig configured: set VOXCAP_HIL_CAMERA_BACKEND, VOXCAP_HIL_CAMERA, VOXCAP_HIL_TRIGGER_HZ "
+           "and the VOXCAP_HIL_GPIO_* pair to run";
   vc_trigger* t = open_gpio(&skip);
   if (!skip.empty()) GTEST_SKIP() << skip;
   ASSERT_NE(t, nullptr);
@@ -88,7 +89,9 @@ TEST(PairingHil, TriggeredCameraFramesPairWithGpioPulses) {
   pc.tolerance_ns = 1000000000ull / (uint64_t)hz / 2 - 500000;
   pc.latency_ns[0] = env_long("VOXCAP_HIL_LATENCY_US", 0) * 1000;
   std::vector<vc_pair_event> events;
-  auto cb = [](void* user, const vc_pair_event* ev) { static_cast<std::vector<vc_pair_event>*>(user)->push_back(*ev); };
+  auto cb = [](void* user, const vc_pair_event* ev) {
+    static_cast<std::vector<vc_pair_event>*>(user)->push_back(*ev);
+  };
   vc_pairer* pr = nullptr;
   ASSERT_EQ(vc_pairer_new(&pc, cb, &events, &pr, nullptr, 0), 0);
 
@@ -117,10 +120,11 @@ TEST(PairingHil, TriggeredCameraFramesPairWithGpioPulses) {
   vc_pairer_flush(pr);
   vc_pairing_stats st;
   vc_pairer_get_stats(pr, &st);
-  std::printf("hil: matched %llu, frames without pulse %llu, pulses without frame %llu, error %lld..%lld ns\n",
-              (unsigned long long)st.matched[0], (unsigned long long)st.frames_without_pulse[0],
-              (unsigned long long)st.pulses_without_frame[0], (long long)st.error_min_ns[0],
-              (long long)st.error_max_ns[0]);
+  std::printf(
+      "hil: matched %llu, frames without pulse %llu, pulses without frame %llu, error %lld..%lld ns\n",
+      (unsigned long long)st.matched[0], (unsigned long long)st.frames_without_pulse[0],
+      (unsigned long long)st.pulses_without_frame[0], (long long)st.error_min_ns[0],
+      (long long)st.error_max_ns[0]);
   // a triggered camera exposes exactly once per pulse: every frame has its pulse
   EXPECT_GE(st.matched[0], (uint64_t)(5 * hz - 2));
   EXPECT_LE(st.frames_without_pulse[0], 2u);  // at most the edges of the run

@@ -15,8 +15,8 @@
 #include <chrono>
 #include <filesystem>
 #include <set>
-#include <variant>
 #include <thread>
+#include <variant>
 
 #include "voxcap/emulated/emulated_rig.hpp"
 #include "voxcap/proto.h"
@@ -42,7 +42,9 @@ Options options() {
   return o;
 }
 
-const aggregator::NodeReport& node(const aggregator::Report& r, int k) { return r.nodes.at(static_cast<size_t>(k)); }
+const aggregator::NodeReport& node(const aggregator::Report& r, int k) {
+  return r.nodes.at(static_cast<size_t>(k));
+}
 
 TEST(EmulatedRig, ThreeNodesSixHundredFramesCompleteAndMatchTheTrueSilhouettes) {
   EmulatedRig rig(options());
@@ -180,7 +182,9 @@ TEST(EmulatedRig, StalledNodeIsCountedLateAndMemoryStaysFlat) {
   long rss_after = rss_kb();
   Result r = rig.stop();
   EXPECT_GT(node(r.report, 2).missing, 30u) << "frames resolved without the stalled node";
-  EXPECT_GT(node(r.report, 2).late + node(r.report, 2).edge_queue_drops + node(r.report, 2).edge_pulses_without_frame, 0u)
+  EXPECT_GT(node(r.report, 2).late + node(r.report, 2).edge_queue_drops +
+                node(r.report, 2).edge_pulses_without_frame,
+            0u)
       << "its backlog is counted, not merged";
   EXPECT_GT(r.report.degraded, 30u);
   EXPECT_LT(rss_after - rss_before, 16 * 1024) << "host memory grew by " << (rss_after - rss_before) << " kB";
@@ -228,7 +232,8 @@ TEST(EmulatedRig, AStalledStageDropsNoNodeAndItsFramesAreAccounted) {
   EmulatedRig rig(o);
   rig.start(60);
   auto end = Clock::now() + std::chrono::seconds(30);
-  while (!must_see->stalling() && Clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  while (!must_see->stalling() && Clock::now() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
   ASSERT_TRUE(must_see->stalling());
   uint64_t at_stall = rig.merged_frames();
   rig.run_seconds(1.5);

@@ -18,7 +18,9 @@ namespace {
 constexpr int kW = 32, kH = 24;
 
 // Frame n of camera k: a flat colour whose RGB encodes both, plus a red pixel at (1,0).
-cv::Vec3b colour(int cam, int n) { return {(uint8_t)(10 * n), (uint8_t)(100 + cam), (uint8_t)(200 - n)}; }
+cv::Vec3b colour(int cam, int n) {
+  return {(uint8_t)(10 * n), (uint8_t)(100 + cam), (uint8_t)(200 - n)};
+}
 
 class FileBackend : public ::testing::Test {
  protected:
@@ -30,7 +32,8 @@ class FileBackend : public ::testing::Test {
       fs::create_directories(dir_ / ("cam" + std::to_string(cam)));
       fs::create_directories(dir_ / "background" / ("cam" + std::to_string(cam)));
       for (int n = 0; n < 5; n++) write(dir_ / ("cam" + std::to_string(cam)) / name(n), colour(cam, n));
-      for (int i = 0; i < 2; i++) write(dir_ / "background" / ("cam" + std::to_string(cam)) / name(i), {1, 2, 3});
+      for (int i = 0; i < 2; i++)
+        write(dir_ / "background" / ("cam" + std::to_string(cam)) / name(i), {1, 2, 3});
     }
     fs::path noise = dir_ / "cam0" / "notes.txt";
     FILE* f = fopen(noise.c_str(), "w");
@@ -51,7 +54,7 @@ class FileBackend : public ::testing::Test {
   }
   static void write(const fs::path& p, cv::Vec3b rgb) {
     cv::Mat img(kH, kW, CV_8UC3, cv::Scalar(rgb[2], rgb[1], rgb[0]));  // imwrite takes BGR
-    img.at<cv::Vec3b>(0, 1) = cv::Vec3b(0, 0, 255);                     // a red pixel
+    img.at<cv::Vec3b>(0, 1) = cv::Vec3b(0, 0, 255);                    // a red pixel
     ASSERT_TRUE(cv::imwrite(p.string(), img));
   }
   int open() {
@@ -212,8 +215,9 @@ TEST_F(FileBackend, RewindToAMissingBackgroundIsAClearError) {
   fs::remove_all(dir_ / "background");
   ASSERT_EQ(open(), 0) << why_;
   EXPECT_EQ(vc_camera_rewind(cam_, 0, VC_CAMERA_SCENE_EMPTY), -ENOENT);
-  EXPECT_EQ(std::string(vc_camera_last_error(cam_)),
-            "file: " + dev_ + ": no folder " + dev_ + "/background/cam0 (is this a `voxcap sim --out` folder?)");
+  EXPECT_EQ(
+      std::string(vc_camera_last_error(cam_)),
+      "file: " + dev_ + ": no folder " + dev_ + "/background/cam0 (is this a `voxcap sim --out` folder?)");
 }
 
 TEST_F(FileBackend, UnknownOptionsAreErrors) {

@@ -33,7 +33,8 @@ int fake_start(vc_camera*, void* p) {
 int fake_capture(vc_camera* cam, void* p, int timeout_ms, uint8_t* rgb, size_t stride, vc_frame* meta) {
   auto* s = static_cast<Script*>(p);
   if (s->next == s->sequences.size())
-    return vc_camera_set_error(cam, -ETIMEDOUT, "camera stopped delivering: no frame within %d ms", timeout_ms);
+    return vc_camera_set_error(cam, -ETIMEDOUT, "camera stopped delivering: no frame within %d ms",
+                               timeout_ms);
   for (int y = 0; y < 2; y++) memset(rgb + y * stride, (int)s->next, 12);
   meta->sequence = s->sequences[s->next++];
   meta->t_ns = 1000 * meta->sequence;
@@ -47,8 +48,8 @@ int fake_stop(vc_camera*, void* p) {
 void fake_free(void* p) {
   if (p) static_cast<Script*>(p)->freed++;
 }
-const vc_camera_backend kFake = {"fake", fake_open, fake_start, fake_capture, fake_stop, fake_free,
-                                 nullptr, nullptr, nullptr};
+const vc_camera_backend kFake = {"fake",    fake_open, fake_start, fake_capture, fake_stop,
+                                 fake_free, nullptr,   nullptr,    nullptr};
 
 class CommonLayer : public ::testing::Test {
  protected:
@@ -149,8 +150,9 @@ TEST(CameraFactory, SelectsByNameAndRejectsUnknown) {
     EXPECT_EQ(got, (std::vector<std::string>{"v4l2", "libcamera", "file"}));
     cfg.backend = "sim";
     EXPECT_EQ(vc_camera_open(&cfg, &cam, why, sizeof why), -ENOTSUP);
-    EXPECT_STREQ(why, "camera config: sim backend not built in (this voxcap-edge was built with -DVOXCAP_SIM=OFF; "
-                      "use v4l2, libcamera or file)");
+    EXPECT_STREQ(why,
+                 "camera config: sim backend not built in (this voxcap-edge was built with -DVOXCAP_SIM=OFF; "
+                 "use v4l2, libcamera or file)");
     EXPECT_EQ(cam, nullptr);
     cfg.backend = nullptr;
   }

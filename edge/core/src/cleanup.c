@@ -16,49 +16,51 @@
 
 #include "dispatch.h"
 
-size_t vc_cleanup_scratch_size(int width) { return width > 0 ? 3 * (size_t)width + 2 : 0; }
+size_t vc_cleanup_scratch_size(int width) {
+  return width > 0 ? 3 * (size_t)width + 2 : 0;
+}
 
-static inline uint8_t bit(uint8_t v) { return v != 0; }
+static inline uint8_t bit(uint8_t v) {
+  return v != 0;
+}
 
 /* Vertical sums of three rows into vs[1..w], replicated into vs[0] and vs[w+1]. */
-VC_HOT void vsum_body(const uint8_t *restrict up, const uint8_t *restrict mid,
-                      const uint8_t *restrict down, uint8_t *restrict vs, int w) {
+VC_HOT void vsum_body(const uint8_t* restrict up, const uint8_t* restrict mid, const uint8_t* restrict down,
+                      uint8_t* restrict vs, int w) {
   for (int x = 0; x < w; x++) vs[x + 1] = (uint8_t)(bit(up[x]) + bit(mid[x]) + bit(down[x]));
   vs[0] = vs[1];
   vs[w + 1] = vs[w];
 }
 
 /* out[x] = 255 when vs[x] + vs[x+1] + vs[x+2] >= 5. */
-VC_HOT void hmaj_body(const uint8_t *restrict vs, uint8_t *restrict out, int w) {
+VC_HOT void hmaj_body(const uint8_t* restrict vs, uint8_t* restrict out, int w) {
   for (int x = 0; x < w; x++) {
     uint8_t s = (uint8_t)(vs[x] + vs[x + 1] + vs[x + 2]);
     out[x] = (uint8_t)(0u - (uint8_t)(s >= 5));
   }
 }
 
-static void row_generic(const uint8_t *restrict up, const uint8_t *restrict mid,
-                        const uint8_t *restrict down, uint8_t *restrict vs, uint8_t *restrict out,
-                        int w) {
+static void row_generic(const uint8_t* restrict up, const uint8_t* restrict mid, const uint8_t* restrict down,
+                        uint8_t* restrict vs, uint8_t* restrict out, int w) {
   vsum_body(up, mid, down, vs, w);
   hmaj_body(vs, out, w);
 }
 
 #if VC_HAVE_AVX2_VARIANT
-VC_TARGET_AVX2 static void row_avx2(const uint8_t *restrict up, const uint8_t *restrict mid,
-                                    const uint8_t *restrict down, uint8_t *restrict vs,
-                                    uint8_t *restrict out, int w) {
+VC_TARGET_AVX2 static void row_avx2(const uint8_t* restrict up, const uint8_t* restrict mid,
+                                    const uint8_t* restrict down, uint8_t* restrict vs, uint8_t* restrict out,
+                                    int w) {
   vsum_body(up, mid, down, vs, w);
   hmaj_body(vs, out, w);
 }
 #endif
 
-int vc_cleanup(uint8_t *mask, int width, int height, int iterations, uint8_t *scratch,
-               size_t scratch_len) {
+int vc_cleanup(uint8_t* mask, int width, int height, int iterations, uint8_t* scratch, size_t scratch_len) {
   if (mask == NULL || scratch == NULL || width < 1 || height < 1 || iterations < 0 ||
       scratch_len < vc_cleanup_scratch_size(width))
     return -EINVAL;
-  void (*row)(const uint8_t *restrict, const uint8_t *restrict, const uint8_t *restrict,
-              uint8_t *restrict, uint8_t *restrict, int) = row_generic;
+  void (*row)(const uint8_t* restrict, const uint8_t* restrict, const uint8_t* restrict, uint8_t* restrict,
+              uint8_t* restrict, int) = row_generic;
 #if VC_HAVE_AVX2_VARIANT
   if (vc__use_avx2()) row = row_avx2;
 #endif
@@ -67,19 +69,19 @@ int vc_cleanup(uint8_t *mask, int width, int height, int iterations, uint8_t *sc
     for (size_t i = 0; i < w * (size_t)height; i++) mask[i] = (uint8_t)(0u - bit(mask[i]));
     return 0;
   }
-  uint8_t *prev = scratch;    /* original of row y-1 */
-  uint8_t *cur = scratch + w; /* original of row y */
-  uint8_t *vs = scratch + 2 * w;
+  uint8_t* prev = scratch;    /* original of row y-1 */
+  uint8_t* cur = scratch + w; /* original of row y */
+  uint8_t* vs = scratch + 2 * w;
   for (int it = 0; it < iterations; it++) {
     memcpy(cur, mask, w);
     memcpy(prev, mask, w); /* row -1 replicates row 0 */
     for (int y = 0; y < height; y++) {
-      uint8_t *out = mask + (size_t)y * w;
-      const uint8_t *down = y + 1 < height ? out + w : cur; /* row h replicates row h-1 */
+      uint8_t* out = mask + (size_t)y * w;
+      const uint8_t* down = y + 1 < height ? out + w : cur; /* row h replicates row h-1 */
       row(prev, cur, down, vs, out, width);
       /* Slide the window: the original of row y becomes "previous", row y+1 (still unfiltered
        * in the mask) becomes "current". */
-      uint8_t *t = prev;
+      uint8_t* t = prev;
       prev = cur;
       cur = t;
       if (y + 1 < height) memcpy(cur, out + w, w);
@@ -105,11 +107,10 @@ size_t vc_cleanup_radius_scratch_size(int width, int radius) {
   return ring_offset(width, radius) + ((size_t)radius + 1) * (size_t)width;
 }
 
-int vc_cleanup_radius(uint8_t *mask, int width, int height, int radius, uint8_t *scratch,
+int vc_cleanup_radius(uint8_t* mask, int width, int height, int radius, uint8_t* scratch,
                       size_t scratch_len) {
   if (radius < 0 || radius > VC_CLEANUP_MAX_RADIUS || width < 1 ||
-      scratch_len < vc_cleanup_radius_scratch_size(width, radius) ||
-      ((uintptr_t)scratch & 1u) != 0)
+      scratch_len < vc_cleanup_radius_scratch_size(width, radius) || ((uintptr_t)scratch & 1u) != 0)
     return -EINVAL;
   if (radius <= 1) return vc_cleanup(mask, width, height, radius, scratch, scratch_len);
   if (mask == NULL || scratch == NULL || height < 1) return -EINVAL;
@@ -117,8 +118,8 @@ int vc_cleanup_radius(uint8_t *mask, int width, int height, int radius, uint8_t 
   const size_t w = (size_t)width;
   const int r = radius, side = 2 * radius + 1;
   const unsigned need = (unsigned)(side * side + 1) / 2; /* strict majority: 5 of 9, 13 of 25, ... */
-  uint16_t *cs = (uint16_t *)(void *)scratch + r;      /* cs[-r .. width-1+r] */
-  uint8_t *ring = scratch + ring_offset(width, radius); /* originals of rows y-r..y, row % (r+1) */
+  uint16_t* cs = (uint16_t*)(void*)scratch + r;          /* cs[-r .. width-1+r] */
+  uint8_t* ring = scratch + ring_offset(width, radius);  /* originals of rows y-r..y, row % (r+1) */
 #define ROW(yy) (mask + (size_t)((yy) < 0 ? 0 : (yy) >= height ? height - 1 : (yy)) * w)
 
   for (size_t x = 0; x < w; x++) {
@@ -127,8 +128,8 @@ int vc_cleanup_radius(uint8_t *mask, int width, int height, int radius, uint8_t 
     cs[x] = (uint16_t)n;
   }
   for (int y = 0; y < height; y++) {
-    uint8_t *out = mask + (size_t)y * w;
-    uint8_t *keep = ring + (size_t)(y % (r + 1)) * w;
+    uint8_t* out = mask + (size_t)y * w;
+    uint8_t* keep = ring + (size_t)(y % (r + 1)) * w;
     for (size_t x = 0; x < w; x++) keep[x] = out[x] != 0;
     for (int k = 1; k <= r; k++) {
       cs[-k] = cs[0];
@@ -145,8 +146,8 @@ int vc_cleanup_radius(uint8_t *mask, int width, int height, int radius, uint8_t 
     /* Next row's column counts: the row leaving above (an original, from the ring: rows <= y are
      * filtered now) out, the row entering below (still original in the mask) in. */
     const int leave = y - r < 0 ? 0 : y - r;
-    const uint8_t *old = ring + (size_t)(leave % (r + 1)) * w;
-    const uint8_t *enter = ROW(y + 1 + r);
+    const uint8_t* old = ring + (size_t)(leave % (r + 1)) * w;
+    const uint8_t* enter = ROW(y + 1 + r);
     for (size_t x = 0; x < w; x++) cs[x] = (uint16_t)(cs[x] - old[x] + (enter[x] != 0));
   }
 #undef ROW

@@ -80,9 +80,9 @@ TEST_P(CleanupVariants, RemovesSpecklesAndFillsHolesKeepsTheBody) {
   std::vector<uint8_t> m(w * h, 0);
   for (int y = 10; y < 40; y++)
     for (int x = 20; x < 44; x++) m[y * w + x] = 255;
-  m[20 * w + 30] = 0;                                   // 1-pixel hole
+  m[20 * w + 30] = 0;                                                     // 1-pixel hole
   m[25 * w + 25] = m[25 * w + 26] = m[26 * w + 25] = m[26 * w + 26] = 0;  // 2x2 hole
-  m[3 * w + 3] = 255;                                   // speckles
+  m[3 * w + 3] = 255;                                                     // speckles
   m[5 * w + 50] = m[5 * w + 51] = m[6 * w + 50] = m[6 * w + 51] = 255;
   std::vector<uint8_t> scratch(vc_cleanup_scratch_size(w));
   ASSERT_EQ(vc_cleanup(m.data(), w, h, 1, scratch.data(), scratch.size()), 0);
@@ -108,7 +108,8 @@ TEST_P(CleanupVariants, RadiusEqualsTheReferenceOnRandomMasks) {
         std::vector<uint8_t> scratch(vc_cleanup_radius_scratch_size(w, r));
         std::vector<uint8_t> got = m;
         ASSERT_EQ(vc_cleanup_radius(got.data(), w, h, r, scratch.data(), scratch.size()), 0);
-        ASSERT_EQ(got, reference_majority_r(m, w, h, r)) << w << "x" << h << " density " << density << " r " << r;
+        ASSERT_EQ(got, reference_majority_r(m, w, h, r))
+            << w << "x" << h << " density " << density << " r " << r;
       }
     }
   }
@@ -174,7 +175,8 @@ TEST(CleanupRadius, BadArgumentsFail) {
   EXPECT_EQ(vc_cleanup_radius_scratch_size(16, VC_CLEANUP_MAX_RADIUS + 1), 0u);
   EXPECT_EQ(vc_cleanup_radius_scratch_size(16, -1), 0u);
   EXPECT_EQ(vc_cleanup_radius_scratch_size(0, 2), 0u);
-  EXPECT_EQ(vc_cleanup_radius(m.data(), 16, 16, VC_CLEANUP_MAX_RADIUS + 1, scratch.data(), scratch.size()), -EINVAL);
+  EXPECT_EQ(vc_cleanup_radius(m.data(), 16, 16, VC_CLEANUP_MAX_RADIUS + 1, scratch.data(), scratch.size()),
+            -EINVAL);
   EXPECT_EQ(vc_cleanup_radius(m.data(), 16, 16, -1, scratch.data(), scratch.size()), -EINVAL);
   EXPECT_EQ(vc_cleanup_radius(m.data(), 16, 16, 3, scratch.data(), vc_cleanup_radius_scratch_size(16, 3) - 1),
             -EINVAL);

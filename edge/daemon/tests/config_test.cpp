@@ -99,8 +99,9 @@ TEST(EdgeConfig, ErrorsNameTheKey) {
   EXPECT_NE(load_error("[host]\nport = 0\n").find("host.port"), std::string::npos);
   EXPECT_NE(load_error("[host]\nport = \"x\"\n").find("host.port: must be an integer"), std::string::npos);
   EXPECT_NE(load_error("[[cameras]]\nbackend=\"sim\"\n").find("exactly two"), std::string::npos);
-  EXPECT_NE(load_error("[[cameras]]\nbackend=\"usb\"\ndevice=\"x\"\n[[cameras]]\n").find("cameras[0].backend"),
-            std::string::npos);
+  EXPECT_NE(
+      load_error("[[cameras]]\nbackend=\"usb\"\ndevice=\"x\"\n[[cameras]]\n").find("cameras[0].backend"),
+      std::string::npos);
   EXPECT_NE(load_error("[trigger]\nbackend = \"gpiod\"\n").find("trigger.line"), std::string::npos);
   EXPECT_NE(load_error("[link]\nheartbeat_ms = 100\nhost_timeout_ms = 50\n").find("link.host_timeout_ms"),
             std::string::npos);

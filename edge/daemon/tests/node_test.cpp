@@ -3,11 +3,11 @@
 
 #include <gtest/gtest.h>
 
+#include <unistd.h>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <string>
-#include <unistd.h>
 #include <vector>
 
 #include "voxcap/edge/carver.h"
@@ -74,7 +74,8 @@ std::vector<uint8_t> frame(uint8_t r, uint8_t g, uint8_t b, unsigned seed) {
 }
 
 vc_node* make_node() {
-  vc_node_camera cams[2] = {{W, H, VC_FOURCC('R', 'G', 'B', '3'), 60000}, {W, H, VC_FOURCC('R', 'G', 'B', '3'), 60000}};
+  vc_node_camera cams[2] = {{W, H, VC_FOURCC('R', 'G', 'B', '3'), 60000},
+                            {W, H, VC_FOURCC('R', 'G', 'B', '3'), 60000}};
   vc_node* n = nullptr;
   char why[128] = "";
   EXPECT_EQ(vc_node_new(3, cams, &n, why, sizeof why), 0) << why;

@@ -6,7 +6,9 @@
 
 namespace {
 
-std::vector<uint8_t> msg(uint8_t tag, size_t len) { return std::vector<uint8_t>(len, tag); }
+std::vector<uint8_t> msg(uint8_t tag, size_t len) {
+  return std::vector<uint8_t>(len, tag);
+}
 
 vc_sendq* new_queue(unsigned max_msgs, size_t max_bytes) {
   vc_sendq* q = nullptr;
@@ -94,7 +96,9 @@ TEST(SendQueue, ClearCountsDrops) {
   vc_sendq_free(q);
 }
 
-TEST(SendQueue, FreeNullIsNoop) { vc_sendq_free(nullptr); }
+TEST(SendQueue, FreeNullIsNoop) {
+  vc_sendq_free(nullptr);
+}
 
 TEST(SendQueue, BadLimitsSayWhy) {
   vc_sendq* q = reinterpret_cast<vc_sendq*>(0x1);

@@ -295,7 +295,8 @@ TEST_P(PairingRun, EveryFrameFindsItsPulseAndEveryDropIsCounted) {
   }
   if (sc.drop_pulse > 0) ASSERT_FALSE(dropped_pulses.empty());
   if (sc.drop_frame > 0) ASSERT_FALSE(dropped_frames[0].empty() && dropped_frames[1].empty());
-  std::stable_sort(arrivals.begin(), arrivals.end(), [](const Arrival& a, const Arrival& b) { return a.at < b.at; });
+  std::stable_sort(arrivals.begin(), arrivals.end(),
+                   [](const Arrival& a, const Arrival& b) { return a.at < b.at; });
   for (const auto& a : arrivals) {
     vc_pairer_advance(pr.p, a.at);
     if (a.kind == 0)
@@ -336,7 +337,8 @@ TEST_P(PairingRun, EveryFrameFindsItsPulseAndEveryDropIsCounted) {
   uint64_t complete = 0;
   for (int i = 0; i < n; i++) {
     uint64_t seq = 1000 + (uint64_t)i;
-    if (!dropped_pulses.count(seq) && !dropped_frames[0].count(seq) && !dropped_frames[1].count(seq)) complete++;
+    if (!dropped_pulses.count(seq) && !dropped_frames[0].count(seq) && !dropped_frames[1].count(seq))
+      complete++;
   }
   for (unsigned c = 0; c < 2; c++) {
     EXPECT_EQ(s.frames_without_pulse[c], expect_unmatched_frames[c]) << "cam " << c;
@@ -353,10 +355,10 @@ TEST_P(PairingRun, EveryFrameFindsItsPulseAndEveryDropIsCounted) {
 
 INSTANTIATE_TEST_SUITE_P(
     Synthetic, PairingRun,
-    ::testing::Values(Scenario{1, 0.0, 0.0, 0, 0},                // clean: every pulse complete
-                      Scenario{2, 0.05, 0.0, 2 * kMs, 1 * kMs},   // lost datagrams
-                      Scenario{3, 0.0, 0.05, 2 * kMs, 1 * kMs},   // camera hiccups
-                      Scenario{4, 0.05, 0.05, 12 * kMs, 3 * kMs}, // pulses often after their frames
-                      Scenario{5, 0.1, 0.1, 3 * kMs, 14 * kMs},   // frames late (slow pipeline)
+    ::testing::Values(Scenario{1, 0.0, 0.0, 0, 0},                 // clean: every pulse complete
+                      Scenario{2, 0.05, 0.0, 2 * kMs, 1 * kMs},    // lost datagrams
+                      Scenario{3, 0.0, 0.05, 2 * kMs, 1 * kMs},    // camera hiccups
+                      Scenario{4, 0.05, 0.05, 12 * kMs, 3 * kMs},  // pulses often after their frames
+                      Scenario{5, 0.1, 0.1, 3 * kMs, 14 * kMs},    // frames late (slow pipeline)
                       Scenario{6, 0.2, 0.2, 30 * kMs, 30 * kMs}),  // everything out of order
     [](const ::testing::TestParamInfo<Scenario>& info) { return "seed" + std::to_string(info.param.seed); });

@@ -129,13 +129,15 @@ void Assembler::resolve(uint64_t seq, Pending& p, uint64_t now_ns, std::vector<M
   for (auto& [id, waiting] : stats_waiting_) {
     if (waiting.empty()) continue;
     const uint16_t node = id;
-    auto it = std::find_if(f.nodes.begin(), f.nodes.end(), [&](const pipeline::NodePart& x) { return x.node_id == node; });
+    auto it = std::find_if(f.nodes.begin(), f.nodes.end(),
+                           [&](const pipeline::NodePart& x) { return x.node_id == node; });
     if (it == f.nodes.end()) {
       pipeline::NodePart part;
       part.node_id = node;
-      it = f.nodes.insert(std::upper_bound(f.nodes.begin(), f.nodes.end(), node,
-                                           [](uint16_t n, const pipeline::NodePart& x) { return n < x.node_id; }),
-                          std::move(part));
+      it = f.nodes.insert(
+          std::upper_bound(f.nodes.begin(), f.nodes.end(), node,
+                           [](uint16_t n, const pipeline::NodePart& x) { return n < x.node_id; }),
+          std::move(part));
     }
     it->stats = std::move(waiting);
     waiting.clear();
@@ -199,8 +201,8 @@ bool Assembler::add(PartialHull h, uint64_t now_ns, std::vector<MergedFrame>& ou
   return true;
 }
 
-bool Assembler::add_features(uint16_t node_id, uint64_t seq, uint64_t t_trigger_ns, const vc_features& features,
-                             uint64_t now_ns, std::vector<MergedFrame>& out) {
+bool Assembler::add_features(uint16_t node_id, uint64_t seq, uint64_t t_trigger_ns,
+                             const vc_features& features, uint64_t now_ns, std::vector<MergedFrame>& out) {
   auto node_it = stats_.nodes.find(node_id);
   if (node_it == stats_.nodes.end()) return false;
   NodeCounters& nc = node_it->second;

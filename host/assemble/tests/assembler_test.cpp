@@ -112,7 +112,7 @@ TEST(Assembler, LateAndDuplicateAndForeignHullsAreCounted) {
   auto bits = random_bits(9, 0.5);
   a.add(hull(1, 20, bits), 0, out);
   EXPECT_FALSE(a.add(hull(1, 20, bits), 0, out));  // duplicate
-  a.poll(1'000'000, out);                            // frame 20 resolved
+  a.poll(1'000'000, out);                          // frame 20 resolved
   EXPECT_FALSE(a.add(hull(2, 20, bits), 0, out));  // late
   EXPECT_FALSE(a.add(hull(2, 19, bits), 0, out));  // older than resolved: late
   PartialHull wrong = hull(3, 21, bits);

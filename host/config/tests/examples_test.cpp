@@ -101,7 +101,8 @@ TEST(ExampleRigs, ReadmeQuotesTheDefaults) {
   std::ifstream again(std::filesystem::path(VOXCAP_SOURCE_DIR) / "host" / "config" / "README.md");
   const std::string text((std::istreambuf_iterator<char>(again)), std::istreambuf_iterator<char>());
   EXPECT_NE(text.find("0.." + num(VC_CLEANUP_RADIUS_MAX_PX) + " (0 = off)"), std::string::npos);
-  EXPECT_NE(text.find(num(VC_BACKGROUND_FRAMES_MIN) + ".." + num(VC_BACKGROUND_FRAMES_MAX)), std::string::npos);
+  EXPECT_NE(text.find(num(VC_BACKGROUND_FRAMES_MIN) + ".." + num(VC_BACKGROUND_FRAMES_MAX)),
+            std::string::npos);
 }
 
 // Every node of every example rig gets a CONFIG the protocol accepts: its calibration's cameras and the

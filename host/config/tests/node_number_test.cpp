@@ -10,8 +10,8 @@
 namespace vc::config {
 namespace {
 
-using ::testing::HasSubstr;
 using testing::edit;
+using ::testing::HasSubstr;
 using testing::TempRig;
 using testing::valid_toml;
 

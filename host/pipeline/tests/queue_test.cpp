@@ -88,7 +88,9 @@ TEST(BoundedQueue, PushAlwaysKeepsOrderPastTheCapacityWithoutWaitingOrDropping) 
   EXPECT_FALSE(q.push_always(5));
 }
 
-TEST(BoundedQueue, ZeroCapacityIsRejected) { EXPECT_THROW(BoundedQueue<int>(0, Overflow::Block), std::invalid_argument); }
+TEST(BoundedQueue, ZeroCapacityIsRejected) {
+  EXPECT_THROW(BoundedQueue<int>(0, Overflow::Block), std::invalid_argument);
+}
 
 }  // namespace
 }  // namespace vc::pipeline

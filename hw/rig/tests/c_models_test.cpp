@@ -22,7 +22,7 @@ TEST(RigCModels, CameraIsRowMajorWithNamedFrames) {
   EXPECT_EQ(c.width, 640u);
   EXPECT_EQ(c.height, 480u);
   EXPECT_EQ(c.K[0], 510.0);
-  EXPECT_EQ(c.K[2], 321.5);  // cx: row 0, column 2
+  EXPECT_EQ(c.K[2], 321.5);   // cx: row 0, column 2
   EXPECT_EQ(c.K[5], 233.25);  // cy: row 1, column 2
   EXPECT_EQ(c.K[8], 1.0);
   for (int r = 0; r < 3; r++)

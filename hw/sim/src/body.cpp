@@ -15,9 +15,9 @@ namespace vc::sim {
 namespace {
 
 constexpr std::array<std::string_view, kPartCount> kPartNames = {
-    "pelvis",  "abdomen",  "chest",  "shoulders", "neck",   "head",    "l_upper_arm",
-    "l_forearm", "l_hand", "r_upper_arm", "r_forearm", "r_hand", "l_thigh", "l_shank",
-    "l_foot",  "l_toes",   "r_thigh", "r_shank",  "r_foot", "r_toes"};
+    "pelvis",    "abdomen", "chest",       "shoulders", "neck",   "head",    "l_upper_arm",
+    "l_forearm", "l_hand",  "r_upper_arm", "r_forearm", "r_hand", "l_thigh", "l_shank",
+    "l_foot",    "l_toes",  "r_thigh",     "r_shank",   "r_foot", "r_toes"};
 
 cv::Vec3d safe_normalize(const cv::Vec3d& v, const cv::Vec3d& fallback) {
   const double n = cv::norm(v);
@@ -37,7 +37,9 @@ cv::Matx33d frame_from(const cv::Vec3d& z_axis, const cv::Vec3d& x_hint) {
   return {x[0], y[0], z[0], x[1], y[1], z[1], x[2], y[2], z[2]};
 }
 
-cv::Vec3d column(const cv::Matx33d& R, int c) { return {R(0, c), R(1, c), R(2, c)}; }
+cv::Vec3d column(const cv::Matx33d& R, int c) {
+  return {R(0, c), R(1, c), R(2, c)};
+}
 
 Primitive make(Part part, const cv::Vec3d& center, const cv::Matx33d& R, const cv::Vec3d& radii,
                double half_length) {
@@ -98,15 +100,28 @@ bool sphere_entry(const cv::Vec3d& o, const cv::Vec3d& d, double cz, double* t) 
 
 }  // namespace
 
-std::string_view part_name(Part p) { return kPartNames[static_cast<std::size_t>(p)]; }
+std::string_view part_name(Part p) {
+  return kPartNames[static_cast<std::size_t>(p)];
+}
 
 Material part_material(Part p) {
   switch (p) {
-    case Part::head: case Part::neck: case Part::l_hand: case Part::r_hand: case Part::l_foot:
-    case Part::r_foot: case Part::l_toes: case Part::r_toes:
+    case Part::head:
+    case Part::neck:
+    case Part::l_hand:
+    case Part::r_hand:
+    case Part::l_foot:
+    case Part::r_foot:
+    case Part::l_toes:
+    case Part::r_toes:
       return Material::skin;
-    case Part::abdomen: case Part::chest: case Part::shoulders: case Part::l_upper_arm:
-    case Part::l_forearm: case Part::r_upper_arm: case Part::r_forearm:
+    case Part::abdomen:
+    case Part::chest:
+    case Part::shoulders:
+    case Part::l_upper_arm:
+    case Part::l_forearm:
+    case Part::r_upper_arm:
+    case Part::r_forearm:
       return Material::shirt;
     default:
       return Material::trousers;
@@ -115,11 +130,16 @@ Material part_material(Part p) {
 
 bool part_of_feature(Part p, Feature f) {
   switch (f) {
-    case Feature::head: return p == Part::head || p == Part::neck;
-    case Feature::l_hand: return p == Part::l_hand || p == Part::l_forearm;
-    case Feature::r_hand: return p == Part::r_hand || p == Part::r_forearm;
-    case Feature::l_foot: return p == Part::l_foot || p == Part::l_toes || p == Part::l_shank;
-    default: return p == Part::r_foot || p == Part::r_toes || p == Part::r_shank;
+    case Feature::head:
+      return p == Part::head || p == Part::neck;
+    case Feature::l_hand:
+      return p == Part::l_hand || p == Part::l_forearm;
+    case Feature::r_hand:
+      return p == Part::r_hand || p == Part::r_forearm;
+    case Feature::l_foot:
+      return p == Part::l_foot || p == Part::l_toes || p == Part::l_shank;
+    default:
+      return p == Part::r_foot || p == Part::r_toes || p == Part::r_shank;
   }
 }
 
@@ -130,8 +150,8 @@ double BodyDescription::standing_height_m() const {
 
 double BodyDescription::neck_to_head_m() const {
   // The head centre sits so that the head's top is at height_m.
-  return height_m - (ankle_height_m + shank_m + thigh_m + pelvis_drop_m + hips_to_spine_m +
-                     spine_to_neck_m + head_radii_m[2]);
+  return height_m - (ankle_height_m + shank_m + thigh_m + pelvis_drop_m + hips_to_spine_m + spine_to_neck_m +
+                     head_radii_m[2]);
 }
 
 BodyDescription BodyDescription::adult(double height_m) {
@@ -139,12 +159,32 @@ BodyDescription BodyDescription::adult(double height_m) {
   const double s = height_m / b.height_m;
   BodyDescription o = b;
   o.height_m = height_m;
-  for (double* v : {&o.ankle_height_m, &o.shank_m, &o.thigh_m, &o.pelvis_drop_m, &o.hip_half_width_m,
-                    &o.hips_to_spine_m, &o.spine_to_neck_m, &o.shoulder_half_width_m, &o.shoulder_drop_m,
-                    &o.upper_arm_m, &o.forearm_m, &o.hand_m, &o.foot_forward_m, &o.heel_back_m, &o.toes_m,
-                    &o.neck_radius_m, &o.upper_arm_radius_m, &o.forearm_radius_m, &o.hand_half_width_m,
-                    &o.hand_half_thickness_m, &o.thigh_radius_m, &o.shank_radius_m, &o.shoulder_radius_m,
-                    &o.foot_half_width_m, &o.foot_half_height_m, &o.toes_half_height_m}) {
+  for (double* v : {&o.ankle_height_m,
+                    &o.shank_m,
+                    &o.thigh_m,
+                    &o.pelvis_drop_m,
+                    &o.hip_half_width_m,
+                    &o.hips_to_spine_m,
+                    &o.spine_to_neck_m,
+                    &o.shoulder_half_width_m,
+                    &o.shoulder_drop_m,
+                    &o.upper_arm_m,
+                    &o.forearm_m,
+                    &o.hand_m,
+                    &o.foot_forward_m,
+                    &o.heel_back_m,
+                    &o.toes_m,
+                    &o.neck_radius_m,
+                    &o.upper_arm_radius_m,
+                    &o.forearm_radius_m,
+                    &o.hand_half_width_m,
+                    &o.hand_half_thickness_m,
+                    &o.thigh_radius_m,
+                    &o.shank_radius_m,
+                    &o.shoulder_radius_m,
+                    &o.foot_half_width_m,
+                    &o.foot_half_height_m,
+                    &o.toes_half_height_m}) {
     *v *= s;
   }
   o.head_radii_m *= s;
@@ -156,22 +196,50 @@ BodyDescription BodyDescription::adult(double height_m) {
 
 bool BodyDescription::valid(std::string* why) const {
   std::ostringstream os;
-  const double all[] = {ankle_height_m, shank_m, thigh_m, pelvis_drop_m, hip_half_width_m,
-                        hips_to_spine_m, spine_to_neck_m, shoulder_half_width_m, upper_arm_m,
-                        forearm_m, hand_m, foot_forward_m, heel_back_m, toes_m, neck_radius_m,
-                        upper_arm_radius_m, forearm_radius_m, hand_half_width_m,
-                        hand_half_thickness_m, thigh_radius_m, shank_radius_m, shoulder_radius_m,
-                        foot_half_width_m, foot_half_height_m, toes_half_height_m,
-                        head_radii_m[0], head_radii_m[1], head_radii_m[2], chest_radii_m[0],
-                        chest_radii_m[1], chest_radii_m[2], abdomen_radii_m[0], abdomen_radii_m[1],
-                        abdomen_radii_m[2], pelvis_radii_m[0], pelvis_radii_m[1], pelvis_radii_m[2]};
+  const double all[] = {ankle_height_m,
+                        shank_m,
+                        thigh_m,
+                        pelvis_drop_m,
+                        hip_half_width_m,
+                        hips_to_spine_m,
+                        spine_to_neck_m,
+                        shoulder_half_width_m,
+                        upper_arm_m,
+                        forearm_m,
+                        hand_m,
+                        foot_forward_m,
+                        heel_back_m,
+                        toes_m,
+                        neck_radius_m,
+                        upper_arm_radius_m,
+                        forearm_radius_m,
+                        hand_half_width_m,
+                        hand_half_thickness_m,
+                        thigh_radius_m,
+                        shank_radius_m,
+                        shoulder_radius_m,
+                        foot_half_width_m,
+                        foot_half_height_m,
+                        toes_half_height_m,
+                        head_radii_m[0],
+                        head_radii_m[1],
+                        head_radii_m[2],
+                        chest_radii_m[0],
+                        chest_radii_m[1],
+                        chest_radii_m[2],
+                        abdomen_radii_m[0],
+                        abdomen_radii_m[1],
+                        abdomen_radii_m[2],
+                        pelvis_radii_m[0],
+                        pelvis_radii_m[1],
+                        pelvis_radii_m[2]};
   if (!(height_m >= 1.0 && height_m <= 2.3)) {
     os << "height_m must be in [1.0, 2.3], got " << height_m;
   } else if (!std::all_of(std::begin(all), std::end(all), [](double v) { return v > 0 && v < 1.5; })) {
     os << "every length and radius must be in (0, 1.5) m";
   } else if (neck_to_head_m() < 0.05) {
-    os << "segment lengths leave no room for the neck below height_m (neck to head "
-       << neck_to_head_m() << " m)";
+    os << "segment lengths leave no room for the neck below height_m (neck to head " << neck_to_head_m()
+       << " m)";
   } else if (shoulder_drop_m < 0 || shoulder_drop_m > spine_to_neck_m) {
     os << "shoulder_drop_m must be in [0, spine_to_neck_m]";
   } else {
@@ -269,7 +337,8 @@ bool Primitive::touches_segment_from_local(const cv::Vec3d& la, const cv::Vec3d&
 
 cv::Vec3d Primitive::normal(const cv::Vec3d& p_world) const {
   const cv::Vec3d q = to_local * (p_world - center);
-  const cv::Vec3d n_local(q[0] / radii[0], q[1] / radii[1], (q[2] - std::clamp(q[2], -core, core)) / radii[2]);
+  const cv::Vec3d n_local(q[0] / radii[0], q[1] / radii[1],
+                          (q[2] - std::clamp(q[2], -core, core)) / radii[2]);
   return safe_normalize(R * n_local, column(R, 2));
 }
 
@@ -299,7 +368,8 @@ void build_primitives(const BodyPose& pose, const BodyDescription& body, const F
   const cv::Vec3d abdomen_x = axis(Joint::hips, 0) + axis(Joint::spine, 0);
   out->push_back(segment(Part::abdomen, P(Joint::hips), P(Joint::spine), abdomen_x, body.abdomen_radii_m));
   const cv::Vec3d chest_dir = safe_normalize(P(Joint::neck) - P(Joint::spine), axis(Joint::spine, 2));
-  const double chest_len = std::max(0.0, cv::norm(P(Joint::neck) - P(Joint::spine)) - 0.8 * body.chest_radii_m[2]);
+  const double chest_len =
+      std::max(0.0, cv::norm(P(Joint::neck) - P(Joint::spine)) - 0.8 * body.chest_radii_m[2]);
   out->push_back(segment(Part::chest, P(Joint::spine), P(Joint::spine) + chest_dir * chest_len,
                          axis(Joint::spine, 0), body.chest_radii_m));
   const double rs = body.shoulder_radius_m;
@@ -311,7 +381,8 @@ void build_primitives(const BodyPose& pose, const BodyDescription& body, const F
   out->push_back(segment(Part::neck, P(Joint::neck), P(Joint::neck) + 0.6 * (P(Joint::head) - P(Joint::neck)),
                          axis(Joint::neck, 0), {rn, rn, rn}));
   const cv::Vec3d head_up = safe_normalize(P(Joint::head_top) - P(Joint::head), axis(Joint::head, 2));
-  out->push_back(make(Part::head, P(Joint::head), frame_from(head_up, axis(Joint::head, 0)), body.head_radii_m, 0));
+  out->push_back(
+      make(Part::head, P(Joint::head), frame_from(head_up, axis(Joint::head, 0)), body.head_radii_m, 0));
 
   // Arms, hands.
   for (int side = 0; side < 2; ++side) {
@@ -321,8 +392,10 @@ void build_primitives(const BodyPose& pose, const BodyDescription& body, const F
     const Joint wr = left ? Joint::l_wrist : Joint::r_wrist;
     const Joint tip = left ? Joint::l_hand_tip : Joint::r_hand_tip;
     const double ru = body.upper_arm_radius_m, rf = body.forearm_radius_m;
-    out->push_back(segment(left ? Part::l_upper_arm : Part::r_upper_arm, P(sh), P(el), axis(sh, 1), {ru, ru, ru}));
-    out->push_back(segment(left ? Part::l_forearm : Part::r_forearm, P(el), P(wr), axis(el, 1), {rf, rf, rf}));
+    out->push_back(
+        segment(left ? Part::l_upper_arm : Part::r_upper_arm, P(sh), P(el), axis(sh, 1), {ru, ru, ru}));
+    out->push_back(
+        segment(left ? Part::l_forearm : Part::r_forearm, P(el), P(wr), axis(el, 1), {rf, rf, rf}));
     const cv::Vec3d hand_dir = safe_normalize(P(tip) - P(wr), axis(wr, 0) * (left ? 1.0 : -1.0));
     const double cap = std::min(0.035, 0.5 * body.hand_m);
     out->push_back(make(left ? Part::l_hand : Part::r_hand, P(wr) + hand_dir * (0.5 * body.hand_m),
@@ -349,7 +422,8 @@ void build_primitives(const BodyPose& pose, const BodyDescription& body, const F
     const cv::Vec3d fwd = Rt * cv::Vec3d(0, -1, 0);
     const double cap = std::min(0.03, 0.5 * body.toes_m);
     out->push_back(make(left ? Part::l_toes : Part::r_toes, P(to) + fwd * (0.5 * body.toes_m),
-                        frame_from(fwd, axis(to, 0)), {body.foot_half_width_m, th, cap}, 0.5 * body.toes_m - cap));
+                        frame_from(fwd, axis(to, 0)), {body.foot_half_width_m, th, cap},
+                        0.5 * body.toes_m - cap));
   }
   // Keep the documented order (index == Part).
   std::sort(out->begin(), out->end(), [](const Primitive& a, const Primitive& b) { return a.part < b.part; });

@@ -26,15 +26,19 @@ double ease(double x) {
   x = std::clamp(x, 0.0, 1.0);
   return x * x * (3 - 2 * x);
 }
-glm::dvec3 dir(double x, double y, double z) { return glm::normalize(glm::dvec3(x, y, z)); }
-int J(Joint j) { return static_cast<int>(j); }
+glm::dvec3 dir(double x, double y, double z) {
+  return glm::normalize(glm::dvec3(x, y, z));
+}
+int J(Joint j) {
+  return static_cast<int>(j);
+}
 
 // What a motion specifies at one instant. Directions: arms in the chest frame, legs in the
 // heading frame (world turned by yaw); frames have x = performer's left, y = back, z = up.
 struct Spec {
-  double yaw = 0;                 // heading, radians about +z (0: facing -y)
-  glm::dvec2 xy{0, 0};             // where the root stands (x, y)
-  double pelvis_lean = 0;         // forward lean of the pelvis (about its x axis)
+  double yaw = 0;          // heading, radians about +z (0: facing -y)
+  glm::dvec2 xy{0, 0};     // where the root stands (x, y)
+  double pelvis_lean = 0;  // forward lean of the pelvis (about its x axis)
   double spine_lean = 0, spine_twist = 0, spine_roll = 0;
   double neck_lean = 0, head_nod = 0, head_turn = 0, head_tilt = 0;
   struct Arm {
@@ -47,7 +51,9 @@ struct Spec {
   } leg[2];
 };
 
-double side_sign(int side) { return side == 0 ? 1.0 : -1.0; }
+double side_sign(int side) {
+  return side == 0 ? 1.0 : -1.0;
+}
 
 Spec init_spec() {
   Spec s;
@@ -108,7 +114,8 @@ Pose build(const Ctx& c, const Spec& s, bool anchor_feet) {
     poser.aim(J(arms[side][1]), chest * s.arm[side].fore);
     poser.aim(J(arms[side][2]), chest * s.arm[side].hand, s.arm[side].hand_twist);
   }
-  const Joint legs[2][3] = {{Joint::l_hip, Joint::l_knee, Joint::l_ankle}, {Joint::r_hip, Joint::r_knee, Joint::r_ankle}};
+  const Joint legs[2][3] = {{Joint::l_hip, Joint::l_knee, Joint::l_ankle},
+                            {Joint::r_hip, Joint::r_knee, Joint::r_ankle}};
   const BodyDescription& b = c.body;
   for (int side = 0; side < 2; ++side) {
     poser.aim(J(legs[side][0]), heading * s.leg[side].thigh);
@@ -132,7 +139,9 @@ Pose build(const Ctx& c, const Spec& s, bool anchor_feet) {
 
 // --- the motions -------------------------------------------------------------------------------
 
-Pose tpose(const Ctx& c, double) { return build(c, init_spec(), false); }
+Pose tpose(const Ctx& c, double) {
+  return build(c, init_spec(), false);
+}
 
 // Gait (walking) for one leg pair at phase phi with amplitude k in [0, 1].
 void gait(Spec& s, double phi, double k) {
@@ -352,7 +361,8 @@ const std::vector<Entry>& entries() {
       {{"walk-in-place", "step on the spot, arms swinging", 2.2}, walk_in_place},
       {{"squat", "deep squats with the arms held forward", 3.2}, squat},
       {{"turn", "a full turn about the vertical axis in 4 s, stepping, arms lowered", 6.0}, turn},
-      {{"arms-close", "hands on hips, arms hanging against the torso, clapping in front of the chest", 9.0}, arms_close},
+      {{"arms-close", "hands on hips, arms hanging against the torso, clapping in front of the chest", 9.0},
+       arms_close},
       {{"cross", "arms cross in front of the body (left in front) and open again", 3.0}, cross},
   };
   return list;
@@ -389,7 +399,9 @@ vc::body::StandardSegments standard_segments(const BodyDescription& b) {
   return s;
 }
 
-Skeleton standard_skeleton(const BodyDescription& b) { return vc::body::standard_skeleton(standard_segments(b)); }
+Skeleton standard_skeleton(const BodyDescription& b) {
+  return vc::body::standard_skeleton(standard_segments(b));
+}
 
 namespace detail {
 
@@ -400,7 +412,8 @@ void make_builtin(const std::string& name, const BodyDescription& body, MotionDa
     if (e.info.name == name) entry = &e;
     known += (known.empty() ? "" : ", ") + e.info.name;
   }
-  if (!entry) throw std::invalid_argument("unknown motion '" + name + "' (built-in: " + known + "; or a .bvh file)");
+  if (!entry)
+    throw std::invalid_argument("unknown motion '" + name + "' (built-in: " + known + "; or a .bvh file)");
   m->name = name;
   m->skeleton = standard_skeleton(body);
   m->feet.ankle_height_m = body.ankle_height_m;
@@ -410,17 +423,24 @@ void make_builtin(const std::string& name, const BodyDescription& body, MotionDa
 
   std::vector<int> aim_child(kJointCount, -1);
   const std::pair<Joint, Joint> aims[] = {
-      {Joint::spine, Joint::neck},        {Joint::neck, Joint::head},          {Joint::head, Joint::head_top},
-      {Joint::l_shoulder, Joint::l_elbow}, {Joint::l_elbow, Joint::l_wrist},   {Joint::l_wrist, Joint::l_hand_tip},
-      {Joint::r_shoulder, Joint::r_elbow}, {Joint::r_elbow, Joint::r_wrist},   {Joint::r_wrist, Joint::r_hand_tip},
-      {Joint::l_hip, Joint::l_knee},      {Joint::l_knee, Joint::l_ankle},     {Joint::l_ankle, Joint::l_toe},
-      {Joint::r_hip, Joint::r_knee},      {Joint::r_knee, Joint::r_ankle},     {Joint::r_ankle, Joint::r_toe}};
+      {Joint::spine, Joint::neck},         {Joint::neck, Joint::head},
+      {Joint::head, Joint::head_top},      {Joint::l_shoulder, Joint::l_elbow},
+      {Joint::l_elbow, Joint::l_wrist},    {Joint::l_wrist, Joint::l_hand_tip},
+      {Joint::r_shoulder, Joint::r_elbow}, {Joint::r_elbow, Joint::r_wrist},
+      {Joint::r_wrist, Joint::r_hand_tip}, {Joint::l_hip, Joint::l_knee},
+      {Joint::l_knee, Joint::l_ankle},     {Joint::l_ankle, Joint::l_toe},
+      {Joint::r_hip, Joint::r_knee},       {Joint::r_knee, Joint::r_ankle},
+      {Joint::r_ankle, Joint::r_toe}};
   for (const auto& [j, child] : aims) aim_child[static_cast<std::size_t>(j)] = J(child);
   // The context refers to m's own body and skeleton: m owns the sampler, so it outlives it.
   m->body = body;
-  auto ctx2 = std::make_shared<Ctx>(Ctx{m->body, m->skeleton, aim_child, m,
-                                        {m->skeleton.joints[static_cast<std::size_t>(Joint::l_shoulder)].offset,
-                                         m->skeleton.joints[static_cast<std::size_t>(Joint::r_shoulder)].offset}});
+  auto ctx2 =
+      std::make_shared<Ctx>(Ctx{m->body,
+                                m->skeleton,
+                                aim_child,
+                                m,
+                                {m->skeleton.joints[static_cast<std::size_t>(Joint::l_shoulder)].offset,
+                                 m->skeleton.joints[static_cast<std::size_t>(Joint::r_shoulder)].offset}});
   const MotionFn fn = entry->fn;
   m->init = build(*ctx2, init_spec(), false);
   m->sample = [ctx2, fn](double tau) { return fn(*ctx2, tau); };

@@ -59,15 +59,18 @@ void write_scene_yaml(const fs::path& p, const Scene& scene, int frames, int bac
     throw std::runtime_error(p.string() + ": cannot open for writing");
   }
   fs.writeComment("How this sequence was rendered by voxcap's virtual rig (hw/sim).");
-  fs << "motion" << o.motion.source << "fps" << o.motion.fps << "frames" << frames
-     << "lead_in_frames" << scene.motion().lead_in_frames() << "backgrounds" << backgrounds
-     << "seed" << static_cast<double>(o.seed) << "noise_sigma" << o.noise_sigma << "flicker" << o.flicker
-     << "appearance" << o.appearance << "shadows" << static_cast<int>(o.shadows)
-     << "shadow_factor" << o.shadow_factor << "body_height_m" << o.body.height_m;
+  fs << "motion" << o.motion.source << "fps" << o.motion.fps << "frames" << frames << "lead_in_frames"
+     << scene.motion().lead_in_frames() << "backgrounds" << backgrounds << "seed"
+     << static_cast<double>(o.seed) << "noise_sigma" << o.noise_sigma << "flicker" << o.flicker
+     << "appearance" << o.appearance << "shadows" << static_cast<int>(o.shadows) << "shadow_factor"
+     << o.shadow_factor << "body_height_m" << o.body.height_m;
   if (const BvhMapping* m = scene.motion().bvh()) {
-    fs << "bvh" << "{";
-    fs << "convention" << m->convention << "scale" << m->scale << "R_world_from_file" << cv::Mat(vc::body::to_cv(m->R_world_from_file))
-       << "t_world_m" << cv::Mat(vc::body::to_cv(m->t_world_m)) << "frame_time_s" << m->frame_time_s << "first_frame" << m->first_frame;
+    fs << "bvh"
+       << "{";
+    fs << "convention" << m->convention << "scale" << m->scale << "R_world_from_file"
+       << cv::Mat(vc::body::to_cv(m->R_world_from_file)) << "t_world_m"
+       << cv::Mat(vc::body::to_cv(m->t_world_m)) << "frame_time_s" << m->frame_time_s << "first_frame"
+       << m->first_frame;
     fs << "}";
   }
   fs.release();
@@ -127,18 +130,20 @@ DatasetSummary write_dataset(const Scene& scene, const DatasetOptions& opt, cons
       const auto p = scene.joints(f);
       for (int j = 0; j < kJointCount; ++j) {
         const cv::Vec3d& v = p[static_cast<std::size_t>(j)];
-        std::snprintf(buf, sizeof buf, "%d,%s,%.6f,%.6f,%.6f\n", f, std::string(joint_name(j)).c_str(), v[0], v[1], v[2]);
+        std::snprintf(buf, sizeof buf, "%d,%s,%.6f,%.6f,%.6f\n", f, std::string(joint_name(j)).c_str(), v[0],
+                      v[1], v[2]);
         joints << buf;
       }
       for (int k = 0; k < cams; ++k) {
         for (const FeatureTruth& t : scene.features(f, k)) {
-          std::snprintf(buf, sizeof buf, "%d,%d,%s,%.4f,%.4f,%d\n", f, k, std::string(feature_name(t.feature)).c_str(),
-                        t.uv.x, t.uv.y, t.visible ? 1 : 0);
+          std::snprintf(buf, sizeof buf, "%d,%d,%s,%.4f,%.4f,%d\n", f, k,
+                        std::string(feature_name(t.feature)).c_str(), t.uv.x, t.uv.y, t.visible ? 1 : 0);
           feats << buf;
         }
       }
     }
-    if (!joints || !feats) throw std::runtime_error((dir / "truth").string() + ": write error in the CSV files");
+    if (!joints || !feats)
+      throw std::runtime_error((dir / "truth").string() + ": write error in the CSV files");
     sum.files += 2;
   }
   if (opt.motion_bvh) {
@@ -146,7 +151,8 @@ DatasetSummary write_dataset(const Scene& scene, const DatasetOptions& opt, cons
     poses.reserve(static_cast<std::size_t>(frames));
     for (int f = 0; f < frames; ++f) poses.push_back(scene.motion().skeleton_pose(f));
     try {
-      vc::body::write_bvh((dir / "truth" / "motion.bvh").string(), scene.motion().skeleton(), poses, 1.0 / scene.fps());
+      vc::body::write_bvh((dir / "truth" / "motion.bvh").string(), scene.motion().skeleton(), poses,
+                          1.0 / scene.fps());
       ++sum.files;
     } catch (const std::invalid_argument& e) {
       sum.notes.push_back(std::string("truth/motion.bvh not written: ") + e.what());
@@ -182,7 +188,9 @@ DatasetSummary write_dataset(const Scene& scene, const DatasetOptions& opt, cons
           const std::string ck = "cam" + std::to_string(k), name = std::to_string(f) + ".png";
           const auto r0 = std::chrono::steady_clock::now();
           scene.render(f, k, rgb, &sil, opt.shadows ? &shadow : nullptr);
-          render_ns += std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - r0).count();
+          render_ns +=
+              std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now() - r0)
+                  .count();
           write_png(dir / ck / name, rgb, opt.png_compression);
           write_png(dir / "truth" / "silhouettes" / ck / name, sil, opt.png_compression);
           if (opt.shadows) write_png(dir / "truth" / "shadows" / ck / name, shadow, opt.png_compression);
@@ -199,7 +207,9 @@ DatasetSummary write_dataset(const Scene& scene, const DatasetOptions& opt, cons
       }
     }
   };
-  const int n_threads = std::max(1, std::min<int>(opt.threads > 0 ? opt.threads : static_cast<int>(std::thread::hardware_concurrency()), 64));
+  const int n_threads = std::max(
+      1, std::min<int>(opt.threads > 0 ? opt.threads : static_cast<int>(std::thread::hardware_concurrency()),
+                       64));
   std::vector<std::thread> pool;
   for (int t = 1; t < n_threads; ++t) pool.emplace_back(worker);
   worker();
@@ -210,7 +220,8 @@ DatasetSummary write_dataset(const Scene& scene, const DatasetOptions& opt, cons
                static_cast<std::size_t>(frames) * static_cast<std::size_t>(cams) * (opt.shadows ? 3u : 2u);
   sum.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const long frame_items = static_cast<long>(frames) * cams;
-  sum.render_ms_per_image = frame_items > 0 ? static_cast<double>(render_ns.load()) * 1e-6 / static_cast<double>(frame_items) : 0;
+  sum.render_ms_per_image =
+      frame_items > 0 ? static_cast<double>(render_ns.load()) * 1e-6 / static_cast<double>(frame_items) : 0;
   return sum;
 }
 

@@ -30,7 +30,8 @@ void Poser::root(const glm::dvec3& position, const glm::dmat3& R_world) {
   pose_.root_position = position;
   pose_.local[0] = R_world;
   W_[0] = R_world;
-  for (std::size_t j = 1; j < W_.size(); ++j) W_[j] = W_[static_cast<std::size_t>(sk_.joints[j].parent)] * pose_.local[j];
+  for (std::size_t j = 1; j < W_.size(); ++j)
+    W_[j] = W_[static_cast<std::size_t>(sk_.joints[j].parent)] * pose_.local[j];
 }
 
 void Poser::local(int joint, const glm::dmat3& R_local) {
@@ -59,7 +60,8 @@ double lowest_sole_z(const BodyPose& pose, const BodyDescription& body, const Fo
   build_primitives(pose, body, feet, &prims);
   double lowest = HUGE_VAL;
   for (const Primitive& p : prims) {
-    if (p.part != Part::l_foot && p.part != Part::r_foot && p.part != Part::l_toes && p.part != Part::r_toes) continue;
+    if (p.part != Part::l_foot && p.part != Part::r_foot && p.part != Part::l_toes && p.part != Part::r_toes)
+      continue;
     // Lowest point of a scaled capsule: the lower core end minus the support along -z.
     const cv::Vec3d axis(p.R(0, 2), p.R(1, 2), p.R(2, 2));
     double support = 0;
@@ -146,8 +148,9 @@ void make_bvh(const std::string& path, const MotionOptions& opt, const BodyDescr
   set_aim(Joint::r_shoulder, J(Joint::r_elbow), {-1, 0, 0});
   set_aim(Joint::r_elbow, J(Joint::r_wrist), {-1, 0, 0});
   set_aim(Joint::r_wrist, map.r_hand_end, {-1, 0, 0});
-  for (const auto& [hip, knee, ankle, toe] : {std::tuple{Joint::l_hip, Joint::l_knee, Joint::l_ankle, Joint::l_toe},
-                                              std::tuple{Joint::r_hip, Joint::r_knee, Joint::r_ankle, Joint::r_toe}}) {
+  for (const auto& [hip, knee, ankle, toe] :
+       {std::tuple{Joint::l_hip, Joint::l_knee, Joint::l_ankle, Joint::l_toe},
+        std::tuple{Joint::r_hip, Joint::r_knee, Joint::r_ankle, Joint::r_toe}}) {
     set_aim(hip, J(knee), {0, 0, -1});
     set_aim(knee, J(ankle), {0, 0, -1});
     const glm::dvec3 v = R_rest * vc::body::rest_vector(sk, J(ankle), J(toe));
@@ -170,8 +173,8 @@ void make_bvh(const std::string& path, const MotionOptions& opt, const BodyDescr
   // Stand where the clip starts, toes at their half height (as the clip's lowest toe).
   const Pose first_pose = m->sample(0);
   const double toe_z = std::min(p[idx(Joint::l_toe)][2], p[idx(Joint::r_toe)][2]);
-  init.root_position = glm::dvec3(first_pose.root_position[0], first_pose.root_position[1],
-                                  body.toes_half_height_m - toe_z);
+  init.root_position =
+      glm::dvec3(first_pose.root_position[0], first_pose.root_position[1], body.toes_half_height_m - toe_z);
   vc::body::forward_kinematics(sk, init, &p);
   m->feet.ankle_height_m = 0.5 * (p[idx(Joint::l_ankle)][2] + p[idx(Joint::r_ankle)][2]);
   m->init = init;
@@ -226,18 +229,31 @@ double smoothstep(double x) {
 }
 }  // namespace
 
-const std::string& Motion::name() const { return impl_->name; }
-double Motion::fps() const { return impl_->options.fps; }
+const std::string& Motion::name() const {
+  return impl_->name;
+}
+double Motion::fps() const {
+  return impl_->options.fps;
+}
 int Motion::lead_in_frames() const {
-  return static_cast<int>(std::ceil((impl_->options.lead_hold_s + impl_->options.lead_blend_s) * fps() - 1e-9));
+  return static_cast<int>(
+      std::ceil((impl_->options.lead_hold_s + impl_->options.lead_blend_s) * fps() - 1e-9));
 }
 int Motion::natural_frames() const {
   return lead_in_frames() + static_cast<int>(std::floor(impl_->length_s * fps() + 1e-9)) + 1;
 }
-const Skeleton& Motion::skeleton() const { return impl_->skeleton; }
-const FootGeometry& Motion::feet() const { return impl_->feet; }
-const BodyDescription& Motion::body() const { return impl_->body; }
-const BvhMapping* Motion::bvh() const { return impl_->bvh ? &*impl_->bvh : nullptr; }
+const Skeleton& Motion::skeleton() const {
+  return impl_->skeleton;
+}
+const FootGeometry& Motion::feet() const {
+  return impl_->feet;
+}
+const BodyDescription& Motion::body() const {
+  return impl_->body;
+}
+const BvhMapping* Motion::bvh() const {
+  return impl_->bvh ? &*impl_->bvh : nullptr;
+}
 
 double Motion::clip_time(int frame) const {
   return frame / fps() - impl_->options.lead_hold_s - impl_->options.lead_blend_s;
@@ -254,6 +270,8 @@ Pose Motion::skeleton_pose(int frame) const {
   return impl_->sample(clip_time(frame));
 }
 
-BodyPose Motion::body_pose(int frame) const { return detail::body_pose_from(*impl_, skeleton_pose(frame)); }
+BodyPose Motion::body_pose(int frame) const {
+  return detail::body_pose_from(*impl_, skeleton_pose(frame));
+}
 
 }  // namespace vc::sim

@@ -102,8 +102,11 @@ TEST(SimDataset, WritesTheDocumentedLayoutAndConsistentTruth) {
   const auto feats = read_csv(dir / "truth" / "features.csv", &header);
   EXPECT_EQ(header, "frame,camera,feature,u,v,visible");
   ASSERT_EQ(feats.size(), static_cast<std::size_t>(30 * 3 * kFeatureCount));
-  const std::map<std::string, std::string> joint_of = {
-      {"head", "head"}, {"l_hand", "l_wrist"}, {"r_hand", "r_wrist"}, {"l_foot", "l_ankle"}, {"r_foot", "r_ankle"}};
+  const std::map<std::string, std::string> joint_of = {{"head", "head"},
+                                                       {"l_hand", "l_wrist"},
+                                                       {"r_hand", "r_wrist"},
+                                                       {"l_foot", "l_ankle"},
+                                                       {"r_foot", "r_ankle"}};
   int visible = 0;
   double worst = 0;
   for (const auto& r : feats) {
@@ -132,7 +135,8 @@ TEST(SimDataset, RejectsBadOptionsAndUnwritableFolders) {
   const Scene scene(o);
   DatasetOptions d;
   d.frames = -1;
-  EXPECT_THROW(write_dataset(scene, d, (fs::path(::testing::TempDir()) / "x").string()), std::invalid_argument);
+  EXPECT_THROW(write_dataset(scene, d, (fs::path(::testing::TempDir()) / "x").string()),
+               std::invalid_argument);
   d.frames = 1;
   const fs::path file = fs::path(::testing::TempDir()) / "vc_sim_dataset_file";
   std::ofstream(file) << "not a folder";

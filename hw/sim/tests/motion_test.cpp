@@ -34,7 +34,9 @@ using vc::body::testing::find_clip;
 using vc::body::testing::no_clips_message;
 
 // Every *.bvh of the shared data folder (listed, never named here).
-std::vector<fs::path> clips() { return vc::body::testing::shared_bvh_clips(); }
+std::vector<fs::path> clips() {
+  return vc::body::testing::shared_bvh_clips();
+}
 
 // Independent forward kinematics of one BVH frame (file units, file axes).
 struct RefFrame {
@@ -51,12 +53,24 @@ RefFrame ref_frame(const BvhClip& c, int f) {
     for (std::size_t k = 0; k < c.channels[j].size(); ++k) {
       const double x = v[c.first_channel[j] + static_cast<int>(k)];
       switch (c.channels[j][k]) {
-        case BvhChannel::Xposition: r.root[0] += x; break;
-        case BvhChannel::Yposition: r.root[1] += x; break;
-        case BvhChannel::Zposition: r.root[2] += x; break;
-        case BvhChannel::Xrotation: q = q * cv::Quatd::createFromAngleAxis(x * CV_PI / 180, cv::Vec3d(1, 0, 0)); break;
-        case BvhChannel::Yrotation: q = q * cv::Quatd::createFromAngleAxis(x * CV_PI / 180, cv::Vec3d(0, 1, 0)); break;
-        case BvhChannel::Zrotation: q = q * cv::Quatd::createFromAngleAxis(x * CV_PI / 180, cv::Vec3d(0, 0, 1)); break;
+        case BvhChannel::Xposition:
+          r.root[0] += x;
+          break;
+        case BvhChannel::Yposition:
+          r.root[1] += x;
+          break;
+        case BvhChannel::Zposition:
+          r.root[2] += x;
+          break;
+        case BvhChannel::Xrotation:
+          q = q * cv::Quatd::createFromAngleAxis(x * CV_PI / 180, cv::Vec3d(1, 0, 0));
+          break;
+        case BvhChannel::Yrotation:
+          q = q * cv::Quatd::createFromAngleAxis(x * CV_PI / 180, cv::Vec3d(0, 1, 0));
+          break;
+        case BvhChannel::Zrotation:
+          q = q * cv::Quatd::createFromAngleAxis(x * CV_PI / 180, cv::Vec3d(0, 0, 1));
+          break;
       }
     }
     r.q.push_back(q);
@@ -90,7 +104,8 @@ std::vector<cv::Vec3d> ref_fk_at(const BvhClip& c, double u) {
   if (a > 1e-9 && i + 1 < c.frames) {
     const RefFrame r1 = ref_frame(c, i + 1);
     r.root = r.root * (1 - a) + r1.root * a;
-    for (std::size_t j = 0; j < r.q.size(); ++j) r.q[j] = cv::Quatd::slerp(r.q[j], r1.q[j], a, cv::QUAT_ASSUME_NOT_UNIT, true);
+    for (std::size_t j = 0; j < r.q.size(); ++j)
+      r.q[j] = cv::Quatd::slerp(r.q[j], r1.q[j], a, cv::QUAT_ASSUME_NOT_UNIT, true);
   }
   return ref_fk(c, r);
 }
@@ -105,8 +120,9 @@ void expect_init_pose(const Motion& m, const std::string& what) {
   EXPECT_GT(P(Joint::l_hip)[0], P(Joint::r_hip)[0]);
   EXPECT_LT(P(Joint::l_toe)[1], P(Joint::l_ankle)[1]);  // toes point forward (-y)
   // Arms spread horizontally.
-  for (const auto& [sh, el, wr, sign] : {std::tuple{Joint::l_shoulder, Joint::l_elbow, Joint::l_wrist, 1.0},
-                                         std::tuple{Joint::r_shoulder, Joint::r_elbow, Joint::r_wrist, -1.0}}) {
+  for (const auto& [sh, el, wr, sign] :
+       {std::tuple{Joint::l_shoulder, Joint::l_elbow, Joint::l_wrist, 1.0},
+        std::tuple{Joint::r_shoulder, Joint::r_elbow, Joint::r_wrist, -1.0}}) {
     EXPECT_NEAR(P(wr)[2], P(sh)[2], 0.01);
     EXPECT_NEAR(P(el)[2], P(sh)[2], 0.01);
     EXPECT_GT(sign * (P(wr)[0] - P(el)[0]), 0.1);
@@ -125,7 +141,9 @@ void expect_init_pose(const Motion& m, const std::string& what) {
   EXPECT_GT(P(Joint::neck)[2], P(Joint::hips)[2]);
   // Held for the first second.
   const BodyPose later = m.body_pose(static_cast<int>(m.fps()) - 1);
-  for (int j = 0; j < kJointCount; ++j) EXPECT_LT(cv::norm(later.p_world[static_cast<std::size_t>(j)] - p.p_world[static_cast<std::size_t>(j)]), 1e-12);
+  for (int j = 0; j < kJointCount; ++j)
+    EXPECT_LT(cv::norm(later.p_world[static_cast<std::size_t>(j)] - p.p_world[static_cast<std::size_t>(j)]),
+              1e-12);
 }
 
 TEST(SimBvhMotion, RenderedJointsEqualTheFilesForwardKinematics) {
@@ -183,7 +201,8 @@ TEST(SimBvhMotion, DocumentedConventionsAreDetected) {
   ASSERT_FALSE(files.empty()) << no_clips_message();
   auto mapping = [&](const std::string& name) {
     const fs::path path = find_clip(files, name);
-    if (path.empty()) throw std::runtime_error(name + " (documented in data/README.md) is not in the listing");
+    if (path.empty())
+      throw std::runtime_error(name + " (documented in data/README.md) is not in the listing");
     MotionOptions opt;
     opt.source = path.string();
     return *Motion::create(opt, BodyDescription{}).bvh();
@@ -207,7 +226,8 @@ TEST(SimBvhMotion, DocumentedConventionsAreDetected) {
   const BvhMapping fair = mapping("fair1_wave_hello.bvh");
   EXPECT_EQ(fair.convention, "generic");
   EXPECT_DOUBLE_EQ(fair.frame_time_s, 0.008342);
-  EXPECT_LT(cv::norm(to_cv(fair.R_world_from_file) * cv::Vec3d(0, 0, 1) - cv::Vec3d(0, 0, 1)), 1e-12);  // Z up
+  EXPECT_LT(cv::norm(to_cv(fair.R_world_from_file) * cv::Vec3d(0, 0, 1) - cv::Vec3d(0, 0, 1)),
+            1e-12);  // Z up
   // Unknown units: the rest pose is scaled to the body height (1.75 m for ~39 units).
   EXPECT_NEAR(fair.scale, 1.75 / 39.0, 0.004);
 }
@@ -267,7 +287,8 @@ TEST(SimBuiltinMotion, JointsEqualTheForwardKinematicsOfTheExportedBvh) {
           fj = clip.skeleton.find(std::string(joint_name(parent)) + "_end");
         }
         ASSERT_GE(fj, 0) << name;
-        worst = std::max(worst, cv::norm(bp.p_world[static_cast<std::size_t>(j)] - ref[static_cast<std::size_t>(fj)]));
+        worst = std::max(
+            worst, cv::norm(bp.p_world[static_cast<std::size_t>(j)] - ref[static_cast<std::size_t>(fj)]));
       }
     }
     EXPECT_LT(worst, 1e-3) << "worst " << worst * 1000 << " mm";
@@ -305,7 +326,8 @@ TEST(SimBuiltinMotion, ExportsAsTheStandardHumanoidForBlender) {
       vc::body::forward_kinematics(m.skeleton(), poses[static_cast<std::size_t>(f)], &want);
       vc::body::forward_kinematics(clip.skeleton, clip.pose(f), &got);
       for (int j = 0; j < kJointCount; ++j) {
-        const glm::dvec3 p = world_from_file * got[static_cast<std::size_t>(in_file[static_cast<std::size_t>(j)])];
+        const glm::dvec3 p =
+            world_from_file * got[static_cast<std::size_t>(in_file[static_cast<std::size_t>(j)])];
         worst = std::max(worst, glm::length(p - want[static_cast<std::size_t>(j)]));
       }
     }
@@ -313,7 +335,8 @@ TEST(SimBuiltinMotion, ExportsAsTheStandardHumanoidForBlender) {
     const vc::body::HumanoidClip h = vc::body::map_humanoid(clip, bm.name + ".bvh");
     for (int j = 0; j < kJointCount; ++j) {
       if (vc::body::joint_is_end(j)) continue;
-      EXPECT_EQ(h.map.anchor[static_cast<std::size_t>(j)], in_file[static_cast<std::size_t>(j)]) << joint_name(j);
+      EXPECT_EQ(h.map.anchor[static_cast<std::size_t>(j)], in_file[static_cast<std::size_t>(j)])
+          << joint_name(j);
     }
   }
 }
@@ -337,7 +360,8 @@ TEST(SimBuiltinMotion, EachMotionDoesWhatItsNameSays) {
     for (int f = 1; f <= frames; ++f) {
       const BodyPose p = m.body_pose(f);
       for (int j = 0; j < kJointCount; ++j) {
-        max_step = std::max(max_step, cv::norm(p.p_world[static_cast<std::size_t>(j)] - prev.p_world[static_cast<std::size_t>(j)]));
+        max_step = std::max(max_step, cv::norm(p.p_world[static_cast<std::size_t>(j)] -
+                                               prev.p_world[static_cast<std::size_t>(j)]));
       }
       double dyaw = heading(p) - heading(prev);
       dyaw = std::remainder(dyaw, 2 * M_PI);

@@ -66,25 +66,25 @@ typedef struct vc_camera_control {
 } vc_camera_control;
 
 typedef struct vc_camera_config {
-  const char* backend;  /* "v4l2" | "libcamera" | "file" | "sim" (required) */
-  const char* device;   /* v4l2: device node ("/dev/video0"); libcamera: camera id or index ("0");
-                           file: folder written by `voxcap sim`; sim: scene spec (see camera_sim) */
-  int index;            /* the camera's number in the rig: file/sim read/render cam<index> */
-  int width, height;    /* requested size (0 = backend default); the backend may adjust: see info */
-  vc_pixfmt pixfmt;     /* v4l2 capture format; other backends ignore it */
-  uint32_t fps_num;     /* frame rate fps_num/fps_den Hz (0 = driver default) */
-  uint32_t fps_den;     /* 0 means 1 */
-  unsigned buffers;     /* driver buffers / libcamera requests (0 = 4) */
-  unsigned held_frames; /* frames the caller may hold unreleased at once (0 = 2) */
-  bool external_trigger;  /* the sensor is externally triggered (libcamera: fixed frame duration
-                             and exposure; file/sim: a frame per vc_camera_soft_trigger) */
-  int64_t exposure_us;    /* fixed exposure (libcamera: AeEnable=false + ExposureTime); 0 = auto */
+  const char* backend;        /* "v4l2" | "libcamera" | "file" | "sim" (required) */
+  const char* device;         /* v4l2: device node ("/dev/video0"); libcamera: camera id or index ("0");
+                                 file: folder written by `voxcap sim`; sim: scene spec (see camera_sim) */
+  int index;                  /* the camera's number in the rig: file/sim read/render cam<index> */
+  int width, height;          /* requested size (0 = backend default); the backend may adjust: see info */
+  vc_pixfmt pixfmt;           /* v4l2 capture format; other backends ignore it */
+  uint32_t fps_num;           /* frame rate fps_num/fps_den Hz (0 = driver default) */
+  uint32_t fps_den;           /* 0 means 1 */
+  unsigned buffers;           /* driver buffers / libcamera requests (0 = 4) */
+  unsigned held_frames;       /* frames the caller may hold unreleased at once (0 = 2) */
+  bool external_trigger;      /* the sensor is externally triggered (libcamera: fixed frame duration
+                                 and exposure; file/sim: a frame per vc_camera_soft_trigger) */
+  int64_t exposure_us;        /* fixed exposure (libcamera: AeEnable=false + ExposureTime); 0 = auto */
   int64_t trigger_latency_ns; /* the sensor's frame time minus its trigger edge (what the pairer
                                  expects); backends that synthesise stamps (file, sim) use it */
   const vc_camera_control* controls; /* borrowed during vc_camera_open only */
   size_t n_controls;
-  const char* options;  /* backend-specific "key=value,..." parsed by that backend, NULL = none;
-                           file, sim: pace=0|1, loop=0|1 (file), scene=live|empty, seq_base=N */
+  const char* options; /* backend-specific "key=value,..." parsed by that backend, NULL = none;
+                          file, sim: pace=0|1, loop=0|1 (file), scene=live|empty, seq_base=N */
 } vc_camera_config;
 
 /* Fills *cfg with the defaults documented above (all zero/NULL except fps_den = 1). */
@@ -96,7 +96,7 @@ void vc_camera_config_init(vc_camera_config* cfg);
 #define VC_FRAME_TS_SYNTH 0x4u   /* emulated backend: t_ns synthesised from fps or the pulse */
 
 typedef struct vc_frame {
-  uint8_t* rgb;      /* interleaved R,G,B; owned by the camera, valid until vc_camera_release() */
+  uint8_t* rgb; /* interleaved R,G,B; owned by the camera, valid until vc_camera_release() */
   int width, height;
   size_t stride;     /* bytes per row (>= 3 * width) */
   uint64_t t_ns;     /* capture time, CLOCK_MONOTONIC ns */
@@ -109,18 +109,18 @@ typedef struct vc_frame {
 typedef struct vc_camera_info {
   const char* backend; /* static string */
   char device[128];
-  char driver[64];     /* v4l2: driver/card; libcamera: camera id; file: folder */
-  int width, height;   /* actual size after negotiation */
-  vc_pixfmt pixfmt;    /* format actually captured */
+  char driver[64];           /* v4l2: driver/card; libcamera: camera id; file: folder */
+  int width, height;         /* actual size after negotiation */
+  vc_pixfmt pixfmt;          /* format actually captured */
   uint32_t fps_num, fps_den; /* actual frame rate (0/1 if unknown) */
-  unsigned buffers;    /* actual driver buffers */
+  unsigned buffers;          /* actual driver buffers */
 } vc_camera_info;
 
 typedef struct vc_camera_stats {
-  uint64_t frames;     /* frames delivered */
-  uint64_t dropped;    /* gaps in the driver sequence */
-  uint64_t corrupted;  /* frames the driver marked bad (skipped) */
-  uint64_t timeouts;   /* captures that hit their timeout */
+  uint64_t frames;    /* frames delivered */
+  uint64_t dropped;   /* gaps in the driver sequence */
+  uint64_t corrupted; /* frames the driver marked bad (skipped) */
+  uint64_t timeouts;  /* captures that hit their timeout */
 } vc_camera_stats;
 
 /* Opens the camera: validates cfg, picks the backend by cfg->backend, opens and configures the

@@ -25,8 +25,7 @@ typedef struct vc_camera_backend {
   int (*start)(vc_camera* cam, void* priv);
   /* Waits up to timeout_ms (< 0: forever) for a frame and converts it into rgb (info's size,
    * `stride` bytes per row). Fills meta->t_ns, sequence, index, flags. */
-  int (*capture)(vc_camera* cam, void* priv, int timeout_ms, uint8_t* rgb, size_t stride,
-                 vc_frame* meta);
+  int (*capture)(vc_camera* cam, void* priv, int timeout_ms, uint8_t* rgb, size_t stride, vc_frame* meta);
   int (*stop)(vc_camera* cam, void* priv);
   void (*free_priv)(void* priv);
   /* Optional (NULL: -ENOTSUP): emulated external trigger. */
@@ -43,8 +42,8 @@ extern const vc_camera_backend vc_camera_backend_file;
 extern const vc_camera_backend vc_camera_backend_sim;
 
 /* Opens a camera on an explicit backend (cfg->backend is ignored). Same contract as vc_camera_open. */
-int vc_camera_open_backend(const vc_camera_backend* backend, const vc_camera_config* cfg,
-                           vc_camera** out, char* why, size_t why_len);
+int vc_camera_open_backend(const vc_camera_backend* backend, const vc_camera_config* cfg, vc_camera** out,
+                           char* why, size_t why_len);
 /* The same with an object for the backend (borrowed; the backend's own open function says what it
  * is), which the backend's open reads with vc_camera_backend_arg. */
 int vc_camera_open_backend_arg(const vc_camera_backend* backend, const vc_camera_config* cfg, const void* arg,

@@ -27,8 +27,7 @@ size_t vc_cleanup_scratch_size(int width);
  * the 3x3 majority, `iterations` times (0 = only normalise to 0/255). `scratch` (caller-owned, at least
  * vc_cleanup_scratch_size(width) bytes, contents irrelevant) is borrowed for the call. No allocation.
  * Returns 0, or -EINVAL on a bad argument (including a too small scratch). */
-int vc_cleanup(uint8_t *mask, int width, int height, int iterations, uint8_t *scratch,
-               size_t scratch_len);
+int vc_cleanup(uint8_t* mask, int width, int height, int iterations, uint8_t* scratch, size_t scratch_len);
 
 /* Largest radius vc_cleanup_radius() runs (the range rig.toml's cleanup_radius_px allows). */
 #define VC_CLEANUP_MAX_RADIUS VC_CLEANUP_RADIUS_MAX_PX
@@ -42,8 +41,7 @@ size_t vc_cleanup_radius_scratch_size(int width, int radius);
  * (caller-owned, at least vc_cleanup_radius_scratch_size(width, radius) bytes, 2-byte aligned as
  * from malloc, contents irrelevant) is borrowed for the call. No allocation, integers only.
  * Returns 0, or -EINVAL on a bad argument (including a radius out of range or a too small scratch). */
-int vc_cleanup_radius(uint8_t *mask, int width, int height, int radius, uint8_t *scratch,
-                      size_t scratch_len);
+int vc_cleanup_radius(uint8_t* mask, int width, int height, int radius, uint8_t* scratch, size_t scratch_len);
 
 #ifdef __cplusplus
 }

@@ -65,10 +65,10 @@ int vc_clock_measure_offset(vc_clock_id other, unsigned nsamples, int64_t* offse
  * Not thread-safe: one converter per thread (they are cheap). */
 typedef struct vc_clock_converter {
   vc_clock_id src;
-  int64_t offset_ns;         /* src - monotonic at the last measurement */
-  uint64_t uncertainty_ns;   /* half the narrowest bracket of the last measurement */
-  uint64_t measured_at_ns;   /* MONOTONIC time of the last measurement (0 = never) */
-  uint64_t refresh_ns;       /* re-measure when the measurement is older than this (0 = never) */
+  int64_t offset_ns;       /* src - monotonic at the last measurement */
+  uint64_t uncertainty_ns; /* half the narrowest bracket of the last measurement */
+  uint64_t measured_at_ns; /* MONOTONIC time of the last measurement (0 = never) */
+  uint64_t refresh_ns;     /* re-measure when the measurement is older than this (0 = never) */
 } vc_clock_converter;
 
 /* Initialises and measures once. refresh_ns = 0 uses 1 s. Returns 0 or -EINVAL. */

@@ -32,12 +32,12 @@ extern "C" {
 #define VC_PAIR_MAX_SLOTS 256
 
 typedef struct vc_pairing_config {
-  unsigned ncams;                        /* cameras fed to this pairer, 1..VC_PAIR_MAX_CAMS */
-  uint64_t tolerance_ns;                 /* > 0; keep it under half the trigger period */
-  int64_t latency_ns[VC_PAIR_MAX_CAMS];  /* expected frame t − pulse t, per camera */
-  uint64_t max_delay_ns;                 /* how late either side may arrive after the other */
-  unsigned pulse_slots;                  /* pending pulses (0 = 16) */
-  unsigned frame_slots;                  /* pending frames per camera (0 = 4) */
+  unsigned ncams;                       /* cameras fed to this pairer, 1..VC_PAIR_MAX_CAMS */
+  uint64_t tolerance_ns;                /* > 0; keep it under half the trigger period */
+  int64_t latency_ns[VC_PAIR_MAX_CAMS]; /* expected frame t − pulse t, per camera */
+  uint64_t max_delay_ns;                /* how late either side may arrive after the other */
+  unsigned pulse_slots;                 /* pending pulses (0 = 16) */
+  unsigned frame_slots;                 /* pending frames per camera (0 = 4) */
 } vc_pairing_config;
 
 /* Fills defaults: ncams 2, tolerance 4 ms (half of a 120 fps period), latency 0, max_delay 50 ms. */
@@ -67,17 +67,17 @@ typedef struct vc_pair_event {
 typedef void (*vc_pair_cb)(void* user, const vc_pair_event* ev);
 
 typedef struct vc_pairing_stats {
-  uint64_t pulses;                                   /* pulses added (duplicates excluded) */
-  uint64_t complete;                                 /* pulses with a frame from every camera */
-  uint64_t incomplete;                               /* pulses resolved with a camera missing */
-  uint64_t matched[VC_PAIR_MAX_CAMS];                /* frames paired */
-  uint64_t frames_without_pulse[VC_PAIR_MAX_CAMS];   /* frames that matched no pulse */
-  uint64_t pulses_without_frame[VC_PAIR_MAX_CAMS];   /* pulses this camera gave no frame for */
-  uint64_t duplicate_pulses;                         /* same seq added twice (ignored) */
-  uint64_t overflow;                                 /* entries resolved early because a ring was full */
-  int64_t error_min_ns[VC_PAIR_MAX_CAMS];            /* over matched frames (0 if none) */
+  uint64_t pulses;                                 /* pulses added (duplicates excluded) */
+  uint64_t complete;                               /* pulses with a frame from every camera */
+  uint64_t incomplete;                             /* pulses resolved with a camera missing */
+  uint64_t matched[VC_PAIR_MAX_CAMS];              /* frames paired */
+  uint64_t frames_without_pulse[VC_PAIR_MAX_CAMS]; /* frames that matched no pulse */
+  uint64_t pulses_without_frame[VC_PAIR_MAX_CAMS]; /* pulses this camera gave no frame for */
+  uint64_t duplicate_pulses;                       /* same seq added twice (ignored) */
+  uint64_t overflow;                               /* entries resolved early because a ring was full */
+  int64_t error_min_ns[VC_PAIR_MAX_CAMS];          /* over matched frames (0 if none) */
   int64_t error_max_ns[VC_PAIR_MAX_CAMS];
-  int64_t error_sum_ns[VC_PAIR_MAX_CAMS];            /* mean = sum / matched */
+  int64_t error_sum_ns[VC_PAIR_MAX_CAMS]; /* mean = sum / matched */
 } vc_pairing_stats;
 
 typedef struct vc_pairer vc_pairer;

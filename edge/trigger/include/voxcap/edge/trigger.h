@@ -40,12 +40,12 @@ typedef enum vc_trigger_bias {
 } vc_trigger_bias;
 
 typedef struct vc_trigger_config {
-  const char* backend;     /* "gpiod" | "udp" (required) */
+  const char* backend; /* "gpiod" | "udp" (required) */
   /* gpiod */
-  const char* chip;        /* "/dev/gpiochip0" or "gpiochip0" */
-  const char* line_name;   /* line by name (e.g. "GPIO17"), or NULL to use line_offset */
+  const char* chip;      /* "/dev/gpiochip0" or "gpiochip0" */
+  const char* line_name; /* line by name (e.g. "GPIO17"), or NULL to use line_offset */
   unsigned line_offset;
-  bool active_low;         /* the pulse is a falling edge on the wire */
+  bool active_low; /* the pulse is a falling edge on the wire */
   vc_trigger_bias bias;
   unsigned debounce_us;    /* 0 = off */
   vc_clock_id event_clock; /* kernel clock of the edge timestamps: MONOTONIC (default) or REALTIME;
@@ -66,11 +66,11 @@ typedef struct vc_trigger_info {
 } vc_trigger_info;
 
 typedef struct vc_trigger_stats {
-  uint64_t pulses;   /* pulses delivered */
-  uint64_t lost;     /* pulses known to be missing (gaps in seq / kernel counter) */
-  uint64_t late;     /* udp: datagrams that arrived after a later one (delivered, not lost) */
-  uint64_t duplicate;/* udp: repeated seq (dropped) */
-  uint64_t invalid;  /* udp: datagrams that failed to decode (dropped); gpiod: unexpected events */
+  uint64_t pulses;    /* pulses delivered */
+  uint64_t lost;      /* pulses known to be missing (gaps in seq / kernel counter) */
+  uint64_t late;      /* udp: datagrams that arrived after a later one (delivered, not lost) */
+  uint64_t duplicate; /* udp: repeated seq (dropped) */
+  uint64_t invalid;   /* udp: datagrams that failed to decode (dropped); gpiod: unexpected events */
 } vc_trigger_stats;
 
 /* Opens the input: validates cfg, picks the backend by name, requests the line / binds the socket.

@@ -37,7 +37,7 @@ struct PartialHull {
   uint32_t grid_id = 0;
   uint64_t voxel_count = 0;
   uint64_t occupied = 0;
-  std::vector<uint8_t> rle;    // proto/ RLE (voxcap/rle.h)
+  std::vector<uint8_t> rle;  // proto/ RLE (voxcap/rle.h)
 };
 
 // What the assembler emits: the pipeline's frame (t_assembled_ns and, when merged here, t_merged_ns
@@ -45,32 +45,32 @@ struct PartialHull {
 using MergedFrame = pipeline::Frame;
 
 struct AssemblerOptions {
-  std::vector<uint16_t> nodes;   // the configured nodes (all of them, running or not)
+  std::vector<uint16_t> nodes;  // the configured nodes (all of them, running or not)
   uint32_t grid_id = 0;
   uint64_t voxel_count = 0;
   uint64_t deadline_ns = 50'000'000;
   MissingPolicy policy = MissingPolicy::Drop;
-  size_t max_pending = 64;       // frames waiting at most
-  bool merge = true;             // AND the hulls when a frame is resolved; false: leave it to merge()
-  size_t max_stats_waiting = 16; // STATS kept per node until the next frame leaves (the oldest go)
+  size_t max_pending = 64;        // frames waiting at most
+  bool merge = true;              // AND the hulls when a frame is resolved; false: leave it to merge()
+  size_t max_stats_waiting = 16;  // STATS kept per node until the next frame leaves (the oldest go)
 
   bool valid(std::string* why) const;
 };
 
 struct NodeCounters {
-  uint64_t received = 0;  // partial hulls accepted
-  uint64_t missing = 0;   // frames resolved without this node's hull
-  uint64_t late = 0;      // hulls that came after their frame was resolved
-  uint64_t rejected = 0;  // wrong grid, wrong size, duplicate, inconsistent RLE
+  uint64_t received = 0;       // partial hulls accepted
+  uint64_t missing = 0;        // frames resolved without this node's hull
+  uint64_t late = 0;           // hulls that came after their frame was resolved
+  uint64_t rejected = 0;       // wrong grid, wrong size, duplicate, inconsistent RLE
   uint64_t features = 0;       // FEATURES messages that joined a frame
   uint64_t features_late = 0;  // FEATURES for a frame already resolved
 };
 
 struct AssemblerStats {
-  uint64_t complete = 0;   // frames merged with every configured node
-  uint64_t degraded = 0;   // frames merged with some node missing (policy Degraded)
-  uint64_t dropped = 0;    // frames dropped for a missing node (policy Drop)
-  uint64_t evicted = 0;    // frames resolved early because max_pending was reached
+  uint64_t complete = 0;  // frames merged with every configured node
+  uint64_t degraded = 0;  // frames merged with some node missing (policy Degraded)
+  uint64_t dropped = 0;   // frames dropped for a missing node (policy Drop)
+  uint64_t evicted = 0;   // frames resolved early because max_pending was reached
   std::map<uint16_t, NodeCounters> nodes;
 };
 

@@ -24,20 +24,20 @@
 namespace vc::emulated {
 
 struct Options {
-  int nodes = 3;                  // edge processes (2 cameras each)
-  std::string motion = "wave";    // built-in motion name or a BVH file
+  int nodes = 3;                // edge processes (2 cameras each)
+  std::string motion = "wave";  // built-in motion name or a BVH file
   int width = 640, height = 480;
   double rate_hz = 60;
-  int grid = 64;                  // voxels per axis over the 2.24 m cube of the volume
+  int grid = 64;  // voxels per axis over the 2.24 m cube of the volume
   double noise = 2.0;
   uint64_t seed = 1;
   std::string missing_policy = "degraded";  // drop | degraded
   double deadline_ms = 100;
-  int truth_every = 10;           // score every k-th merged frame against ground truth (0: never)
-  std::filesystem::path workdir;  // rig.yaml, rig.toml, edge logs; empty: a fresh temp folder
+  int truth_every = 10;               // score every k-th merged frame against ground truth (0: never)
+  std::filesystem::path workdir;      // rig.yaml, rig.toml, edge logs; empty: a fresh temp folder
   std::filesystem::path edge_binary;  // empty: voxcap-edge beside this executable
   std::filesystem::path record_dir;   // record the session in a new folder below this; empty: no recording
-  bool quiet = true;              // edges log warnings only, host info lines suppressed
+  bool quiet = true;                  // edges log warnings only, host info lines suppressed
   // More stages for the host's pipeline (a viewer, a test's probe), added after the recorder and the
   // scorer, before the rig starts.
   std::function<void(pipeline::Pipeline&)> stages;
@@ -46,11 +46,11 @@ struct Options {
 };
 
 struct Accuracy {
-  uint64_t frames = 0;            // frames scored
-  double agree = 0;               // mean fraction of all voxels equal to the true-silhouette hull
+  uint64_t frames = 0;  // frames scored
+  double agree = 0;     // mean fraction of all voxels equal to the true-silhouette hull
   double min_agree = 1;
-  double iou_silhouette_hull = 0; // mean IoU of occupied voxels vs the true-silhouette hull
-  double body_recall = 0;         // mean fraction of true body voxels inside the merged hull
+  double iou_silhouette_hull = 0;  // mean IoU of occupied voxels vs the true-silhouette hull
+  double body_recall = 0;          // mean fraction of true body voxels inside the merged hull
 };
 
 struct Result {
@@ -79,7 +79,7 @@ class EmulatedRig {
 
   // Fault injection.
   void kill_node(int k, int signal = 9);  // the edge process of node k (waits until it is gone)
-  void signal_node(int k, int signal);     // e.g. SIGSTOP / SIGCONT: a stalled node
+  void signal_node(int k, int signal);    // e.g. SIGSTOP / SIGCONT: a stalled node
   void restart_node(int k);
   bool node_running(int k) const;
   uint64_t merged_frames() const;

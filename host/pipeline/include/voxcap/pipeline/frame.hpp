@@ -31,12 +31,12 @@ struct Frame {
   uint64_t t_merged_ns = 0;                      // the merged hull was ready
   uint32_t grid_id = 0;
   uint64_t voxel_count = 0;
-  uint64_t occupied = 0;                         // occupied voxels of the merged hull
-  bool degraded = false;                         // some configured node is missing
-  bool merged = false;                           // `rle` and `occupied` hold the merged hull
-  std::vector<uint16_t> present, missing;        // node ids, ascending
-  std::vector<NodePart> nodes;                   // one per node that sent anything for it, by node id
-  std::vector<uint8_t> rle;                      // the merged hull (AND of the partial hulls)
+  uint64_t occupied = 0;                   // occupied voxels of the merged hull
+  bool degraded = false;                   // some configured node is missing
+  bool merged = false;                     // `rle` and `occupied` hold the merged hull
+  std::vector<uint16_t> present, missing;  // node ids, ascending
+  std::vector<NodePart> nodes;             // one per node that sent anything for it, by node id
+  std::vector<uint8_t> rle;                // the merged hull (AND of the partial hulls)
 
   // ---- The pose goes here. ----
   // The fitting issue adds the skeleton's pose for this frame (and triangulation its 3D features) as

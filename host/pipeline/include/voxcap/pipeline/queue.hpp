@@ -26,10 +26,10 @@ enum class Overflow { Block, DropOldest, DropNewest };
 const char* overflow_name(Overflow o);
 
 struct QueueCounters {
-  uint64_t pushed = 0;   // items accepted
-  uint64_t dropped = 0;  // DropOldest: evicted; DropNewest: refused
+  uint64_t pushed = 0;          // items accepted
+  uint64_t dropped = 0;         // DropOldest: evicted; DropNewest: refused
   uint64_t refused_closed = 0;  // pushes after close()
-  uint64_t blocked = 0;  // Block: pushes that had to wait for room
+  uint64_t blocked = 0;         // Block: pushes that had to wait for room
   size_t depth = 0, max_depth = 0, capacity = 0;
 };
 

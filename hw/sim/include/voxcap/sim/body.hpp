@@ -1,6 +1,7 @@
 // The synthetic performer: a small body description (height, segment lengths, limb radii),
-// appearance presets, and the volumetric body — 20 "scaled capsules" (a capsule in a frame with per-axis radii: an ellipsoid when its core
-// segment has zero length, a round capsule when the radii are equal) placed on the joints.
+// appearance presets, and the volumetric body — 20 "scaled capsules" (a capsule in a frame with per-axis
+// radii: an ellipsoid when its core segment has zero length, a round capsule when the radii are equal) placed
+// on the joints.
 #pragma once
 
 #include <array>
@@ -27,9 +28,26 @@ using body::kJointCount;
 
 // Body parts, one primitive each.
 enum class Part : int {
-  pelvis, abdomen, chest, shoulders, neck, head,
-  l_upper_arm, l_forearm, l_hand, r_upper_arm, r_forearm, r_hand,
-  l_thigh, l_shank, l_foot, l_toes, r_thigh, r_shank, r_foot, r_toes,
+  pelvis,
+  abdomen,
+  chest,
+  shoulders,
+  neck,
+  head,
+  l_upper_arm,
+  l_forearm,
+  l_hand,
+  r_upper_arm,
+  r_forearm,
+  r_hand,
+  l_thigh,
+  l_shank,
+  l_foot,
+  l_toes,
+  r_thigh,
+  r_shank,
+  r_foot,
+  r_toes,
 };
 inline constexpr int kPartCount = 20;
 std::string_view part_name(Part p);
@@ -43,25 +61,25 @@ bool part_of_feature(Part p, Feature f);
 struct BodyDescription {
   double height_m = 1.75;
   // Segment lengths.
-  double ankle_height_m = 0.08;      // ankle joint above the sole
-  double shank_m = 0.43;             // knee -> ankle
-  double thigh_m = 0.43;             // hip joint -> knee
-  double pelvis_drop_m = 0.07;       // hips (root) -> hip joints, downwards
-  double hip_half_width_m = 0.09;    // hips -> hip joint, sideways
+  double ankle_height_m = 0.08;    // ankle joint above the sole
+  double shank_m = 0.43;           // knee -> ankle
+  double thigh_m = 0.43;           // hip joint -> knee
+  double pelvis_drop_m = 0.07;     // hips (root) -> hip joints, downwards
+  double hip_half_width_m = 0.09;  // hips -> hip joint, sideways
   double hips_to_spine_m = 0.17;
   double spine_to_neck_m = 0.30;
   double shoulder_half_width_m = 0.18;  // spine axis -> shoulder joint, sideways
-  double shoulder_drop_m = 0.04;     // shoulder joints below the neck base
+  double shoulder_drop_m = 0.04;        // shoulder joints below the neck base
   double upper_arm_m = 0.30;
   double forearm_m = 0.26;
-  double hand_m = 0.19;              // wrist -> fingertips
-  double foot_forward_m = 0.14;      // ankle -> ball of the foot, forwards
-  double heel_back_m = 0.05;         // heel behind the ankle
-  double toes_m = 0.06;              // ball -> toe tips
+  double hand_m = 0.19;          // wrist -> fingertips
+  double foot_forward_m = 0.14;  // ankle -> ball of the foot, forwards
+  double heel_back_m = 0.05;     // heel behind the ankle
+  double toes_m = 0.06;          // ball -> toe tips
   // Sizes (half extents / radii).
   cv::Vec3d head_radii_m{0.078, 0.097, 0.115};  // sideways, front-back, vertical
   double neck_radius_m = 0.055;
-  cv::Vec3d chest_radii_m{0.165, 0.11, 0.09};   // sideways, front-back, cap height
+  cv::Vec3d chest_radii_m{0.165, 0.11, 0.09};  // sideways, front-back, cap height
   cv::Vec3d abdomen_radii_m{0.145, 0.10, 0.08};
   cv::Vec3d pelvis_radii_m{0.17, 0.11, 0.10};
   double upper_arm_radius_m = 0.05;
@@ -70,7 +88,7 @@ struct BodyDescription {
   double hand_half_thickness_m = 0.017;
   double thigh_radius_m = 0.075;
   double shank_radius_m = 0.055;
-  double shoulder_radius_m = 0.06;    // the shoulder girdle, shoulder to shoulder
+  double shoulder_radius_m = 0.06;  // the shoulder girdle, shoulder to shoulder
   double foot_half_width_m = 0.045;
   double foot_half_height_m = 0.035;
   double toes_half_height_m = 0.022;
@@ -88,7 +106,9 @@ struct BodyDescription {
 struct Appearance {
   std::string name;
   cv::Vec3d skin, shirt, trousers;
-  cv::Vec3d albedo(Material m) const { return m == Material::skin ? skin : m == Material::shirt ? shirt : trousers; }
+  cv::Vec3d albedo(Material m) const {
+    return m == Material::skin ? skin : m == Material::shirt ? shirt : trousers;
+  }
 };
 std::vector<Appearance> appearance_presets();
 // Throws std::invalid_argument naming the known presets.
@@ -111,7 +131,7 @@ struct Primitive {
   cv::Vec3d center{0, 0, 0};
   cv::Matx33d R = cv::Matx33d::eye();  // columns: local axes in the world
   cv::Vec3d radii{0.1, 0.1, 0.1};
-  double half_length = 0;              // of the core segment along local z, metres
+  double half_length = 0;  // of the core segment along local z, metres
   // Derived (set by finalize()): world -> scaled-local linear map and its core half length.
   cv::Matx33d to_local = cv::Matx33d::eye();
   double core = 0;
@@ -127,7 +147,8 @@ struct Primitive {
   // The same with one end already mapped to scaled-local coordinates (to_local(p)), for loops that
   // cast many rays from one camera centre or towards one light.
   cv::Vec3d to_local_point(const cv::Vec3d& p_world) const { return to_local * (p_world - center); }
-  bool intersect_from_local(const cv::Vec3d& o_local, const cv::Vec3d& d_world, double t_min, double* t_hit) const;
+  bool intersect_from_local(const cv::Vec3d& o_local, const cv::Vec3d& d_world, double t_min,
+                            double* t_hit) const;
   // Both ends local: the line o_local + t * d_local (d_local = to_local * d_world, so t is the same).
   bool intersect_local(const cv::Vec3d& o_local, const cv::Vec3d& d_local, double t_min, double* t_hit) const;
   bool touches_segment_from_local(const cv::Vec3d& a_local, const cv::Vec3d& b_world) const;

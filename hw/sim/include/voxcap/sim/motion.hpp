@@ -1,7 +1,7 @@
 // Motions that drive the performer: built-in procedural motions on the standard skeleton, or a
-// BVH clip mapped onto the standard joints (hw/body's humanoid mapping). Every motion starts with the initialization pose of
-// the method (facing the front cameras at -y, legs together, arms spread horizontally), held for
-// lead_hold_s and blended (slerp per joint) into the motion over lead_blend_s.
+// BVH clip mapped onto the standard joints (hw/body's humanoid mapping). Every motion starts with the
+// initialization pose of the method (facing the front cameras at -y, legs together, arms spread
+// horizontally), held for lead_hold_s and blended (slerp per joint) into the motion over lead_blend_s.
 #pragma once
 
 #include <array>
@@ -40,8 +40,8 @@ class Motion {
 
   const std::string& name() const;
   double fps() const;
-  int lead_in_frames() const;    // frames before the motion proper (hold + blend)
-  int natural_frames() const;    // lead-in + the clip (BVH) or + one cycle (built-in)
+  int lead_in_frames() const;  // frames before the motion proper (hold + blend)
+  int natural_frames() const;  // lead-in + the clip (BVH) or + one cycle (built-in)
   // The body's pose at a frame (any frame >= 0; BVH clips hold their last frame or loop).
   BodyPose body_pose(int frame) const;
   // The underlying skeleton (metres, world-aligned root) and its pose.
