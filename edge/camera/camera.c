@@ -8,7 +8,7 @@
 #include <strings.h>
 
 #include "voxcap/edge/camera_backend.h"
-#include "voxcap/edge/why.h"
+#include "voxcap/why.h"
 
 #define VC_CAMERA_MAX_HELD 16
 

@@ -6,7 +6,7 @@
 
 #include "camera_sim_entry.h"
 #include "voxcap/edge/camera_backend.h"
-#include "voxcap/edge/why.h"
+#include "voxcap/why.h"
 
 static const vc_camera_backend* const backends[] = {
     &vc_camera_backend_v4l2,

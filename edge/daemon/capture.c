@@ -13,8 +13,8 @@
 #include <unistd.h>
 
 #include "voxcap/edge/clock.h"
-#include "voxcap/edge/why.h"
 #include "voxcap/proto.h"
+#include "voxcap/why.h"
 
 typedef struct camthread {
   vc_capture* cap;

@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "voxcap/edge/why.h"
+#include "voxcap/why.h"
 enum { SLOT_FREE = 0, SLOT_FILLED, SLOT_MATCHED, SLOT_WORK };
 
 struct vc_frameq {

@@ -20,7 +20,7 @@
 #include "log.h"
 #include "sendq.h"
 #include "voxcap/edge/clock.h"
-#include "voxcap/edge/why.h"
+#include "voxcap/why.h"
 
 struct vc_link {
   vc_link_config cfg;

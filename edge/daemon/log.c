@@ -7,7 +7,7 @@
 #include <time.h>
 
 #include "voxcap/edge/clock.h"
-#include "voxcap/edge/why.h"
+#include "voxcap/why.h"
 
 static atomic_int g_min = VC_LOG_INFO;
 static vc_log_sink g_sink;

@@ -15,8 +15,8 @@
 #include "voxcap/edge/carver.h"
 #include "voxcap/edge/cleanup.h"
 #include "voxcap/edge/clock.h"
-#include "voxcap/edge/why.h"
 #include "voxcap/rle.h"
+#include "voxcap/why.h"
 
 enum { ST_SUBTRACT, ST_CLEANUP, ST_CARVE, ST_ENCODE, ST_COUNT };
 static const uint32_t stage_ids[ST_COUNT] = {VC_STAGE_SUBTRACT, VC_STAGE_CLEANUP, VC_STAGE_CARVE,

@@ -10,7 +10,7 @@
 #include <time.h>
 
 #include "voxcap/edge/clock.h"
-#include "voxcap/edge/why.h"
+#include "voxcap/why.h"
 
 typedef struct slot {
   uint8_t* buf;

@@ -8,7 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "voxcap/edge/why.h"
+#include "voxcap/why.h"
 struct pulse_slot {
   uint64_t seq;
   uint64_t t;

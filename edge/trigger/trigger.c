@@ -7,7 +7,7 @@
 #include <string.h>
 
 #include "trigger_backend.h"
-#include "voxcap/edge/why.h"
+#include "voxcap/why.h"
 
 struct vc_trigger {
   const vc_trigger_backend* be;

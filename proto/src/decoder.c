@@ -14,6 +14,7 @@
 #include <string.h>
 
 #include "internal.h"
+#include "voxcap/why.h"
 
 #define DECODER_INITIAL_CAP (64u * 1024u)
 
@@ -28,29 +29,17 @@ struct vc_decoder {
   vc_proto_diag diag;
 };
 
-/* Fills a constructor's `char* why, size_t why_len` reason with the rules of the edge's vc_why()
- * (edge/README.md): printf-style, always terminated, silently truncated, a no-op without a buffer.
- * proto links nothing of the edge, so the decoder keeps this private twin. */
-static void decoder_why(char* why, size_t why_len, const char* fmt, ...) VC_PRINTF(3, 4);
-static void decoder_why(char* why, size_t why_len, const char* fmt, ...) {
-  if (!why || why_len == 0) return;
-  va_list ap;
-  va_start(ap, fmt);
-  if (vsnprintf(why, why_len, fmt, ap) < 0) why[0] = '\0'; /* encoding error: no half line */
-  va_end(ap);
-}
-
 int vc_decoder_new(size_t max_payload, vc_decoder** out, char* why, size_t why_len) {
-  if (why && why_len) why[0] = '\0'; /* "" on success */
+  vc_why_clear(why, why_len); /* "" on success */
   if (out) *out = NULL;
   if (!out) {
-    decoder_why(why, why_len, "decoder: no place for the decoder");
+    vc_why(why, why_len, "decoder: no place for the decoder");
     return -EINVAL;
   }
   if (max_payload == 0) max_payload = VC_PROTO_MAX_PAYLOAD;
   if (max_payload > VC_PROTO_MAX_PAYLOAD) {
-    decoder_why(why, why_len, "decoder: max_payload %zu is above the protocol's %u bytes", max_payload,
-                (unsigned)VC_PROTO_MAX_PAYLOAD);
+    vc_why(why, why_len, "decoder: max_payload %zu is above the protocol's %u bytes", max_payload,
+           (unsigned)VC_PROTO_MAX_PAYLOAD);
     return -EINVAL;
   }
   vc_decoder* dec = calloc(1, sizeof *dec);
@@ -66,7 +55,7 @@ int vc_decoder_new(size_t max_payload, vc_decoder** out, char* why, size_t why_l
 err_buf:
   free(dec);
 err_alloc:
-  decoder_why(why, why_len, "decoder: out of memory");
+  vc_why(why, why_len, "decoder: out of memory");
   return -ENOMEM;
 }
 

@@ -32,7 +32,7 @@
 #include <string.h>
 
 #include "dispatch.h"
-#include "why.h"
+#include "voxcap/why.h"
 
 #define VC_MAX_DIM 16384
 #define VC_MAX_FRAMES 65535
@@ -68,7 +68,7 @@ int vc_subtract_params_check(const vc_subtract_params* p, char* why, size_t why_
   const char* bad = NULL;
   double got = 0.0; /* the offending value, said after the rule */
   if (p == NULL) {
-    core_why(why, why_len, "params is NULL");
+    vc_why(why, why_len, "params is NULL");
     return -EINVAL;
   }
   if (!(p->t_upper > 0.0 && p->t_upper <= 1000.0)) {
@@ -91,23 +91,22 @@ int vc_subtract_params_check(const vc_subtract_params* p, char* why, size_t why_
     got = p->sigma_floor;
   }
   if (bad == NULL) {
-    core_why_clear(why, why_len);
+    vc_why_clear(why, why_len);
     return 0;
   }
-  core_why(why, why_len, "%s, not %g", bad, got);
+  vc_why(why, why_len, "%s, not %g", bad, got);
   return -EINVAL;
 }
 
 int vc_bgmodel_new(int width, int height, vc_bgmodel** out, char* why, size_t why_len) {
-  core_why_clear(why, why_len);
+  vc_why_clear(why, why_len);
   if (out) *out = NULL;
   if (!out) {
-    core_why(why, why_len, "background model: no place for the model");
+    vc_why(why, why_len, "background model: no place for the model");
     return -EINVAL;
   }
   if (width < 1 || height < 1 || width > VC_MAX_DIM || height > VC_MAX_DIM) {
-    core_why(why, why_len, "background model: frame size %dx%d must be 1..%d each", width, height,
-             VC_MAX_DIM);
+    vc_why(why, why_len, "background model: frame size %dx%d must be 1..%d each", width, height, VC_MAX_DIM);
     return -EINVAL;
   }
   size_t n = (size_t)width * (size_t)height * 3;
@@ -123,7 +122,7 @@ int vc_bgmodel_new(int width, int height, vc_bgmodel** out, char* why, size_t wh
 
 err_nomem:
   vc_bgmodel_free(m);
-  core_why(why, why_len, "background model: out of memory for %dx%d frames", width, height);
+  vc_why(why, why_len, "background model: out of memory for %dx%d frames", width, height);
   return -ENOMEM;
 }
 

@@ -31,7 +31,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "why.h"
+#include "voxcap/why.h"
 
 #define TOP 16
 #define MID 8
@@ -94,38 +94,37 @@ struct vc_carver {
 /* ---- configuration ---------------------------------------------------------------------------- */
 
 int vc_camera_check(const vc_camera* c, char* why, size_t why_len) {
-  core_why_clear(why, why_len);
+  vc_why_clear(why, why_len);
   if (c == NULL) {
-    core_why(why, why_len, "camera is NULL");
+    vc_why(why, why_len, "camera is NULL");
     return -EINVAL;
   }
   if (c->width < 1 || c->height < 1 || c->width > 16384 || c->height > 16384) {
-    core_why(why, why_len, "image size %ux%u must be 1..16384 each", c->width, c->height);
+    vc_why(why, why_len, "image size %ux%u must be 1..16384 each", c->width, c->height);
     return -EINVAL;
   }
   if (!(c->K[0] > 0.0 && c->K[4] > 0.0 && isfinite(c->K[2]) && isfinite(c->K[5]))) {
-    core_why(why, why_len,
-             "K must have positive finite fx, fy and finite cx, cy, not fx %g fy %g cx %g cy %g", c->K[0],
-             c->K[4], c->K[2], c->K[5]);
+    vc_why(why, why_len, "K must have positive finite fx, fy and finite cx, cy, not fx %g fy %g cx %g cy %g",
+           c->K[0], c->K[4], c->K[2], c->K[5]);
     return -EINVAL;
   }
   if (c->K[1] != 0.0 || c->K[3] != 0.0 || c->K[6] != 0.0 || c->K[7] != 0.0 || c->K[8] != 1.0) {
-    core_why(why, why_len, "K must be [fx 0 cx; 0 fy cy; 0 0 1] (OpenCV's projection ignores skew)");
+    vc_why(why, why_len, "K must be [fx 0 cx; 0 fy cy; 0 0 1] (OpenCV's projection ignores skew)");
     return -EINVAL;
   }
   for (int i = 0; i < 5; i++)
     if (!isfinite(c->dist[i])) {
-      core_why(why, why_len, "distortion coefficient %d must be finite", i);
+      vc_why(why, why_len, "distortion coefficient %d must be finite", i);
       return -EINVAL;
     }
   for (int i = 0; i < 9; i++)
     if (!isfinite(c->R_cam_from_world[i])) {
-      core_why(why, why_len, "R must be finite");
+      vc_why(why, why_len, "R must be finite");
       return -EINVAL;
     }
   for (int i = 0; i < 3; i++)
     if (!isfinite(c->t_cam_from_world[i])) {
-      core_why(why, why_len, "t must be finite");
+      vc_why(why, why_len, "t must be finite");
       return -EINVAL;
     }
   /* R must be a rotation: R R^T = I within 1e-6. */
@@ -134,8 +133,8 @@ int vc_camera_check(const vc_camera* c, char* why, size_t why_len) {
       double d = 0.0;
       for (int k = 0; k < 3; k++) d += c->R_cam_from_world[3 * a + k] * c->R_cam_from_world[3 * b + k];
       if (fabs(d - (a == b ? 1.0 : 0.0)) > 1e-6) {
-        core_why(why, why_len, "R must be a rotation matrix (R R^T is off by %g at row %d, column %d)",
-                 d - (a == b ? 1.0 : 0.0), a, b);
+        vc_why(why, why_len, "R must be a rotation matrix (R R^T is off by %g at row %d, column %d)",
+               d - (a == b ? 1.0 : 0.0), a, b);
         return -EINVAL;
       }
     }
@@ -143,25 +142,25 @@ int vc_camera_check(const vc_camera* c, char* why, size_t why_len) {
 }
 
 int vc_grid_check(const vc_voxel_grid* g, char* why, size_t why_len) {
-  core_why_clear(why, why_len);
+  vc_why_clear(why, why_len);
   if (g == NULL) {
-    core_why(why, why_len, "grid is NULL");
+    vc_why(why, why_len, "grid is NULL");
     return -EINVAL;
   }
   if (!(g->voxel_m > 0.0 && isfinite(g->voxel_m))) {
-    core_why(why, why_len, "voxel size must be positive, not %g m", g->voxel_m);
+    vc_why(why, why_len, "voxel size must be positive, not %g m", g->voxel_m);
     return -EINVAL;
   }
   if (!isfinite(g->min_m[0]) || !isfinite(g->min_m[1]) || !isfinite(g->min_m[2])) {
-    core_why(why, why_len, "grid min corner must be finite");
+    vc_why(why, why_len, "grid min corner must be finite");
     return -EINVAL;
   }
   if (g->nx < 1 || g->ny < 1 || g->nz < 1 || g->nx > 4096 || g->ny > 4096 || g->nz > 4096) {
-    core_why(why, why_len, "grid dimensions must be 1..4096 each, not %ux%ux%u", g->nx, g->ny, g->nz);
+    vc_why(why, why_len, "grid dimensions must be 1..4096 each, not %ux%ux%u", g->nx, g->ny, g->nz);
     return -EINVAL;
   }
   if ((uint64_t)g->nx * (uint64_t)g->ny * (uint64_t)g->nz > (1ull << 31)) {
-    core_why(why, why_len, "grid has more than 2^31 voxels (%ux%ux%u)", g->nx, g->ny, g->nz);
+    vc_why(why, why_len, "grid has more than 2^31 voxels (%ux%ux%u)", g->nx, g->ny, g->nz);
     return -EINVAL;
   }
   return 0;
@@ -389,20 +388,20 @@ int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_cam
   int err = -EINVAL;
   vc_carver* cv = NULL;
   char bad[160]; /* a check's reason */
-  core_why_clear(why, why_len);
+  vc_why_clear(why, why_len);
   if (out) *out = NULL;
   if (!out) {
-    core_why(why, why_len, "carver: no place for the carver");
+    vc_why(why, why_len, "carver: no place for the carver");
     return -EINVAL;
   }
   if (vc_grid_check(grid, bad, sizeof(bad)) != 0) {
-    core_why(why, why_len, "carver: %s", bad);
+    vc_why(why, why_len, "carver: %s", bad);
     return -EINVAL;
   }
   const vc_camera* cam[2] = {cam0, cam1};
   for (int c = 0; c < 2; c++)
     if (vc_camera_check(cam[c], bad, sizeof(bad)) != 0) {
-      core_why(why, why_len, "carver: camera %d: %s", c, bad);
+      vc_why(why, why_len, "carver: camera %d: %s", c, bad);
       return -EINVAL;
     }
   err = -ENOMEM;
@@ -470,8 +469,8 @@ int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_cam
 
 err: /* only allocations fail past the checks */
   vc_carver_free(cv);
-  core_why(why, why_len, "carver: out of memory for the tables of a %ux%ux%u grid", grid->nx, grid->ny,
-           grid->nz);
+  vc_why(why, why_len, "carver: out of memory for the tables of a %ux%ux%u grid", grid->nx, grid->ny,
+         grid->nz);
   return err;
 }
 

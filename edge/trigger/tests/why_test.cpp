@@ -3,7 +3,7 @@
 
 #include <cstring>
 
-#include "voxcap/edge/why.h"
+#include "voxcap/why.h"
 
 TEST(Why, FormatsOneLine) {
   char why[64] = "stale";
