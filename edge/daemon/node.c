@@ -175,7 +175,8 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
   }
 
   vc_carver* carver = NULL;
-  int rc = vc_carver_new(grid, &cfg->cameras[0], &cfg->cameras[1], &carver, bad, sizeof(bad));
+  int rc =
+      vc_carver_new(grid, &cfg->cameras[0], &cfg->cameras[1], VC_CARVE_CENTRE, &carver, bad, sizeof(bad));
   if (rc < 0) {
     vc_why(why, why_len, "CONFIG: %s", bad);
     return rc;

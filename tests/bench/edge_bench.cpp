@@ -110,7 +110,8 @@ struct EdgePipeline {
     }
     vc_carver* cv = nullptr;
     char why[200];
-    if (vc_carver_new(&grid, &cams[0], &cams[1], &cv, why, sizeof why) < 0) throw std::runtime_error(why);
+    if (vc_carver_new(&grid, &cams[0], &cams[1], VC_CARVE_CENTRE, &cv, why, sizeof why) < 0)
+      throw std::runtime_error(why);
     carver.reset(cv);
     scratch.resize(vc_cleanup_scratch_size(w));
     bits.resize(vc_carver_bitset_bytes(carver.get()));

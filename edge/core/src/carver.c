@@ -383,8 +383,8 @@ static void frame_free(cam_frame* f) {
   free(f->full);
 }
 
-int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_camera* cam1, vc_carver** out,
-                  char* why, size_t why_len) {
+int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_camera* cam1, vc_carve_rule rule,
+                  vc_carver** out, char* why, size_t why_len) {
   int err = -EINVAL;
   vc_carver* cv = NULL;
   char bad[160]; /* a check's reason */
@@ -392,6 +392,10 @@ int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_cam
   if (out) *out = NULL;
   if (!out) {
     vc_why(why, why_len, "carver: no place for the carver");
+    return -EINVAL;
+  }
+  if (rule != VC_CARVE_CENTRE) {
+    vc_why(why, why_len, "carver: carve rule %d is not implemented", (int)rule);
     return -EINVAL;
   }
   if (vc_grid_check(grid, bad, sizeof(bad)) != 0) {

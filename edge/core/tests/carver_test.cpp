@@ -30,7 +30,7 @@ using CarverPtr = std::unique_ptr<vc_carver, CarverDeleter>;
 CarverPtr new_carver(const vc_voxel_grid& g, const vc_camera& cam0, const vc_camera& cam1) {
   vc_carver* c = nullptr;
   char why[200];
-  EXPECT_EQ(vc_carver_new(&g, &cam0, &cam1, &c, why, sizeof why), 0) << why;
+  EXPECT_EQ(vc_carver_new(&g, &cam0, &cam1, VC_CARVE_CENTRE, &c, why, sizeof why), 0) << why;
   return CarverPtr(c);
 }
 
@@ -174,15 +174,16 @@ TEST(Camera, ChecksRejectBadModels) {
   g.voxel_m = -1;
   EXPECT_EQ(vc_grid_check(&g, nullptr, 0), -EINVAL);
   vc_carver* failed = reinterpret_cast<vc_carver*>(why);  // must come back NULL
-  EXPECT_EQ(vc_carver_new(&g, &rig.cam[0], &rig.cam[1], &failed, why, sizeof why), -EINVAL);
+  EXPECT_EQ(vc_carver_new(&g, &rig.cam[0], &rig.cam[1], VC_CARVE_CENTRE, &failed, why, sizeof why), -EINVAL);
   EXPECT_EQ(failed, nullptr);
   EXPECT_STREQ(why, "carver: voxel size must be positive, not -1 m");
   g.voxel_m = 0.1;
-  EXPECT_EQ(vc_carver_new(&g, &rig.cam[0], &c, &failed, why, sizeof why), -EINVAL);  // c: width 0
+  EXPECT_EQ(vc_carver_new(&g, &rig.cam[0], &c, VC_CARVE_CENTRE, &failed, why, sizeof why),
+            -EINVAL);  // c: width 0
   EXPECT_EQ(failed, nullptr);
   EXPECT_STREQ(why, "carver: camera 1: image size 0x48 must be 1..16384 each");
-  EXPECT_EQ(vc_carver_new(&g, &rig.cam[0], &rig.cam[1], nullptr, why, sizeof why), -EINVAL);
-  EXPECT_EQ(vc_carver_new(&g, &rig.cam[0], &rig.cam[1], &failed, why, sizeof why), 0);
+  EXPECT_EQ(vc_carver_new(&g, &rig.cam[0], &rig.cam[1], VC_CARVE_CENTRE, nullptr, why, sizeof why), -EINVAL);
+  EXPECT_EQ(vc_carver_new(&g, &rig.cam[0], &rig.cam[1], VC_CARVE_CENTRE, &failed, why, sizeof why), 0);
   EXPECT_STREQ(why, "");
   vc_carver_free(failed);
   vc_carver_free(nullptr);

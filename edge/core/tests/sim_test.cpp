@@ -101,7 +101,7 @@ TEST(SimTruth, PartialHullContainsTheBodySeenByBothCameras) {
   vc_camera cams[2] = {vc::rig::to_c_camera(calib.cameras[0]), vc::rig::to_c_camera(calib.cameras[1])};
   vc_carver* made = nullptr;
   char why[200];
-  ASSERT_EQ(vc_carver_new(&grid, &cams[0], &cams[1], &made, why, sizeof why), 0) << why;
+  ASSERT_EQ(vc_carver_new(&grid, &cams[0], &cams[1], VC_CARVE_CENTRE, &made, why, sizeof why), 0) << why;
   std::unique_ptr<vc_carver, void (*)(vc_carver*)> cv(made, vc_carver_free);
   ASSERT_NE(cv, nullptr);
   std::vector<uint8_t> bits(vc_carver_bitset_bytes(cv.get())), grown_bits(bits.size()), body;

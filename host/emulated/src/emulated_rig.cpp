@@ -103,7 +103,7 @@ class TruthScorer : public pipeline::Stage {
       vc_camera b = rig::to_c_camera(cal.cameras[2 * static_cast<size_t>(k) + 1]);
       vc_carver* c = nullptr;
       char why[200];
-      if (vc_carver_new(&g, &a, &b, &c, why, sizeof why) < 0)
+      if (vc_carver_new(&g, &a, &b, VC_CARVE_CENTRE, &c, why, sizeof why) < 0)
         throw std::runtime_error(std::string("truth: cannot build a carver for the rig: ") + why);
       carvers_.push_back(c);
     }

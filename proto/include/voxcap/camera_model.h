@@ -37,6 +37,13 @@ typedef struct vc_voxel_grid {
   double voxel_m;      /* voxel edge, > 0 */
 } vc_voxel_grid;
 
+/* Which voxels a partial hull keeps (CONFIG's `carve_rule`, proto/SPEC.md; rig.toml [carving] rule):
+ *  - VC_CARVE_CENTRE: the voxel's centre projects onto a silhouette pixel in both cameras (the paper's rule);
+ *  - VC_CARVE_FOOTPRINT: the voxel's projected footprint touches a silhouette pixel in both cameras, so
+ *    the hull holds every voxel that holds some of the body when the silhouettes are exact (a superset
+ *    of the body, at the price of about half a voxel of extra thickness on every surface). */
+typedef enum vc_carve_rule { VC_CARVE_CENTRE = 0, VC_CARVE_FOOTPRINT = 1 } vc_carve_rule;
+
 #ifdef __cplusplus
 }
 #endif

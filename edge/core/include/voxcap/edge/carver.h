@@ -47,8 +47,8 @@ typedef struct vc_carver vc_carver;
  * constructor shape. *out owns the carver; free it with vc_carver_free(). Time and memory grow with the voxel
  * count: about 4.5 bytes per voxel seen by both cameras (more for voxels that project larger than 64 pixels).
  */
-int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_camera* cam1, vc_carver** out,
-                  char* why, size_t why_len);
+int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_camera* cam1, vc_carve_rule rule,
+                  vc_carver** out, char* why, size_t why_len);
 
 /* Frees the carver; NULL is a no-op. */
 void vc_carver_free(vc_carver* carver);

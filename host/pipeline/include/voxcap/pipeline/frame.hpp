@@ -12,15 +12,28 @@
 
 namespace vc::pipeline {
 
+// One camera's silhouette as the edge sent it (SILHOUETTE, proto/SPEC.md): the edge's own mask after
+// clean-up, exactly what it carved with, every `silhouette_every`-th frame (CONFIG). Pixels row-major,
+// as a bitset in the RLE of voxcap/rle.h (bit x + width*y, LSB-first), at 1/scale of the camera's
+// resolution (scale 1: the full mask; a scaled pixel is foreground when any pixel of its block is).
+struct Silhouette {
+  uint16_t camera = 0;             // the node's camera index
+  uint16_t scale = 1;              // downscale factor, >= 1
+  uint16_t width = 0, height = 0;  // of the (scaled) mask
+  uint64_t foreground = 0;         // foreground pixels of the (scaled) mask
+  std::vector<uint8_t> rle;        // width*height bits
+};
+
 // What one node sent for one frame.
 struct NodePart {
   uint16_t node_id = 0;
   bool has_hull = false;
-  uint64_t t_received_ns = 0;         // host CLOCK_MONOTONIC when its HULL was received
-  uint64_t occupied = 0;              // occupied voxels of its partial hull, as the edge said
-  std::vector<uint8_t> rle;           // its partial hull (proto/ RLE, voxcap/rle.h); empty without a HULL
-  std::vector<vc_features> features;  // its FEATURES for this seq, one per camera, in arrival order
-  std::vector<vc_stats> stats;        // STATS it sent while this frame was being assembled (not per seq)
+  uint64_t t_received_ns = 0;           // host CLOCK_MONOTONIC when its HULL was received
+  uint64_t occupied = 0;                // occupied voxels of its partial hull, as the edge said
+  std::vector<uint8_t> rle;             // its partial hull (proto/ RLE, voxcap/rle.h); empty without a HULL
+  std::vector<vc_features> features;    // its FEATURES for this seq, one per camera, in arrival order
+  std::vector<vc_stats> stats;          // STATS it sent while this frame was being assembled (not per seq)
+  std::vector<Silhouette> silhouettes;  // its SILHOUETTEs for this seq, one per camera, when it sent any
 };
 
 struct Frame {
