@@ -140,4 +140,18 @@ struct FeatureOptions {
   bool enabled = true;  // track head, hands, feet on the front nodes
 };
 
+// How the edges carve ([carving], CONFIG's carve_rule): the voxel's footprint or only its centre must
+// touch each silhouette (vc_carve_rule, proto/include/voxcap/camera_model.h).
+enum class CarveRule { Centre, Footprint };
+struct CarvingOptions {
+  CarveRule rule = CarveRule::Footprint;
+};
+
+// The edges' own masks sent to the host ([silhouettes], CONFIG's silhouette_every/_scale, SILHOUETTE
+// messages): for scoring against truth and for previews.
+struct SilhouetteOptions {
+  int every = 0;  // 0: never; N: every frame whose seq is a multiple of N
+  int scale = 1;  // downscale factor, 1..16
+};
+
 }  // namespace vc::config

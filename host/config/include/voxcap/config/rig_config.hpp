@@ -47,6 +47,8 @@ struct RigConfig {
   std::vector<NodeConfig> nodes;
   SubtractionOptions subtraction;
   FeatureOptions features;
+  CarvingOptions carving;
+  SilhouetteOptions silhouettes;
   TriggerOptions trigger;
   AssemblyOptions assembly;
   RecordingOptions recording;
