@@ -38,6 +38,7 @@
 #define LEAF 4
 #define TILE_SHIFT 3 /* 8x8-pixel tiles */
 #define NO_TAB UINT32_MAX
+#define MAX_CLASS 4 /* footprint rectangle sizes (dilated masks) per camera */
 
 enum {
   F_SKIP = 1,  /* no voxel of the block is seen by both cameras: always empty */
@@ -59,13 +60,24 @@ typedef struct leaf_tab {
   uint32_t base[2]; /* per camera: pixel index of the leaf rectangle's top-left corner */
   uint32_t wide;    /* NO_TAB, or index into `wide`: the leaf's rectangle is too large for 2-byte
                      * offsets (voxels close to a camera), so it keeps full pixel indices */
+  uint8_t cls[2];   /* per camera: footprint class (index into vc_carver.cls; 0, 1x1, for the centre rule) */
 } leaf_tab;
+
+/* A footprint class: every voxel of its leaves reads one byte of the mask dilated by w x h. */
+typedef struct fp_class {
+  int w, h;               /* rectangle size, pixels */
+  uint8_t* dil;           /* W*H: byte (x, y) = any foreground in [x, x+w) x [y, y+h), clipped to the image;
+                           * NULL for 1x1 (the mask itself) */
+  int px0, py0, px1, py1; /* pixels of dil the last frame may have set (px1 < px0: none) */
+} fp_class;
 
 typedef struct cam_frame {
   int tw, th;          /* tiles across and down */
   uint32_t* sat_any;   /* (tw+1)*(th+1) summed-area table of "tile has foreground" */
   uint32_t* sat_full;  /* same for "tile is all foreground" */
   uint8_t *any, *full; /* tw*th per-tile flags (scratch) */
+  int fx0, fy0, fx1,
+      fy1; /* this frame's tiles with foreground lie in [fx0, fx1] x [fy0, fy1] (fx1 < fx0: none) */
 } cam_frame;
 
 /* The grid as the loops index it: int dimensions (checked <= 4096 each by vc_grid_check). */
@@ -76,6 +88,7 @@ typedef struct grid_i {
 } grid_i;
 
 struct vc_carver {
+  vc_carve_rule rule;
   grid_i grid;
   int W[2], H[2];
   int tbx, tby, tbz;      /* top blocks per axis */
@@ -87,8 +100,11 @@ struct vc_carver {
   size_t ntabs, nwide, wide_cap;
   uint64_t nvox;
   double unseen_fraction;
-  size_t memory;
+  size_t memory, scratch; /* scratch: the dilated masks, part of memory */
   cam_frame fr[2];
+  fp_class cls[2][MAX_CLASS];
+  int ncls[2];
+  const uint8_t* cls_mask[2][MAX_CLASS]; /* this frame's mask per class (mask or dil) */
 };
 
 /* ---- configuration ---------------------------------------------------------------------------- */
@@ -166,23 +182,46 @@ int vc_grid_check(const vc_voxel_grid* g, char* why, size_t why_len) {
   return 0;
 }
 
-/* OpenCV's projectPoints model (modules/calib3d, cvProjectPoints2Internal) for one point. */
-int vc_camera_project(const vc_camera* c, const double p[3], int* px, int* py) {
+/* OpenCV's projectPoints model (modules/calib3d, cvProjectPoints2Internal) for one point: the
+ * continuous pixel position (u, v), pixel centres at integers. Returns 0 when the point is not in
+ * front of the camera (z_cam <= 0; u, v untouched). */
+static inline void distort(const vc_camera* c, double x, double y, double* pu, double* pv);
+
+/* Normalized coordinates (X/Z, Y/Z) of p_world; 0 when not in front of the camera. */
+static inline int normalize(const vc_camera* c, const double p[3], double* px, double* py) {
   const double *R = c->R_cam_from_world, *t = c->t_cam_from_world;
   double X = R[0] * p[0] + R[1] * p[1] + R[2] * p[2] + t[0];
   double Y = R[3] * p[0] + R[4] * p[1] + R[5] * p[2] + t[1];
   double Z = R[6] * p[0] + R[7] * p[1] + R[8] * p[2] + t[2];
   if (!(Z > 0.0)) return 0;
   double z = 1.0 / Z;
-  double x = X * z, y = Y * z;
+  *px = X * z;
+  *py = Y * z;
+  return 1;
+}
+
+static int project_uv(const vc_camera* c, const double p[3], double* pu, double* pv) {
+  double x, y;
+  if (!normalize(c, p, &x, &y)) return 0;
+  distort(c, x, y, pu, pv);
+  return 1;
+}
+
+/* Lens distortion and intrinsics: normalized (x, y) to the pixel position (u, v). */
+static inline void distort(const vc_camera* c, double x, double y, double* pu, double* pv) {
   double r2 = x * x + y * y, r4 = r2 * r2, r6 = r4 * r2;
   const double* k = c->dist; /* k1 k2 p1 p2 k3 */
   double radial = 1.0 + k[0] * r2 + k[1] * r4 + k[4] * r6;
   double a1 = 2.0 * x * y, a2 = r2 + 2.0 * x * x, a3 = r2 + 2.0 * y * y;
   double xd = x * radial + k[2] * a1 + k[3] * a2;
   double yd = y * radial + k[2] * a3 + k[3] * a1;
-  double u = xd * c->K[0] + c->K[2];
-  double v = yd * c->K[4] + c->K[5];
+  *pu = xd * c->K[0] + c->K[2];
+  *pv = yd * c->K[4] + c->K[5];
+}
+
+int vc_camera_project(const vc_camera* c, const double p[3], int* px, int* py) {
+  double u, v;
+  if (!project_uv(c, p, &u, &v)) return 0;
   double fu = floor(u + 0.5), fv = floor(v + 0.5);
   if (!(fu >= 0.0 && fu < (double)c->width && fv >= 0.0 && fv < (double)c->height)) return 0;
   *px = (int)fu;
@@ -270,49 +309,138 @@ static void voxel_centre(const grid_i* g, int i, int j, int k, double p[3]) {
   p[2] = g->min[2] + ((double)k + 0.5) * g->voxel_m;
 }
 
-/* Projection of the 64 voxels of one leaf, before it is known whether it gets a table. */
+/* What one leaf's voxels read, per camera, before it is known whether the leaf gets a table: the
+ * anchor pixel (top-left of the footprint rectangle; the centre's pixel for the centre rule) and
+ * the rectangle's size. */
 typedef struct leaf_proj {
   int px[2][64], py[2][64];
-  uint64_t seen[2]; /* bit v: voxel v in the grid and seen by camera c */
+  int pw[2][64], ph[2][64]; /* footprint rectangle, pixels (1x1 for the centre rule) */
+  uint64_t seen[2];         /* bit v: voxel v in the grid and seen by camera c */
   uint64_t in_grid;
 } leaf_proj;
 
-/* Builds one leaf at voxel origin (i0, j0, k0): its node, and its table when both cameras see it.
- * Returns 0 or -ENOMEM. */
-static int build_leaf(vc_carver* cv, const vc_camera* cam[2], int i0, int j0, int k0, size_t li, bsum* out,
-                      size_t* tab_cap) {
+#define LAT (LEAF + 1) /* voxel corners per leaf axis */
+
+/* The footprint rule's rectangles of the 64 voxels of a leaf in camera `cam` (see carver.h). In
+ * normalized coordinates (X/Z, Y/Z) a voxel in front of the camera projects to the convex hull of its
+ * 8 corners, inside their bounding box B. The distortion g maps B to pixels; u (and v) over B is at
+ * most its largest value at B's 4 corners plus the bilinear-interpolation error, bounded by
+ * e = dx^2/8 max|g_xx| + dy^2/8 max|g_yy| (dx, dy: B's size). The second derivatives are estimated
+ * per voxel from second differences of g on a 3x3 grid over B, and e is doubled for their
+ * variation. The rectangle then takes every pixel whose square touches [u0 - e, u1 + e] x
+ * [v0 - e, v1 + e], clipped to the image. */
+static void footprint_leaf(const grid_i* g, const vc_camera* cam, int W, int H, int i0, int j0, int k0, int c,
+                           leaf_proj* lp) {
+  double X[LAT * LAT * LAT], Y[LAT * LAT * LAT];
+  bool front[LAT * LAT * LAT];
+  for (int z = 0; z < LAT; z++)
+    for (int y = 0; y < LAT; y++)
+      for (int x = 0; x < LAT; x++) {
+        int n = x + LAT * (y + LAT * z);
+        double p[3] = {g->min[0] + (double)(i0 + x) * g->voxel_m, g->min[1] + (double)(j0 + y) * g->voxel_m,
+                       g->min[2] + (double)(k0 + z) * g->voxel_m};
+        front[n] = normalize(cam, p, &X[n], &Y[n]) && isfinite(X[n]) && isfinite(Y[n]);
+      }
+  for (int v = 0; v < 64; v++) {
+    if (!(lp->in_grid >> v & 1)) continue;
+    int x = v & 3, y = v >> 2 & 3, z = v >> 4;
+    bool ok = true;
+    double bx0 = INFINITY, bx1 = -INFINITY, by0 = INFINITY, by1 = -INFINITY;
+    for (int q = 0; q < 8; q++) {
+      int n = (x + (q & 1)) + LAT * ((y + (q >> 1 & 1)) + LAT * (z + (q >> 2)));
+      ok = ok && front[n];
+      bx0 = fmin(bx0, X[n]);
+      bx1 = fmax(bx1, X[n]);
+      by0 = fmin(by0, Y[n]);
+      by1 = fmax(by1, Y[n]);
+    }
+    if (!ok) continue; /* reaches behind the camera: unseen */
+    /* g on the 3x3 grid over B: the corners' range, and second differences along x and y */
+    double gu[3][3], gv[3][3];
+    const double xs[3] = {bx0, 0.5 * (bx0 + bx1), bx1}, ys[3] = {by0, 0.5 * (by0 + by1), by1};
+    for (int b = 0; b < 3; b++)
+      for (int a = 0; a < 3; a++) distort(cam, xs[a], ys[b], &gu[b][a], &gv[b][a]);
+    double u0 = INFINITY, u1 = -INFINITY, v0 = INFINITY, v1 = -INFINITY, sxx = 0.0, syy = 0.0;
+    for (int q = 0; q < 4; q++) {
+      int a = (q & 1) * 2, b = (q >> 1) * 2;
+      u0 = fmin(u0, gu[b][a]);
+      u1 = fmax(u1, gu[b][a]);
+      v0 = fmin(v0, gv[b][a]);
+      v1 = fmax(v1, gv[b][a]);
+    }
+    for (int k = 0; k < 3; k++) {
+      sxx = fmax(
+          sxx, fmax(fabs(gu[k][0] - 2.0 * gu[k][1] + gu[k][2]), fabs(gv[k][0] - 2.0 * gv[k][1] + gv[k][2])));
+      syy = fmax(
+          syy, fmax(fabs(gu[0][k] - 2.0 * gu[1][k] + gu[2][k]), fabs(gv[0][k] - 2.0 * gv[1][k] + gv[2][k])));
+    }
+    /* a second difference with step d/2 is (d/2)^2 g'': the bound d^2/8 |g''| is half of it; doubled */
+    double e = sxx + syy + 1.0 / 1024.0;
+    if (!(e < 1e6)) e = 1e6;
+    if (!(isfinite(u0) && isfinite(u1) && isfinite(v0) && isfinite(v1))) continue; /* beyond the model */
+    /* pixel x's square [x-1/2, x+1/2] touches [u0 - e, u1 + e] iff u0 - e - 1/2 <= x <= u1 + e + 1/2 */
+    double x0 = fmax(ceil(u0 - 0.5 - e), 0.0), x1 = fmin(floor(u1 + 0.5 + e), (double)(W - 1));
+    double y0 = fmax(ceil(v0 - 0.5 - e), 0.0), y1 = fmin(floor(v1 + 0.5 + e), (double)(H - 1));
+    if (!(x0 <= x1 && y0 <= y1)) continue; /* wholly outside the image */
+    lp->seen[c] |= 1ull << v;
+    lp->px[c][v] = (int)x0;
+    lp->py[c][v] = (int)y0;
+    lp->pw[c][v] = (int)(x1 - x0) + 1;
+    lp->ph[c][v] = (int)(y1 - y0) + 1;
+  }
+}
+
+/* Per leaf with a table, while building (freed at the end of vc_carver_new): what the node ranges
+ * and the footprint classes are made from. Pixel coordinates fit 16 bits (images <= 16384). */
+typedef struct leaf_build {
+  uint16_t r[2][4];    /* per camera: bounding box of the voxels' anchors x0, y0, x1, y1 */
+  uint16_t w[2], h[2]; /* per camera: largest footprint rectangle of the leaf's voxels */
+} leaf_build;
+
+/* Builds one leaf at voxel origin (i0, j0, k0): the F_ALL flags of its node, and its table and
+ * leaf_build when both cameras see some voxel of it. Returns 0 or -ENOMEM. */
+static int build_leaf(vc_carver* cv, const vc_camera* cam[2], int i0, int j0, int k0, size_t li,
+                      leaf_build** lbs, size_t* tab_cap) {
   const grid_i* g = &cv->grid;
   leaf_proj lp;
   memset(lp.seen, 0, sizeof(lp.seen));
   lp.in_grid = 0;
-  bsum_init(out);
   cv->leaf_tab_idx[li] = NO_TAB;
-  prect r[2];
-  prect_init(&r[0]);
-  prect_init(&r[1]);
   for (int z = 0; z < LEAF; z++)
     for (int y = 0; y < LEAF; y++)
-      for (int x = 0; x < LEAF; x++) {
-        int i = i0 + x, j = j0 + y, k = k0 + z, v = x + LEAF * (y + LEAF * z);
-        if (i >= g->nx || j >= g->ny || k >= g->nz) continue;
-        lp.in_grid |= 1ull << v;
-        double p[3];
-        voxel_centre(g, i, j, k, p);
-        for (int c = 0; c < 2; c++) {
-          if (vc_camera_project(cam[c], p, &lp.px[c][v], &lp.py[c][v])) {
-            lp.seen[c] |= 1ull << v;
-            prect_add(&r[c], lp.px[c][v], lp.py[c][v]);
-          }
-        }
+      for (int x = 0; x < LEAF; x++)
+        if (i0 + x < g->nx && j0 + y < g->ny && k0 + z < g->nz)
+          lp.in_grid |= 1ull << (x + LEAF * (y + LEAF * z));
+  for (int c = 0; c < 2; c++) {
+    if (cv->rule == VC_CARVE_FOOTPRINT) {
+      footprint_leaf(g, cam[c], cv->W[c], cv->H[c], i0, j0, k0, c, &lp);
+      continue;
+    }
+    for (int v = 0; v < 64; v++) {
+      if (!(lp.in_grid >> v & 1)) continue;
+      double p[3];
+      voxel_centre(g, i0 + (v & 3), j0 + (v >> 2 & 3), k0 + (v >> 4), p);
+      if (vc_camera_project(cam[c], p, &lp.px[c][v], &lp.py[c][v])) {
+        lp.seen[c] |= 1ull << v;
+        lp.pw[c][v] = lp.ph[c][v] = 1;
       }
+    }
+  }
+  prect r[2];
+  int fw[2] = {1, 1}, fh[2] = {1, 1};
+  for (int c = 0; c < 2; c++) {
+    prect_init(&r[c]);
+    for (int v = 0; v < 64; v++)
+      if (lp.seen[c] >> v & 1) {
+        prect_add(&r[c], lp.px[c][v], lp.py[c][v]);
+        fw[c] = imax(fw[c], lp.pw[c][v]);
+        fh[c] = imax(fh[c], lp.ph[c][v]);
+      }
+  }
   uint64_t both = lp.seen[0] & lp.seen[1];
-  out->all0 = lp.seen[0] == lp.in_grid;
-  out->all1 = lp.seen[1] == lp.in_grid;
-  out->skip = both == 0;
-  out->r[0] = r[0];
-  out->r[1] = r[1];
-  node_set(&cv->leaf[li], out);
-  if (out->skip) return 0;
+  cv->leaf[li].flags =
+      (uint8_t)((lp.seen[0] == lp.in_grid ? F_ALL0 : 0) | (lp.seen[1] == lp.in_grid ? F_ALL1 : 0));
+  if (both == 0) return 0;
 
   bool wide = false;
   for (int c = 0; c < 2; c++)
@@ -325,12 +453,25 @@ static int build_leaf(vc_carver* cv, const vc_camera* cam[2], int i0, int j0, in
     uint16_t* e = realloc(cv->entries, cap * 2 * 64 * sizeof(*e));
     if (e == NULL) return -ENOMEM;
     cv->entries = e;
+    leaf_build* b = realloc(*lbs, cap * sizeof(*b));
+    if (b == NULL) return -ENOMEM;
+    *lbs = b;
     *tab_cap = cap;
   }
   size_t ti = cv->ntabs++;
   leaf_tab* t = &cv->tabs[ti];
+  leaf_build* lb = &(*lbs)[ti];
   t->valid = both;
   t->wide = NO_TAB;
+  t->cls[0] = t->cls[1] = 0;
+  for (int c = 0; c < 2; c++) {
+    lb->r[c][0] = (uint16_t)r[c].x0;
+    lb->r[c][1] = (uint16_t)r[c].y0;
+    lb->r[c][2] = (uint16_t)r[c].x1;
+    lb->r[c][3] = (uint16_t)r[c].y1;
+    lb->w[c] = (uint16_t)fw[c];
+    lb->h[c] = (uint16_t)fh[c];
+  }
   uint16_t* e = cv->entries + ti * 2 * 64;
   if (wide) {
     if (cv->nwide == cv->wide_cap) {
@@ -364,6 +505,99 @@ static int build_leaf(vc_carver* cv, const vc_camera* cam[2], int i0, int j0, in
   return 0;
 }
 
+/* A footprint class while choosing them: a rectangle size and the voxels that use it. */
+typedef struct cls_count {
+  int w, h;
+  uint64_t n;
+} cls_count;
+
+/* Chooses camera c's footprint classes (at most MAX_CLASS rectangle sizes; a leaf reads the mask
+ * dilated by the smallest class that holds its rectangle) and assigns every leaf its class.
+ * Distinct sizes beyond MAX_CLASS are merged greedily, cheapest first (voxels times added area).
+ * Returns 0 or -ENOMEM. */
+static int choose_classes(vc_carver* cv, const leaf_build* lbs, int c) {
+  cls_count* cl = NULL;
+  size_t ncl = 0, cap = 0;
+  for (size_t t = 0; t < cv->ntabs; t++) {
+    int w = lbs[t].w[c], h = lbs[t].h[c];
+    size_t k = 0;
+    while (k < ncl && !(cl[k].w == w && cl[k].h == h)) k++;
+    if (k == ncl) {
+      if (ncl == cap) {
+        cap = cap ? 2 * cap : 16;
+        cls_count* n = realloc(cl, cap * sizeof(*n));
+        if (n == NULL) {
+          free(cl);
+          return -ENOMEM;
+        }
+        cl = n;
+      }
+      cl[ncl++] = (cls_count){w, h, 0};
+    }
+    cl[k].n += (uint64_t)__builtin_popcountll(cv->tabs[t].valid);
+  }
+  while (ncl > MAX_CLASS) {
+    size_t ba = 0, bb = 1;
+    double best = INFINITY;
+    for (size_t a = 0; a < ncl; a++)
+      for (size_t b = a + 1; b < ncl; b++) {
+        double area = (double)imax(cl[a].w, cl[b].w) * (double)imax(cl[a].h, cl[b].h);
+        double cost = (double)cl[a].n * (area - (double)cl[a].w * cl[a].h) +
+                      (double)cl[b].n * (area - (double)cl[b].w * cl[b].h);
+        if (cost < best) {
+          best = cost;
+          ba = a;
+          bb = b;
+        }
+      }
+    cl[ba].w = imax(cl[ba].w, cl[bb].w);
+    cl[ba].h = imax(cl[ba].h, cl[bb].h);
+    cl[ba].n += cl[bb].n;
+    cl[bb] = cl[--ncl];
+  }
+  cv->ncls[c] = ncl == 0 ? 1 : (int)ncl;
+  cv->cls[c][0].w = cv->cls[c][0].h = 1;
+  for (size_t k = 0; k < ncl; k++) {
+    cv->cls[c][k].w = cl[k].w;
+    cv->cls[c][k].h = cl[k].h;
+  }
+  free(cl);
+  for (size_t t = 0; t < cv->ntabs; t++) {
+    int best = -1;
+    for (int k = 0; k < cv->ncls[c]; k++)
+      if (cv->cls[c][k].w >= lbs[t].w[c] && cv->cls[c][k].h >= lbs[t].h[c] &&
+          (best < 0 || cv->cls[c][k].w * cv->cls[c][k].h < cv->cls[c][best].w * cv->cls[c][best].h))
+        best = k;
+    cv->tabs[t].cls[c] = (uint8_t)best; /* a class holds every size merged into it */
+  }
+  for (int k = 0; k < cv->ncls[c]; k++) {
+    fp_class* f = &cv->cls[c][k];
+    f->px0 = 0;
+    f->px1 = -1;
+    if (f->w * f->h == 1) continue;
+    f->dil = calloc((size_t)cv->W[c] * (size_t)cv->H[c], 1);
+    if (f->dil == NULL) return -ENOMEM;
+  }
+  return 0;
+}
+
+/* The bsum of a built leaf: its voxels' anchors grown by its class's rectangle, per camera. */
+static void leaf_bsum(const vc_carver* cv, size_t li, const leaf_build* lbs, bsum* b) {
+  bsum_init(b);
+  uint8_t fl = cv->leaf[li].flags;
+  b->all0 = (fl & F_ALL0) != 0;
+  b->all1 = (fl & F_ALL1) != 0;
+  uint32_t ti = cv->leaf_tab_idx[li];
+  if (ti == NO_TAB) return;
+  b->skip = false;
+  for (int c = 0; c < 2; c++) {
+    const leaf_build* lb = &lbs[ti];
+    const fp_class* f = &cv->cls[c][cv->tabs[ti].cls[c]];
+    b->r[c] = (prect){lb->r[c][0], lb->r[c][1], imin(lb->r[c][2] + f->w - 1, cv->W[c] - 1),
+                      imin(lb->r[c][3] + f->h - 1, cv->H[c] - 1), 1};
+  }
+}
+
 static int frame_alloc(cam_frame* f, int W, int H) {
   f->tw = (W + (1 << TILE_SHIFT) - 1) >> TILE_SHIFT;
   f->th = (H + (1 << TILE_SHIFT) - 1) >> TILE_SHIFT;
@@ -387,6 +621,7 @@ int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_cam
                   vc_carver** out, char* why, size_t why_len) {
   int err = -EINVAL;
   vc_carver* cv = NULL;
+  leaf_build* lbs = NULL;
   char bad[160]; /* a check's reason */
   vc_why_clear(why, why_len);
   if (out) *out = NULL;
@@ -394,8 +629,8 @@ int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_cam
     vc_why(why, why_len, "carver: no place for the carver");
     return -EINVAL;
   }
-  if (rule != VC_CARVE_CENTRE) {
-    vc_why(why, why_len, "carver: carve rule %d is not implemented", (int)rule);
+  if (rule != VC_CARVE_CENTRE && rule != VC_CARVE_FOOTPRINT) {
+    vc_why(why, why_len, "carver: carve rule %d is neither centre (0) nor footprint (1)", (int)rule);
     return -EINVAL;
   }
   if (vc_grid_check(grid, bad, sizeof(bad)) != 0) {
@@ -411,6 +646,7 @@ int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_cam
   err = -ENOMEM;
   cv = calloc(1, sizeof(*cv));
   if (cv == NULL) goto err;
+  cv->rule = rule;
   cv->grid = (grid_i){{grid->min_m[0], grid->min_m[1], grid->min_m[2]},
                       grid->voxel_m,
                       (int)grid->nx,
@@ -432,34 +668,50 @@ int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_cam
   cv->leaf_tab_idx = malloc(ntop * 64 * sizeof(uint32_t));
   if (!cv->top || !cv->mid || !cv->leaf || !cv->leaf_tab_idx) goto err;
 
+  /* 1: every leaf's table (pixels per voxel) and rectangle sizes; 2: the footprint classes;
+   * 3: the blocks' tile ranges, from the leaves' anchors grown by their class. */
   size_t tab_cap = 0;
   uint64_t seen_both = 0;
   for (int tz = 0; tz < cv->tbz; tz++)
     for (int ty = 0; ty < cv->tby; ty++)
       for (int tx = 0; tx < cv->tbx; tx++) {
         size_t ti = (size_t)tx + (size_t)cv->tbx * ((size_t)ty + (size_t)cv->tby * (size_t)tz);
-        bsum top;
-        bsum_init(&top);
-        for (int m = 0; m < 8; m++) {
-          int mi0 = tx * TOP + (m & 1) * MID, mj0 = ty * TOP + (m >> 1 & 1) * MID,
-              mk0 = tz * TOP + (m >> 2) * MID;
-          bsum mid;
-          bsum_init(&mid);
+        for (int m = 0; m < 8; m++)
           for (int l = 0; l < 8; l++) {
-            int i0 = mi0 + (l & 1) * LEAF, j0 = mj0 + (l >> 1 & 1) * LEAF, k0 = mk0 + (l >> 2) * LEAF;
+            int i0 = tx * TOP + (m & 1) * MID + (l & 1) * LEAF,
+                j0 = ty * TOP + (m >> 1 & 1) * MID + (l >> 1 & 1) * LEAF,
+                k0 = tz * TOP + (m >> 2) * MID + (l >> 2) * LEAF;
             size_t li = (ti * 8 + (size_t)m) * 8 + (size_t)l;
-            bsum leaf;
-            err = build_leaf(cv, cam, i0, j0, k0, li, &leaf, &tab_cap);
+            err = build_leaf(cv, cam, i0, j0, k0, li, &lbs, &tab_cap);
             if (err != 0) goto err;
             if (cv->leaf_tab_idx[li] != NO_TAB)
               seen_both += (uint64_t)__builtin_popcountll(cv->tabs[cv->leaf_tab_idx[li]].valid);
-            bsum_merge(&mid, &leaf);
           }
-          node_set(&cv->mid[ti * 8 + (size_t)m], &mid);
-          bsum_merge(&top, &mid);
-        }
-        node_set(&cv->top[ti], &top);
       }
+  for (int c = 0; c < 2; c++) {
+    err = choose_classes(cv, lbs, c);
+    if (err != 0) goto err;
+  }
+  for (size_t ti = 0; ti < ntop; ti++) {
+    bsum top;
+    bsum_init(&top);
+    for (int m = 0; m < 8; m++) {
+      bsum mid;
+      bsum_init(&mid);
+      for (int l = 0; l < 8; l++) {
+        size_t li = (ti * 8 + (size_t)m) * 8 + (size_t)l;
+        bsum leaf;
+        leaf_bsum(cv, li, lbs, &leaf);
+        node_set(&cv->leaf[li], &leaf);
+        bsum_merge(&mid, &leaf);
+      }
+      node_set(&cv->mid[ti * 8 + (size_t)m], &mid);
+      bsum_merge(&top, &mid);
+    }
+    node_set(&cv->top[ti], &top);
+  }
+  free(lbs);
+  lbs = NULL;
   cv->unseen_fraction = (double)(cv->nvox - seen_both) / (double)cv->nvox;
   cv->memory = sizeof(*cv) + ntop * 73 * sizeof(node) + ntop * 64 * sizeof(uint32_t) +
                cv->ntabs * (sizeof(leaf_tab) + 2 * 64 * sizeof(uint16_t)) +
@@ -467,11 +719,17 @@ int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_cam
   for (int c = 0; c < 2; c++) {
     const cam_frame* f = &cv->fr[c];
     cv->memory += 2 * (size_t)(f->tw + 1) * (size_t)(f->th + 1) * 4 + 2 * (size_t)f->tw * (size_t)f->th;
+    for (int k = 0; k < cv->ncls[c]; k++)
+      if (cv->cls[c][k].dil != NULL) {
+        cv->memory += (size_t)cv->W[c] * (size_t)cv->H[c];
+        cv->scratch += (size_t)cv->W[c] * (size_t)cv->H[c];
+      }
   }
   *out = cv;
   return 0;
 
 err: /* only allocations fail past the checks */
+  free(lbs);
   vc_carver_free(cv);
   vc_why(why, why_len, "carver: out of memory for the tables of a %ux%ux%u grid", grid->nx, grid->ny,
          grid->nz);
@@ -487,6 +745,8 @@ void vc_carver_free(vc_carver* cv) {
   free(cv->tabs);
   free(cv->entries);
   free(cv->wide);
+  for (int c = 0; c < 2; c++)
+    for (int k = 0; k < MAX_CLASS; k++) free(cv->cls[c][k].dil);
   frame_free(&cv->fr[0]);
   frame_free(&cv->fr[1]);
   free(cv);
@@ -503,6 +763,40 @@ double vc_carver_unseen_fraction(const vc_carver* cv) {
 }
 size_t vc_carver_memory_bytes(const vc_carver* cv) {
   return cv ? cv->memory : 0;
+}
+size_t vc_carver_scratch_bytes(const vc_carver* cv) {
+  return cv ? cv->scratch : 0;
+}
+int vc_carver_classes(const vc_carver* cv, int cam) {
+  return cv && (cam == 0 || cam == 1) ? cv->ncls[cam] : 0;
+}
+
+int vc_carver_footprint(const vc_carver* cv, uint32_t i, uint32_t j, uint32_t k, uint32_t rect[2][4]) {
+  if (cv == NULL || rect == NULL || i >= (uint32_t)cv->grid.nx || j >= (uint32_t)cv->grid.ny ||
+      k >= (uint32_t)cv->grid.nz)
+    return 0;
+  size_t ti = (size_t)(i / TOP) + (size_t)cv->tbx * ((size_t)(j / TOP) + (size_t)cv->tby * (size_t)(k / TOP));
+  size_t m = (i % TOP) / MID | ((j % TOP) / MID) << 1 | ((k % TOP) / MID) << 2;
+  size_t l = (i % MID) / LEAF | ((j % MID) / LEAF) << 1 | ((k % MID) / LEAF) << 2;
+  uint32_t tab = cv->leaf_tab_idx[(ti * 8 + m) * 8 + l];
+  unsigned v = i % LEAF + LEAF * (j % LEAF + LEAF * (k % LEAF));
+  if (tab == NO_TAB || !(cv->tabs[tab].valid >> v & 1)) return 0;
+  const leaf_tab* t = &cv->tabs[tab];
+  for (int c = 0; c < 2; c++) {
+    uint32_t W = (uint32_t)cv->W[c], p;
+    if (t->wide != NO_TAB) {
+      p = cv->wide[(size_t)t->wide * 2 * 64 + (size_t)c * 64 + v];
+    } else {
+      uint16_t q = cv->entries[(size_t)tab * 2 * 64 + (size_t)c * 64 + v];
+      p = t->base[c] + (uint32_t)(q >> 8) * W + (q & 0xFFu);
+    }
+    const fp_class* f = &cv->cls[c][t->cls[c]];
+    rect[c][0] = p % W;
+    rect[c][1] = p / W;
+    rect[c][2] = (uint32_t)imin((int)rect[c][0] + f->w - 1, cv->W[c] - 1);
+    rect[c][3] = (uint32_t)imin((int)rect[c][1] + f->h - 1, cv->H[c] - 1);
+  }
+  return 1;
 }
 
 /* ---- per frame ------------------------------------------------------------------------------ */
@@ -550,9 +844,17 @@ static void summarise(cam_frame* f, const uint8_t* mask, int W, int H) {
     }
   }
   const size_t sw = (size_t)f->tw + 1;
+  f->fx0 = f->fy0 = INT32_MAX;
+  f->fx1 = f->fy1 = -1;
   for (int ty = 0; ty < f->th; ty++) {
     uint32_t ra = 0, rf = 0;
     for (int tx = 0; tx < f->tw; tx++) {
+      if (f->any[(size_t)ty * (size_t)f->tw + (size_t)tx]) {
+        f->fx0 = imin(f->fx0, tx);
+        f->fx1 = imax(f->fx1, tx);
+        f->fy0 = imin(f->fy0, ty);
+        f->fy1 = imax(f->fy1, ty);
+      }
       ra += f->any[(size_t)ty * (size_t)f->tw + (size_t)tx];
       rf += f->full[(size_t)ty * (size_t)f->tw + (size_t)tx];
       f->sat_any[(size_t)(ty + 1) * sw + (size_t)tx + 1] = f->sat_any[(size_t)ty * sw + (size_t)tx + 1] + ra;
@@ -560,6 +862,72 @@ static void summarise(cam_frame* f, const uint8_t* mask, int W, int H) {
           f->sat_full[(size_t)ty * sw + (size_t)tx + 1] + rf;
     }
   }
+}
+
+/* dst[x] |= src[x] for x < n (rows of one buffer that do not overlap), eight bytes at a time. */
+static inline void or_into(uint8_t* dst, const uint8_t* src, int n) {
+  int x = 0;
+  for (; x + 8 <= n; x += 8) {
+    uint64_t a = load64(dst + x) | load64(src + x);
+    memcpy(dst + x, &a, 8);
+  }
+  for (; x < n; x++) dst[x] |= src[x];
+}
+
+/* In place: r[x] = OR of r[x .. min(x+w, n) - 1], for x < n. Doubling: after the pass with shift s,
+ * r[x] covers 2s bytes; a last pass with shift w - s (s the largest power of two <= w) covers w.
+ * Each pass reads ahead of what it writes, so ascending x is safe in place. */
+static void window_or_row(uint8_t* r, int n, int w) {
+  int s = 1;
+  for (; 2 * s <= w; s *= 2) or_into(r, r + s, n - s);
+  if (w > s) or_into(r, r + (w - s), n - (w - s));
+}
+
+/* The same down the rows [0, rows) of a region of row stride W and width n. */
+static void window_or_rows(uint8_t* r, size_t W, int rows, int n, int h) {
+  int s = 1;
+  for (; 2 * s <= h; s *= 2)
+    for (int y = 0; y + s < rows; y++) or_into(r + (size_t)y * W, r + (size_t)(y + s) * W, n);
+  if (h > s)
+    for (int y = 0; y + (h - s) < rows; y++) or_into(r + (size_t)y * W, r + (size_t)(y + h - s) * W, n);
+}
+
+/* Makes f->dil the mask dilated by f->w x f->h (see fp_class) for this frame. Only the region where
+ * it can be nonzero is computed, from the bounding box of the foreground tiles; what the previous
+ * frame set outside that region is cleared. */
+static void dilate(fp_class* f, const cam_frame* fr, const uint8_t* mask, int W, int H) {
+  int x0 = 0, y0 = 0, x1 = -1, y1 = -1; /* this frame's region */
+  if (fr->fx1 >= 0) {
+    x1 = imin(W - 1, (fr->fx1 << TILE_SHIFT) + (1 << TILE_SHIFT) - 1);
+    y1 = imin(H - 1, (fr->fy1 << TILE_SHIFT) + (1 << TILE_SHIFT) - 1);
+    x0 = imax(0, (fr->fx0 << TILE_SHIFT) - (f->w - 1));
+    y0 = imax(0, (fr->fy0 << TILE_SHIFT) - (f->h - 1));
+  }
+  for (int y = f->py0; y <= f->py1 && f->px0 <= f->px1; y++) {
+    uint8_t* row = f->dil + (size_t)y * (size_t)W;
+    if (y < y0 || y > y1) {
+      memset(row + f->px0, 0, (size_t)(f->px1 - f->px0 + 1));
+      continue;
+    }
+    if (f->px0 < x0) memset(row + f->px0, 0, (size_t)(imin(f->px1 + 1, x0) - f->px0));
+    if (f->px1 > x1) {
+      int a = imax(f->px0, x1 + 1);
+      memset(row + a, 0, (size_t)(f->px1 - a + 1));
+    }
+  }
+  f->px0 = x0;
+  f->py0 = y0;
+  f->px1 = x1;
+  f->py1 = y1;
+  if (x1 < x0) return;
+  const int n = x1 - x0 + 1;
+  for (int y = y0; y <= y1; y++) {
+    /* pixels right of x1 and below y1 are background: clipping the windows there is exact */
+    uint8_t* row = f->dil + (size_t)y * (size_t)W + (size_t)x0;
+    memcpy(row, mask + (size_t)y * (size_t)W + (size_t)x0, (size_t)n);
+    window_or_row(row, n, f->w);
+  }
+  window_or_rows(f->dil + (size_t)y0 * (size_t)W + (size_t)x0, (size_t)W, y1 - y0 + 1, n, f->h);
 }
 
 static inline uint32_t sat_count(const uint32_t* s, size_t sw, const uint16_t r[4]) {
@@ -644,7 +1012,14 @@ int vc_carver_run(vc_carver* cv, const uint8_t* mask0, const uint8_t* mask1, uin
                   vc_carve_stats* stats) {
   if (cv == NULL || mask0 == NULL || mask1 == NULL || bitset == NULL) return -EINVAL;
   const uint8_t* mask[2] = {mask0, mask1};
-  for (int c = 0; c < 2; c++) summarise(&cv->fr[c], mask[c], cv->W[c], cv->H[c]);
+  for (int c = 0; c < 2; c++) {
+    summarise(&cv->fr[c], mask[c], cv->W[c], cv->H[c]);
+    for (int k = 0; k < cv->ncls[c]; k++) {
+      fp_class* f = &cv->cls[c][k];
+      if (f->dil != NULL) dilate(f, &cv->fr[c], mask[c], cv->W[c], cv->H[c]);
+      cv->cls_mask[c][k] = f->dil != NULL ? f->dil : mask[c];
+    }
+  }
   memset(bitset, 0, vc_carver_bitset_bytes(cv));
   const grid_i* g = &cv->grid;
   const size_t W0 = (size_t)cv->W[0], W1 = (size_t)cv->W[1];
@@ -705,12 +1080,13 @@ int vc_carver_run(vc_carver* cv, const uint8_t* mask0, const uint8_t* mask1, uin
             } else {
               if (t->wide != NO_TAB) {
                 const uint32_t* we = cv->wide + (size_t)t->wide * 2 * 64;
-                if (l0 == S_PART) b &= leaf_lookup_wide(mask0, we);
-                if (l1 == S_PART && b != 0) b &= leaf_lookup_wide(mask1, we + 64);
+                if (l0 == S_PART) b &= leaf_lookup_wide(cv->cls_mask[0][t->cls[0]], we);
+                if (l1 == S_PART && b != 0) b &= leaf_lookup_wide(cv->cls_mask[1][t->cls[1]], we + 64);
               } else {
                 const uint16_t* e = cv->entries + (size_t)cv->leaf_tab_idx[li] * 2 * 64;
-                if (l0 == S_PART) b &= leaf_lookup(mask0, t->base[0], W0, e);
-                if (l1 == S_PART && b != 0) b &= leaf_lookup(mask1, t->base[1], W1, e + 64);
+                if (l0 == S_PART) b &= leaf_lookup(cv->cls_mask[0][t->cls[0]], t->base[0], W0, e);
+                if (l1 == S_PART && b != 0)
+                  b &= leaf_lookup(cv->cls_mask[1][t->cls[1]], t->base[1], W1, e + 64);
               }
               tested++;
             }

@@ -1,10 +1,32 @@
 /* Partial visual hull carving over a voxel grid from the two silhouettes of one edge node
- * (paper section 7).
+ * (paper section 7). The projection is OpenCV's (cv::projectPoints): x_cam = R x_world + t, pinhole
+ * with k1 k2 p1 p2 k3 distortion, continuous pixel position (u, v) with pixel centres at integer
+ * coordinates; pixel (x, y) is the square [x-1/2, x+1/2] x [y-1/2, y+1/2]. Two rules (vc_carve_rule):
  *
- * A voxel is occupied when its centre projects inside the silhouette (nonzero mask pixel) of both
- * cameras; a centre outside an image, or behind a camera, is empty. The projection is OpenCV's
- * (cv::projectPoints): x_cam = R x_world + t, pinhole with k1 k2 p1 p2 k3 distortion, and the pixel
- * is (floor(u + 0.5), floor(v + 0.5)), pixel centres at integer coordinates.
+ * VC_CARVE_CENTRE (the paper's): a voxel is occupied when its centre's pixel (floor(u + 0.5),
+ * floor(v + 0.5)) is foreground (nonzero) in both masks; a centre outside an image, or behind a
+ * camera (z_cam <= 0), is empty.
+ *
+ * VC_CARVE_FOOTPRINT (conservative): per camera, the voxel's footprint rectangle is the bounding box
+ * [u0, u1] x [v0, v1] of its 8 projected corners, grown on every side by a margin e for the lens
+ * distortion's curvature, and the voxel reads every pixel whose square touches it:
+ *   x in [ceil(u0 - 1/2 - e), floor(u1 + 1/2 + e)], y likewise, clipped to the image,
+ * then widened to the right and downwards to its class's size (below). The voxel is occupied when
+ * some pixel it reads is foreground in both masks. Without distortion the corners' box holds the
+ * cube's whole projection (a convex polytope in front of the camera projects to the convex hull of
+ * its corners); with distortion the projection of an edge bends, and e bounds that: per 4x4x4 leaf,
+ * e = (mx + my + mz)/4 + 1/1024 pixel, where m_a is the largest |f(p) - 2 f(p + L a) + f(p + 2 L a)|
+ * of u or v over the leaf's corner lattice along grid axis a (L the voxel edge) -- twice the
+ * trilinear-interpolation error bound L^2/8 (|f_xx| + |f_yy| + |f_zz|). Precision: a voxel's reads
+ * are widened to the largest rectangle of its leaf, and a camera keeps at most 4 such sizes (classes;
+ * more are merged, fewest added pixels first), so a voxel reads up to about one pixel column and row
+ * more than its own rectangle.
+ * So, with exact silhouettes (a pixel is foreground when the body's projection meets its square), every
+ * voxel that holds some of the body seen by both cameras is kept. Edge cases: a voxel with a corner
+ * behind a camera (z_cam <= 0) is empty, like a centre behind it; a voxel whose rectangle lies
+ * wholly outside an image is empty (nothing of it is seen); a voxel partly outside an image reads the
+ * part of its rectangle inside, so it is kept when that part touches the silhouette (body outside
+ * the image cannot be seen, and the superset property holds for the body the cameras see).
  *
  * vc_carver_new() does all floating-point work at configuration time; vc_carver_run() is integer-only
  * and allocation-free. The output bitset is voxel i + nx*(j + ny*k), bit 0 of byte 0 first, exactly as
@@ -28,7 +50,7 @@ extern "C" {
 
 /* Projects p_world with the carver's camera model. Returns 1 and the pixel in *px, *py when the point
  * is in front of the camera and its pixel lies inside the image, 0 otherwise (*px, *py untouched).
- * This is the exact rule vc_carver_run() applies to voxel centres. */
+ * This is the exact rule vc_carver_run() applies to voxel centres under VC_CARVE_CENTRE. */
 int vc_camera_project(const vc_camera* cam, const double p_world[3], int* px, int* py);
 
 /* 0 when the camera is usable by the carver, -EINVAL otherwise, with a one-line reason in why when
@@ -42,11 +64,13 @@ int vc_grid_check(const vc_voxel_grid* grid, char* why, size_t why_len);
 typedef struct vc_carver vc_carver;
 
 /* Builds the carver's tables for `grid` seen by `cam0` and `cam1` (all three borrowed for the call)
- * into *out. Returns 0, -EINVAL (bad camera or grid: the checks' reason) or -ENOMEM, with *out NULL
- * and a one-line reason in why when given (NULL/0 when not wanted; "" on success): edge/README.md's
- * constructor shape. *out owns the carver; free it with vc_carver_free(). Time and memory grow with the voxel
- * count: about 4.5 bytes per voxel seen by both cameras (more for voxels that project larger than 64 pixels).
- */
+ * under `rule` into *out. Returns 0, -EINVAL (bad camera, grid or rule: the checks' reason) or -ENOMEM,
+ * with *out NULL and a one-line reason in why when given (NULL/0 when not wanted; "" on success):
+ * edge/README.md's constructor shape. *out owns the carver; free it with vc_carver_free(). Time and
+ * memory grow with the voxel count: about 4.5 bytes per voxel seen by both cameras for either rule
+ * (more for leaves whose pixels spread over more than 256 pixels); the footprint rule adds per-frame
+ * scratch of one width*height byte mask per footprint class and camera (vc_carver_scratch_bytes()),
+ * and its construction projects every voxel corner instead of every centre. */
 int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_camera* cam1, vc_carve_rule rule,
                   vc_carver** out, char* why, size_t why_len);
 
@@ -57,12 +81,26 @@ void vc_carver_free(vc_carver* carver);
 uint64_t vc_carver_voxels(const vc_carver* carver);
 size_t vc_carver_bitset_bytes(const vc_carver* carver);
 
-/* Fraction of the grid's voxels whose centre is not seen by both cameras (outside an image or
- * behind a camera): those voxels are always empty. The edge warns at CONFIG when this is > 0. */
+/* Fraction of the grid's voxels not seen by both cameras under the carver's rule (centre, or
+ * footprint, outside an image or behind a camera): those voxels are always empty. The edge warns at
+ * CONFIG when this is > 0. */
 double vc_carver_unseen_fraction(const vc_carver* carver);
 
-/* Bytes of tables the carver holds (for memory budgets and the benchmark). */
+/* Bytes of tables the carver holds (for memory budgets and the benchmark), per-frame scratch included. */
 size_t vc_carver_memory_bytes(const vc_carver* carver);
+
+/* Of those, the per-frame scratch: the footprint rule's dilated masks (0 for the centre rule). */
+size_t vc_carver_scratch_bytes(const vc_carver* carver);
+
+/* Footprint classes of camera `cam` (0 or 1): distinct rectangle sizes, 1..4 (1 for the centre rule);
+ * each is one dilated mask computed per frame. 0 for a bad argument. */
+int vc_carver_classes(const vc_carver* carver, int cam);
+
+/* The pixels voxel (i, j, k) reads in each camera, as rect[c] = {x0, y0, x1, y1} (inclusive): its
+ * centre's pixel for the centre rule, its widened footprint rectangle for the footprint rule.
+ * Returns 1 when the voxel is seen by both cameras (it is occupied exactly when both rectangles hold
+ * foreground), 0 when it is always empty or out of the grid (rect untouched). For tests and tools. */
+int vc_carver_footprint(const vc_carver* carver, uint32_t i, uint32_t j, uint32_t k, uint32_t rect[2][4]);
 
 /* What a run did (optional output of vc_carver_run). */
 typedef struct vc_carve_stats {
