@@ -40,7 +40,10 @@ constexpr const char* kEdgeKeys = R"(JSON keys (one object per grid; an array wh
   band_fraction, shadow_fraction   pixels through the shadow test / classified shadow
   occupied_voxels, leaves_tested, rle_bytes         per-frame means
   peak_rss_mb            VmHWM of a child running only the edge pipeline (null with --no-rss)
-  ir_per_pixel.{subtract,cleanup,mog2}, ir_per_voxel.{carve,rle,lut_carve}
+  carve_footprint.*      the footprint carve rule on the same masks: carve_ns, edge_frame_ms, setup_ms,
+                         table_mb, scratch_mb, classes, unseen_fraction, occupied_voxels, leaves_tested,
+                         holds_centre, cost_vs_centre, peak_rss_mb (the keys above are the centre rule's)
+  ir_per_pixel.{subtract,cleanup,mog2}, ir_per_voxel.{carve,carve_footprint,rle,lut_carve}
                          callgrind instructions (null when callgrind is unavailable)
   callgrind              "ok" or why the instruction counts are null
   goals.*                the issue's targets and whether this run met them (reported, not asserted))";
@@ -62,12 +65,21 @@ void print_edge_table(const nlohmann::json& j) {
              j["carve_ns"].get<double>(), j["lut_carve_ns"].get<double>(),
              j["speedup_carve_vs_lut"].get<double>(), num(j["ir_per_voxel"]["carve"], "{:.3f}"),
              num(j["ir_per_voxel"]["lut_carve"], "{:.2f}"));
+  const auto& fp = j["carve_footprint"];
+  fmt::print("  footprint  {:>10.0f} ns   (x{:.2f} the centre rule)              Ir/voxel {}\n",
+             fp["carve_ns"].get<double>(), fp["cost_vs_centre"].get<double>(),
+             num(j["ir_per_voxel"]["carve_footprint"], "{:.3f}"));
   fmt::print("  rle        {:>10.0f} ns   ({:.0f} bytes)                        Ir/voxel {}\n",
              j["rle_ns"].get<double>(), j["rle_bytes"].get<double>(),
              num(j["ir_per_voxel"]["rle"], "{:.3f}"));
   fmt::print("  edge frame {:>10.3f} ms   peak RSS {} MB   carver tables {:.1f} MB\n",
              j["edge_frame_ms"].get<double>(), num(j["peak_rss_mb"], "{:.1f}"),
              j["carver_table_mb"].get<double>());
+  fmt::print(
+      "  footprint frame {:>5.3f} ms   peak RSS {} MB   tables {:.1f} MB (scratch {:.1f} MB, {}+{} "
+      "classes)\n",
+      fp["edge_frame_ms"].get<double>(), num(fp["peak_rss_mb"], "{:.1f}"), fp["table_mb"].get<double>(),
+      fp["scratch_mb"].get<double>(), fp["classes"][0].get<int>(), fp["classes"][1].get<int>());
   fmt::print("  callgrind: {}\n", j["callgrind"].get<std::string>());
 }
 
@@ -119,9 +131,11 @@ void add_edge_command(CLI::App& app) {
   edge->add_flag("--json", args->json, "Print JSON (keys below) instead of a table");
   edge->add_flag("--no-callgrind", args->no_callgrind, "Skip the instruction counts (no valgrind child)");
   edge->add_flag("--no-rss", args->no_rss, "Skip the peak-memory child");
-  edge->add_option("--child", args->child,
-                   "Internal: run as the benchmark's own measuring child (rss or callgrind); not for users")
-      ->check(CLI::IsMember({"rss", "callgrind"}));
+  edge->add_option(
+          "--child", args->child,
+          "Internal: run as the benchmark's own measuring child (rss, rss-footprint or callgrind); not "
+          "for users")
+      ->check(CLI::IsMember({"rss", "rss-footprint", "callgrind"}));
   edge->add_option("--frames-file", args->frames_file, "Internal: frames written by the parent, for --child");
 
   edge->callback([args] {

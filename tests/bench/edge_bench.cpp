@@ -1,10 +1,11 @@
 // The edge benchmark (see edge_bench.hpp). Structure:
 //  - the parent renders the frames once (EdgeScene), writes them to a temporary file for children,
-//    times every stage per frame (medians), runs the two references and checks that the plain LUT
-//    carve and the edge carver agree bit for bit;
-//  - a child `voxcap-bench edge ... --child rss` learns and runs the edge pipeline alone from that
-//    file and reports its peak resident memory (VmHWM), so that the parent's renderer, references
-//    and other grid sizes do not count;
+//    times every stage per frame (medians), the footprint rule's carve on the same masks, runs the
+//    two references and checks that the plain LUT carve and the edge carver agree bit for bit (and
+//    that the footprint hull holds the centre rule's);
+//  - a child `voxcap-bench edge ... --child rss` (and `rss-footprint`) learns and runs the edge
+//    pipeline alone from that file and reports its peak resident memory (VmHWM), so that the
+//    parent's renderer, references and other grid sizes do not count;
 //  - a child under `valgrind --tool=callgrind --instr-atstart=no --collect-atstart=no` runs each
 //    stage once between callgrind client requests, one dump per stage; the parent parses the totals.
 #include "edge_bench.hpp"
@@ -78,6 +79,11 @@ vc_subtract_params scene_params() {
   return p;
 }
 
+using Clock = std::chrono::steady_clock;
+double ns_since(Clock::time_point t0) {
+  return static_cast<double>(std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - t0).count());
+}
+
 template <typename T, void (*F)(T*)>
 struct CDeleter {
   void operator()(T* p) const { F(p); }
@@ -89,17 +95,28 @@ void check(int err, const char* what) {
   if (err != 0) throw std::runtime_error(std::string(what) + " failed: error " + std::to_string(err));
 }
 
-// Everything the edge holds for one node: two models, the carver and the per-frame buffers.
+CarverPtr make_carver(const vc_voxel_grid& grid, const vc_camera cams[2], vc_carve_rule rule) {
+  vc_carver* cv = nullptr;
+  char why[200];
+  if (vc_carver_new(&grid, &cams[0], &cams[1], rule, &cv, why, sizeof why) < 0) throw std::runtime_error(why);
+  return CarverPtr(cv);
+}
+
+// Everything the edge holds for one node: two models, the carver and the per-frame buffers. The
+// benchmark's parent also holds a second carver with the footprint rule (`fp`), run on the same masks.
 struct EdgePipeline {
   int w, h;
   BgPtr bg[2];
-  CarverPtr carver;
-  std::vector<uint8_t> mask[2], scratch, bits, rle;
+  CarverPtr carver, fp;
+  std::vector<uint8_t> mask[2], scratch, bits, fp_bits, rle;
   size_t rle_len = 0;
   vc_subtract_stats sub_stats[2]{};
-  vc_carve_stats carve_stats{};
+  vc_carve_stats carve_stats{}, fp_stats{};
+  double carver_setup_ms = 0, fp_setup_ms = 0;
 
-  EdgePipeline(int width, int height, const vc_voxel_grid& grid, const vc_camera cams[2])
+  // `rule`: the carver's; `with_footprint`: also build the footprint carver beside it.
+  EdgePipeline(int width, int height, const vc_voxel_grid& grid, const vc_camera cams[2], vc_carve_rule rule,
+               bool with_footprint)
       : w(width), h(height) {
     for (int c = 0; c < 2; c++) {
       vc_bgmodel* m = nullptr;
@@ -108,11 +125,15 @@ struct EdgePipeline {
       bg[c].reset(m);
       mask[c].resize(static_cast<size_t>(w) * h);
     }
-    vc_carver* cv = nullptr;
-    char why[200];
-    if (vc_carver_new(&grid, &cams[0], &cams[1], VC_CARVE_CENTRE, &cv, why, sizeof why) < 0)
-      throw std::runtime_error(why);
-    carver.reset(cv);
+    auto t0 = Clock::now();
+    carver = make_carver(grid, cams, rule);
+    carver_setup_ms = ns_since(t0) / 1e6;
+    if (with_footprint) {
+      t0 = Clock::now();
+      fp = make_carver(grid, cams, VC_CARVE_FOOTPRINT);
+      fp_setup_ms = ns_since(t0) / 1e6;
+      fp_bits.resize(vc_carver_bitset_bytes(fp.get()));
+    }
     scratch.resize(vc_cleanup_scratch_size(w));
     bits.resize(vc_carver_bitset_bytes(carver.get()));
     rle.resize(vc_rle_max_encoded_size(vc_carver_voxels(carver.get())));
@@ -133,6 +154,9 @@ struct EdgePipeline {
   }
   void carve() {
     check(vc_carver_run(carver.get(), mask[0].data(), mask[1].data(), bits.data(), &carve_stats), "carve");
+  }
+  void carve_footprint() {
+    check(vc_carver_run(fp.get(), mask[0].data(), mask[1].data(), fp_bits.data(), &fp_stats), "carve");
   }
   void encode() {
     check(vc_rle_encode(bits.data(), vc_carver_voxels(carver.get()), rle.data(), rle.size(), &rle_len),
@@ -174,10 +198,6 @@ struct LutCarver {
   }
 };
 
-using Clock = std::chrono::steady_clock;
-double ns_since(Clock::time_point t0) {
-  return static_cast<double>(std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now() - t0).count());
-}
 double median(std::vector<double> v) {
   std::sort(v.begin(), v.end());
   size_t n = v.size();
@@ -271,7 +291,11 @@ json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
   const vc_voxel_grid grid = EdgeScene::grid(o.grid);
   FrameReader reader(frames_file, frame_bytes(o));
   std::vector<uint8_t> frame[2];
-  EdgePipeline edge(o.width, o.height, grid, cams);
+  if (mode != "rss" && mode != "rss-footprint" && mode != "callgrind")
+    throw std::invalid_argument("unknown child mode " + mode);
+  // rss: the edge pipeline alone, with the rule it measures; callgrind: both carvers.
+  EdgePipeline edge(o.width, o.height, grid, cams,
+                    mode == "rss-footprint" ? VC_CARVE_FOOTPRINT : VC_CARVE_CENTRE, mode == "callgrind");
   for (int f = 0; f < o.bg_frames; f++)
     for (int c = 0; c < 2; c++) {
       reader.next(frame[c]);
@@ -279,7 +303,7 @@ json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
     }
   edge.finish();
 
-  if (mode == "rss") {
+  if (mode != "callgrind") {
     for (int f = 0; f < o.frames; f++) {
       for (int c = 0; c < 2; c++) {
         reader.next(frame[c]);
@@ -291,7 +315,6 @@ json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
     }
     return json{{"peak_rss_mb", static_cast<double>(vm_hwm_kb()) / 1024.0}};
   }
-  if (mode != "callgrind") throw std::invalid_argument("unknown child mode " + mode);
 
   // The middle frame; the references learn from the same empty frames.
   cv::setNumThreads(1);
@@ -334,6 +357,7 @@ json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
   });
   for (int c = 0; c < 2; c++) edge.cleanup(c);
   stage("carve", [&] { edge.carve(); });
+  stage("carve_footprint", [&] { edge.carve_footprint(); });
   stage("rle", [&] { edge.encode(); });
   stage("lut_carve", [&] { lut.run(edge.mask[0].data(), edge.mask[1].data(), lut_bits.data()); });
   stage("mog2", [&] {
@@ -375,14 +399,13 @@ json run_edge_bench(const EdgeBenchOptions& o) {
   }
 
   // The edge pipeline, timed stage by stage.
-  auto t_setup = Clock::now();
-  EdgePipeline edge(o.width, o.height, grid, cams);
-  const double carver_setup_ms = ns_since(t_setup) / 1e6;
+  EdgePipeline edge(o.width, o.height, grid, cams, VC_CARVE_CENTRE, true);
   for (int f = 0; f < o.bg_frames; f++)
     for (int c = 0; c < 2; c++) edge.learn(c, bg[size_t(f) * 2 + c].data());
   edge.finish();
-  std::vector<double> t_sub, t_clean, t_carve, t_rle, t_frame;
-  double band = 0, shadow = 0, occupied = 0, rle_bytes = 0, leaves = 0;
+  std::vector<double> t_sub, t_clean, t_carve, t_rle, t_frame, t_fp, t_fp_frame;
+  double band = 0, shadow = 0, occupied = 0, rle_bytes = 0, leaves = 0, fp_occupied = 0, fp_leaves = 0;
+  bool fp_holds_centre = true;
   for (int f = -1; f < o.frames; f++) {  // frame -1 warms the caches and is not counted
     const int src = std::max(f, 0);
     double sub = 0, clean = 0;
@@ -401,8 +424,25 @@ json run_edge_bench(const EdgeBenchOptions& o) {
     t0 = Clock::now();
     edge.encode();
     double rle = ns_since(t0);
+    if (f >= 0) rle_bytes += double(edge.rle_len);
     double frame = ns_since(t_start);
+    // The footprint rule on the same masks: its frame is the same with its carve in place of the
+    // centre rule's (RLE of its own, larger hull timed too).
+    t0 = Clock::now();
+    edge.carve_footprint();
+    double fp = ns_since(t0);
+    t0 = Clock::now();
+    check(vc_rle_encode(edge.fp_bits.data(), vc_carver_voxels(edge.fp.get()), edge.rle.data(),
+                        edge.rle.size(), &edge.rle_len),
+          "rle");
+    double fp_rle = ns_since(t0);
+    for (size_t b = 0; b < edge.bits.size(); b++)
+      fp_holds_centre = fp_holds_centre && (edge.bits[b] & ~edge.fp_bits[b]) == 0;
     if (f < 0) continue;
+    t_fp.push_back(fp);
+    t_fp_frame.push_back(frame - carve - rle + fp + fp_rle);
+    fp_occupied += double(edge.fp_stats.occupied);
+    fp_leaves += edge.fp_stats.leaves_tested;
     t_sub.push_back(sub);
     t_clean.push_back(clean);
     t_carve.push_back(carve);
@@ -412,7 +452,6 @@ json run_edge_bench(const EdgeBenchOptions& o) {
     shadow += edge.sub_stats[0].shadow + edge.sub_stats[1].shadow;
     occupied += double(edge.carve_stats.occupied);
     leaves += edge.carve_stats.leaves_tested;
-    rle_bytes += double(edge.rle_len);
   }
 
   // Reference 1: MOG2 with shadow detection, one thread, learning from the same empty frames.
@@ -469,7 +508,7 @@ json run_edge_bench(const EdgeBenchOptions& o) {
   j["speedup_subtract_vs_mog2"] = median(t_mog2) / median(t_sub);
   j["speedup_carve_vs_lut"] = median(t_lut) / median(t_carve);
   j["lut_matches"] = lut_matches;
-  j["carver_setup_ms"] = carver_setup_ms;
+  j["carver_setup_ms"] = edge.carver_setup_ms;
   j["carver_table_mb"] = double(vc_carver_memory_bytes(edge.carver.get())) / (1024.0 * 1024.0);
   j["lut_table_mb"] = lut_mb;
   j["unseen_fraction"] = vc_carver_unseen_fraction(edge.carver.get());
@@ -478,6 +517,19 @@ json run_edge_bench(const EdgeBenchOptions& o) {
   j["occupied_voxels"] = occupied / n;
   j["leaves_tested"] = leaves / n;
   j["rle_bytes"] = rle_bytes / n;
+  json fp;
+  fp["carve_ns"] = median(t_fp);
+  fp["edge_frame_ms"] = median(t_fp_frame) / 1e6;
+  fp["setup_ms"] = edge.fp_setup_ms;
+  fp["table_mb"] = double(vc_carver_memory_bytes(edge.fp.get())) / (1024.0 * 1024.0);
+  fp["scratch_mb"] = double(vc_carver_scratch_bytes(edge.fp.get())) / (1024.0 * 1024.0);
+  fp["classes"] = {vc_carver_classes(edge.fp.get(), 0), vc_carver_classes(edge.fp.get(), 1)};
+  fp["unseen_fraction"] = vc_carver_unseen_fraction(edge.fp.get());
+  fp["occupied_voxels"] = fp_occupied / n;
+  fp["leaves_tested"] = fp_leaves / n;
+  fp["holds_centre"] = fp_holds_centre;
+  fp["cost_vs_centre"] = median(t_fp) / median(t_carve);
+  fp["peak_rss_mb"] = nullptr;
 
   // Peak memory of the edge pipeline alone, in a child.
   j["peak_rss_mb"] = nullptr;
@@ -486,11 +538,14 @@ json run_edge_bench(const EdgeBenchOptions& o) {
     std::string out = run_capture(child_command(o, "rss", frames_file) + " 2>&1", &status);
     if (status != 0) throw std::runtime_error("rss child failed: " + out);
     j["peak_rss_mb"] = json::parse(out).at("peak_rss_mb");
+    out = run_capture(child_command(o, "rss-footprint", frames_file) + " 2>&1", &status);
+    if (status != 0) throw std::runtime_error("rss child failed: " + out);
+    fp["peak_rss_mb"] = json::parse(out).at("peak_rss_mb");
   }
 
   // Instruction counts, from a child under callgrind.
   json ir_px = {{"subtract", nullptr}, {"cleanup", nullptr}, {"mog2", nullptr}};
-  json ir_vox = {{"carve", nullptr}, {"rle", nullptr}, {"lut_carve", nullptr}};
+  json ir_vox = {{"carve", nullptr}, {"carve_footprint", nullptr}, {"rle", nullptr}, {"lut_carve", nullptr}};
   std::string cg_status = "ok";
   if (!o.callgrind) {
     cg_status = "skipped (--no-callgrind)";
@@ -521,12 +576,15 @@ json run_edge_bench(const EdgeBenchOptions& o) {
       ir_px = {{"subtract", per("subtract", pixels)},
                {"cleanup", clean >= 0 ? json(clean / pixels) : json()},
                {"mog2", per("mog2", pixels)}};
-      ir_vox = {
-          {"carve", per("carve", nvox)}, {"rle", per("rle", nvox)}, {"lut_carve", per("lut_carve", nvox)}};
+      ir_vox = {{"carve", per("carve", nvox)},
+                {"carve_footprint", per("carve_footprint", nvox)},
+                {"rle", per("rle", nvox)},
+                {"lut_carve", per("lut_carve", nvox)}};
     }
   }
   j["ir_per_pixel"] = ir_px;
   j["ir_per_voxel"] = ir_vox;
+  j["carve_footprint"] = fp;
   j["callgrind"] = cg_status;
 
   // Goals of the issue, as reported figures (never asserted).

@@ -1,7 +1,9 @@
 // `voxcap bench edge`: speed, instruction counts and memory of the edge's per-frame work (two
 // cameras: subtraction, clean-up, partial-hull carving, RLE) on ray-cast 640x480 frames, next to two
 // references run on the same frames: OpenCV's BackgroundSubtractorMOG2 (shadow detection on) and a
-// plain per-voxel lookup-table carve. The JSON keys are documented in tests/bench/README.md.
+// plain per-voxel lookup-table carve. Both carve rules are measured: the centre rule (the top-level
+// keys) and the footprint rule (`carve_footprint`), on the same masks. The JSON keys are documented
+// in tests/bench/README.md.
 #pragma once
 
 #include <string>
@@ -26,8 +28,9 @@ struct EdgeBenchOptions {
 // Runs the whole benchmark for one grid size and returns its JSON object.
 nlohmann::json run_edge_bench(const EdgeBenchOptions& options);
 
-// Child side: `mode` is "rss" (run the edge pipeline alone, report peak memory) or "callgrind"
-// (count instructions per stage with callgrind client requests). Frames come from `frames_file`,
+// Child side: `mode` is "rss" or "rss-footprint" (run the edge pipeline alone with the centre or
+// footprint carve rule, report peak memory) or "callgrind" (count instructions per stage with
+// callgrind client requests). Frames come from `frames_file`,
 // written by the parent. Returns the child's JSON (empty for callgrind, which writes dump files).
 nlohmann::json run_edge_bench_child(const EdgeBenchOptions& options, const std::string& mode,
                                     const std::string& frames_file);
