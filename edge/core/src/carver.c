@@ -19,6 +19,17 @@
  * bounds are conservative, so the result equals the per-voxel rule exactly; tiles only decide how
  * much work is skipped. A human in a 2-camera hull leaves most blocks empty or full.
  *
+ * The footprint rule (carver.h) keeps this shape. A voxel's footprint rectangle is computed at
+ * configuration time (corners in normalized coordinates, the distortion at their box's corners plus
+ * a curvature bound); the voxel keeps its top-left pixel in the same 2-byte offsets, and its leaf a
+ * rectangle size: the largest of its voxels', rounded up to one of at most 4 sizes (classes) per
+ * camera. Per frame each class's mask is dilated by its size (byte OR over [x, x+w) x [y, y+h), by
+ * doubling, vectorised; only within the box of the foreground tiles), so a voxel's test is still one
+ * byte read, and block tile ranges are built from the anchors grown by the class size, so pruning
+ * stays exact. Cost: the dilations (about 4 passes over the foreground box per class and camera)
+ * and a few more leaves tested, as the footprint hull is thicker; memory: W*H bytes per class and
+ * camera, the tables as for the centre rule.
+ *
  * A leaf whose pixel rectangle exceeds 256 pixels (voxels close to a camera) keeps 4-byte pixel
  * indices instead; that is rare in a sensible rig and costs only memory.
  * Limits: grids up to 4096 per axis and 2^31 voxels; images up to 16384 pixels a side.
@@ -31,6 +42,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dispatch.h"
 #include "voxcap/why.h"
 
 #define TOP 16
@@ -104,7 +116,7 @@ struct vc_carver {
   cam_frame fr[2];
   fp_class cls[2][MAX_CLASS];
   int ncls[2];
-  const uint8_t* cls_mask[2][MAX_CLASS]; /* this frame's mask per class (mask or dil) */
+  uint8_t* row_tmp; /* max(W) bytes: one row of a horizontal dilation */
 };
 
 /* ---- configuration ---------------------------------------------------------------------------- */
@@ -692,6 +704,8 @@ int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_cam
     err = choose_classes(cv, lbs, c);
     if (err != 0) goto err;
   }
+  cv->row_tmp = malloc((size_t)imax(cv->W[0], cv->W[1]));
+  if (cv->row_tmp == NULL) goto err;
   for (size_t ti = 0; ti < ntop; ti++) {
     bsum top;
     bsum_init(&top);
@@ -747,6 +761,7 @@ void vc_carver_free(vc_carver* cv) {
   free(cv->wide);
   for (int c = 0; c < 2; c++)
     for (int k = 0; k < MAX_CLASS; k++) free(cv->cls[c][k].dil);
+  free(cv->row_tmp);
   frame_free(&cv->fr[0]);
   frame_free(&cv->fr[1]);
   free(cv);
@@ -844,17 +859,9 @@ static void summarise(cam_frame* f, const uint8_t* mask, int W, int H) {
     }
   }
   const size_t sw = (size_t)f->tw + 1;
-  f->fx0 = f->fy0 = INT32_MAX;
-  f->fx1 = f->fy1 = -1;
   for (int ty = 0; ty < f->th; ty++) {
     uint32_t ra = 0, rf = 0;
     for (int tx = 0; tx < f->tw; tx++) {
-      if (f->any[(size_t)ty * (size_t)f->tw + (size_t)tx]) {
-        f->fx0 = imin(f->fx0, tx);
-        f->fx1 = imax(f->fx1, tx);
-        f->fy0 = imin(f->fy0, ty);
-        f->fy1 = imax(f->fy1, ty);
-      }
       ra += f->any[(size_t)ty * (size_t)f->tw + (size_t)tx];
       rf += f->full[(size_t)ty * (size_t)f->tw + (size_t)tx];
       f->sat_any[(size_t)(ty + 1) * sw + (size_t)tx + 1] = f->sat_any[(size_t)ty * sw + (size_t)tx + 1] + ra;
@@ -864,38 +871,95 @@ static void summarise(cam_frame* f, const uint8_t* mask, int W, int H) {
   }
 }
 
-/* dst[x] |= src[x] for x < n (rows of one buffer that do not overlap), eight bytes at a time. */
-static inline void or_into(uint8_t* dst, const uint8_t* src, int n) {
-  int x = 0;
-  for (; x + 8 <= n; x += 8) {
-    uint64_t a = load64(dst + x) | load64(src + x);
-    memcpy(dst + x, &a, 8);
+/* The bounding box of the foreground tiles, from the "any" summed-area table (footprint rule only). */
+static void fg_box(cam_frame* f) {
+  const size_t sw = (size_t)f->tw + 1;
+  const uint32_t* last = f->sat_any + (size_t)f->th * sw; /* column sums: last[tx+1] - last[tx] */
+  f->fx0 = f->fy0 = 0;
+  f->fx1 = f->fy1 = -1;
+  if (last[f->tw] == 0) return;
+  while (last[f->fx0 + 1] == last[f->fx0]) f->fx0++;
+  f->fx1 = f->tw - 1;
+  while (last[f->fx1 + 1] == last[f->fx1]) f->fx1--;
+  while (f->sat_any[(size_t)(f->fy0 + 1) * sw + (size_t)f->tw] ==
+         f->sat_any[(size_t)f->fy0 * sw + (size_t)f->tw])
+    f->fy0++;
+  f->fy1 = f->th - 1;
+  while (f->sat_any[(size_t)(f->fy1 + 1) * sw + (size_t)f->tw] ==
+         f->sat_any[(size_t)f->fy1 * sw + (size_t)f->tw])
+    f->fy1--;
+}
+
+/* dst[x] = a[x] | b[x] for x < n; dst overlaps neither (a and b may overlap each other). */
+VC_HOT void or2(uint8_t* restrict dst, const uint8_t* a, const uint8_t* b, int n) {
+  for (int x = 0; x < n; x++) dst[x] = a[x] | b[x];
+}
+
+/* dst[x] |= src[x] for x < n, two distinct rows. */
+VC_HOT void or_in(uint8_t* restrict dst, const uint8_t* restrict src, int n) {
+  for (int x = 0; x < n; x++) dst[x] |= src[x];
+}
+
+/* out[x] = OR of in[x .. min(x+w, n) - 1] for x < n, through tmp (n bytes; in, tmp and out distinct).
+ * Doubling: after the pass with shift s a byte covers 2s; a last pass with shift w - s (s the largest
+ * power of two <= w) covers w. Passes alternate between tmp and out so that the last lands in out. */
+VC_HOT void window_or_row(uint8_t* out, uint8_t* tmp, const uint8_t* in, int n, int w) {
+  int shifts[32], k = 0, s = 1;
+  for (; 2 * s <= w; s *= 2) shifts[k++] = s;
+  if (w > s) shifts[k++] = w - s;
+  if (k == 0) {
+    memcpy(out, in, (size_t)n);
+    return;
   }
-  for (; x < n; x++) dst[x] |= src[x];
+  const uint8_t* cur = in;
+  for (int i = 0; i < k; i++) {
+    uint8_t* dst = ((k - i) & 1) ? out : tmp;
+    int sh = imin(shifts[i], n);
+    or2(dst, cur, cur + sh, n - sh);
+    memcpy(dst + (n - sh), cur + (n - sh), (size_t)sh); /* windows clipped at the row's end */
+    cur = dst;
+  }
 }
 
-/* In place: r[x] = OR of r[x .. min(x+w, n) - 1], for x < n. Doubling: after the pass with shift s,
- * r[x] covers 2s bytes; a last pass with shift w - s (s the largest power of two <= w) covers w.
- * Each pass reads ahead of what it writes, so ascending x is safe in place. */
-static void window_or_row(uint8_t* r, int n, int w) {
-  int s = 1;
-  for (; 2 * s <= w; s *= 2) or_into(r, r + s, n - s);
-  if (w > s) or_into(r, r + (w - s), n - (w - s));
-}
-
-/* The same down the rows [0, rows) of a region of row stride W and width n. */
-static void window_or_rows(uint8_t* r, size_t W, int rows, int n, int h) {
+/* In place down the rows [0, rows) of a region of row stride W and width n: row y = OR of rows
+ * y .. min(y+h, rows) - 1 (doubling as above). Row y + s is read before it is written (ascending y). */
+VC_HOT void window_or_rows(uint8_t* r, size_t W, int rows, int n, int h) {
   int s = 1;
   for (; 2 * s <= h; s *= 2)
-    for (int y = 0; y + s < rows; y++) or_into(r + (size_t)y * W, r + (size_t)(y + s) * W, n);
+    for (int y = 0; y + s < rows; y++) or_in(r + (size_t)y * W, r + (size_t)(y + s) * W, n);
   if (h > s)
-    for (int y = 0; y + (h - s) < rows; y++) or_into(r + (size_t)y * W, r + (size_t)(y + h - s) * W, n);
+    for (int y = 0; y + (h - s) < rows; y++) or_in(r + (size_t)y * W, r + (size_t)(y + h - s) * W, n);
 }
+
+/* The dilation of the region [x0, x1] x [y0, y1] (see dilate()), written once and compiled for the
+ * baseline ISA and for AVX2 (dispatch.h). */
+VC_HOT void dilate_body(fp_class* f, const uint8_t* mask, int W, int x0, int y0, int x1, int y1,
+                        uint8_t* tmp) {
+  const int n = x1 - x0 + 1;
+  for (int y = y0; y <= y1; y++) {
+    /* pixels right of x1 and below y1 are background: clipping the windows there is exact */
+    window_or_row(f->dil + (size_t)y * (size_t)W + (size_t)x0, tmp, mask + (size_t)y * (size_t)W + (size_t)x0,
+                  n, f->w);
+  }
+  window_or_rows(f->dil + (size_t)y0 * (size_t)W + (size_t)x0, (size_t)W, y1 - y0 + 1, n, f->h);
+}
+
+static void dilate_base(fp_class* f, const uint8_t* mask, int W, int x0, int y0, int x1, int y1,
+                        uint8_t* tmp) {
+  dilate_body(f, mask, W, x0, y0, x1, y1, tmp);
+}
+
+#if VC_HAVE_AVX2_VARIANT
+VC_TARGET_AVX2 static void dilate_avx2(fp_class* f, const uint8_t* mask, int W, int x0, int y0, int x1,
+                                       int y1, uint8_t* tmp) {
+  dilate_body(f, mask, W, x0, y0, x1, y1, tmp);
+}
+#endif
 
 /* Makes f->dil the mask dilated by f->w x f->h (see fp_class) for this frame. Only the region where
  * it can be nonzero is computed, from the bounding box of the foreground tiles; what the previous
  * frame set outside that region is cleared. */
-static void dilate(fp_class* f, const cam_frame* fr, const uint8_t* mask, int W, int H) {
+static void dilate(fp_class* f, const cam_frame* fr, const uint8_t* mask, int W, int H, uint8_t* tmp) {
   int x0 = 0, y0 = 0, x1 = -1, y1 = -1; /* this frame's region */
   if (fr->fx1 >= 0) {
     x1 = imin(W - 1, (fr->fx1 << TILE_SHIFT) + (1 << TILE_SHIFT) - 1);
@@ -920,14 +984,13 @@ static void dilate(fp_class* f, const cam_frame* fr, const uint8_t* mask, int W,
   f->px1 = x1;
   f->py1 = y1;
   if (x1 < x0) return;
-  const int n = x1 - x0 + 1;
-  for (int y = y0; y <= y1; y++) {
-    /* pixels right of x1 and below y1 are background: clipping the windows there is exact */
-    uint8_t* row = f->dil + (size_t)y * (size_t)W + (size_t)x0;
-    memcpy(row, mask + (size_t)y * (size_t)W + (size_t)x0, (size_t)n);
-    window_or_row(row, n, f->w);
+#if VC_HAVE_AVX2_VARIANT
+  if (vc__use_avx2()) {
+    dilate_avx2(f, mask, W, x0, y0, x1, y1, tmp);
+    return;
   }
-  window_or_rows(f->dil + (size_t)y0 * (size_t)W + (size_t)x0, (size_t)W, y1 - y0 + 1, n, f->h);
+#endif
+  dilate_base(f, mask, W, x0, y0, x1, y1, tmp);
 }
 
 static inline uint32_t sat_count(const uint32_t* s, size_t sw, const uint16_t r[4]) {
@@ -980,8 +1043,8 @@ static inline uint64_t leaf_lookup(const uint8_t* mask, uint32_t base, size_t W,
   const uint8_t* b = mask + base;
   uint64_t bits = 0;
   for (int v = 0; v < 64; v++) {
-    uint16_t q = e[v];
-    bits |= (uint64_t)(b[(size_t)(q >> 8) * W + (q & 0xFFu)] != 0) << v;
+    size_t q = e[v];
+    bits |= (uint64_t)(b[(q >> 8) * W + (q & 0xFFu)] != 0) << v;
   }
   return bits;
 }
@@ -1012,12 +1075,14 @@ int vc_carver_run(vc_carver* cv, const uint8_t* mask0, const uint8_t* mask1, uin
                   vc_carve_stats* stats) {
   if (cv == NULL || mask0 == NULL || mask1 == NULL || bitset == NULL) return -EINVAL;
   const uint8_t* mask[2] = {mask0, mask1};
+  const uint8_t* cm[2][MAX_CLASS] = {{mask0}, {mask1}}; /* this frame's mask per class (mask or dil) */
   for (int c = 0; c < 2; c++) {
     summarise(&cv->fr[c], mask[c], cv->W[c], cv->H[c]);
+    if (cv->rule == VC_CARVE_FOOTPRINT) fg_box(&cv->fr[c]);
     for (int k = 0; k < cv->ncls[c]; k++) {
       fp_class* f = &cv->cls[c][k];
-      if (f->dil != NULL) dilate(f, &cv->fr[c], mask[c], cv->W[c], cv->H[c]);
-      cv->cls_mask[c][k] = f->dil != NULL ? f->dil : mask[c];
+      if (f->dil != NULL) dilate(f, &cv->fr[c], mask[c], cv->W[c], cv->H[c], cv->row_tmp);
+      cm[c][k] = f->dil != NULL ? f->dil : mask[c];
     }
   }
   memset(bitset, 0, vc_carver_bitset_bytes(cv));
@@ -1080,13 +1145,12 @@ int vc_carver_run(vc_carver* cv, const uint8_t* mask0, const uint8_t* mask1, uin
             } else {
               if (t->wide != NO_TAB) {
                 const uint32_t* we = cv->wide + (size_t)t->wide * 2 * 64;
-                if (l0 == S_PART) b &= leaf_lookup_wide(cv->cls_mask[0][t->cls[0]], we);
-                if (l1 == S_PART && b != 0) b &= leaf_lookup_wide(cv->cls_mask[1][t->cls[1]], we + 64);
+                if (l0 == S_PART) b &= leaf_lookup_wide(cm[0][t->cls[0]], we);
+                if (l1 == S_PART && b != 0) b &= leaf_lookup_wide(cm[1][t->cls[1]], we + 64);
               } else {
                 const uint16_t* e = cv->entries + (size_t)cv->leaf_tab_idx[li] * 2 * 64;
-                if (l0 == S_PART) b &= leaf_lookup(cv->cls_mask[0][t->cls[0]], t->base[0], W0, e);
-                if (l1 == S_PART && b != 0)
-                  b &= leaf_lookup(cv->cls_mask[1][t->cls[1]], t->base[1], W1, e + 64);
+                if (l0 == S_PART) b &= leaf_lookup(cm[0][t->cls[0]], t->base[0], W0, e);
+                if (l1 == S_PART && b != 0) b &= leaf_lookup(cm[1][t->cls[1]], t->base[1], W1, e + 64);
               }
               tested++;
             }

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "synth.hpp"
+#include "voxcap/edge/bgmodel.h"
 
 namespace {
 
@@ -373,6 +374,8 @@ TEST_P(FootprintVsReference, HoldsTheCornersFootprintAndCarvesItsRectanglesExact
     }
     std::vector<Rect> ref[2] = {reference_footprints(gc.grid, rig.cam[0]),
                                 reference_footprints(gc.grid, rig.cam[1])};
+    std::vector<int> centre[2] = {reference_pixels(gc.grid, rig.cam[0]),
+                                  reference_pixels(gc.grid, rig.cam[1])};
     std::vector<std::array<Rect, 2>> rects(nvox);
     std::vector<bool> seen(nvox, false);
     uint64_t n = 0, ref_seen = 0, extra_seen = 0, pairs = 0, loose = 0;
@@ -388,6 +391,15 @@ TEST_P(FootprintVsReference, HoldsTheCornersFootprintAndCarvesItsRectanglesExact
             ASSERT_TRUE(seen[n]) << "voxel " << n << " is seen by both cameras but not tested";
           } else {
             extra_seen += seen[n];  // the curvature margin may reach one pixel into an image
+          }
+          if (centre[0][n] >= 0 && centre[1][n] >= 0) {
+            // the footprint holds the centre's pixel: the footprint hull holds the centre rule's
+            ASSERT_TRUE(seen[n]) << "voxel " << n << " is seen by the centre rule";
+            for (int c = 0; c < 2; c++) {
+              const uint32_t px = static_cast<uint32_t>(centre[c][n] % static_cast<int>(rig.cam[c].width)),
+                             py = static_cast<uint32_t>(centre[c][n] / static_cast<int>(rig.cam[c].width));
+              EXPECT_TRUE(r[c][0] <= px && px <= r[c][2] && r[c][1] <= py && py <= r[c][3]) << "voxel " << n;
+            }
           }
           if (!seen[n]) continue;
           for (int c = 0; c < 2; c++) {
@@ -428,7 +440,14 @@ TEST_P(FootprintVsReference, HoldsTheCornersFootprintAndCarvesItsRectanglesExact
         {random_mask(rng, gc.width, gc.height, 6, 0.02), random_mask(rng, gc.width, gc.height, 3, 0.3)},
         {random_mask(rng, gc.width, gc.height, 1, 0.0), random_mask(rng, gc.width, gc.height, 1, 0.0)},
     };
+    // Both builds of the dilation (dispatch: generic C and AVX2 where the CPU has it), alternating.
+    const char* kernels[2] = {"generic", "avx2"};
+    int frame = 0;
     for (const auto& [m0, m1] : masks) {
+      const char* kernel = kernels[frame++ % 2];
+      if (vc_edge_kernel_select(kernel) != 0) kernel = "generic";
+      ASSERT_EQ(vc_edge_kernel_select(kernel), 0);
+      SCOPED_TRACE(kernel);
       std::vector<uint8_t> bits(vc_carver_bitset_bytes(cv.get()), 0xCD);
       vc_carve_stats st;
       ASSERT_EQ(vc_carver_run(cv.get(), m0.data(), m1.data(), bits.data(), &st), 0);
@@ -450,6 +469,7 @@ TEST_P(FootprintVsReference, HoldsTheCornersFootprintAndCarvesItsRectanglesExact
       EXPECT_EQ(exact_missing, 0u)
           << "voxels whose exact footprint touches both silhouettes were carved away";
     }
+    ASSERT_EQ(vc_edge_kernel_select("auto"), 0);
   }
 }
 
