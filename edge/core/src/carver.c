@@ -23,12 +23,12 @@
  * configuration time (corners in normalized coordinates, the distortion at their box's corners plus
  * a curvature bound); the voxel keeps its top-left pixel in the same 2-byte offsets, and its leaf a
  * rectangle size: the largest of its voxels', rounded up to one of at most 4 sizes (classes) per
- * camera. Per frame each class's mask is dilated by its size (byte OR over [x, x+w) x [y, y+h), by
- * doubling, vectorised; only within the box of the foreground tiles), so a voxel's test is still one
- * byte read, and block tile ranges are built from the anchors grown by the class size, so pruning
- * stays exact. Cost: the dilations (about 4 passes over the foreground box per class and camera)
- * and a few more leaves tested, as the footprint hull is thicker; memory: W*H bytes per class and
- * camera, the tables as for the centre rule.
+ * camera. Per frame each class's mask is dilated by its size (byte OR over [x, x+w) x [y, y+h), 64
+ * bits at a time), only in the 8x8 tiles within reach of a foreground tile, so a voxel's test is
+ * still one byte read; block tile ranges are built from the anchors grown by the class size, so
+ * pruning stays exact. Cost: the dilated tiles (about (8+h-1)w + 8h word operations each, for the
+ * few tiles near the silhouette) and a few more leaves tested, as the footprint hull is thicker;
+ * memory: W*H bytes per class and camera, the tables as for the centre rule.
  *
  * A leaf whose pixel rectangle exceeds 256 pixels (voxels close to a camera) keeps 4-byte pixel
  * indices instead; that is rare in a sensible rig and costs only memory.
@@ -42,7 +42,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "dispatch.h"
 #include "voxcap/why.h"
 
 #define TOP 16
@@ -77,10 +76,13 @@ typedef struct leaf_tab {
 
 /* A footprint class: every voxel of its leaves reads one byte of the mask dilated by w x h. */
 typedef struct fp_class {
-  int w, h;               /* rectangle size, pixels */
-  uint8_t* dil;           /* W*H: byte (x, y) = any foreground in [x, x+w) x [y, y+h), clipped to the image;
-                           * NULL for 1x1 (the mask itself) */
-  int px0, py0, px1, py1; /* pixels of dil the last frame may have set (px1 < px0: none) */
+  int w, h;       /* rectangle size, pixels */
+  uint8_t* dil;   /* W*H: byte (x, y) = any foreground in [x, x+w) x [y, y+h), clipped to the image;
+                   * NULL for 1x1 (the mask itself) */
+  uint32_t* done; /* [tw*th]: the tiles of dil the last frame computed (the others are zero) */
+  uint32_t* todo; /* [tw*th]: this frame's (scratch) */
+  uint8_t* mark;  /* [tw*th]: tile is in todo (scratch, zero between frames) */
+  uint32_t ndone;
 } fp_class;
 
 typedef struct cam_frame {
@@ -88,8 +90,8 @@ typedef struct cam_frame {
   uint32_t* sat_any;   /* (tw+1)*(th+1) summed-area table of "tile has foreground" */
   uint32_t* sat_full;  /* same for "tile is all foreground" */
   uint8_t *any, *full; /* tw*th per-tile flags (scratch) */
-  int fx0, fy0, fx1,
-      fy1; /* this frame's tiles with foreground lie in [fx0, fx1] x [fy0, fy1] (fx1 < fx0: none) */
+  uint32_t* fg;        /* [tw*th]: this frame's tiles with foreground (footprint rule only) */
+  uint32_t nfg;
 } cam_frame;
 
 /* The grid as the loops index it: int dimensions (checked <= 4096 each by vc_grid_check). */
@@ -116,7 +118,6 @@ struct vc_carver {
   cam_frame fr[2];
   fp_class cls[2][MAX_CLASS];
   int ncls[2];
-  uint8_t* row_tmp; /* max(W) bytes: one row of a horizontal dilation */
 };
 
 /* ---- configuration ---------------------------------------------------------------------------- */
@@ -584,11 +585,14 @@ static int choose_classes(vc_carver* cv, const leaf_build* lbs, int c) {
   }
   for (int k = 0; k < cv->ncls[c]; k++) {
     fp_class* f = &cv->cls[c][k];
-    f->px0 = 0;
-    f->px1 = -1;
     if (f->w * f->h == 1) continue;
+    size_t nt = (size_t)cv->fr[c].tw * (size_t)cv->fr[c].th;
     f->dil = calloc((size_t)cv->W[c] * (size_t)cv->H[c], 1);
-    if (f->dil == NULL) return -ENOMEM;
+    f->done = malloc(nt * sizeof(uint32_t));
+    f->todo = malloc(nt * sizeof(uint32_t));
+    f->mark = calloc(nt, 1);
+    if (f->dil == NULL || f->done == NULL || f->todo == NULL || f->mark == NULL) return -ENOMEM;
+    f->ndone = 0;
   }
   return 0;
 }
@@ -619,7 +623,8 @@ static int frame_alloc(cam_frame* f, int W, int H) {
   f->sat_full = calloc(ns, sizeof(uint32_t));
   f->any = calloc(nt, 1);
   f->full = calloc(nt, 1);
-  return (f->sat_any && f->sat_full && f->any && f->full) ? 0 : -ENOMEM;
+  f->fg = malloc(nt * sizeof(uint32_t));
+  return (f->sat_any && f->sat_full && f->any && f->full && f->fg) ? 0 : -ENOMEM;
 }
 
 static void frame_free(cam_frame* f) {
@@ -627,6 +632,7 @@ static void frame_free(cam_frame* f) {
   free(f->sat_full);
   free(f->any);
   free(f->full);
+  free(f->fg);
 }
 
 int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_camera* cam1, vc_carve_rule rule,
@@ -704,8 +710,7 @@ int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_cam
     err = choose_classes(cv, lbs, c);
     if (err != 0) goto err;
   }
-  cv->row_tmp = malloc((size_t)imax(cv->W[0], cv->W[1]));
-  if (cv->row_tmp == NULL) goto err;
+
   for (size_t ti = 0; ti < ntop; ti++) {
     bsum top;
     bsum_init(&top);
@@ -732,11 +737,13 @@ int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_cam
                cv->nwide * 2 * 64 * sizeof(uint32_t);
   for (int c = 0; c < 2; c++) {
     const cam_frame* f = &cv->fr[c];
-    cv->memory += 2 * (size_t)(f->tw + 1) * (size_t)(f->th + 1) * 4 + 2 * (size_t)f->tw * (size_t)f->th;
+    cv->memory += 2 * (size_t)(f->tw + 1) * (size_t)(f->th + 1) * 4 + 6 * (size_t)f->tw * (size_t)f->th;
     for (int k = 0; k < cv->ncls[c]; k++)
       if (cv->cls[c][k].dil != NULL) {
-        cv->memory += (size_t)cv->W[c] * (size_t)cv->H[c];
-        cv->scratch += (size_t)cv->W[c] * (size_t)cv->H[c];
+        /* the dilated mask and its tile lists */
+        size_t b = (size_t)cv->W[c] * (size_t)cv->H[c] + 9 * (size_t)f->tw * (size_t)f->th;
+        cv->memory += b;
+        cv->scratch += b;
       }
   }
   *out = cv;
@@ -760,8 +767,13 @@ void vc_carver_free(vc_carver* cv) {
   free(cv->entries);
   free(cv->wide);
   for (int c = 0; c < 2; c++)
-    for (int k = 0; k < MAX_CLASS; k++) free(cv->cls[c][k].dil);
-  free(cv->row_tmp);
+    for (int k = 0; k < MAX_CLASS; k++) {
+      free(cv->cls[c][k].dil);
+      free(cv->cls[c][k].done);
+      free(cv->cls[c][k].todo);
+      free(cv->cls[c][k].mark);
+    }
+
   frame_free(&cv->fr[0]);
   frame_free(&cv->fr[1]);
   free(cv);
@@ -871,126 +883,83 @@ static void summarise(cam_frame* f, const uint8_t* mask, int W, int H) {
   }
 }
 
-/* The bounding box of the foreground tiles, from the "any" summed-area table (footprint rule only). */
-static void fg_box(cam_frame* f) {
-  const size_t sw = (size_t)f->tw + 1;
-  const uint32_t* last = f->sat_any + (size_t)f->th * sw; /* column sums: last[tx+1] - last[tx] */
-  f->fx0 = f->fy0 = 0;
-  f->fx1 = f->fy1 = -1;
-  if (last[f->tw] == 0) return;
-  while (last[f->fx0 + 1] == last[f->fx0]) f->fx0++;
-  f->fx1 = f->tw - 1;
-  while (last[f->fx1 + 1] == last[f->fx1]) f->fx1--;
-  while (f->sat_any[(size_t)(f->fy0 + 1) * sw + (size_t)f->tw] ==
-         f->sat_any[(size_t)f->fy0 * sw + (size_t)f->tw])
-    f->fy0++;
-  f->fy1 = f->th - 1;
-  while (f->sat_any[(size_t)(f->fy1 + 1) * sw + (size_t)f->tw] ==
-         f->sat_any[(size_t)f->fy1 * sw + (size_t)f->tw])
-    f->fy1--;
+/* The list of this frame's tiles with foreground (footprint rule only), eight tile flags at a time. */
+static void fg_list(cam_frame* f) {
+  const uint32_t nt = (uint32_t)f->tw * (uint32_t)f->th;
+  uint32_t n = 0, t = 0;
+  for (; t + 8 <= nt; t += 8) {
+    if (load64(f->any + t) == 0) continue;
+    for (uint32_t i = t; i < t + 8; i++)
+      if (f->any[i]) f->fg[n++] = i;
+  }
+  for (; t < nt; t++)
+    if (f->any[t]) f->fg[n++] = t;
+  f->nfg = n;
 }
 
-/* dst[x] = a[x] | b[x] for x < n; dst overlaps neither (a and b may overlap each other). */
-VC_HOT void or2(uint8_t* restrict dst, const uint8_t* a, const uint8_t* b, int n) {
-  for (int x = 0; x < n; x++) dst[x] = a[x] | b[x];
-}
-
-/* dst[x] |= src[x] for x < n, two distinct rows. */
-VC_HOT void or_in(uint8_t* restrict dst, const uint8_t* restrict src, int n) {
-  for (int x = 0; x < n; x++) dst[x] |= src[x];
-}
-
-/* out[x] = OR of in[x .. min(x+w, n) - 1] for x < n, through tmp (n bytes; in, tmp and out distinct).
- * Doubling: after the pass with shift s a byte covers 2s; a last pass with shift w - s (s the largest
- * power of two <= w) covers w. Passes alternate between tmp and out so that the last lands in out. */
-VC_HOT void window_or_row(uint8_t* out, uint8_t* tmp, const uint8_t* in, int n, int w) {
-  int shifts[32], k = 0, s = 1;
-  for (; 2 * s <= w; s *= 2) shifts[k++] = s;
-  if (w > s) shifts[k++] = w - s;
-  if (k == 0) {
-    memcpy(out, in, (size_t)n);
+/* One 8x8 tile of the dilated mask at pixel (X, Y): byte (x, y) = any foreground in
+ * [x, x+w) x [y, y+h), clipped to the image. Rows of the horizontal windows first (eight outputs
+ * per 64-bit word), then the vertical windows over them. */
+static void dilate_tile(uint8_t* dil, const uint8_t* mask, int W, int H, int X, int Y, int w, int h) {
+  const int ye = imin(Y + (1 << TILE_SHIFT), H), rows = imin(Y + (1 << TILE_SHIFT) + h - 1, H) - Y;
+  if (X + (1 << TILE_SHIFT) + w - 1 > W || rows > 64) { /* at the right edge, or very tall: bytewise */
+    const int xe = imin(X + (1 << TILE_SHIFT), W);
+    for (int y = Y; y < ye; y++)
+      for (int x = X; x < xe; x++) {
+        uint8_t acc = 0;
+        for (int yy = y; yy < imin(y + h, H) && !acc; yy++)
+          for (int xx = x; xx < imin(x + w, W); xx++) acc |= mask[(size_t)yy * (size_t)W + (size_t)xx];
+        dil[(size_t)y * (size_t)W + (size_t)x] = acc;
+      }
     return;
   }
-  const uint8_t* cur = in;
-  for (int i = 0; i < k; i++) {
-    uint8_t* dst = ((k - i) & 1) ? out : tmp;
-    int sh = imin(shifts[i], n);
-    or2(dst, cur, cur + sh, n - sh);
-    memcpy(dst + (n - sh), cur + (n - sh), (size_t)sh); /* windows clipped at the row's end */
-    cur = dst;
+  uint64_t hr[64];
+  for (int r = 0; r < rows; r++) {
+    const uint8_t* m = mask + (size_t)(Y + r) * (size_t)W + (size_t)X;
+    uint64_t acc = 0;
+    for (int i = 0; i < w; i++) acc |= load64(m + i);
+    hr[r] = acc;
+  }
+  for (int r = 0; r < ye - Y; r++) {
+    uint64_t acc = 0;
+    for (int j = r; j < imin(r + h, rows); j++) acc |= hr[j];
+    memcpy(dil + (size_t)(Y + r) * (size_t)W + (size_t)X, &acc, 8);
   }
 }
 
-/* In place down the rows [0, rows) of a region of row stride W and width n: row y = OR of rows
- * y .. min(y+h, rows) - 1 (doubling as above). Row y + s is read before it is written (ascending y). */
-VC_HOT void window_or_rows(uint8_t* r, size_t W, int rows, int n, int h) {
-  int s = 1;
-  for (; 2 * s <= h; s *= 2)
-    for (int y = 0; y + s < rows; y++) or_in(r + (size_t)y * W, r + (size_t)(y + s) * W, n);
-  if (h > s)
-    for (int y = 0; y + (h - s) < rows; y++) or_in(r + (size_t)y * W, r + (size_t)(y + h - s) * W, n);
-}
-
-/* The dilation of the region [x0, x1] x [y0, y1] (see dilate()), written once and compiled for the
- * baseline ISA and for AVX2 (dispatch.h). */
-VC_HOT void dilate_body(fp_class* f, const uint8_t* mask, int W, int x0, int y0, int x1, int y1,
-                        uint8_t* tmp) {
-  const int n = x1 - x0 + 1;
-  for (int y = y0; y <= y1; y++) {
-    /* pixels right of x1 and below y1 are background: clipping the windows there is exact */
-    window_or_row(f->dil + (size_t)y * (size_t)W + (size_t)x0, tmp, mask + (size_t)y * (size_t)W + (size_t)x0,
-                  n, f->w);
+/* Makes f->dil the mask dilated by f->w x f->h (see fp_class) for this frame, computing only the
+ * tiles within reach of a foreground tile (a dilated tile reads its own tile and, for w, h up to 9,
+ * the next one right and down) and zeroing the tiles the last frame computed that this one does not. */
+static void dilate(fp_class* f, const cam_frame* fr, const uint8_t* mask, int W, int H) {
+  const int rx = (f->w + 6) >> TILE_SHIFT, ry = (f->h + 6) >> TILE_SHIFT, tw = fr->tw;
+  uint32_t nt = 0;
+  for (uint32_t i = 0; i < fr->nfg; i++) {
+    const int fx = (int)(fr->fg[i] % (uint32_t)tw), fy = (int)(fr->fg[i] / (uint32_t)tw);
+    for (int ty = fy; ty >= imax(0, fy - ry); ty--)
+      for (int tx = fx; tx >= imax(0, fx - rx); tx--) {
+        uint32_t u = (uint32_t)ty * (uint32_t)tw + (uint32_t)tx;
+        if (f->mark[u]) continue;
+        f->mark[u] = 1;
+        f->todo[nt++] = u;
+      }
   }
-  window_or_rows(f->dil + (size_t)y0 * (size_t)W + (size_t)x0, (size_t)W, y1 - y0 + 1, n, f->h);
-}
-
-static void dilate_base(fp_class* f, const uint8_t* mask, int W, int x0, int y0, int x1, int y1,
-                        uint8_t* tmp) {
-  dilate_body(f, mask, W, x0, y0, x1, y1, tmp);
-}
-
-#if VC_HAVE_AVX2_VARIANT
-VC_TARGET_AVX2 static void dilate_avx2(fp_class* f, const uint8_t* mask, int W, int x0, int y0, int x1,
-                                       int y1, uint8_t* tmp) {
-  dilate_body(f, mask, W, x0, y0, x1, y1, tmp);
-}
-#endif
-
-/* Makes f->dil the mask dilated by f->w x f->h (see fp_class) for this frame. Only the region where
- * it can be nonzero is computed, from the bounding box of the foreground tiles; what the previous
- * frame set outside that region is cleared. */
-static void dilate(fp_class* f, const cam_frame* fr, const uint8_t* mask, int W, int H, uint8_t* tmp) {
-  int x0 = 0, y0 = 0, x1 = -1, y1 = -1; /* this frame's region */
-  if (fr->fx1 >= 0) {
-    x1 = imin(W - 1, (fr->fx1 << TILE_SHIFT) + (1 << TILE_SHIFT) - 1);
-    y1 = imin(H - 1, (fr->fy1 << TILE_SHIFT) + (1 << TILE_SHIFT) - 1);
-    x0 = imax(0, (fr->fx0 << TILE_SHIFT) - (f->w - 1));
-    y0 = imax(0, (fr->fy0 << TILE_SHIFT) - (f->h - 1));
+  for (uint32_t i = 0; i < f->ndone; i++) {
+    uint32_t u = f->done[i];
+    if (f->mark[u]) continue;
+    const int X = (int)(u % (uint32_t)tw) << TILE_SHIFT, Y = (int)(u / (uint32_t)tw) << TILE_SHIFT;
+    for (int y = Y; y < imin(Y + (1 << TILE_SHIFT), H); y++)
+      memset(f->dil + (size_t)y * (size_t)W + (size_t)X, 0, (size_t)(imin(X + (1 << TILE_SHIFT), W) - X));
   }
-  for (int y = f->py0; y <= f->py1 && f->px0 <= f->px1; y++) {
-    uint8_t* row = f->dil + (size_t)y * (size_t)W;
-    if (y < y0 || y > y1) {
-      memset(row + f->px0, 0, (size_t)(f->px1 - f->px0 + 1));
-      continue;
-    }
-    if (f->px0 < x0) memset(row + f->px0, 0, (size_t)(imin(f->px1 + 1, x0) - f->px0));
-    if (f->px1 > x1) {
-      int a = imax(f->px0, x1 + 1);
-      memset(row + a, 0, (size_t)(f->px1 - a + 1));
-    }
+  for (uint32_t i = 0; i < nt; i++) {
+    uint32_t u = f->todo[i];
+    f->mark[u] = 0;
+    dilate_tile(f->dil, mask, W, H, (int)(u % (uint32_t)tw) << TILE_SHIFT,
+                (int)(u / (uint32_t)tw) << TILE_SHIFT, f->w, f->h);
   }
-  f->px0 = x0;
-  f->py0 = y0;
-  f->px1 = x1;
-  f->py1 = y1;
-  if (x1 < x0) return;
-#if VC_HAVE_AVX2_VARIANT
-  if (vc__use_avx2()) {
-    dilate_avx2(f, mask, W, x0, y0, x1, y1, tmp);
-    return;
-  }
-#endif
-  dilate_base(f, mask, W, x0, y0, x1, y1, tmp);
+  uint32_t* t = f->done;
+  f->done = f->todo;
+  f->todo = t;
+  f->ndone = nt;
 }
 
 static inline uint32_t sat_count(const uint32_t* s, size_t sw, const uint16_t r[4]) {
@@ -1078,10 +1047,10 @@ int vc_carver_run(vc_carver* cv, const uint8_t* mask0, const uint8_t* mask1, uin
   const uint8_t* cm[2][MAX_CLASS] = {{mask0}, {mask1}}; /* this frame's mask per class (mask or dil) */
   for (int c = 0; c < 2; c++) {
     summarise(&cv->fr[c], mask[c], cv->W[c], cv->H[c]);
-    if (cv->rule == VC_CARVE_FOOTPRINT) fg_box(&cv->fr[c]);
+    if (cv->rule == VC_CARVE_FOOTPRINT) fg_list(&cv->fr[c]);
     for (int k = 0; k < cv->ncls[c]; k++) {
       fp_class* f = &cv->cls[c][k];
-      if (f->dil != NULL) dilate(f, &cv->fr[c], mask[c], cv->W[c], cv->H[c], cv->row_tmp);
+      if (f->dil != NULL) dilate(f, &cv->fr[c], mask[c], cv->W[c], cv->H[c]);
       cm[c][k] = f->dil != NULL ? f->dil : mask[c];
     }
   }
