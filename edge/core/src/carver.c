@@ -334,6 +334,14 @@ typedef struct leaf_proj {
 
 #define LAT (LEAF + 1) /* voxel corners per leaf axis */
 
+/* min and max of two finite doubles (fmin/fmax are library calls without -ffast-math) */
+static inline double dmin(double a, double b) {
+  return a < b ? a : b;
+}
+static inline double dmax(double a, double b) {
+  return a > b ? a : b;
+}
+
 /* The footprint rule's rectangles of the 64 voxels of a leaf in camera `cam` (see carver.h). In
  * normalized coordinates (X/Z, Y/Z) a voxel in front of the camera projects to the convex hull of its
  * 8 corners, inside their bounding box B. The distortion g maps B to pixels; u (and v) over B is at
@@ -362,38 +370,42 @@ static void footprint_leaf(const grid_i* g, const vc_camera* cam, int W, int H, 
     for (int q = 0; q < 8; q++) {
       int n = (x + (q & 1)) + LAT * ((y + (q >> 1 & 1)) + LAT * (z + (q >> 2)));
       ok = ok && front[n];
-      bx0 = fmin(bx0, X[n]);
-      bx1 = fmax(bx1, X[n]);
-      by0 = fmin(by0, Y[n]);
-      by1 = fmax(by1, Y[n]);
+      bx0 = dmin(bx0, X[n]);
+      bx1 = dmax(bx1, X[n]);
+      by0 = dmin(by0, Y[n]);
+      by1 = dmax(by1, Y[n]);
     }
     if (!ok) continue; /* reaches behind the camera: unseen */
     /* g on the 3x3 grid over B: the corners' range, and second differences along x and y */
     double gu[3][3], gv[3][3];
+    bool finite = true;
     const double xs[3] = {bx0, 0.5 * (bx0 + bx1), bx1}, ys[3] = {by0, 0.5 * (by0 + by1), by1};
     for (int b = 0; b < 3; b++)
-      for (int a = 0; a < 3; a++) distort(cam, xs[a], ys[b], &gu[b][a], &gv[b][a]);
+      for (int a = 0; a < 3; a++) {
+        distort(cam, xs[a], ys[b], &gu[b][a], &gv[b][a]);
+        finite = finite && isfinite(gu[b][a]) && isfinite(gv[b][a]);
+      }
     double u0 = INFINITY, u1 = -INFINITY, v0 = INFINITY, v1 = -INFINITY, sxx = 0.0, syy = 0.0;
     for (int q = 0; q < 4; q++) {
       int a = (q & 1) * 2, b = (q >> 1) * 2;
-      u0 = fmin(u0, gu[b][a]);
-      u1 = fmax(u1, gu[b][a]);
-      v0 = fmin(v0, gv[b][a]);
-      v1 = fmax(v1, gv[b][a]);
+      u0 = dmin(u0, gu[b][a]);
+      u1 = dmax(u1, gu[b][a]);
+      v0 = dmin(v0, gv[b][a]);
+      v1 = dmax(v1, gv[b][a]);
     }
     for (int k = 0; k < 3; k++) {
-      sxx = fmax(
-          sxx, fmax(fabs(gu[k][0] - 2.0 * gu[k][1] + gu[k][2]), fabs(gv[k][0] - 2.0 * gv[k][1] + gv[k][2])));
-      syy = fmax(
-          syy, fmax(fabs(gu[0][k] - 2.0 * gu[1][k] + gu[2][k]), fabs(gv[0][k] - 2.0 * gv[1][k] + gv[2][k])));
+      sxx = dmax(
+          sxx, dmax(fabs(gu[k][0] - 2.0 * gu[k][1] + gu[k][2]), fabs(gv[k][0] - 2.0 * gv[k][1] + gv[k][2])));
+      syy = dmax(
+          syy, dmax(fabs(gu[0][k] - 2.0 * gu[1][k] + gu[2][k]), fabs(gv[0][k] - 2.0 * gv[1][k] + gv[2][k])));
     }
     /* a second difference with step d/2 is (d/2)^2 g'': the bound d^2/8 |g''| is half of it; doubled */
     double e = sxx + syy + 1.0 / 1024.0;
     if (!(e < 1e6)) e = 1e6;
-    if (!(isfinite(u0) && isfinite(u1) && isfinite(v0) && isfinite(v1))) continue; /* beyond the model */
+    if (!finite) continue; /* beyond the model */
     /* pixel x's square [x-1/2, x+1/2] touches [u0 - e, u1 + e] iff u0 - e - 1/2 <= x <= u1 + e + 1/2 */
-    double x0 = fmax(ceil(u0 - 0.5 - e), 0.0), x1 = fmin(floor(u1 + 0.5 + e), (double)(W - 1));
-    double y0 = fmax(ceil(v0 - 0.5 - e), 0.0), y1 = fmin(floor(v1 + 0.5 + e), (double)(H - 1));
+    double x0 = dmax(ceil(u0 - 0.5 - e), 0.0), x1 = dmin(floor(u1 + 0.5 + e), (double)(W - 1));
+    double y0 = dmax(ceil(v0 - 0.5 - e), 0.0), y1 = dmin(floor(v1 + 0.5 + e), (double)(H - 1));
     if (!(x0 <= x1 && y0 <= y1)) continue; /* wholly outside the image */
     lp->seen[c] |= 1ull << v;
     lp->px[c][v] = (int)x0;
