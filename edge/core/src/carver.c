@@ -616,7 +616,7 @@ static void leaf_bsum(const vc_carver* cv, size_t li, const leaf_build* lbs, bsu
   b->all0 = (fl & F_ALL0) != 0;
   b->all1 = (fl & F_ALL1) != 0;
   uint32_t ti = cv->leaf_tab_idx[li];
-  if (ti == NO_TAB) return;
+  if (ti == NO_TAB || lbs == NULL) return; /* lbs is NULL only when no leaf has a table */
   b->skip = false;
   for (int c = 0; c < 2; c++) {
     const leaf_build* lb = &lbs[ti];
@@ -697,6 +697,7 @@ int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_cam
   cv->leaf = calloc(ntop * 64, sizeof(node));
   cv->leaf_tab_idx = malloc(ntop * 64 * sizeof(uint32_t));
   if (!cv->top || !cv->mid || !cv->leaf || !cv->leaf_tab_idx) goto err;
+  memset(cv->leaf_tab_idx, 0xFF, ntop * 64 * sizeof(uint32_t)); /* NO_TAB until built */
 
   /* 1: every leaf's table (pixels per voxel) and rectangle sizes; 2: the footprint classes;
    * 3: the blocks' tile ranges, from the leaves' anchors grown by their class. */
@@ -932,7 +933,7 @@ static void dilate_tile(uint8_t* dil, const uint8_t* mask, int W, int H, int X, 
     for (int i = 0; i < w; i++) acc |= load64(m + i);
     hr[r] = acc;
   }
-  for (int r = 0; r < ye - Y; r++) {
+  for (int r = 0; r < ye - Y && r < rows; r++) { /* rows >= ye - Y: the second bound is for the analyzer */
     uint64_t acc = 0;
     for (int j = r; j < imin(r + h, rows); j++) acc |= hr[j];
     memcpy(dil + (size_t)(Y + r) * (size_t)W + (size_t)X, &acc, 8);
