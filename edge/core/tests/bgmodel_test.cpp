@@ -32,25 +32,29 @@ ModelPtr new_model(int width, int height) {
   return ModelPtr(m);
 }
 
-// Eq. 1 and 2 in doubles, with acos, on the model's own mean and sigma.
+// The rule of bgmodel.h in doubles, with acos: eq. 1 with the brighter/darker split, eq. 2, and the
+// texture test over the 5x5 window, on the model's own mean and sigma.
 std::vector<uint8_t> reference_subtract(const vc_bgmodel* m, const vc_subtract_params& p,
                                         const std::vector<uint8_t>& rgb) {
   const int w = vc_bgmodel_width(m), h = vc_bgmodel_height(m);
   const uint8_t* mean = vc_bgmodel_mean(m);
   const uint16_t* sigma_q8 = vc_bgmodel_sigma_q8(m);
   const double t_angular = std::acos(std::sqrt(p.cos2_angular));
+  constexpr uint8_t kCandidate = 1;
   std::vector<uint8_t> out(static_cast<size_t>(w) * h);
   for (size_t i = 0; i < out.size(); i++) {
     const uint8_t* px = &rgb[3 * i];
     const uint8_t* mu = &mean[3 * i];
-    bool fg = false, all_below = true;
+    bool fg = false, band = false;
     for (int c = 0; c < 3; c++) {
       double sigma = std::max(sigma_q8[3 * i + c] / 256.0, p.sigma_floor);
-      double d = std::fabs(static_cast<double>(px[c]) - mu[c]);
-      if (d > p.t_upper * sigma) fg = true;
-      if (!(d < p.t_lower * sigma)) all_below = false;
+      double d = static_cast<double>(px[c]) - mu[c];
+      if (d >= p.t_lower * sigma) fg = true;  // brighter: shadows only darken
+      double deepest = std::min(p.t_upper * sigma, (1.0 - p.shadow_min_gain) * mu[c] + p.t_lower * sigma);
+      if (-d > deepest) fg = true;
+      if (-d >= p.t_lower * sigma) band = true;
     }
-    if (!fg && !all_below) {
+    if (!fg && band) {
       double dot = 0, pp = 0, mm = 0;
       for (int c = 0; c < 3; c++) {
         dot += static_cast<double>(px[c]) * mu[c];
@@ -63,9 +67,38 @@ std::vector<uint8_t> reference_subtract(const vc_bgmodel* m, const vc_subtract_p
       if (mm == 0) shadow = delta <= t_angular;  // black background: every band pixel is shadow
       fg = !shadow;
     }
-    out[i] = fg ? 255 : 0;
+    out[i] = fg ? 255 : band ? kCandidate : 0;
   }
-  return out;
+  const double floor_q8 = std::round(p.sigma_floor * 256.0);
+  std::vector<uint8_t> done = out;
+  for (int y = 0; y < h; y++)
+    for (int x = 0; x < w; x++) {
+      const size_t i = static_cast<size_t>(y) * w + x;
+      if (out[i] != kCandidate) continue;
+      double spp = 0, spm = 0, smm = 0, v = 0;
+      int n = 0;
+      for (int yy = std::max(0, y - 2); yy <= std::min(h - 1, y + 2); yy++)
+        for (int xx = std::max(0, x - 2); xx <= std::min(w - 1, x + 2); xx++) {
+          const size_t j = static_cast<size_t>(yy) * w + xx;
+          if (out[j] != kCandidate) continue;
+          n++;
+          for (int c = 0; c < 3; c++) {
+            const double P = rgb[3 * j + c], M = mean[3 * j + c];
+            const double s = std::max(static_cast<double>(sigma_q8[3 * j + c]), floor_q8) / 256.0;
+            spp += P * P;
+            spm += P * M;
+            smm += M * M;
+            v += s * s;
+          }
+        }
+      bool shadow = true;
+      if (p.shadow_texture_k > 0 && n >= 3) {
+        const double ss = smm == 0 ? 0.0 : spp - spm * spm / smm;
+        shadow = ss <= p.shadow_texture_k * p.shadow_texture_k * v;
+      }
+      done[i] = shadow ? 0 : 255;
+    }
+  return done;
 }
 
 Scene test_scene() {
@@ -240,7 +273,9 @@ TEST_P(SubtractVariants, SameClassAsFloatReferenceOfEq1And2) {
     for (Blob& b : s.people) b.cx += 3;
     if (f == 3) {
       p.t_upper = 8.0;
-      p.shadow_max_gain = 1.3;
+      // Was shadow_max_gain 1.3; a gain above 1 is now refused (a shadow only darkens), so the
+      // lower gain varies instead (it also bounds how dark a band pixel may be, eq. 1).
+      p.shadow_min_gain = 0.5;
       ASSERT_EQ(vc_bgmodel_set_params(m.get(), &p), 0);
     }
     s.render(rng, rgb, &truth);
