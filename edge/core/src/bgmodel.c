@@ -27,10 +27,12 @@
  *     window, fitted as one scaled copy of the background (P = a * M over all their channels), leave
  *     a residual within k noise sigmas. Lit floor next to a shadow is background in pass A and
  *     outside the fit, so shadow edges pass; body pixels that failed eq. 2 are outside it too.
- *     Passes A and B run 2 rows ahead of C and the mask rows themselves hold the in-flight codes
- *     (no buffer, no allocation; vc_subtract stays reentrant); C only visits rows with candidates.
- *     Its window sums are exact integers (64-bit, the last comparison 128-bit); it costs ~75
- *     multiply-adds per candidate and no model memory (mean and sigma are read where needed).
+ *     Passes A and B run 2 rows ahead of C and the mask rows themselves hold the in-flight codes;
+ *     pass B keeps each candidate's |p|^2, p.mu and |mu|^2 (which eq. 2 computes anyway) in a
+ *     5-row ring in the model (12 bytes per pixel per row: 38 KB at 640 wide, allocated once by
+ *     set_params; no allocation per frame). C only visits rows with candidates; its window sums
+ *     are exact integers (64-bit, the last comparison 128-bit), built from column sums that a run
+ *     of candidates shares (each column summed once per run, not once per window).
  * Model data per pixel for pass A: mean, tu, tl = 9 bytes, planar by role, interleaved by channel
  * like the image, so that pass A is three aligned streams of bytes. Memory traffic dominates: at
  * 640x480 a frame reads 0.9 MB of pixels and 2.8 MB of model (plus sigma near candidates).
@@ -74,6 +76,8 @@ struct vc_bgmodel {
   uint64_t ghi_q16;   /* Q16.16 highest brightness ratio of a shadow */
   uint64_t k2_q8;     /* Q8.8 k^2 of the texture test; 0 = test off */
   uint16_t floor_q8;  /* Q8.8 sigma floor (rounded), grey levels: the texture test's noise floor */
+  uint32_t* terms;    /* [5][w][3] scratch of vc_subtract: |p|^2, p.mu, |mu|^2 of each candidate as
+                       * pass B computed them, for row y in slot y mod 5 (the texture window's rows) */
 };
 
 void vc_subtract_params_default(vc_subtract_params* params) {
@@ -161,6 +165,7 @@ void vc_bgmodel_free(vc_bgmodel* m) {
   free(m->sigma_q8);
   free(m->tu);
   free(m->tl);
+  free(m->terms);
   free(m);
 }
 
@@ -256,6 +261,13 @@ int vc_bgmodel_set_params(vc_bgmodel* m, const vc_subtract_params* p) {
   }
   m->floor_q8 = floor_q8;
   m->k2_q8 = (uint64_t)llround(p->shadow_texture_k * p->shadow_texture_k * 256.0);
+  if (m->k2_q8 != 0 && m->terms == NULL) {
+    m->terms = malloc((size_t)(2 * VC_TEXTURE_RADIUS + 1) * (size_t)m->width * 3 * sizeof(*m->terms));
+    if (m->terms == NULL) {
+      m->ready = false;
+      return -ENOMEM;
+    }
+  }
   m->c2_q24 = (uint64_t)llround(p->cos2_angular * 16777216.0);
   m->glo_q16 = (uint64_t)llround(p->shadow_min_gain * 65536.0);
   m->ghi_q16 = (uint64_t)llround(p->shadow_max_gain * 65536.0);
@@ -338,7 +350,7 @@ VC_TARGET_AVX2 static uint8_t classify_row_avx2(const uint8_t* restrict px, cons
  * (w ^ w >> 1) & 0x01..01 marks them, and count-trailing-zeros walks the marks without a branch per
  * pixel. Words without band pixels (the vast majority) cost a load and a test. */
 static bool shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mean, uint8_t* out, int n,
-                       vc_subtract_stats* stats) {
+                       uint32_t* terms, vc_subtract_stats* stats) {
   const uint64_t lsb = 0x0101010101010101ull;
   /* A pixel that passes: background (0) when it is final, a texture candidate (0x02) when not. */
   const unsigned pass_code = m->k2_q8 != 0 ? VC_CODE_CANDIDATE : 0u;
@@ -362,6 +374,11 @@ static bool shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* me
       uint64_t dot16 = dot << 16;
       unsigned is_shadow = ((dot * dot << 24) >= c2 * pp * mm) & (dot16 >= glo * mm) & (dot16 <= ghi * mm);
       out[i] = (uint8_t)(is_shadow ? pass_code : 0xFFu); /* shadow -> 0 or a candidate, else 0xFF */
+      if (terms != NULL) {                               /* < 2^18 each */
+        terms[3 * i] = (uint32_t)pp;
+        terms[3 * i + 1] = (uint32_t)dot;
+        terms[3 * i + 2] = (uint32_t)mm;
+      }
       band++;
       shadow += is_shadow;
     }
@@ -376,21 +393,46 @@ static bool shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* me
 /* The texture test for the candidates of row t (codes 0x02 from shadow_row): over the (2r+1)^2
  * window, the candidates' frame colours P (each channel of each pixel: 3n values) must be one scaled
  * copy of the background's M (through the origin: P = a*M, a = sum PM / sum MM) up to the noise:
- *     SS = sum PP - (sum PM)^2 / sum MM  <=  k^2 * sum_i sum_c max(sigma_ic, floor)^2
- * i.e. (sum PP * sum MM - (sum PM)^2) * 2^24 <= k2_q8 * V_q16 * sum MM, in 128-bit integers:
- * P, M <= 255 and 3n <= 75 values, so the sums are < 2^23, their products < 2^46, V_q16 < 2^38 and
- * k2_q8 <= 2^16. One scale for all channels makes the test see both the background's texture
- * (missing under skin over wood grain) and a colour bias that is below the per-pixel angle but
+ *     SS = sum PP - (sum PM)^2 / sum MM  <=  k^2 * n * sum_c max(sigma_c, floor)^2
+ * (n candidates in the window, sigma of the candidate at the centre: the window's noise is taken as
+ * its own), i.e. (sum PP * sum MM - (sum PM)^2) * 2^24 <= k2_q8 * n * V_q16 * sum MM, in 128-bit
+ * integers: P, M <= 255 and 3n <= 75 values, so the sums are < 2^23, their products < 2^46,
+ * n * V_q16 < 2^38 and k2_q8 <= 2^16. One scale for all channels makes the test see both the background's
+ * texture (missing under skin over wood grain) and a colour bias that is below the per-pixel angle but
  * consistent over the window. With fewer than VC_TEXTURE_MIN_PIXELS candidates in the window the
  * per-pixel tests decide. The decision is written as 0x42 (shadow) or 0x82 (foreground): the low
  * bits still say "candidate" for the windows of the rows below; finish_row() turns them into
  * 0 / 0xFF once no window needs them. */
-static uint32_t texture_row(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t* mask, int t) {
+/* Sums of one window column (rows y0..y1 of column x): the candidates' count and sum PP, PM, MM. */
+typedef struct {
+  uint32_t n, pp, pm, mm; /* < 5 * 3 * 255^2 < 2^20 */
+} col_sums;
+
+static col_sums column_sums(const vc_bgmodel* m, const uint8_t* mask, int x, int y0, int y1) {
+  col_sums cs = {0, 0, 0, 0};
+  const size_t w = (size_t)m->width;
+  for (int y = y0; y <= y1; y++) {
+    if ((mask[(size_t)y * w + (size_t)x] & 0x3F) != VC_CODE_CANDIDATE) continue;
+    const uint32_t* t = m->terms + ((size_t)(y % (2 * VC_TEXTURE_RADIUS + 1)) * w + (size_t)x) * 3;
+    cs.n++;
+    cs.pp += t[0];
+    cs.pm += t[1];
+    cs.mm += t[2];
+  }
+  return cs;
+}
+
+static uint32_t texture_row(const vc_bgmodel* m, uint8_t* mask, int t) {
   const int w = m->width, h = m->height, r = VC_TEXTURE_RADIUS;
   const int y0 = t - r < 0 ? 0 : t - r, y1 = t + r >= h ? h - 1 : t + r;
   const uint64_t lsb = 0x0101010101010101ull, k2 = m->k2_q8;
-  const uint16_t fl = m->floor_q8;
+  const uint64_t fl = m->floor_q8;
   uint8_t* out = mask + (size_t)t * (size_t)w;
+  const uint16_t* sigma_row = m->sigma_q8 + (size_t)t * (size_t)w * 3;
+  /* Column sums of the columns last computed, by column mod 8 (a window spans 5): candidates come
+   * left to right, so each column is summed once per run of nearby candidates, not once per window. */
+  col_sums ring[8];
+  int have_hi = -8; /* columns (have_lo..have_hi] are in the ring; -8: none */
   uint32_t shadow = 0;
   for (int x0 = 0; x0 < w; x0 += 8) {
     uint64_t word = 0;
@@ -403,31 +445,26 @@ static uint32_t texture_row(const vc_bgmodel* m, const uint8_t* rgb, size_t stri
       const int x = x0 + (__builtin_ctzll(marks) >> 3);
       marks &= marks - 1;
       const int xa = x - r < 0 ? 0 : x - r, xb = x + r >= w ? w - 1 : x + r;
-      uint64_t spp = 0, spm = 0, smm = 0, v = 0;
-      int n = 0;
-      for (int y = y0; y <= y1; y++) {
-        const uint8_t* c = mask + (size_t)y * (size_t)w;
-        const uint8_t* p = rgb + (size_t)y * stride;
-        const size_t row = (size_t)y * (size_t)w * 3;
-        const uint8_t* mu = m->mean + row;
-        const uint16_t* sg = m->sigma_q8 + row;
-        for (int xx = xa; xx <= xb; xx++) {
-          if ((c[xx] & 0x3F) != VC_CODE_CANDIDATE) continue;
-          for (int ch = 0; ch < 3; ch++) {
-            const uint64_t P = p[3 * xx + ch], M = mu[3 * xx + ch];
-            const uint64_t s = sg[3 * xx + ch] > fl ? sg[3 * xx + ch] : fl;
-            spp += P * P;
-            spm += P * M;
-            smm += M * M;
-            v += s * s;
-          }
-          n++;
-        }
+      for (int xx = have_hi >= xa - 1 ? have_hi + 1 : xa; xx <= xb; xx++)
+        ring[xx & 7] = column_sums(m, mask, xx, y0, y1);
+      have_hi = xb;
+      uint64_t n = 0, spp = 0, spm = 0, smm = 0;
+      for (int xx = xa; xx <= xb; xx++) {
+        n += ring[xx & 7].n;
+        spp += ring[xx & 7].pp;
+        spm += ring[xx & 7].pm;
+        smm += ring[xx & 7].mm;
       }
       unsigned is_shadow = 1;
       if (n >= VC_TEXTURE_MIN_PIXELS) {
+        /* The noise: n times the candidate's own sum_c max(sigma_c, floor)^2 (Q16.16). */
+        uint64_t v = 0;
+        for (int ch = 0; ch < 3; ch++) {
+          const uint64_t sg = sigma_row[3 * x + ch] > fl ? sigma_row[3 * x + ch] : fl;
+          v += sg * sg;
+        }
         const unsigned __int128 lhs = (unsigned __int128)(spp * smm - spm * spm) << 24;
-        is_shadow = lhs <= (unsigned __int128)(k2 * v) * smm;
+        is_shadow = lhs <= (unsigned __int128)(k2 * n * v) * smm;
       }
       out[x] = (uint8_t)(is_shadow ? VC_CODE_SHADOW : VC_CODE_FOREGROUND);
       shadow += is_shadow;
@@ -462,7 +499,7 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
       const size_t off = (size_t)y * row;
       uint8_t* out = mask + (size_t)y * (size_t)w;
       if (classify(px, m->mean + off, m->tu + off, m->tl + off, out, w))
-        (void)shadow_row(m, px, m->mean + off, out, w, stats);
+        (void)shadow_row(m, px, m->mean + off, out, w, NULL, stats);
     }
     return 0;
   }
@@ -474,12 +511,13 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
       const uint8_t* px = rgb + (size_t)y * stride;
       const size_t off = (size_t)y * row;
       uint8_t* out = mask + (size_t)y * (size_t)w;
-      const bool any = classify(px, m->mean + off, m->tu + off, m->tl + off, out, w) &&
-                       shadow_row(m, px, m->mean + off, out, w, stats);
+      const bool any =
+          classify(px, m->mean + off, m->tu + off, m->tl + off, out, w) &&
+          shadow_row(m, px, m->mean + off, out, w, m->terms + (size_t)(y % (2 * r + 1)) * row, stats);
       cand = (cand & ~(1u << (y & 31))) | ((uint32_t)any << (y & 31));
     }
     const int t = y - r;
-    if (t >= 0 && t < h && ((cand >> (t & 31)) & 1u)) shadow += texture_row(m, rgb, stride, mask, t);
+    if (t >= 0 && t < h && ((cand >> (t & 31)) & 1u)) shadow += texture_row(m, mask, t);
     const int f = y - 2 * r;
     if (f >= 0 && ((cand >> (f & 31)) & 1u)) finish_row(mask + (size_t)f * (size_t)w, w);
   }

@@ -85,13 +85,15 @@ std::vector<uint8_t> reference_subtract(const vc_bgmodel* m, const vc_subtract_p
           n++;
           for (int c = 0; c < 3; c++) {
             const double P = rgb[3 * j + c], M = mean[3 * j + c];
-            const double s = std::max(static_cast<double>(sigma_q8[3 * j + c]), floor_q8) / 256.0;
             spp += P * P;
             spm += P * M;
             smm += M * M;
-            v += s * s;
           }
         }
+      for (int c = 0; c < 3; c++) {  // the noise: n times the centre pixel's
+        const double s = std::max(static_cast<double>(sigma_q8[3 * i + c]), floor_q8) / 256.0;
+        v += n * s * s;
+      }
       bool shadow = true;
       if (p.shadow_texture_k > 0 && n >= 3) {
         const double ss = smm == 0 ? 0.0 : spp - spm * spm / smm;

@@ -23,8 +23,9 @@
  *   texture test      (shadow_texture_k = k > 0) over the 5x5 window around a candidate, with the
  *                     window's candidates C (at least 3, else the per-pixel test decides): their
  *                     colours must be one scaled copy of the background's, P = a * mu, up to the noise:
- *                     shadow iff sum_C,c p^2 - (sum_C,c p mu)^2 / sum_C,c mu^2 <= k^2 sum_C,c s^2,
- *                     s = max(sigma, sigma_floor) per channel, both in Q8.8 (the floor rounded);
+ *                     shadow iff sum_C,c p^2 - (sum_C,c p mu)^2 / sum_C,c mu^2 <= k^2 |C| sum_c s_c^2,
+ *                     s_c = max(sigma_c, sigma_floor) of the candidate itself, both in Q8.8 (the
+ *                     floor rounded);
  *                     a shadow counts as background, a candidate that fails is foreground.
  * All the integer tables and comparisons are exact: with floor() of the thresholds above (computed
  * in doubles in vc_bgmodel_set_params), a float implementation gives the same mask.
@@ -32,8 +33,10 @@
  * Q8.8; vc_bgmodel_mean()/vc_bgmodel_sigma() return exactly the values the classifier uses, so a
  * float implementation of the rules above on those values gives the same mask (see the tests).
  *
- * Thread safety: a model may be used by one thread at a time for learn/finish/set_params; after
- * that, vc_subtract() only reads it and may run concurrently on different frames.
+ * Thread safety: a model may be used by one thread at a time. vc_subtract() keeps the texture
+ * test's per-row terms in the model (5 rows x 12 bytes per pixel: 38 KB at 640 wide, allocated by
+ * vc_bgmodel_set_params when the test is on), so one frame at a time per model, as the edge runs
+ * it (one model per camera); with shadow_texture_k 0 it only reads the model.
  */
 #ifndef VOXCAP_EDGE_BGMODEL_H
 #define VOXCAP_EDGE_BGMODEL_H
@@ -98,7 +101,8 @@ int vc_bgmodel_finish(vc_bgmodel* model);
 int vc_bgmodel_restore(vc_bgmodel* model, const uint8_t* mean, const uint16_t* sigma_q8, int frames);
 
 /* Derives the per-pixel integer thresholds from `params` (floats are used here, not per frame).
- * Returns 0, -EINVAL for bad parameters, -EAGAIN before vc_bgmodel_finish(). */
+ * Returns 0, -EINVAL for bad parameters, -EAGAIN before vc_bgmodel_finish(), -ENOMEM (the texture
+ * test's scratch; the model is then not ready until a call succeeds). */
 int vc_bgmodel_set_params(vc_bgmodel* model, const vc_subtract_params* params);
 
 /* Frames learnt so far (also after finish). */
