@@ -350,7 +350,8 @@ VC_TARGET_AVX2 static uint8_t classify_row_avx2(const uint8_t* restrict px, cons
  * (w ^ w >> 1) & 0x01..01 marks them, and count-trailing-zeros walks the marks without a branch per
  * pixel. Words without band pixels (the vast majority) cost a load and a test. */
 static bool shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mean, uint8_t* out, int n,
-                       uint32_t* terms, vc_subtract_stats* stats) {
+                       uint32_t* terms, int span[2], vc_subtract_stats* stats) {
+  int lo = n, hi = -1; /* the first and last candidate */
   const uint64_t lsb = 0x0101010101010101ull;
   /* A pixel that passes: background (0) when it is final, a texture candidate (0x02) when not. */
   const unsigned pass_code = m->k2_q8 != 0 ? VC_CODE_CANDIDATE : 0u;
@@ -381,7 +382,15 @@ static bool shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* me
       }
       band++;
       shadow += is_shadow;
+      if (is_shadow) {
+        lo = i < lo ? i : lo;
+        hi = i;
+      }
     }
+  }
+  if (span != NULL) {
+    span[0] = lo;
+    span[1] = hi;
   }
   if (stats != NULL) {
     stats->band += band;
@@ -422,7 +431,7 @@ static col_sums column_sums(const vc_bgmodel* m, const uint8_t* mask, int x, int
   return cs;
 }
 
-static uint32_t texture_row(const vc_bgmodel* m, uint8_t* mask, int t) {
+static uint32_t texture_row(const vc_bgmodel* m, uint8_t* mask, int t, int lo, int hi) {
   const int w = m->width, h = m->height, r = VC_TEXTURE_RADIUS;
   const int y0 = t - r < 0 ? 0 : t - r, y1 = t + r >= h ? h - 1 : t + r;
   const uint64_t lsb = 0x0101010101010101ull, k2 = m->k2_q8;
@@ -434,7 +443,7 @@ static uint32_t texture_row(const vc_bgmodel* m, uint8_t* mask, int t) {
   col_sums ring[8];
   int have_hi = -8; /* columns (have_lo..have_hi] are in the ring; -8: none */
   uint32_t shadow = 0;
-  for (int x0 = 0; x0 < w; x0 += 8) {
+  for (int x0 = lo & ~7; x0 <= hi; x0 += 8) { /* the candidates lie in [lo, hi] */
     uint64_t word = 0;
     if (w - x0 >= 8)
       memcpy(&word, out + x0, 8);
@@ -473,7 +482,7 @@ static uint32_t texture_row(const vc_bgmodel* m, uint8_t* mask, int t) {
   return shadow;
 }
 
-/* Turns row t's decided candidates into the mask's 0 / 0xFF. */
+/* Turns the decided candidates of a row's span into the mask's 0 / 0xFF. */
 static void finish_row(uint8_t* out, int n) {
   for (int i = 0; i < n; i++) {
     const uint8_t v = out[i];
@@ -499,27 +508,30 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
       const size_t off = (size_t)y * row;
       uint8_t* out = mask + (size_t)y * (size_t)w;
       if (classify(px, m->mean + off, m->tu + off, m->tl + off, out, w))
-        (void)shadow_row(m, px, m->mean + off, out, w, NULL, stats);
+        (void)shadow_row(m, px, m->mean + off, out, w, NULL, NULL, stats);
     }
     return 0;
   }
   /* Pass A and B run r rows ahead of the texture test; a row is finished r rows after its test,
    * when no window needs its codes any more. Bit (y mod 32) of `cand` marks rows with candidates. */
   uint32_t cand = 0, shadow = 0;
+  int span[32][2]; /* the candidates' first and last column, of row y in span[y mod 32] */
   for (int y = 0; y < h + 2 * r; y++) {
     if (y < h) {
       const uint8_t* px = rgb + (size_t)y * stride;
       const size_t off = (size_t)y * row;
       uint8_t* out = mask + (size_t)y * (size_t)w;
-      const bool any =
-          classify(px, m->mean + off, m->tu + off, m->tl + off, out, w) &&
-          shadow_row(m, px, m->mean + off, out, w, m->terms + (size_t)(y % (2 * r + 1)) * row, stats);
+      const bool any = classify(px, m->mean + off, m->tu + off, m->tl + off, out, w) &&
+                       shadow_row(m, px, m->mean + off, out, w, m->terms + (size_t)(y % (2 * r + 1)) * row,
+                                  span[y & 31], stats);
       cand = (cand & ~(1u << (y & 31))) | ((uint32_t)any << (y & 31));
     }
     const int t = y - r;
-    if (t >= 0 && t < h && ((cand >> (t & 31)) & 1u)) shadow += texture_row(m, mask, t);
+    if (t >= 0 && t < h && ((cand >> (t & 31)) & 1u))
+      shadow += texture_row(m, mask, t, span[t & 31][0], span[t & 31][1]);
     const int f = y - 2 * r;
-    if (f >= 0 && ((cand >> (f & 31)) & 1u)) finish_row(mask + (size_t)f * (size_t)w, w);
+    if (f >= 0 && ((cand >> (f & 31)) & 1u))
+      finish_row(mask + (size_t)f * (size_t)w + span[f & 31][0], span[f & 31][1] - span[f & 31][0] + 1);
   }
   if (stats != NULL) stats->shadow = shadow;
   return 0;
