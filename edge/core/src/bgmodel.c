@@ -301,12 +301,13 @@ static inline uint8_t u8min(uint8_t a, uint8_t b) {
  * brighter than the noise in some channel, or darker than the deepest shadow). Written as min/max
  * byte arithmetic so that gcc and clang both vectorise the first loop; the second loop folds the
  * three channel codes of each pixel (a stride-3 gather, vectorised where the ISA has byte shuffles). */
-VC_HOT uint8_t classify_row_body(const uint8_t* restrict px, const uint8_t* restrict mean,
-                                 const uint8_t* restrict tu, const uint8_t* restrict tl,
-                                 uint8_t* restrict out, int n) {
+VC_HOT uint64_t classify_row_body(const uint8_t* restrict px, const uint8_t* restrict mean,
+                                  const uint8_t* restrict tu, const uint8_t* restrict tl,
+                                  uint8_t* restrict out, int n) {
   uint8_t code[3 * VC_CHUNK];
-  uint8_t any_band = 0; /* nonzero when some pixel of the row is in the band (value 1) */
+  uint64_t chunks = 0; /* bit c: chunk c (pixels c*VC_CHUNK...) has a band pixel (value 1) */
   for (int x0 = 0; x0 < n; x0 += VC_CHUNK) {
+    uint8_t any_band = 0;
     const int len = n - x0 < VC_CHUNK ? n - x0 : VC_CHUNK;
     const int nb = 3 * len;
     const uint8_t* restrict p = px + 3 * x0;
@@ -327,64 +328,69 @@ VC_HOT uint8_t classify_row_body(const uint8_t* restrict px, const uint8_t* rest
       o[i] = v;
       any_band |= (uint8_t)(v & (uint8_t) ~(v >> 1) & 1u); /* 1 only for the band value 0x01 */
     }
+    chunks |= (uint64_t)any_band << (x0 / VC_CHUNK);
   }
-  return any_band;
+  return chunks;
 }
 
-static uint8_t classify_row_generic(const uint8_t* restrict px, const uint8_t* restrict mean,
-                                    const uint8_t* restrict tu, const uint8_t* restrict tl,
-                                    uint8_t* restrict out, int n) {
+static uint64_t classify_row_generic(const uint8_t* restrict px, const uint8_t* restrict mean,
+                                     const uint8_t* restrict tu, const uint8_t* restrict tl,
+                                     uint8_t* restrict out, int n) {
   return classify_row_body(px, mean, tu, tl, out, n);
 }
 
 #if VC_HAVE_AVX2_VARIANT
-VC_TARGET_AVX2 static uint8_t classify_row_avx2(const uint8_t* restrict px, const uint8_t* restrict mean,
-                                                const uint8_t* restrict tu, const uint8_t* restrict tl,
-                                                uint8_t* restrict out, int n) {
+VC_TARGET_AVX2 static uint64_t classify_row_avx2(const uint8_t* restrict px, const uint8_t* restrict mean,
+                                                 const uint8_t* restrict tu, const uint8_t* restrict tl,
+                                                 uint8_t* restrict out, int n) {
   return classify_row_body(px, mean, tu, tl, out, n);
 }
 #endif
 
-/* Pass B: eq. 2 for the band pixels of one row (out[i] == 1). The row is scanned 8 bytes at a time;
+/* Pass B: eq. 2 for the band pixels of one row (out[i] == 1), in the chunks pass A marked. Those
+ * are scanned 8 bytes at a time;
  * a band byte (0x01) is the only value whose bit 0 differs from its bit 1 (0x00 and 0xFF do not), so
  * (w ^ w >> 1) & 0x01..01 marks them, and count-trailing-zeros walks the marks without a branch per
  * pixel. Words without band pixels (the vast majority) cost a load and a test. */
 static bool shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mean, uint8_t* out, int n,
-                       uint32_t* terms, int span[2], vc_subtract_stats* stats) {
+                       uint64_t chunks, uint32_t* terms, int span[2], vc_subtract_stats* stats) {
   int lo = n, hi = -1; /* the first and last candidate */
   const uint64_t lsb = 0x0101010101010101ull;
   /* A pixel that passes: background (0) when it is final, a texture candidate (0x02) when not. */
   const unsigned pass_code = m->k2_q8 != 0 ? VC_CODE_CANDIDATE : 0u;
   uint32_t band = 0, shadow = 0;
   const uint64_t c2 = m->c2_q24, glo = m->glo_q16, ghi = m->ghi_q16;
-  for (int x0 = 0; x0 < n; x0 += 8) {
-    uint64_t w = 0;
-    if (n - x0 >= 8)
-      memcpy(&w, out + x0, 8); /* a constant size: one load */
-    else
-      memcpy(&w, out + x0, (size_t)(n - x0));
-    uint64_t marks = (w ^ (w >> 1)) & lsb;
-    while (marks != 0) {
-      int i = x0 + (__builtin_ctzll(marks) >> 3);
-      marks &= marks - 1;
-      const uint8_t *p = px + 3 * i, *mu = mean + 3 * i;
-      uint64_t dot = (uint64_t)p[0] * mu[0] + (uint64_t)p[1] * mu[1] + (uint64_t)p[2] * mu[2];
-      uint64_t pp = (uint64_t)p[0] * p[0] + (uint64_t)p[1] * p[1] + (uint64_t)p[2] * p[2];
-      uint64_t mm = (uint64_t)mu[0] * mu[0] + (uint64_t)mu[1] * mu[1] + (uint64_t)mu[2] * mu[2];
-      /* dot, pp, mm < 2^18: dot^2 * 2^24 < 2^60 and c2 * pp * mm <= 2^24 * 2^36 = 2^60. */
-      uint64_t dot16 = dot << 16;
-      unsigned is_shadow = ((dot * dot << 24) >= c2 * pp * mm) & (dot16 >= glo * mm) & (dot16 <= ghi * mm);
-      out[i] = (uint8_t)(is_shadow ? pass_code : 0xFFu); /* shadow -> 0 or a candidate, else 0xFF */
-      if (terms != NULL) {                               /* < 2^18 each */
-        terms[3 * i] = (uint32_t)pp;
-        terms[3 * i + 1] = (uint32_t)dot;
-        terms[3 * i + 2] = (uint32_t)mm;
-      }
-      band++;
-      shadow += is_shadow;
-      if (is_shadow) {
-        lo = i < lo ? i : lo;
-        hi = i;
+  for (; chunks != 0; chunks &= chunks - 1) { /* only the chunks pass A found band pixels in */
+    const int c0 = __builtin_ctzll(chunks) * VC_CHUNK, c1 = c0 + VC_CHUNK < n ? c0 + VC_CHUNK : n;
+    for (int x0 = c0; x0 < c1; x0 += 8) {
+      uint64_t w = 0;
+      if (n - x0 >= 8)
+        memcpy(&w, out + x0, 8); /* a constant size: one load */
+      else
+        memcpy(&w, out + x0, (size_t)(n - x0));
+      uint64_t marks = (w ^ (w >> 1)) & lsb;
+      while (marks != 0) {
+        int i = x0 + (__builtin_ctzll(marks) >> 3);
+        marks &= marks - 1;
+        const uint8_t *p = px + 3 * i, *mu = mean + 3 * i;
+        uint64_t dot = (uint64_t)p[0] * mu[0] + (uint64_t)p[1] * mu[1] + (uint64_t)p[2] * mu[2];
+        uint64_t pp = (uint64_t)p[0] * p[0] + (uint64_t)p[1] * p[1] + (uint64_t)p[2] * p[2];
+        uint64_t mm = (uint64_t)mu[0] * mu[0] + (uint64_t)mu[1] * mu[1] + (uint64_t)mu[2] * mu[2];
+        /* dot, pp, mm < 2^18: dot^2 * 2^24 < 2^60 and c2 * pp * mm <= 2^24 * 2^36 = 2^60. */
+        uint64_t dot16 = dot << 16;
+        unsigned is_shadow = ((dot * dot << 24) >= c2 * pp * mm) & (dot16 >= glo * mm) & (dot16 <= ghi * mm);
+        out[i] = (uint8_t)(is_shadow ? pass_code : 0xFFu); /* shadow -> 0 or a candidate, else 0xFF */
+        if (terms != NULL) {                               /* < 2^18 each */
+          terms[3 * i] = (uint32_t)pp;
+          terms[3 * i + 1] = (uint32_t)dot;
+          terms[3 * i + 2] = (uint32_t)mm;
+        }
+        band++;
+        shadow += is_shadow;
+        if (is_shadow) {
+          lo = i < lo ? i : lo;
+          hi = i;
+        }
       }
     }
   }
@@ -494,8 +500,8 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
                 vc_subtract_stats* stats) {
   if (m == NULL || rgb == NULL || mask == NULL || stride < (size_t)m->width * 3) return -EINVAL;
   if (!m->ready) return -EAGAIN;
-  uint8_t (*classify)(const uint8_t* restrict, const uint8_t* restrict, const uint8_t* restrict,
-                      const uint8_t* restrict, uint8_t* restrict, int) = classify_row_generic;
+  uint64_t (*classify)(const uint8_t* restrict, const uint8_t* restrict, const uint8_t* restrict,
+                       const uint8_t* restrict, uint8_t* restrict, int) = classify_row_generic;
 #if VC_HAVE_AVX2_VARIANT
   if (vc__use_avx2()) classify = classify_row_avx2;
 #endif
@@ -507,8 +513,8 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
       const uint8_t* px = rgb + (size_t)y * stride;
       const size_t off = (size_t)y * row;
       uint8_t* out = mask + (size_t)y * (size_t)w;
-      if (classify(px, m->mean + off, m->tu + off, m->tl + off, out, w))
-        (void)shadow_row(m, px, m->mean + off, out, w, NULL, NULL, stats);
+      const uint64_t chunks = classify(px, m->mean + off, m->tu + off, m->tl + off, out, w);
+      if (chunks) (void)shadow_row(m, px, m->mean + off, out, w, chunks, NULL, NULL, stats);
     }
     return 0;
   }
@@ -521,9 +527,10 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
       const uint8_t* px = rgb + (size_t)y * stride;
       const size_t off = (size_t)y * row;
       uint8_t* out = mask + (size_t)y * (size_t)w;
-      const bool any = classify(px, m->mean + off, m->tu + off, m->tl + off, out, w) &&
-                       shadow_row(m, px, m->mean + off, out, w, m->terms + (size_t)(y % (2 * r + 1)) * row,
-                                  span[y & 31], stats);
+      const uint64_t chunks = classify(px, m->mean + off, m->tu + off, m->tl + off, out, w);
+      const bool any =
+          chunks != 0 && shadow_row(m, px, m->mean + off, out, w, chunks,
+                                    m->terms + (size_t)(y % (2 * r + 1)) * row, span[y & 31], stats);
       cand = (cand & ~(1u << (y & 31))) | ((uint32_t)any << (y & 31));
     }
     const int t = y - r;
