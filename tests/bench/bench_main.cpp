@@ -1,5 +1,5 @@
-// voxcap-bench: the benchmarks behind `voxcap bench edge|host`, as a program of their own so that the
-// voxcap binary links none of tests/bench. `voxcap bench ARGS` execs `voxcap-bench ARGS` from beside
+// voxcap-bench: the benchmarks behind `voxcap bench edge|host|silhouettes`, as a program of their own so that
+// the voxcap binary links none of tests/bench. `voxcap bench ARGS` execs `voxcap-bench ARGS` from beside
 // itself with argv[0] = "<voxcap> bench", so usage lines and error prefixes read as they always did.
 // Exit codes as voxcap's: 0 ok, 1 runtime failure, 2 bad input (CLI11's own codes for parse errors).
 #include <cstdio>
@@ -15,6 +15,8 @@
 
 #include "edge_bench.hpp"
 #include "host_bench.hpp"
+#include "silhouette_bench.hpp"
+#include "voxcap/subtraction.h"
 
 namespace {
 
@@ -206,6 +208,61 @@ void add_host_command(CLI::App& app) {
   });
 }
 
+void add_silhouettes_command(CLI::App& app) {
+  auto opt = std::make_shared<vc::bench::SilhouetteBenchOptions>();
+  auto json = std::make_shared<bool>(false);
+  auto size = std::make_shared<std::string>("640x480");
+  auto* sil =
+      app.add_subcommand("silhouettes",
+                         "The edge's silhouettes (subtraction + clean-up) against hw/sim's truth: recall "
+                         "per camera and body part, precision, floor shadow kept");
+  sil->footer(
+      "JSON keys in tests/bench/README.md. Masks are the edge's real ones (vc_subtract + "
+      "vc_cleanup_radius, defaults of voxcap/subtraction.h).");
+  sil->add_option("--motion", opt->motion, "A built-in motion (voxcap sim --list) or a .bvh file")
+      ->capture_default_str();
+  sil->add_option("--appearance", opt->appearance, "Appearance preset of the performer")
+      ->capture_default_str();
+  sil->add_option("--frames", opt->frames, "Frames evaluated per camera")
+      ->check(CLI::Range(1, 10000))
+      ->capture_default_str();
+  sil->add_option("--every", opt->every, "Frames between two evaluated ones (from the end of the lead-in)")
+      ->check(CLI::Range(1, 10000))
+      ->capture_default_str();
+  sil->add_option("--rig-cameras", opt->rig_cameras, "Cameras of the sim rig layout")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  sil->add_option("--cameras", opt->cameras, "Cameras evaluated, by index (default all)")->delimiter(',');
+  sil->add_option("--size", *size, "Camera size WxH")->capture_default_str();
+  sil->add_option("--bg-frames", opt->bg_frames, "Empty-room frames the background model learns from")
+      ->check(CLI::Range(VC_BACKGROUND_FRAMES_MIN, VC_BACKGROUND_FRAMES_MAX))
+      ->capture_default_str();
+  sil->add_option("--png", opt->png_dir,
+                  "Write each camera's worst frame here (green body kept, red missed, blue other "
+                  "foreground, yellow shadow kept)");
+  sil->add_option("--shadow-texture-k", opt->shadow_texture_k,
+                  "The texture test's k (noise sigmas; 0 = off; default that of voxcap/subtraction.h)")
+      ->check(CLI::Range(0.0, VC_SUBTRACT_SHADOW_TEXTURE_K_MAX));
+  sil->add_flag("--json", *json, "Print JSON instead of a table");
+  sil->callback([=] {
+    vc::bench::SilhouetteBenchOptions o = *opt;
+    if (std::sscanf(size->c_str(), "%dx%d", &o.width, &o.height) != 2)
+      throw UsageError("--size: expected WxH");
+    std::string why;
+    if (!o.valid(&why)) throw UsageError(why);
+    nlohmann::json j;
+    try {
+      j = vc::bench::run_silhouette_bench(o);
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(e.what());  // an unknown motion or appearance
+    }
+    if (*json)
+      fmt::print("{}\n", j.dump(2));
+    else
+      vc::bench::print_silhouette_table(j);
+  });
+}
+
 // "voxcap" when run as `voxcap bench` (argv[0] "<path>/voxcap bench"), else this program's name.
 std::string program_name(const char* argv0) {
   std::string first = argv0 ? argv0 : "voxcap-bench";
@@ -224,6 +281,7 @@ int main(int argc, char** argv) {
     app.require_subcommand(1, 1);
     add_edge_command(app);
     add_host_command(app);
+    add_silhouettes_command(app);
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

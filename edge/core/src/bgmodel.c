@@ -3,24 +3,39 @@
  * Learning sums each channel and its square per pixel (uint32: exact for up to 65535 frames); finish()
  * turns them into an 8-bit mean image and a Q8.8 standard deviation image (sample deviation, n-1).
  * set_params() then precomputes, per pixel and channel, the two integer thresholds the frame loop
- * needs: since p and mu are integers, |p - mu| > T_u*sigma  <=>  |p - mu| > floor(T_u*sigma)  and
- * |p - mu| < T_l*sigma  <=>  |p - mu| <= ceil(T_l*sigma) - 1, so eq. 1 and the lower threshold become
- * exact byte comparisons (tu, tl below), with no rounding difference to a float implementation.
+ * needs: since p and mu are integers, d > x  <=>  d > floor(x)  and  d >= x  <=>  d > ceil(x) - 1, so
+ * eq. 1 and the lower threshold become exact byte comparisons (tu, tl below), with no rounding
+ * difference to a float implementation.
  *
- * Per frame, each row runs in two passes:
- *  A. vectorised, byte-wise over the interleaved RGB row: d = |p - mu|, code = 0xFF if d > tu,
- *     1 if d > tl, else 0; a pixel's class is the OR of its three channel codes (0 = background,
- *     1 = in the band, 0xFF = foreground). The loop is branch-free and the compiler vectorises it.
- *  B. the band pixels only (typically a few percent: shadows and noise tails) get eq. 2 in 64-bit
- *     integers: with dot = p.mu, pp = |p|^2, mm = |mu|^2 (exact integers < 2^18),
- *        shadow  <=>  dot^2 * 2^24 >= c2 * pp * mm              (c2 = cos^2(T_angular) in Q0.24)
- *                and  g_lo * mm <= dot * 2^16 <= g_hi * mm     (alpha = dot/mm, gains in Q16.16)
- *     and a shadow becomes background. Requiring alpha <= 1 (shadows darken) keeps bright
- *     same-hue foreground, e.g. a white shirt over a grey wall, from being taken for shadow, and the
- *     lower gain keeps dark clothes of the wall's hue from it; both are configurable.
+ * The rule (bgmodel.h has it in full). A shadow only darkens, by a bounded ratio, keeps the
+ * background's colour direction and keeps its texture. With T_u = 60 sigma (deep floor shadows must
+ * reach the shadow test) nearly every darker body pixel lands in the band, and the per-pixel colour
+ * angle cannot tell skin (222,170,138) over oak (160,114,74), ~6 degrees apart, or the shirt over
+ * the blue painting (~1.7 degrees) from a shadow; what a shadow shows and a body does not is the
+ * background's texture, scaled. Hence:
+ *  A. vectorised, byte-wise over the interleaved RGB row: up = sat(p - mu), dn = sat(mu - p);
+ *     code = 0xFF if up > tl (brighter than the noise: shadow_max_gain <= 1) or dn > tu (darker than
+ *     the deepest shadow: tu = min(floor(T_u sigma), floor((1 - g_lo) mu + T_l sigma))), 1 if
+ *     dn > tl, else 0; a pixel's class is the OR of its three channel codes (0 = background, 1 = in
+ *     the band, 0xFF = foreground). Branch-free; the compiler vectorises it.
+ *  B. the band pixels only (typically a few percent: shadows and darker body parts) get eq. 2 in
+ *     64-bit integers: with dot = p.mu, pp = |p|^2, mm = |mu|^2 (exact integers < 2^18),
+ *        candidate  <=>  dot^2 * 2^24 >= c2 * pp * mm              (c2 = cos^2(T_angular) in Q0.24)
+ *                   and  g_lo * mm <= dot * 2^16 <= g_hi * mm     (alpha = dot/mm, gains in Q16.16)
+ *     the others are foreground. With the texture test off a candidate is background (shadow).
+ *  C. the texture test (texture_row): a candidate is shadow only when the candidates of its 5x5
+ *     window, fitted as one scaled copy of the background (P = a * M over all their channels), leave
+ *     a residual within k noise sigmas. Lit floor next to a shadow is background in pass A and
+ *     outside the fit, so shadow edges pass; body pixels that failed eq. 2 are outside it too.
+ *     Passes A and B run 2 rows ahead of C and the mask rows themselves hold the in-flight codes;
+ *     pass B keeps each candidate's |p|^2, p.mu and |mu|^2 (which eq. 2 computes anyway) in a
+ *     5-row ring in the model (12 bytes per pixel per row: 38 KB at 640 wide, allocated once by
+ *     set_params; no allocation per frame). C only visits rows with candidates; its window sums
+ *     are exact integers (64-bit, the last comparison 128-bit), built from column sums that a run
+ *     of candidates shares (each column summed once per run, not once per window).
  * Model data per pixel for pass A: mean, tu, tl = 9 bytes, planar by role, interleaved by channel
  * like the image, so that pass A is three aligned streams of bytes. Memory traffic dominates: at
- * 640x480 a frame reads 0.9 MB of pixels and 2.8 MB of model.
+ * 640x480 a frame reads 0.9 MB of pixels and 2.8 MB of model (plus sigma near candidates).
  * Limits: sigma is clamped to 255.99 (Q8.8); thresholds at or above 255 never fire.
  */
 #include "voxcap/edge/bgmodel.h"
@@ -36,7 +51,13 @@
 
 #define VC_MAX_DIM 16384
 #define VC_MAX_FRAMES 65535
-#define VC_CHUNK 256 /* pixels per pass-A chunk: the code buffer stays in L1 */
+#define VC_CHUNK 256            /* pixels per pass-A chunk: the code buffer stays in L1 */
+#define VC_TEXTURE_RADIUS 2     /* the texture test's window is (2r+1)^2 pixels */
+#define VC_TEXTURE_MIN_PIXELS 3 /* fewer candidates in the window: the per-pixel tests decide */
+/* Mask codes while a frame is in flight (the mask rows are the texture test's ring of codes). */
+#define VC_CODE_CANDIDATE 0x02u  /* passed the per-pixel shadow tests, texture test pending */
+#define VC_CODE_SHADOW 0x42u     /* candidate, decided shadow (background) */
+#define VC_CODE_FOREGROUND 0x82u /* candidate, decided foreground */
 
 struct vc_bgmodel {
   int width, height;
@@ -46,11 +67,17 @@ struct vc_bgmodel {
   uint32_t* sumsq;    /* [3*w*h] sum of squared samples, while learning */
   uint8_t* mean;      /* [3*w*h] rounded mean, grey levels */
   uint16_t* sigma_q8; /* [3*w*h] Q8.8 standard deviation, grey levels */
-  uint8_t* tu;        /* [3*w*h] floor(T_u*sigma) clamped to 255: foreground when d > tu */
-  uint8_t* tl;        /* [3*w*h] ceil(T_l*sigma)-1 clamped to 255: band when d > tl */
+  uint8_t* tu;        /* [3*w*h] min(floor(T_u*sigma), floor((1-g_lo)*mu + T_l*sigma)), clamped to 255:
+                       * foreground when mu - p > tu (darker than the deepest shadow) */
+  uint8_t* tl;        /* [3*w*h] ceil(T_l*sigma)-1 clamped to 255: band when mu - p > tl, foreground
+                       * when p - mu > tl (shadows only darken) */
   uint64_t c2_q24;    /* Q0.24 cos^2(T_angular) */
   uint64_t glo_q16;   /* Q16.16 lowest brightness ratio of a shadow */
   uint64_t ghi_q16;   /* Q16.16 highest brightness ratio of a shadow */
+  uint64_t k2_q8;     /* Q8.8 k^2 of the texture test; 0 = test off */
+  uint16_t floor_q8;  /* Q8.8 sigma floor (rounded), grey levels: the texture test's noise floor */
+  uint32_t* terms;    /* [5][w][3] scratch of vc_subtract: |p|^2, p.mu, |mu|^2 of each candidate as
+                       * pass B computed them, for row y in slot y mod 5 (the texture window's rows) */
 };
 
 void vc_subtract_params_default(vc_subtract_params* params) {
@@ -62,6 +89,7 @@ void vc_subtract_params_default(vc_subtract_params* params) {
   params->shadow_min_gain = VC_SUBTRACT_SHADOW_MIN_GAIN;
   params->shadow_max_gain = VC_SUBTRACT_SHADOW_MAX_GAIN;
   params->sigma_floor = VC_SUBTRACT_SIGMA_FLOOR;
+  params->shadow_texture_k = VC_SUBTRACT_SHADOW_TEXTURE_K;
 }
 
 int vc_subtract_params_check(const vc_subtract_params* p, char* why, size_t why_len) {
@@ -80,15 +108,18 @@ int vc_subtract_params_check(const vc_subtract_params* p, char* why, size_t why_
   } else if (!(p->cos2_angular >= 0.0 && p->cos2_angular <= 1.0)) {
     bad = "cos2_angular must be in [0, 1]";
     got = p->cos2_angular;
-  } else if (!(p->shadow_min_gain >= 0.0 && p->shadow_min_gain <= 65536.0)) {
-    bad = "shadow_min_gain must be in [0, 65536]";
+  } else if (!(p->shadow_min_gain >= 0.0 && p->shadow_min_gain <= 1.0)) {
+    bad = "shadow_min_gain must be in [0, 1]";
     got = p->shadow_min_gain;
-  } else if (!(p->shadow_max_gain >= p->shadow_min_gain && p->shadow_max_gain <= 65536.0)) {
-    bad = "shadow_max_gain must be in [shadow_min_gain, 65536]";
+  } else if (!(p->shadow_max_gain >= p->shadow_min_gain && p->shadow_max_gain <= 1.0)) {
+    bad = "shadow_max_gain must be in [shadow_min_gain, 1] (a shadow only darkens)";
     got = p->shadow_max_gain;
   } else if (!(p->sigma_floor > 0.0 && p->sigma_floor <= 255.0)) {
     bad = "sigma_floor must be in (0, 255]";
     got = p->sigma_floor;
+  } else if (!(p->shadow_texture_k >= 0.0 && p->shadow_texture_k <= VC_SUBTRACT_SHADOW_TEXTURE_K_MAX)) {
+    bad = "shadow_texture_k must be in [0, 16] (0 = off)";
+    got = p->shadow_texture_k;
   }
   if (bad == NULL) {
     vc_why_clear(why, why_len);
@@ -134,6 +165,7 @@ void vc_bgmodel_free(vc_bgmodel* m) {
   free(m->sigma_q8);
   free(m->tu);
   free(m->tl);
+  free(m->terms);
   free(m);
 }
 
@@ -218,12 +250,23 @@ int vc_bgmodel_set_params(vc_bgmodel* m, const vc_subtract_params* p) {
   if (m->tu == NULL) m->tu = malloc(n);
   if (m->tl == NULL) m->tl = malloc(n);
   if (m->tu == NULL || m->tl == NULL) return -ENOMEM;
+  const uint16_t floor_q8 = (uint16_t)llround(p->sigma_floor * 256.0);
   for (size_t i = 0; i < n; i++) {
     double sigma = fmax((double)m->sigma_q8[i] / 256.0, p->sigma_floor);
-    double up = floor(p->t_upper * sigma);
+    double up =
+        fmin(floor(p->t_upper * sigma), floor((1.0 - p->shadow_min_gain) * m->mean[i] + p->t_lower * sigma));
     double lo = ceil(p->t_lower * sigma) - 1.0;
     m->tu[i] = (uint8_t)(up > 255.0 ? 255.0 : up);
     m->tl[i] = (uint8_t)(lo > 255.0 ? 255.0 : lo);
+  }
+  m->floor_q8 = floor_q8;
+  m->k2_q8 = (uint64_t)llround(p->shadow_texture_k * p->shadow_texture_k * 256.0);
+  if (m->k2_q8 != 0 && m->terms == NULL) {
+    m->terms = malloc((size_t)(2 * VC_TEXTURE_RADIUS + 1) * (size_t)m->width * 3 * sizeof(*m->terms));
+    if (m->terms == NULL) {
+      m->ready = false;
+      return -ENOMEM;
+    }
   }
   m->c2_q24 = (uint64_t)llround(p->cos2_angular * 16777216.0);
   m->glo_q16 = (uint64_t)llround(p->shadow_min_gain * 65536.0);
@@ -250,22 +293,21 @@ const uint16_t* vc_bgmodel_sigma_q8(const vc_bgmodel* m) {
 
 /* ---- per-frame kernels ---------------------------------------------------------------------- */
 
-static inline uint8_t u8max(uint8_t a, uint8_t b) {
-  return a > b ? a : b;
-}
 static inline uint8_t u8min(uint8_t a, uint8_t b) {
   return a < b ? a : b;
 }
 
-/* Pass A over one row: out[i] = 0 (background), 1 (band) or 0xFF (foreground). Written as min/max
+/* Pass A over one row: out[i] = 0 (background), 1 (band: darker than the noise) or 0xFF (foreground:
+ * brighter than the noise in some channel, or darker than the deepest shadow). Written as min/max
  * byte arithmetic so that gcc and clang both vectorise the first loop; the second loop folds the
  * three channel codes of each pixel (a stride-3 gather, vectorised where the ISA has byte shuffles). */
-VC_HOT uint8_t classify_row_body(const uint8_t* restrict px, const uint8_t* restrict mean,
-                                 const uint8_t* restrict tu, const uint8_t* restrict tl,
-                                 uint8_t* restrict out, int n) {
+VC_HOT uint64_t classify_row_body(const uint8_t* restrict px, const uint8_t* restrict mean,
+                                  const uint8_t* restrict tu, const uint8_t* restrict tl,
+                                  uint8_t* restrict out, int n) {
   uint8_t code[3 * VC_CHUNK];
-  uint8_t any_band = 0; /* nonzero when some pixel of the row is in the band (value 1) */
+  uint64_t chunks = 0; /* bit c: chunk c (pixels c*VC_CHUNK...) has a band pixel (value 1) */
   for (int x0 = 0; x0 < n; x0 += VC_CHUNK) {
+    uint8_t any_band = 0;
     const int len = n - x0 < VC_CHUNK ? n - x0 : VC_CHUNK;
     const int nb = 3 * len;
     const uint8_t* restrict p = px + 3 * x0;
@@ -273,10 +315,12 @@ VC_HOT uint8_t classify_row_body(const uint8_t* restrict px, const uint8_t* rest
     const uint8_t* restrict u = tu + 3 * x0;
     const uint8_t* restrict l = tl + 3 * x0;
     for (int b = 0; b < nb; b++) {
-      uint8_t d = (uint8_t)(u8max(p[b], mu[b]) - u8min(p[b], mu[b]));
-      uint8_t over_l = (uint8_t)(d - u8min(d, l[b])); /* > 0 iff d > tl */
-      uint8_t over_u = (uint8_t)(d - u8min(d, u[b])); /* > 0 iff d > tu */
-      code[b] = (uint8_t)(u8min(over_l, 1) | (uint8_t)(0u - u8min(over_u, 1)));
+      uint8_t up = (uint8_t)(p[b] - u8min(p[b], mu[b]));  /* saturated p - mu */
+      uint8_t dn = (uint8_t)(mu[b] - u8min(p[b], mu[b])); /* saturated mu - p */
+      uint8_t band = (uint8_t)(dn - u8min(dn, l[b]));     /* > 0 iff mu - p > tl */
+      uint8_t fg =
+          (uint8_t)((up - u8min(up, l[b])) | (dn - u8min(dn, u[b]))); /* p - mu > tl or mu - p > tu */
+      code[b] = (uint8_t)(u8min(band, 1) | (uint8_t)(0u - u8min(fg, 1)));
     }
     uint8_t* restrict o = out + x0;
     for (int i = 0; i < len; i++) {
@@ -284,58 +328,171 @@ VC_HOT uint8_t classify_row_body(const uint8_t* restrict px, const uint8_t* rest
       o[i] = v;
       any_band |= (uint8_t)(v & (uint8_t) ~(v >> 1) & 1u); /* 1 only for the band value 0x01 */
     }
+    chunks |= (uint64_t)any_band << (x0 / VC_CHUNK);
   }
-  return any_band;
+  return chunks;
 }
 
-static uint8_t classify_row_generic(const uint8_t* restrict px, const uint8_t* restrict mean,
-                                    const uint8_t* restrict tu, const uint8_t* restrict tl,
-                                    uint8_t* restrict out, int n) {
+static uint64_t classify_row_generic(const uint8_t* restrict px, const uint8_t* restrict mean,
+                                     const uint8_t* restrict tu, const uint8_t* restrict tl,
+                                     uint8_t* restrict out, int n) {
   return classify_row_body(px, mean, tu, tl, out, n);
 }
 
 #if VC_HAVE_AVX2_VARIANT
-VC_TARGET_AVX2 static uint8_t classify_row_avx2(const uint8_t* restrict px, const uint8_t* restrict mean,
-                                                const uint8_t* restrict tu, const uint8_t* restrict tl,
-                                                uint8_t* restrict out, int n) {
+VC_TARGET_AVX2 static uint64_t classify_row_avx2(const uint8_t* restrict px, const uint8_t* restrict mean,
+                                                 const uint8_t* restrict tu, const uint8_t* restrict tl,
+                                                 uint8_t* restrict out, int n) {
   return classify_row_body(px, mean, tu, tl, out, n);
 }
 #endif
 
-/* Pass B: eq. 2 for the band pixels of one row (out[i] == 1). The row is scanned 8 bytes at a time;
+/* Pass B: eq. 2 for the band pixels of one row (out[i] == 1), in the chunks pass A marked. Those
+ * are scanned 8 bytes at a time;
  * a band byte (0x01) is the only value whose bit 0 differs from its bit 1 (0x00 and 0xFF do not), so
  * (w ^ w >> 1) & 0x01..01 marks them, and count-trailing-zeros walks the marks without a branch per
  * pixel. Words without band pixels (the vast majority) cost a load and a test. */
-static void shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mean, uint8_t* out, int n,
-                       vc_subtract_stats* stats) {
+static bool shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mean, uint8_t* out, int n,
+                       uint64_t chunks, uint32_t* terms, int span[2], vc_subtract_stats* stats) {
+  int lo = n, hi = -1; /* the first and last candidate */
   const uint64_t lsb = 0x0101010101010101ull;
+  /* A pixel that passes: background (0) when it is final, a texture candidate (0x02) when not. */
+  const unsigned pass_code = m->k2_q8 != 0 ? VC_CODE_CANDIDATE : 0u;
   uint32_t band = 0, shadow = 0;
   const uint64_t c2 = m->c2_q24, glo = m->glo_q16, ghi = m->ghi_q16;
-  for (int x0 = 0; x0 < n; x0 += 8) {
-    uint64_t w = 0;
-    if (n - x0 >= 8)
-      memcpy(&w, out + x0, 8); /* a constant size: one load */
-    else
-      memcpy(&w, out + x0, (size_t)(n - x0));
-    uint64_t marks = (w ^ (w >> 1)) & lsb;
-    while (marks != 0) {
-      int i = x0 + (__builtin_ctzll(marks) >> 3);
-      marks &= marks - 1;
-      const uint8_t *p = px + 3 * i, *mu = mean + 3 * i;
-      uint64_t dot = (uint64_t)p[0] * mu[0] + (uint64_t)p[1] * mu[1] + (uint64_t)p[2] * mu[2];
-      uint64_t pp = (uint64_t)p[0] * p[0] + (uint64_t)p[1] * p[1] + (uint64_t)p[2] * p[2];
-      uint64_t mm = (uint64_t)mu[0] * mu[0] + (uint64_t)mu[1] * mu[1] + (uint64_t)mu[2] * mu[2];
-      /* dot, pp, mm < 2^18: dot^2 * 2^24 < 2^60 and c2 * pp * mm <= 2^24 * 2^36 = 2^60. */
-      uint64_t dot16 = dot << 16;
-      unsigned is_shadow = ((dot * dot << 24) >= c2 * pp * mm) & (dot16 >= glo * mm) & (dot16 <= ghi * mm);
-      out[i] = (uint8_t)(is_shadow - 1u); /* shadow -> 0 (background), else 0xFF */
-      band++;
-      shadow += is_shadow;
+  for (; chunks != 0; chunks &= chunks - 1) { /* only the chunks pass A found band pixels in */
+    const int c0 = __builtin_ctzll(chunks) * VC_CHUNK, c1 = c0 + VC_CHUNK < n ? c0 + VC_CHUNK : n;
+    for (int x0 = c0; x0 < c1; x0 += 8) {
+      uint64_t w = 0;
+      if (n - x0 >= 8)
+        memcpy(&w, out + x0, 8); /* a constant size: one load */
+      else
+        memcpy(&w, out + x0, (size_t)(n - x0));
+      uint64_t marks = (w ^ (w >> 1)) & lsb;
+      while (marks != 0) {
+        int i = x0 + (__builtin_ctzll(marks) >> 3);
+        marks &= marks - 1;
+        const uint8_t *p = px + 3 * i, *mu = mean + 3 * i;
+        uint64_t dot = (uint64_t)p[0] * mu[0] + (uint64_t)p[1] * mu[1] + (uint64_t)p[2] * mu[2];
+        uint64_t pp = (uint64_t)p[0] * p[0] + (uint64_t)p[1] * p[1] + (uint64_t)p[2] * p[2];
+        uint64_t mm = (uint64_t)mu[0] * mu[0] + (uint64_t)mu[1] * mu[1] + (uint64_t)mu[2] * mu[2];
+        /* dot, pp, mm < 2^18: dot^2 * 2^24 < 2^60 and c2 * pp * mm <= 2^24 * 2^36 = 2^60. */
+        uint64_t dot16 = dot << 16;
+        unsigned is_shadow = ((dot * dot << 24) >= c2 * pp * mm) & (dot16 >= glo * mm) & (dot16 <= ghi * mm);
+        out[i] = (uint8_t)(is_shadow ? pass_code : 0xFFu); /* shadow -> 0 or a candidate, else 0xFF */
+        if (terms != NULL) {                               /* < 2^18 each */
+          terms[3 * i] = (uint32_t)pp;
+          terms[3 * i + 1] = (uint32_t)dot;
+          terms[3 * i + 2] = (uint32_t)mm;
+        }
+        band++;
+        shadow += is_shadow;
+        if (is_shadow) {
+          lo = i < lo ? i : lo;
+          hi = i;
+        }
+      }
     }
+  }
+  if (span != NULL) {
+    span[0] = lo;
+    span[1] = hi;
   }
   if (stats != NULL) {
     stats->band += band;
-    stats->shadow += shadow;
+    if (pass_code == 0) stats->shadow += shadow; /* else counted by texture_row */
+  }
+  return shadow != 0;
+}
+
+/* The texture test for the candidates of row t (codes 0x02 from shadow_row): over the (2r+1)^2
+ * window, the candidates' frame colours P (each channel of each pixel: 3n values) must be one scaled
+ * copy of the background's M (through the origin: P = a*M, a = sum PM / sum MM) up to the noise:
+ *     SS = sum PP - (sum PM)^2 / sum MM  <=  k^2 * n * sum_c max(sigma_c, floor)^2
+ * (n candidates in the window, sigma of the candidate at the centre: the window's noise is taken as
+ * its own), i.e. (sum PP * sum MM - (sum PM)^2) * 2^24 <= k2_q8 * n * V_q16 * sum MM, in 128-bit
+ * integers: P, M <= 255 and 3n <= 75 values, so the sums are < 2^23, their products < 2^46,
+ * n * V_q16 < 2^38 and k2_q8 <= 2^16. One scale for all channels makes the test see both the background's
+ * texture (missing under skin over wood grain) and a colour bias that is below the per-pixel angle but
+ * consistent over the window. With fewer than VC_TEXTURE_MIN_PIXELS candidates in the window the
+ * per-pixel tests decide. The decision is written as 0x42 (shadow) or 0x82 (foreground): the low
+ * bits still say "candidate" for the windows of the rows below; finish_row() turns them into
+ * 0 / 0xFF once no window needs them. */
+/* Sums of one window column (rows y0..y1 of column x): the candidates' count and sum PP, PM, MM. */
+typedef struct {
+  uint32_t n, pp, pm, mm; /* < 5 * 3 * 255^2 < 2^20 */
+} col_sums;
+
+static col_sums column_sums(const vc_bgmodel* m, const uint8_t* mask, int x, int y0, int y1) {
+  col_sums cs = {0, 0, 0, 0};
+  const size_t w = (size_t)m->width;
+  for (int y = y0; y <= y1; y++) {
+    if ((mask[(size_t)y * w + (size_t)x] & 0x3F) != VC_CODE_CANDIDATE) continue;
+    const uint32_t* t = m->terms + ((size_t)(y % (2 * VC_TEXTURE_RADIUS + 1)) * w + (size_t)x) * 3;
+    cs.n++;
+    cs.pp += t[0];
+    cs.pm += t[1];
+    cs.mm += t[2];
+  }
+  return cs;
+}
+
+static uint32_t texture_row(const vc_bgmodel* m, uint8_t* mask, int t, int lo, int hi) {
+  const int w = m->width, h = m->height, r = VC_TEXTURE_RADIUS;
+  const int y0 = t - r < 0 ? 0 : t - r, y1 = t + r >= h ? h - 1 : t + r;
+  const uint64_t lsb = 0x0101010101010101ull, k2 = m->k2_q8;
+  const uint64_t fl = m->floor_q8;
+  uint8_t* out = mask + (size_t)t * (size_t)w;
+  const uint16_t* sigma_row = m->sigma_q8 + (size_t)t * (size_t)w * 3;
+  /* Column sums of the columns last computed, by column mod 8 (a window spans 5): candidates come
+   * left to right, so each column is summed once per run of nearby candidates, not once per window. */
+  col_sums ring[8];
+  int have_hi = -8; /* columns (have_lo..have_hi] are in the ring; -8: none */
+  uint32_t shadow = 0;
+  for (int x0 = lo & ~7; x0 <= hi; x0 += 8) { /* the candidates lie in [lo, hi] */
+    uint64_t word = 0;
+    if (w - x0 >= 8)
+      memcpy(&word, out + x0, 8);
+    else
+      memcpy(&word, out + x0, (size_t)(w - x0));
+    uint64_t marks = ((word >> 1) ^ word) & lsb; /* 0x02 is the only value here whose bits 0, 1 differ */
+    while (marks != 0) {
+      const int x = x0 + (__builtin_ctzll(marks) >> 3);
+      marks &= marks - 1;
+      const int xa = x - r < 0 ? 0 : x - r, xb = x + r >= w ? w - 1 : x + r;
+      for (int xx = have_hi >= xa - 1 ? have_hi + 1 : xa; xx <= xb; xx++)
+        ring[xx & 7] = column_sums(m, mask, xx, y0, y1);
+      have_hi = xb;
+      uint64_t n = 0, spp = 0, spm = 0, smm = 0;
+      for (int xx = xa; xx <= xb; xx++) {
+        n += ring[xx & 7].n;
+        spp += ring[xx & 7].pp;
+        spm += ring[xx & 7].pm;
+        smm += ring[xx & 7].mm;
+      }
+      unsigned is_shadow = 1;
+      if (n >= VC_TEXTURE_MIN_PIXELS) {
+        /* The noise: n times the candidate's own sum_c max(sigma_c, floor)^2 (Q16.16). */
+        uint64_t v = 0;
+        for (int ch = 0; ch < 3; ch++) {
+          const uint64_t sg = sigma_row[3 * x + ch] > fl ? sigma_row[3 * x + ch] : fl;
+          v += sg * sg;
+        }
+        const unsigned __int128 lhs = (unsigned __int128)(spp * smm - spm * spm) << 24;
+        is_shadow = lhs <= (unsigned __int128)(k2 * n * v) * smm;
+      }
+      out[x] = (uint8_t)(is_shadow ? VC_CODE_SHADOW : VC_CODE_FOREGROUND);
+      shadow += is_shadow;
+    }
+  }
+  return shadow;
+}
+
+/* Turns the decided candidates of a row's span into the mask's 0 / 0xFF. */
+static void finish_row(uint8_t* out, int n) {
+  for (int i = 0; i < n; i++) {
+    const uint8_t v = out[i];
+    out[i] = v == VC_CODE_SHADOW ? 0 : v == VC_CODE_FOREGROUND ? 0xFF : v;
   }
 }
 
@@ -343,20 +500,46 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
                 vc_subtract_stats* stats) {
   if (m == NULL || rgb == NULL || mask == NULL || stride < (size_t)m->width * 3) return -EINVAL;
   if (!m->ready) return -EAGAIN;
-  uint8_t (*classify)(const uint8_t* restrict, const uint8_t* restrict, const uint8_t* restrict,
-                      const uint8_t* restrict, uint8_t* restrict, int) = classify_row_generic;
+  uint64_t (*classify)(const uint8_t* restrict, const uint8_t* restrict, const uint8_t* restrict,
+                       const uint8_t* restrict, uint8_t* restrict, int) = classify_row_generic;
 #if VC_HAVE_AVX2_VARIANT
   if (vc__use_avx2()) classify = classify_row_avx2;
 #endif
   if (stats != NULL) memset(stats, 0, sizeof(*stats));
-  const int w = m->width;
+  const int w = m->width, h = m->height, r = VC_TEXTURE_RADIUS;
   const size_t row = (size_t)w * 3;
-  for (int y = 0; y < m->height; y++) {
-    const uint8_t* px = rgb + (size_t)y * stride;
-    const size_t off = (size_t)y * row;
-    uint8_t* out = mask + (size_t)y * (size_t)w;
-    if (classify(px, m->mean + off, m->tu + off, m->tl + off, out, w))
-      shadow_row(m, px, m->mean + off, out, w, stats);
+  if (m->k2_q8 == 0) { /* texture test off: each row is final after its pass B */
+    for (int y = 0; y < h; y++) {
+      const uint8_t* px = rgb + (size_t)y * stride;
+      const size_t off = (size_t)y * row;
+      uint8_t* out = mask + (size_t)y * (size_t)w;
+      const uint64_t chunks = classify(px, m->mean + off, m->tu + off, m->tl + off, out, w);
+      if (chunks) (void)shadow_row(m, px, m->mean + off, out, w, chunks, NULL, NULL, stats);
+    }
+    return 0;
   }
+  /* Pass A and B run r rows ahead of the texture test; a row is finished r rows after its test,
+   * when no window needs its codes any more. Bit (y mod 32) of `cand` marks rows with candidates. */
+  uint32_t cand = 0, shadow = 0;
+  int span[32][2]; /* the candidates' first and last column, of row y in span[y mod 32] */
+  for (int y = 0; y < h + 2 * r; y++) {
+    if (y < h) {
+      const uint8_t* px = rgb + (size_t)y * stride;
+      const size_t off = (size_t)y * row;
+      uint8_t* out = mask + (size_t)y * (size_t)w;
+      const uint64_t chunks = classify(px, m->mean + off, m->tu + off, m->tl + off, out, w);
+      const bool any =
+          chunks != 0 && shadow_row(m, px, m->mean + off, out, w, chunks,
+                                    m->terms + (size_t)(y % (2 * r + 1)) * row, span[y & 31], stats);
+      cand = (cand & ~(1u << (y & 31))) | ((uint32_t)any << (y & 31));
+    }
+    const int t = y - r;
+    if (t >= 0 && t < h && ((cand >> (t & 31)) & 1u))
+      shadow += texture_row(m, mask, t, span[t & 31][0], span[t & 31][1]);
+    const int f = y - 2 * r;
+    if (f >= 0 && ((cand >> (f & 31)) & 1u))
+      finish_row(mask + (size_t)f * (size_t)w + span[f & 31][0], span[f & 31][1] - span[f & 31][0] + 1);
+  }
+  if (stats != NULL) stats->shadow = shadow;
   return 0;
 }

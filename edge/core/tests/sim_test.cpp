@@ -19,6 +19,7 @@
 #include "voxcap/edge/cleanup.h"
 #include "voxcap/rig/c_models.hpp"
 #include "voxcap/sim/scene.hpp"
+#include "voxcap/subtraction.h"
 
 namespace {
 
@@ -88,6 +89,57 @@ TEST(SimTruth, SubtractionMatchesTrueSilhouettesAndDropsShadows) {
         EXPECT_GE(static_cast<double>(sh_bg) / sh, 0.95) << "camera " << cam << " frame " << f;
       }
       RecordProperty("iou_cam" + std::to_string(cam) + "_f" + std::to_string(f), std::to_string(iou));
+    }
+  }
+}
+
+// With the edge's defaults (the texture test on): the whole body is kept, hands and feet over the
+// wooden floor included, and the floor shadow still goes: per camera and frame, >= 96 % of the body
+// pixels in the cleaned mask, >= 97 % of the mask body, <= 2 % of the shadow pixels kept. Not yet
+// 99 %: the front cameras lose part of the waving forearm where its shaded blue sleeve crosses the
+// flat blue painting (1.7 degrees apart, no texture to test; the old kernel kept 91-92 % here).
+TEST(SimTruth, DefaultsKeepTheBodyAndDropTheShadow) {
+  vc::sim::SceneOptions o = options();
+  o.motion.source = "wave";
+  vc::sim::Scene scene(o);
+  vc_subtract_params p;
+  vc_subtract_params_default(&p);
+  for (int cam = 0; cam < 2; cam++) {
+    const auto& c = scene.calibration().cameras[cam];
+    vc_bgmodel* made = nullptr;
+    char why[128];
+    ASSERT_EQ(vc_bgmodel_new(c.width, c.height, &made, why, sizeof why), 0) << why;
+    std::unique_ptr<vc_bgmodel, void (*)(vc_bgmodel*)> m(made, vc_bgmodel_free);
+    cv::Mat rgb, sil, shadow;
+    for (int i = 0; i < VC_BACKGROUND_FRAMES; i++) {
+      scene.render_background(cam, i, rgb);
+      ASSERT_EQ(vc_bgmodel_learn(m.get(), rgb.data, rgb.step), 0);
+    }
+    ASSERT_EQ(vc_bgmodel_finish(m.get()), 0);
+    ASSERT_EQ(vc_bgmodel_set_params(m.get(), &p), 0);
+    std::vector<uint8_t> mask(static_cast<size_t>(c.width) * c.height),
+        scratch(vc_cleanup_scratch_size(c.width));
+    for (int f : {60, 90, 108}) {
+      scene.render(f, cam, rgb, &sil, &shadow);
+      ASSERT_EQ(vc_subtract(m.get(), rgb.data, rgb.step, mask.data(), nullptr), 0);
+      ASSERT_EQ(
+          vc_cleanup(mask.data(), c.width, c.height, VC_CLEANUP_RADIUS_PX, scratch.data(), scratch.size()),
+          0);
+      size_t body = 0, kept = 0, fg = 0, sh = 0, sh_kept = 0;
+      for (size_t i = 0; i < mask.size(); i++) {
+        const bool t = sil.data[i] != 0, e = mask[i] != 0;
+        body += t;
+        kept += t && e;
+        fg += e;
+        if (shadow.data[i]) {
+          sh++;
+          sh_kept += e;
+        }
+      }
+      ASSERT_GT(body, 1000u);
+      EXPECT_GE(static_cast<double>(kept) / body, 0.96) << "camera " << cam << " frame " << f;
+      EXPECT_GE(static_cast<double>(kept) / fg, 0.97) << "camera " << cam << " frame " << f;
+      if (sh > 200) EXPECT_LE(static_cast<double>(sh_kept) / sh, 0.02) << "camera " << cam << " frame " << f;
     }
   }
 }

@@ -25,9 +25,20 @@
 #define VC_SUBTRACT_SHADOW_ANGLE_DEG 8.0
 
 /* A shadow only darkens: its brightness ratio alpha = p.mu / |mu|^2 lies in [min, max], else the
- * pixel is foreground. Fixed on the edge (not in rig.toml or CONFIG). */
+ * pixel is foreground; max <= 1, so a pixel brighter than the noise (T_l * sigma) in any channel is
+ * foreground, and one darker than (1 - min) * mu + T_l * sigma in any channel too. Fixed on the edge
+ * (not in rig.toml or CONFIG). */
 #define VC_SUBTRACT_SHADOW_MIN_GAIN 0.25
 #define VC_SUBTRACT_SHADOW_MAX_GAIN 1.0
+
+/* The texture test: a shadow keeps the background's texture. Over a 5x5 window, the colours of the
+ * pixels that passed the per-pixel shadow tests must be one scaled copy of the background's,
+ * p = a * mu, with a residual rms within k times the sensor noise (the learnt sigma, floored); else
+ * they are foreground: skin over wood (the grain is gone), a shaded sleeve over flat paint (a
+ * gradient the wall has not). k is in noise sigmas, 0 = test off, at most _MAX. Fixed on the edge
+ * (not in rig.toml or CONFIG). */
+#define VC_SUBTRACT_SHADOW_TEXTURE_K 2.0
+#define VC_SUBTRACT_SHADOW_TEXTURE_K_MAX 16.0
 
 /* sigma below this (grey levels) is raised to it: a perfectly still pixel must not turn every
  * one-level change into foreground. Fixed on the edge. */

@@ -11,18 +11,32 @@
  * Pixels are interleaved RGB24 (uint8 R, G, B), rows `stride` bytes apart. Masks are uint8, one byte
  * per pixel, rows `width` bytes apart: 0 = background (including shadow), 255 = foreground.
  *
- * Classification of pixel p against mean mu and standard deviation sigma (per channel c):
- *   foreground        if |p_c - mu_c| >  T_u * sigma_c  for any channel           (eq. 1)
+ * Classification of pixel p against mean mu and standard deviation sigma (per channel c; sigma
+ * raised to sigma_floor; g_lo, g_hi = shadow_min_gain, shadow_max_gain <= 1):
+ *   foreground        if p_c - mu_c >= T_l * sigma_c for any channel (brighter: shadows only darken)
+ *                     or mu_c - p_c > min(T_u * sigma_c, (1 - g_lo) mu_c + T_l * sigma_c) for any
+ *                     channel (darker than the deepest shadow; eq. 1)
  *   background        if |p_c - mu_c| <  T_l * sigma_c  for every channel
- *   otherwise (band)  shadow test: foreground iff cos^2(angle(p, mu)) < cos^2(T_angular)   (eq. 2)
- *                     or the brightness ratio alpha = p.mu / |mu|^2 lies outside
- *                     [shadow_min_gain, shadow_max_gain]; a shadow counts as background.
+ *   otherwise (band)  per-pixel shadow test: foreground iff cos^2(angle(p, mu)) < cos^2(T_angular)
+ *                     (eq. 2) or the brightness ratio alpha = p.mu / |mu|^2 lies outside
+ *                     [g_lo, g_hi]; the band pixels that pass are shadow candidates;
+ *   texture test      (shadow_texture_k = k > 0) over the 5x5 window around a candidate, with the
+ *                     window's candidates C (at least 3, else the per-pixel test decides): their
+ *                     colours must be one scaled copy of the background's, P = a * mu, up to the noise:
+ *                     shadow iff sum_C,c p^2 - (sum_C,c p mu)^2 / sum_C,c mu^2 <= k^2 |C| sum_c s_c^2,
+ *                     s_c = max(sigma_c, sigma_floor) of the candidate itself, both in Q8.8 (the
+ *                     floor rounded);
+ *                     a shadow counts as background, a candidate that fails is foreground.
+ * All the integer tables and comparisons are exact: with floor() of the thresholds above (computed
+ * in doubles in vc_bgmodel_set_params), a float implementation gives the same mask.
  * The model's mean is an 8-bit image (the rounded mean of the learnt frames) and its sigma is kept in
  * Q8.8; vc_bgmodel_mean()/vc_bgmodel_sigma() return exactly the values the classifier uses, so a
  * float implementation of the rules above on those values gives the same mask (see the tests).
  *
- * Thread safety: a model may be used by one thread at a time for learn/finish/set_params; after
- * that, vc_subtract() only reads it and may run concurrently on different frames.
+ * Thread safety: a model may be used by one thread at a time. vc_subtract() keeps the texture
+ * test's per-row terms in the model (5 rows x 12 bytes per pixel: 38 KB at 640 wide, allocated by
+ * vc_bgmodel_set_params when the test is on), so one frame at a time per model, as the edge runs
+ * it (one model per camera); with shadow_texture_k 0 it only reads the model.
  */
 #ifndef VOXCAP_EDGE_BGMODEL_H
 #define VOXCAP_EDGE_BGMODEL_H
@@ -39,19 +53,22 @@ extern "C" {
 /* Thresholds of the subtraction, normally from the host's CONFIG message. Plain doubles: they are
  * converted to per-pixel integer tables once, in vc_bgmodel_set_params(). */
 typedef struct vc_subtract_params {
-  double t_upper;         /* T_u, > 0: foreground above T_u * sigma in any channel (eq. 1) */
-  double t_lower;         /* T_l, 0 < T_l <= T_u: surely background below T_l * sigma in all channels */
-  double cos2_angular;    /* cos^2(T_angular) in [0, 1]: in-band pixels with a smaller squared cosine
-                           * to the background colour are foreground (eq. 2) */
-  double shadow_min_gain; /* a shadow darkens: alpha = p.mu/|mu|^2 must be >= this (>= 0) ... */
-  double shadow_max_gain; /* ... and <= this (>= min). 1.0 = shadows are never brighter than the
-                           * background; a large value disables the brightness condition */
-  double sigma_floor;     /* sigma below this (grey levels, > 0) is raised to it, so that a perfectly
-                           * still pixel does not turn every one-level change into foreground */
+  double t_upper;          /* T_u, > 0: foreground above T_u * sigma in any channel (eq. 1) */
+  double t_lower;          /* T_l, 0 < T_l <= T_u: surely background below T_l * sigma in all channels */
+  double cos2_angular;     /* cos^2(T_angular) in [0, 1]: in-band pixels with a smaller squared cosine
+                            * to the background colour are foreground (eq. 2) */
+  double shadow_min_gain;  /* a shadow darkens: alpha = p.mu/|mu|^2 must be >= this (>= 0) ... */
+  double shadow_max_gain;  /* ... and <= this (in [min, 1]: shadows are never brighter than the
+                            * background, so a pixel brighter than T_l * sigma in any channel is
+                            * foreground); min also bounds how dark a shadow gets per channel (eq. 1') */
+  double sigma_floor;      /* sigma below this (grey levels, > 0) is raised to it, so that a perfectly
+                            * still pixel does not turn every one-level change into foreground */
+  double shadow_texture_k; /* the texture test, in sigmas of the luminance noise, [0, 16], 0 = off:
+                            * a shadow's window must show the background's texture (see below) */
 } vc_subtract_params;
 
 /* Fills the defaults of voxcap/subtraction.h (the ones the host's rig.toml starts from): T_u 60,
- * T_l 3.5, T_angular 8 degrees, alpha in [0.25, 1.0], sigma floor 1.0. */
+ * T_l 3.5, T_angular 8 degrees, alpha in [0.25, 1.0], sigma floor 1.0, texture k 2. */
 void vc_subtract_params_default(vc_subtract_params* params);
 
 /* 0 if the parameters are usable, -EINVAL otherwise. The reason, when why is given (NULL/0 when not
@@ -84,7 +101,8 @@ int vc_bgmodel_finish(vc_bgmodel* model);
 int vc_bgmodel_restore(vc_bgmodel* model, const uint8_t* mean, const uint16_t* sigma_q8, int frames);
 
 /* Derives the per-pixel integer thresholds from `params` (floats are used here, not per frame).
- * Returns 0, -EINVAL for bad parameters, -EAGAIN before vc_bgmodel_finish(). */
+ * Returns 0, -EINVAL for bad parameters, -EAGAIN before vc_bgmodel_finish(), -ENOMEM (the texture
+ * test's scratch; the model is then not ready until a call succeeds). */
 int vc_bgmodel_set_params(vc_bgmodel* model, const vc_subtract_params* params);
 
 /* Frames learnt so far (also after finish). */

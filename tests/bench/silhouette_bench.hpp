@@ -1,0 +1,39 @@
+// `voxcap-bench silhouettes`: the edge's silhouettes (vc_subtract + the clean-up, as the edge runs
+// them) against hw/sim's truth, offline. For a motion and an appearance preset it renders the empty
+// room and a series of frames for each chosen camera of a sim rig, learns the background model, runs
+// the subtraction and clean-up with the defaults of voxcap/subtraction.h and counts, per camera and
+// overall: body-pixel recall, recall per body part (each truth-silhouette pixel is labelled with the
+// part its viewing ray hits first, by ray casting the scene's primitives), precision (share of mask
+// pixels that are body), floor-shadow pixels kept as foreground, and the shares of pixels that went
+// through the shadow test and were called shadow. JSON keys in tests/bench/README.md.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+namespace vc::bench {
+
+struct SilhouetteBenchOptions {
+  std::string motion = "wave";         // a built-in motion (voxcap sim --list) or a .bvh path
+  std::string appearance = "default";  // an appearance preset
+  int frames = 6;                      // frames evaluated per camera ...
+  int every = 9;                       // ... this many frames apart, from the end of the lead-in
+  int rig_cameras = 6;                 // cameras of the sim rig layout
+  std::vector<int> cameras;            // which of them (empty = all)
+  int width = 640, height = 480;
+  int bg_frames = 30;            // empty-room frames learnt (VC_BACKGROUND_FRAMES)
+  double shadow_texture_k = -1;  // < 0: the default of voxcap/subtraction.h; 0 = texture test off
+  std::string png_dir;           // when set: the worst frame of each camera as a PNG here
+
+  bool valid(std::string* why) const;
+};
+
+// Runs the evaluation; throws std::invalid_argument for an unknown motion or appearance.
+nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& options);
+
+// The JSON as a text table.
+void print_silhouette_table(const nlohmann::json& result);
+
+}  // namespace vc::bench
