@@ -26,8 +26,9 @@
  * camera. Per frame each class's mask is dilated by its size (byte OR over [x, x+w) x [y, y+h), 64
  * bits at a time), only in the 8x8 tiles within reach of a foreground tile, so a voxel's test is
  * still one byte read; block tile ranges are built from the anchors grown by the class size, so
- * pruning stays exact. Cost: the dilated tiles (about (8+h-1)w + 8h word operations each, for the
- * few tiles near the silhouette) and a few more leaves tested, as the footprint hull is thicker;
+ * pruning stays exact. A class is dilated from the largest smaller class it contains, by the
+ * difference of the sizes. Cost: the dilated tiles (about (8+h-1)w + 8h word operations each, for
+ * the few tiles near the silhouette) and more leaves tested, as the footprint hull is thicker;
  * memory: W*H bytes per class and camera, the tables as for the centre rule.
  *
  * A leaf whose pixel rectangle exceeds 256 pixels (voxels close to a camera) keeps 4-byte pixel
