@@ -26,8 +26,9 @@
  * camera. Per frame each class's mask is dilated by its size (byte OR over [x, x+w) x [y, y+h), 64
  * bits at a time), only in the 8x8 tiles within reach of a foreground tile, so a voxel's test is
  * still one byte read; block tile ranges are built from the anchors grown by the class size, so
- * pruning stays exact. Cost: the dilated tiles (about (8+h-1)w + 8h word operations each, for the
- * few tiles near the silhouette) and a few more leaves tested, as the footprint hull is thicker;
+ * pruning stays exact. A class is dilated from the largest smaller class it contains, by the
+ * difference of the sizes. Cost: the dilated tiles (about (8+h-1)w + 8h word operations each, for
+ * the few tiles near the silhouette) and more leaves tested, as the footprint hull is thicker;
  * memory: W*H bytes per class and camera, the tables as for the centre rule.
  *
  * A leaf whose pixel rectangle exceeds 256 pixels (voxels close to a camera) keeps 4-byte pixel
@@ -83,6 +84,7 @@ typedef struct fp_class {
   uint32_t* todo; /* [tw*th]: this frame's (scratch) */
   uint8_t* mark;  /* [tw*th]: tile is in todo (scratch, zero between frames) */
   uint32_t ndone;
+  int from; /* per frame, dilate the mask (-1) or this smaller class's dilated mask, computed first */
 } fp_class;
 
 typedef struct cam_frame {
@@ -118,6 +120,7 @@ struct vc_carver {
   cam_frame fr[2];
   fp_class cls[2][MAX_CLASS];
   int ncls[2];
+  int order[2][MAX_CLASS]; /* per camera: classes by area, each computed after the one it starts from */
 };
 
 /* ---- configuration ---------------------------------------------------------------------------- */
@@ -606,6 +609,26 @@ static int choose_classes(vc_carver* cv, const leaf_build* lbs, int c) {
     if (f->dil == NULL || f->done == NULL || f->todo == NULL || f->mark == NULL) return -ENOMEM;
     f->ndone = 0;
   }
+  /* A class starts from the largest smaller class it contains (a w x h dilation is a w' x h'
+   * dilation dilated again by (w-w'+1) x (h-h'+1)), so classes run by increasing area. */
+  for (int k = 0; k < cv->ncls[c]; k++) {
+    fp_class* f = &cv->cls[c][k];
+    f->from = -1;
+    for (int b = 0; b < cv->ncls[c]; b++) {
+      const fp_class* g = &cv->cls[c][b];
+      if (b == k || g->dil == NULL || g->w > f->w || g->h > f->h) continue;
+      if (f->from < 0 || g->w * g->h > cv->cls[c][f->from].w * cv->cls[c][f->from].h) f->from = b;
+    }
+    cv->order[c][k] = k;
+  }
+  for (int i = 1; i < cv->ncls[c]; i++) /* insertion sort by area */
+    for (int j = i; j > 0; j--) {
+      const fp_class *a = &cv->cls[c][cv->order[c][j - 1]], *b = &cv->cls[c][cv->order[c][j]];
+      if (a->w * a->h <= b->w * b->h) break;
+      int t = cv->order[c][j];
+      cv->order[c][j] = cv->order[c][j - 1];
+      cv->order[c][j - 1] = t;
+    }
   return 0;
 }
 
@@ -914,6 +937,7 @@ static void fg_list(cam_frame* f) {
  * [x, x+w) x [y, y+h), clipped to the image. Rows of the horizontal windows first (eight outputs
  * per 64-bit word), then the vertical windows over them. */
 static void dilate_tile(uint8_t* dil, const uint8_t* mask, int W, int H, int X, int Y, int w, int h) {
+  /* mask: the camera's mask, or a smaller class's dilated mask (then w x h is the difference) */
   const int ye = imin(Y + (1 << TILE_SHIFT), H), rows = imin(Y + (1 << TILE_SHIFT) + h - 1, H) - Y;
   if (X + (1 << TILE_SHIFT) + w - 1 > W || rows > 64) { /* at the right edge, or very tall: bytewise */
     const int xe = imin(X + (1 << TILE_SHIFT), W);
@@ -943,7 +967,7 @@ static void dilate_tile(uint8_t* dil, const uint8_t* mask, int W, int H, int X, 
 /* Makes f->dil the mask dilated by f->w x f->h (see fp_class) for this frame, computing only the
  * tiles within reach of a foreground tile (a dilated tile reads its own tile and, for w, h up to 9,
  * the next one right and down) and zeroing the tiles the last frame computed that this one does not. */
-static void dilate(fp_class* f, const cam_frame* fr, const uint8_t* mask, int W, int H) {
+static void dilate(fp_class* f, const cam_frame* fr, const uint8_t* src, int dw, int dh, int W, int H) {
   const int rx = (f->w + 6) >> TILE_SHIFT, ry = (f->h + 6) >> TILE_SHIFT, tw = fr->tw;
   uint32_t nt = 0;
   for (uint32_t i = 0; i < fr->nfg; i++) {
@@ -966,8 +990,8 @@ static void dilate(fp_class* f, const cam_frame* fr, const uint8_t* mask, int W,
   for (uint32_t i = 0; i < nt; i++) {
     uint32_t u = f->todo[i];
     f->mark[u] = 0;
-    dilate_tile(f->dil, mask, W, H, (int)(u % (uint32_t)tw) << TILE_SHIFT,
-                (int)(u / (uint32_t)tw) << TILE_SHIFT, f->w, f->h);
+    dilate_tile(f->dil, src, W, H, (int)(u % (uint32_t)tw) << TILE_SHIFT,
+                (int)(u / (uint32_t)tw) << TILE_SHIFT, dw, dh);
   }
   uint32_t* t = f->done;
   f->done = f->todo;
@@ -1061,9 +1085,14 @@ int vc_carver_run(vc_carver* cv, const uint8_t* mask0, const uint8_t* mask1, uin
   for (int c = 0; c < 2; c++) {
     summarise(&cv->fr[c], mask[c], cv->W[c], cv->H[c]);
     if (cv->rule == VC_CARVE_FOOTPRINT) fg_list(&cv->fr[c]);
-    for (int k = 0; k < cv->ncls[c]; k++) {
+    for (int i = 0; i < cv->ncls[c]; i++) {
+      const int k = cv->order[c][i];
       fp_class* f = &cv->cls[c][k];
-      if (f->dil != NULL) dilate(f, &cv->fr[c], mask[c], cv->W[c], cv->H[c]);
+      if (f->dil != NULL) {
+        const fp_class* b = f->from >= 0 ? &cv->cls[c][f->from] : NULL;
+        dilate(f, &cv->fr[c], b ? b->dil : mask[c], b ? f->w - b->w + 1 : f->w, b ? f->h - b->h + 1 : f->h,
+               cv->W[c], cv->H[c]);
+      }
       cm[c][k] = f->dil != NULL ? f->dil : mask[c];
     }
   }

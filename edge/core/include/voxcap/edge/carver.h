@@ -7,20 +7,21 @@
  * floor(v + 0.5)) is foreground (nonzero) in both masks; a centre outside an image, or behind a
  * camera (z_cam <= 0), is empty.
  *
- * VC_CARVE_FOOTPRINT (conservative): per camera, the voxel's footprint rectangle is the bounding box
- * [u0, u1] x [v0, v1] of its 8 projected corners, grown on every side by a margin e for the lens
- * distortion's curvature, and the voxel reads every pixel whose square touches it:
+ * VC_CARVE_FOOTPRINT (conservative): per camera, the voxel's 8 corners in normalized coordinates
+ * (X/Z, Y/Z) have a bounding box B; without distortion the cube projects inside B (a convex polytope
+ * in front of the camera projects to the convex hull of its corners). The distortion and intrinsics
+ * g map B to pixels; [u0, u1] x [v0, v1] is the range of g at B's 4 corners, grown on every side by
+ * e = s_x + s_y + 1/1024 pixel, where s_x (s_y) is the largest |g(a) - 2 g(m) + g(b)| of u or v over
+ * B's 3x3 grid of corners and midpoints along x (y): twice the bilinear-interpolation error bound
+ * dx^2/8 |g_xx| + dy^2/8 |g_yy| with the second derivatives taken from those differences. The voxel
+ * reads every pixel whose square touches that rectangle:
  *   x in [ceil(u0 - 1/2 - e), floor(u1 + 1/2 + e)], y likewise, clipped to the image,
- * then widened to the right and downwards to its class's size (below). The voxel is occupied when
- * some pixel it reads is foreground in both masks. Without distortion the corners' box holds the
- * cube's whole projection (a convex polytope in front of the camera projects to the convex hull of
- * its corners); with distortion the projection of an edge bends, and e bounds that: per 4x4x4 leaf,
- * e = (mx + my + mz)/4 + 1/1024 pixel, where m_a is the largest |f(p) - 2 f(p + L a) + f(p + 2 L a)|
- * of u or v over the leaf's corner lattice along grid axis a (L the voxel edge) -- twice the
- * trilinear-interpolation error bound L^2/8 (|f_xx| + |f_yy| + |f_zz|). Precision: a voxel's reads
- * are widened to the largest rectangle of its leaf, and a camera keeps at most 4 such sizes (classes;
- * more are merged, fewest added pixels first), so a voxel reads up to about one pixel column and row
- * more than its own rectangle.
+ * widened to the right and downwards to its class's size, and is occupied when some pixel it reads is
+ * foreground in both masks. Precision: a voxel's reads are widened to the largest rectangle of its
+ * 4x4x4 leaf, and a camera keeps at most 4 such sizes (classes; more are merged, fewest added pixels
+ * first), so a voxel reads up to about one pixel column and row more than its own rectangle (the
+ * tests measure 1.3-1.6x the pixels of the exact corner boxes for cameras 3-4 m from the grid).
+ * The centre's pixel is always among the pixels read, so the footprint hull holds the centre hull.
  * So, with exact silhouettes (a pixel is foreground when the body's projection meets its square), every
  * voxel that holds some of the body seen by both cameras is kept. Edge cases: a voxel with a corner
  * behind a camera (z_cam <= 0) is empty, like a centre behind it; a voxel whose rectangle lies
