@@ -1,7 +1,8 @@
-// voxcap-bench: the benchmarks behind `voxcap bench edge|host|silhouettes`, as a program of their own so that
-// the voxcap binary links none of tests/bench. `voxcap bench ARGS` execs `voxcap-bench ARGS` from beside
-// itself with argv[0] = "<voxcap> bench", so usage lines and error prefixes read as they always did.
-// Exit codes as voxcap's: 0 ok, 1 runtime failure, 2 bad input (CLI11's own codes for parse errors).
+// voxcap-bench: the benchmarks behind `voxcap bench edge|host` (and `silhouettes`, run directly), as a
+// program of their own so that the voxcap binary links none of tests/bench. `voxcap bench ARGS` execs
+// `voxcap-bench ARGS` from beside itself with argv[0] = "<voxcap> bench", so usage lines and error prefixes
+// read as they always did. Exit codes as voxcap's: 0 ok, 1 runtime failure, 2 bad input (CLI11's own codes
+// for parse errors).
 #include <cstdio>
 #include <exception>
 #include <memory>

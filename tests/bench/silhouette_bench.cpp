@@ -29,9 +29,9 @@ using vc::sim::Part;
 constexpr std::array<const char*, 14> kGroups = {
     "head",   "torso",   "l_upper_arm", "l_forearm", "l_hand",  "r_upper_arm", "r_forearm",
     "r_hand", "l_thigh", "l_shank",     "l_foot",    "r_thigh", "r_shank",     "r_foot"};
-constexpr int kUnlabelled = -1;
+constexpr uint8_t kUnlabelled = 0xFF;
 
-int group_of(Part p) {
+uint8_t group_of(Part p) {
   switch (p) {
     case Part::head:
     case Part::neck:
@@ -71,7 +71,7 @@ int group_of(Part p) {
   return kUnlabelled;
 }
 
-bool hand_or_foot(int g) {
+bool hand_or_foot(size_t g) {
   return g == 4 || g == 7 || g == 10 || g == 13;
 }
 
@@ -116,7 +116,7 @@ nlohmann::json to_json(const Counts& c) {
   nlohmann::json parts = nlohmann::json::object();
   for (size_t g = 0; g < kGroups.size(); g++) {
     parts[kGroups[g]] = {{"pixels", c.part[g]}, {"recall", ratio(c.part_kept[g], c.part[g])}};
-    if (hand_or_foot(static_cast<int>(g))) {
+    if (hand_or_foot(g)) {
       hf += c.part[g];
       hf_kept += c.part_kept[g];
     }
@@ -129,7 +129,7 @@ nlohmann::json to_json(const Counts& c) {
 // Labels each truth-silhouette pixel with the part group its ray hits first (kUnlabelled where no
 // primitive is hit: the renderer and this cast agree to float error on the outline).
 void label_parts(const vc::sim::Scene& scene, int frame, int cam, const cv::Mat& sil,
-                 std::vector<int8_t>* out) {
+                 std::vector<uint8_t>* out) {
   const vc::rig::Camera& c = scene.calibration().cameras[static_cast<size_t>(cam)];
   const std::vector<vc::sim::Primitive> prims = scene.primitives(frame);
   const cv::Vec3d o = c.center_world();
@@ -142,7 +142,7 @@ void label_parts(const vc::sim::Scene& scene, int frame, int cam, const cv::Mat&
       if (sil.at<uint8_t>(y, x) == 0) continue;
       const cv::Vec3d d = c.ray_world(cv::Point2d(x, y));
       double best = std::numeric_limits<double>::infinity();
-      int label = kUnlabelled;
+      uint8_t label = kUnlabelled;
       for (size_t i = 0; i < prims.size(); i++) {
         double t = 0;
         if (prims[i].intersect_from_local(o_local[i], d, 0.0, &t) && t < best) {
@@ -150,7 +150,7 @@ void label_parts(const vc::sim::Scene& scene, int frame, int cam, const cv::Mat&
           label = group_of(prims[i].part);
         }
       }
-      (*out)[static_cast<size_t>(y) * sil.cols + x] = static_cast<int8_t>(label);
+      (*out)[static_cast<size_t>(y) * sil.cols + x] = label;
     }
 }
 
@@ -212,6 +212,7 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
   if (cams.empty())
     for (int c = 0; c < scene.camera_count(); c++) cams.push_back(c);
   std::vector<int> frames;
+  frames.reserve(static_cast<size_t>(opt.frames));
   for (int i = 0; i < opt.frames; i++) frames.push_back(scene.motion().lead_in_frames() + i * opt.every);
   if (!opt.png_dir.empty()) std::filesystem::create_directories(opt.png_dir);
 
@@ -240,7 +241,7 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
       throw std::runtime_error("background model: finish/set_params failed");
     const size_t n = static_cast<size_t>(c.width) * c.height;
     std::vector<uint8_t> mask(n), scratch(vc_cleanup_radius_scratch_size(c.width, VC_CLEANUP_RADIUS_PX));
-    std::vector<int8_t> label;
+    std::vector<uint8_t> label;
     Counts cc;
     double worst = 2.0;
     cv::Mat worst_png;
@@ -264,8 +265,8 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
           fc.body++;
           fc.body_kept += e;
           if (label[i] != kUnlabelled) {
-            fc.part[static_cast<size_t>(label[i])]++;
-            fc.part_kept[static_cast<size_t>(label[i])] += e;
+            fc.part[label[i]]++;
+            fc.part_kept[label[i]] += e;
           }
         } else if (shadow.data[i] != 0) {
           fc.shadow++;

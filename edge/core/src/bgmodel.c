@@ -446,8 +446,8 @@ static uint32_t texture_row(const vc_bgmodel* m, uint8_t* mask, int t, int lo, i
   const uint16_t* sigma_row = m->sigma_q8 + (size_t)t * (size_t)w * 3;
   /* Column sums of the columns last computed, by column mod 8 (a window spans 5): candidates come
    * left to right, so each column is summed once per run of nearby candidates, not once per window. */
-  col_sums ring[8];
-  int have_hi = -8; /* columns (have_lo..have_hi] are in the ring; -8: none */
+  col_sums ring[8] = {{0, 0, 0, 0}}; /* every slot read was written first; zeroed for the analyser */
+  int have_hi = -8;                  /* columns (have_lo..have_hi] are in the ring; -8: none */
   uint32_t shadow = 0;
   for (int x0 = lo & ~7; x0 <= hi; x0 += 8) { /* the candidates lie in [lo, hi] */
     uint64_t word = 0;

@@ -1,0 +1,40 @@
+# Smoke test of `voxcap-bench silhouettes` (voxcap bench forwards only edge and host): one small camera frame of hw/sim's tpose; checks the
+# documented keys (README.md) and that the figures are shares in [0, 1] with the body mostly kept.
+execute_process(
+  COMMAND ${VOXCAP_BENCH} silhouettes --motion tpose --frames 1 --cameras 0 --size 320x240 --bg-frames 8 --json
+  OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc)
+if(NOT rc EQUAL 0)
+  message(FATAL_ERROR "voxcap-bench silhouettes failed (${rc}): ${err}\n${out}")
+endif()
+foreach(key width height bg_frames cleanup_radius_px shadow_texture_k)
+  string(JSON type ERROR_VARIABLE jerr TYPE "${out}" ${key})
+  if(jerr OR NOT type STREQUAL "NUMBER")
+    message(FATAL_ERROR "key '${key}' missing or not a number (${type} ${jerr}):\n${out}")
+  endif()
+endforeach()
+foreach(where "overall" "cameras;0")
+  foreach(key recall precision shadow_kept band_share shadow_share hands_feet_recall)
+    string(JSON v ERROR_VARIABLE jerr GET "${out}" ${where} ${key})
+    if(jerr OR v LESS 0 OR v GREATER 1)
+      message(FATAL_ERROR "${where} ${key}: '${v}' is not a share (${jerr}):\n${out}")
+    endif()
+  endforeach()
+  foreach(part head torso l_hand r_hand l_foot r_foot l_forearm r_forearm l_upper_arm r_upper_arm
+               l_thigh r_thigh l_shank r_shank)
+    string(JSON type ERROR_VARIABLE jerr TYPE "${out}" ${where} parts ${part} pixels)
+    if(jerr OR NOT type STREQUAL "NUMBER")
+      message(FATAL_ERROR "${where} parts.${part} missing:\n${out}")
+    endif()
+  endforeach()
+endforeach()
+string(JSON recall GET "${out}" overall recall)
+if(recall LESS 0.9)
+  message(FATAL_ERROR "the edge's mask keeps only ${recall} of the body on tpose:\n${out}")
+endif()
+# A bad appearance is the user's mistake: exit code 2 and the preset's name.
+execute_process(COMMAND ${VOXCAP_BENCH} silhouettes --appearance nosuch --frames 1
+  OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc)
+if(NOT rc EQUAL 2 OR NOT err MATCHES "nosuch")
+  message(FATAL_ERROR "an unknown appearance gave exit ${rc}: ${err}")
+endif()
+message(STATUS "voxcap-bench silhouettes: JSON complete, recall ${recall}")
