@@ -1,4 +1,4 @@
-// `voxcap bench edge|host ...`: the benchmarks live in their own program, voxcap-bench (tests/bench), so
+// `voxcap bench edge|host|silhouettes ...`: the benchmarks live in their own program, voxcap-bench (tests/bench), so
 // that voxcap links none of the bench code. This execs voxcap-bench from beside this executable (as
 // `voxcap rig --emulated` finds voxcap-edge) with every argument after the subcommand's name, --help
 // included: flags, output, JSON keys and exit codes are voxcap-bench's. argv[0] becomes
@@ -58,7 +58,10 @@ void add_bench_commands(CLI::App& app) {
             "LUT carve"},
         Group{"host",
               "Host: merge cost per frame (3/4/8 nodes, 64^3..256^3), the emulated rig's fps, latency and "
-              "memory"}}) {
+              "memory"},
+        Group{"silhouettes",
+              "The edge's masks (subtraction + clean-up) against hw/sim's truth: recall per camera and body part, "
+              "precision, floor shadow kept"}}) {
     auto* sub = bench->add_subcommand(g.name, g.description);
     sub->prefix_command();  // every argument after the group's name goes to voxcap-bench as given
     sub->set_help_flag();   // --help too
