@@ -465,6 +465,10 @@ bool SceneOptions::valid(std::string* why) const {
     os << "room_half_m must be in (1, 100) and room_height_m in (2, 100)";
   } else if (!(light_m[2] > 0.5 && light_m[2] < room_height_m)) {
     os << "the light must hang between 0.5 m and the ceiling";
+  } else if (detail::room_style(room) < 0) {
+    std::string known;
+    for (const RoomPreset& r : room_presets()) known += (known.empty() ? "" : ", ") + r.name;
+    os << "unknown room '" << room << "' (known: " << known << ")";
   } else {
     try {
       (void)appearance_preset(appearance);
@@ -497,6 +501,7 @@ Scene::Scene(const SceneOptions& options) {
   m.room.half_m = half;
   m.room.height_m = height;
   m.room.light_m = options.light_m;
+  m.room.style = detail::room_style(options.room);
   // Noise table: Box-Muller from a counter-based generator, so it is the same everywhere.
   std::size_t max_values = 0;
   for (const auto& cam : m.calib.cameras) {
@@ -889,11 +894,15 @@ bool Scene::occupied(const cv::Vec3d& p_world, int frame) const {
   return false;
 }
 
-void Scene::occupancy(const rig::VoxelGrid& grid, int frame, std::vector<std::uint8_t>* bits) const {
+namespace {
+
+// Calls fn(prim, voxel index) for every voxel centre inside a primitive (above the floor), primitive
+// by primitive in Part order, visiting only the voxels of the primitive's bounding box.
+template <typename Fn>
+void for_each_inside(const rig::VoxelGrid& grid, const std::vector<Primitive>& prims, Fn&& fn) {
   std::string why;
   if (!grid.valid(&why)) throw std::invalid_argument("occupancy: grid: " + why);
-  bits->assign(grid.bitset_bytes(), 0);
-  for (const Primitive& prim : primitives(frame)) {
+  for (const Primitive& prim : prims) {
     cv::Vec3d lo(HUGE_VAL, HUGE_VAL, HUGE_VAL), hi(-HUGE_VAL, -HUGE_VAL, -HUGE_VAL);
     for (const cv::Vec3d& c : prim.box_corners()) {
       for (int a = 0; a < 3; ++a) {
@@ -915,11 +924,30 @@ void Scene::occupancy(const rig::VoxelGrid& grid, int frame, std::vector<std::ui
       for (int j = i0[1]; j <= i1[1]; ++j) {
         for (int i = i0[0]; i <= i1[0]; ++i) {
           const cv::Vec3d c = grid.center(i, j, k);
-          if (c[2] >= 0 && prim.contains(c)) rig::hull_set(bits->data(), grid.index(i, j, k));
+          if (c[2] >= 0 && prim.contains(c)) fn(prim, grid.index(i, j, k));
         }
       }
     }
   }
+}
+
+}  // namespace
+
+void Scene::occupancy(const rig::VoxelGrid& grid, int frame, std::vector<std::uint8_t>* bits) const {
+  bits->assign(grid.bitset_bytes(), 0);
+  for_each_inside(grid, primitives(frame),
+                  [&](const Primitive&, std::size_t v) { rig::hull_set(bits->data(), v); });
+}
+
+void Scene::occupancy_parts(const rig::VoxelGrid& grid, int frame, std::vector<std::uint8_t>* part) const {
+  std::string why;
+  if (!grid.valid(&why)) throw std::invalid_argument("occupancy: grid: " + why);
+  part->assign(static_cast<std::size_t>(grid.nx) * static_cast<std::size_t>(grid.ny) *
+                   static_cast<std::size_t>(grid.nz),
+               kNoPart);
+  // Primitives come in Part order: a later (higher) part overwrites an earlier one.
+  for_each_inside(grid, primitives(frame),
+                  [&](const Primitive& p, std::size_t v) { (*part)[v] = static_cast<std::uint8_t>(p.part); });
 }
 
 }  // namespace vc::sim
