@@ -229,9 +229,9 @@ class TruthScorer : public pipeline::Stage {
     merged_.resize(bytes);
     truth_.resize(bytes);
     part_.resize(bytes);
-    sil_.resize(static_cast<size_t>(2 * opt.nodes));
-    shadow_.resize(static_cast<size_t>(2 * opt.nodes));
-    cams_.resize(static_cast<size_t>(2 * opt.nodes));
+    sil_.resize(2 * static_cast<size_t>(opt.nodes));
+    shadow_.resize(2 * static_cast<size_t>(opt.nodes));
+    cams_.resize(2 * static_cast<size_t>(opt.nodes));
   }
   ~TruthScorer() override {
     for (auto* c : carvers_) vc_carver_free(c);

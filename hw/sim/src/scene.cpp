@@ -574,12 +574,14 @@ void Scene::Impl::build_cache(int cam_index, CameraCache& cc) const {
   cc.room.create(h, w, CV_8UC3);
   cc.tiles_x = (w + kTile - 1) / kTile;
   cc.tiles_y = (h + kTile - 1) / kTile;
-  cc.tiles.assign(static_cast<std::size_t>(cc.tiles_x * cc.tiles_y), TileInfo{});
+  cc.tiles.assign(static_cast<std::size_t>(cc.tiles_x) * static_cast<std::size_t>(cc.tiles_y), TileInfo{});
   // Undistorted coordinates of every pixel centre (one Newton solve each); the room's 2x2
   // supersamples interpolate between them (the distortion is smooth at this scale).
   std::vector<cv::Vec2d> und(npix);
   for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) und[static_cast<std::size_t>(y * w + x)] = cam.undistort(cv::Point2d(x, y));
+    for (int x = 0; x < w; ++x)
+      und[static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)] =
+          cam.undistort(cv::Point2d(x, y));
   }
   auto und_at = [&](double fx, double fy) {
     // Bilinear (extrapolating at the border) in the grid of pixel centres.
@@ -587,7 +589,9 @@ void Scene::Impl::build_cache(int cam_index, CameraCache& cc) const {
     const int y0 = std::clamp(static_cast<int>(std::floor(fy)), 0, std::max(0, h - 2));
     const int x1 = std::min(x0 + 1, w - 1), y1 = std::min(y0 + 1, h - 1);
     const double ax = fx - x0, ay = fy - y0;
-    auto U = [&](int xx, int yy) { return und[static_cast<std::size_t>(yy * w + xx)]; };
+    auto U = [&](int xx, int yy) {
+      return und[static_cast<std::size_t>(yy) * static_cast<std::size_t>(w) + static_cast<std::size_t>(xx)];
+    };
     return (U(x0, y0) * (1 - ax) + U(x1, y0) * ax) * (1 - ay) + (U(x0, y1) * (1 - ax) + U(x1, y1) * ax) * ay;
   };
   static const double kSub[4][2] = {{-0.25, -0.25}, {0.25, -0.25}, {-0.25, 0.25}, {0.25, 0.25}};
@@ -604,7 +608,8 @@ void Scene::Impl::build_cache(int cam_index, CameraCache& cc) const {
       int face = 0;
       if (!room.hit(cc.center, D, &t, &face)) throw std::logic_error("scene: camera outside the room");
       cc.room_z[i] = static_cast<float>(t);
-      TileInfo& tile = cc.tiles[static_cast<std::size_t>((y / kTile) * cc.tiles_x + x / kTile)];
+      TileInfo& tile = cc.tiles[static_cast<std::size_t>(y / kTile) * static_cast<std::size_t>(cc.tiles_x) +
+                                static_cast<std::size_t>(x / kTile)];
       tile.rays.add(cc.a[i], cc.b[i]);
       cc.fx[i] = cc.fy[i] = std::numeric_limits<float>::quiet_NaN();
       if (face == detail::kFloor) {
@@ -707,7 +712,8 @@ void Scene::Impl::render(int frame, int cam_index, const Finish& finish, cv::Mat
   TileClass cls;
   for (int ty = 0; ty < cc.tiles_y; ++ty) {
     for (int tx = 0; tx < cc.tiles_x; ++tx) {
-      const TileInfo& tile = cc.tiles[static_cast<std::size_t>(ty * cc.tiles_x + tx)];
+      const TileInfo& tile = cc.tiles[static_cast<std::size_t>(ty) * static_cast<std::size_t>(cc.tiles_x) +
+                                      static_cast<std::size_t>(tx)];
       body_cand.clear();
       shadow_cand.clear();
       for (const LineFamily& f : sight) {
@@ -868,7 +874,7 @@ std::vector<FeatureTruth> Scene::features(int frame, int cam_index) const {
   for (int f = 0; f < kFeatureCount; ++f) {
     FeatureTruth t;
     t.feature = static_cast<Feature>(f);
-    const cv::Vec3d p = pose.p(feature_joint(t.feature));
+    const cv::Vec3d& p = pose.p(feature_joint(t.feature));
     t.uv = cam.project(p);
     t.depth_m = cam.to_cam(p)[2];
     t.in_image = t.depth_m > 0 && cam.in_image(t.uv);
