@@ -13,9 +13,11 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <bit>
 #include <cerrno>
 #include <chrono>
 #include <condition_variable>
+#include <cstring>
 #include <deque>
 #include <fstream>
 #include <mutex>
@@ -232,6 +234,9 @@ class TruthScorer : public pipeline::Stage {
     sil_.resize(2 * static_cast<size_t>(opt.nodes));
     shadow_.resize(2 * static_cast<size_t>(opt.nodes));
     cams_.resize(2 * static_cast<size_t>(opt.nodes));
+    // Build the scene's per-camera render caches now (~0.3 s per camera at 640x480), not on the first
+    // scored frame: that would hold the stage for a second while its queue fills.
+    for (int c = 0; c < scene_->camera_count(); c++) scene_->render_background_clean(c, rgb_);
   }
   ~TruthScorer() override {
     for (auto* c : carvers_) vc_carver_free(c);
@@ -291,17 +296,25 @@ class TruthScorer : public pipeline::Stage {
                     sil_[2 * static_cast<size_t>(k) + 1].ptr<uint8_t>(), part_.data(), nullptr);
       for (size_t i = 0; i < bytes; i++) truth_[i] &= part_[i];
     }
-    // Agreement and IoU with the true-silhouette hull, a byte at a time (the last byte's padding
-    // bits are 0 in both).
-    uint64_t same = 0, inter = 0, uni = 0, hull_n = 0;
-    for (size_t i = 0; i < bytes; i++) {
-      const unsigned m = merged_[i], t = truth_[i];
-      same += static_cast<uint64_t>(8 - __builtin_popcount(m ^ t));
-      inter += static_cast<uint64_t>(__builtin_popcount(m & t));
-      uni += static_cast<uint64_t>(__builtin_popcount(m | t));
-      hull_n += static_cast<uint64_t>(__builtin_popcount(m));
+    // Agreement and IoU with the true-silhouette hull, 64 voxels at a time (padding bits cleared in
+    // both; the last word's tail is zero-filled).
+    if (voxels_ % 8 != 0) {
+      const auto keep = static_cast<uint8_t>((1u << (voxels_ % 8)) - 1);
+      merged_[bytes - 1] &= keep;
+      truth_[bytes - 1] &= keep;
     }
-    same -= bytes * 8 - voxels_;  // padding bits agree
+    uint64_t same = 0, inter = 0, uni = 0, hull_n = 0;
+    for (size_t i = 0; i < bytes; i += 8) {
+      uint64_t m = 0, t = 0;
+      const size_t n = std::min<size_t>(8, bytes - i);
+      std::memcpy(&m, merged_.data() + i, n);
+      std::memcpy(&t, truth_.data() + i, n);
+      same += static_cast<uint64_t>(64 - std::popcount(m ^ t));
+      inter += static_cast<uint64_t>(std::popcount(m & t));
+      uni += static_cast<uint64_t>(std::popcount(m | t));
+      hull_n += static_cast<uint64_t>(std::popcount(m));
+    }
+    same -= ((bytes + 7) / 8) * 64 - voxels_;  // padding bits agree
     // Per part: one pass over the part labels, with the body's bounding box.
     scene_->occupancy_parts(grid_, frame, &label_);
     std::array<uint64_t, kPartGroups> n_part{}, in_part{};
