@@ -3,7 +3,7 @@
 //
 // The scene is either borrowed (vc_camera_open_sim: a vc::sim::Scene* the caller shares, e.g. with
 // its reference renders) or built from the device string, a spec of key=value pairs separated by ',' or ';':
-//   motion=walk  seed=1  noise=2  flicker=0  appearance=default  fps=60  cameras=6  size=640x480
+//   motion=walk  seed=1  noise=2  flicker=0  appearance=default  room=default  fps=60  cameras=6 size=640x480
 //   distortion=0  calibration=/path/rig.yaml  (a calibration replaces cameras/size/distortion)
 // Scenes built from the same spec are shared process-wide (one per spec, kept until the process
 // ends), so a node's two cameras render one performer, and a camera reopened finds its per-camera
@@ -57,6 +57,8 @@ std::string parse_spec(const std::string& spec, const vc_camera_config& cfg, sim
       o->motion.source = val;
     } else if (key == "appearance") {
       o->appearance = val;
+    } else if (key == "room") {
+      o->room = val;
     } else if (key == "calibration") {
       try {
         o->calibration = rig::read_calibration(val);
@@ -70,8 +72,8 @@ std::string parse_spec(const std::string& spec, const vc_camera_config& cfg, sim
       o->rig.height = h;
     } else if (!number(&v)) {
       return "unknown key or bad value '" + item +
-             "' (keys: motion, seed, noise, flicker, appearance, fps, cameras, size, distortion, "
-             "calibration)";
+             "' (keys: motion, seed, noise, flicker, appearance, room, fps, cameras, size, "
+             "distortion, calibration)";
     } else if (key == "seed") {
       o->seed = (uint64_t)v;
     } else if (key == "noise") {
@@ -86,8 +88,8 @@ std::string parse_spec(const std::string& spec, const vc_camera_config& cfg, sim
       o->rig.distortion = v != 0;
     } else {
       return "unknown key '" + key +
-             "' (keys: motion, seed, noise, flicker, appearance, fps, cameras, size, distortion, "
-             "calibration)";
+             "' (keys: motion, seed, noise, flicker, appearance, room, fps, cameras, size, "
+             "distortion, calibration)";
     }
   }
   // the scene's cameras must match a size the caller asked for (the calibration's, if one is given)

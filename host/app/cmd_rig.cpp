@@ -101,6 +101,72 @@ void print_report(const aggregator::Report& r) {
   fmt::print("\n");
 }
 
+nlohmann::json silhouette_json(const emulated::SilhouetteScore& s) {
+  return {{"frames", s.frames},
+          {"missing", s.missing},
+          {"bad", s.bad},
+          {"recall", s.recall},
+          {"precision", s.precision},
+          {"shadow_kept", s.shadow_kept},
+          {"shadow_frames", s.shadow_frames}};
+}
+
+// The scorer's figures (emulated::Accuracy) under the keys --help names.
+nlohmann::json accuracy_json(const emulated::Accuracy& a) {
+  nlohmann::json parts = nlohmann::json::object();
+  for (size_t p = 0; p < emulated::kPartGroups; p++)
+    parts[std::string(emulated::part_group_names()[p])] = a.part_recall[p];
+  nlohmann::json cams = nlohmann::json::array();
+  for (size_t c = 0; c < a.cameras.size(); c++) {
+    nlohmann::json j = silhouette_json(a.cameras[c]);
+    j["camera"] = c;
+    j["node"] = c / 2;
+    cams.push_back(j);
+  }
+  nlohmann::json sil = silhouette_json(a.silhouettes);
+  sil["source"] = "edge masks (SILHOUETTE messages)";
+  sil["cameras"] = cams;
+  return {{"frames", a.frames},
+          {"agree", a.agree},
+          {"min_agree", a.min_agree},
+          {"iou_silhouette_hull", a.iou_silhouette_hull},
+          {"body_recall", a.body_recall},
+          {"hull_precision", a.hull_precision},
+          {"reference_carve", a.reference_carve},
+          {"parts", parts},
+          {"silhouettes", sil}};
+}
+
+void print_accuracy(const emulated::Accuracy& a) {
+  fmt::print(
+      "accuracy ({} frames scored): merged hull vs hull of the true silhouettes ({} carve): {:.3f} % of "
+      "voxels "
+      "agree (min {:.3f} %), IoU {:.3f}; true body voxels inside the hull: {:.2f} %; hull voxels within one "
+      "voxel of the body: {:.2f} %\n",
+      a.frames, a.reference_carve, 100 * a.agree, 100 * a.min_agree, a.iou_silhouette_hull,
+      100 * a.body_recall, 100 * a.hull_precision);
+  fmt::print("body recall per part (% of its true voxels inside the merged hull):\n");
+  for (size_t p = 0; p < emulated::kPartGroups; p++)
+    fmt::print("  {:<12}{:>7.2f} %{}", emulated::part_group_names()[p], 100 * a.part_recall[p],
+               p % 4 == 3 || p + 1 == emulated::kPartGroups ? "\n" : "   ");
+  fmt::print("silhouettes, from the edges' real masks (SILHOUETTE) vs the true silhouettes:\n");
+  fmt::print("  {:<8}{:>7}{:>9}{:>5}{:>10}{:>11}{:>13}\n", "camera", "frames", "missing", "bad", "recall",
+             "precision", "shadow kept");
+  auto row = [](const std::string& name, const emulated::SilhouetteScore& s) {
+    if (s.frames == 0) {
+      fmt::print("  {:<8}{:>7}{:>9}{:>5}{:>10}{:>11}{:>13}\n", name, 0, s.missing, s.bad, "-", "-", "-");
+      return;
+    }
+    fmt::print("  {:<8}{:>7}{:>9}{:>5}{:>9.2f}%{:>10.2f}%{:>12}\n", name, s.frames, s.missing, s.bad,
+               100 * s.recall, 100 * s.precision,
+               s.shadow_frames ? fmt::format("{:.2f}%", 100 * s.shadow_kept) : std::string("-"));
+  };
+  for (size_t c = 0; c < a.cameras.size(); c++) row(fmt::format("cam{}", c), a.cameras[c]);
+  row("all", a.silhouettes);
+  if (a.silhouettes.frames == 0 && a.frames > 0)
+    fmt::print("  (no edge sent its masks: the figures above need edges that send SILHOUETTE)\n");
+}
+
 }  // namespace
 
 void add_rig_commands(CLI::App& app) {
@@ -131,10 +197,17 @@ void add_rig_commands(CLI::App& app) {
   cmd->add_option("--noise", opt->noise, "emulated: sensor noise sigma (8-bit levels)")
       ->capture_default_str();
   cmd->add_option("--seed", opt->seed, "emulated: simulator seed")->capture_default_str();
+  cmd->add_option("--appearance", opt->appearance,
+                  "emulated: the performer's appearance preset (default pale olive brown dark beige)")
+      ->capture_default_str();
+  cmd->add_option("--room", opt->room, "emulated: room preset (default camouflage)")->capture_default_str();
+  cmd->add_option("--carve", opt->carve, "emulated: the edges' carve rule, footprint | centre")
+      ->capture_default_str();
   cmd->add_option("--policy", opt->missing_policy, "emulated: missing-node policy, drop | degraded")
       ->capture_default_str();
   cmd->add_option("--truth-every", opt->truth_every,
-                  "emulated: score every k-th frame against ground truth (0: off)")
+                  "emulated: score the frames whose seq is a multiple of k against ground truth, the edges "
+                  "sending their masks for them (0: off)")
       ->capture_default_str();
   cmd->add_option("--workdir", opt->workdir, "emulated: keep rig.yaml, rig.toml and edge logs here");
   auto record = std::make_shared<std::string>();
@@ -145,11 +218,17 @@ void add_rig_commands(CLI::App& app) {
       "--verbose", [opt](int64_t) { opt->quiet = false; }, "emulated: info logs from host and edges");
   cmd->add_flag(
       "--json", *json,
-      "print the figures as JSON: frames, complete, degraded, dropped, pulses, fps, trigger_to_merged_ms "
+      "print the figures as JSON: emulated {nodes, motion, appearance, room, carve, grid, size, rate_hz, "
+      "truth_every}, frames, complete, degraded, dropped, pulses, fps, trigger_to_merged_ms "
       "{mean,p50,p99}, nodes[] {id, name, hulls, late, missing, host_queue_drops, edge_stage_ms, "
       "trigger_to_received_ms, ...}, "
       "stages[] {name, overflow, processed, dropped, errors, queue_max, queue_capacity, busy_ms {mean,max}}, "
-      "accuracy {frames, agree, min_agree, iou_silhouette_hull, body_recall} (emulated)");
+      "accuracy {frames, agree, min_agree, iou_silhouette_hull, body_recall, hull_precision, "
+      "reference_carve, "
+      "parts {head, torso, l_upper_arm, r_upper_arm, l_forearm, r_forearm, l_hand, r_hand, l_thigh, r_thigh, "
+      "l_shank, r_shank, l_foot, r_foot}, silhouettes {source, frames, missing, bad, recall, precision, "
+      "shadow_kept, shadow_frames, cameras[] {camera, node, frames, missing, bad, recall, precision, "
+      "shadow_kept, shadow_frames}}} (emulated; silhouettes from the edges' real masks)");
   cmd->callback([=] {
     std::signal(SIGINT, on_sigint);
     std::signal(SIGTERM, on_sigint);
@@ -161,8 +240,8 @@ void add_rig_commands(CLI::App& app) {
       if (!opt->valid(&why)) throw UsageError(why);
       emulated::EmulatedRig rig(*opt);
       if (!*json)
-        fmt::print("starting {} edge nodes ({} cameras, {}), motion '{}'...\n", opt->nodes, 2 * opt->nodes,
-                   *size, opt->motion);
+        fmt::print("starting {} edge nodes ({} cameras, {}), motion '{}', appearance '{}', room '{}'...\n",
+                   opt->nodes, 2 * opt->nodes, *size, opt->motion, opt->appearance, opt->room);
       rig.start();
       if (*seconds > 0) {
         auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(*seconds);
@@ -178,23 +257,17 @@ void add_rig_commands(CLI::App& app) {
       emulated::Result r = rig.stop();
       if (*json) {
         nlohmann::json j = report_json(r.report);
-        j["accuracy"] = {{"frames", r.accuracy.frames},
-                         {"agree", r.accuracy.agree},
-                         {"min_agree", r.accuracy.min_agree},
-                         {"iou_silhouette_hull", r.accuracy.iou_silhouette_hull},
-                         {"body_recall", r.accuracy.body_recall}};
+        j["accuracy"] = accuracy_json(r.accuracy);
+        j["emulated"] = {{"nodes", opt->nodes}, {"motion", opt->motion},   {"appearance", opt->appearance},
+                         {"room", opt->room},   {"carve", opt->carve},     {"grid", opt->grid},
+                         {"size", *size},       {"rate_hz", opt->rate_hz}, {"truth_every", opt->truth_every}};
         j["wall_seconds"] = r.wall_seconds;
         if (!r.session_dir.empty()) j["session_dir"] = r.session_dir.string();
         j["host_rss_kb"] = {{"start", r.host_rss_start_kb}, {"end", r.host_rss_end_kb}};
         fmt::print("{}\n", j.dump(2));
       } else {
         print_report(r.report);
-        fmt::print(
-            "accuracy ({} frames scored): merged hull vs hull of the true silhouettes: {:.3f} % of voxels "
-            "agree "
-            "(min {:.3f} %), IoU {:.3f}; true body voxels inside the hull: {:.2f} %\n",
-            r.accuracy.frames, 100 * r.accuracy.agree, 100 * r.accuracy.min_agree,
-            r.accuracy.iou_silhouette_hull, 100 * r.accuracy.body_recall);
+        print_accuracy(r.accuracy);
       }
       if (r.report.frames == 0) throw std::runtime_error("no frame was merged");
       return;

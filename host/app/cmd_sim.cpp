@@ -25,6 +25,7 @@ struct SimArgs {
   double noise = 2.0;
   double flicker = 0.0;
   std::string appearance = "default";
+  std::string room = "default";
   bool distortion = false;
   double fps = 60;
   int backgrounds = 30;
@@ -45,6 +46,8 @@ void list_choices() {
     fmt::print("  {:<14} {} ({} s cycle)\n", m.name, m.description, m.cycle_s);
   fmt::print("appearances:\n");
   for (const auto& a : sim::appearance_presets()) fmt::print("  {}\n", a.name);
+  fmt::print("rooms:\n");
+  for (const auto& r : sim::room_presets()) fmt::print("  {:<14} {}\n", r.name, r.description);
 }
 
 void run(const SimArgs& a) {
@@ -61,6 +64,7 @@ void run(const SimArgs& a) {
   o.motion.loop = a.loop;
   o.body = sim::BodyDescription::adult(a.height_m);
   o.appearance = a.appearance;
+  o.room = a.room;
   o.rig.cameras = a.cameras;
   int w = 0, h = 0;
   char tail = 0;
@@ -137,6 +141,8 @@ void add_sim_commands(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--appearance", args->appearance, "Appearance preset (skin and clothes, see --list)")
       ->capture_default_str();
+  cmd->add_option("--room", args->room, "Room preset (floor and wall textures, see --list)")
+      ->capture_default_str();
   cmd->add_flag("--distortion", args->distortion, "Mild barrel lens distortion (k1 ~ -0.1, k2 ~ 0.03)");
   cmd->add_option("--fps", args->fps, "Camera frame rate (frame f is at f/fps seconds)")
       ->capture_default_str();
@@ -158,7 +164,7 @@ void add_sim_commands(CLI::App& app) {
   cmd->add_option("--jobs", args->jobs, "Render threads (0: one per hardware thread)")
       ->check(CLI::Range(0, 256))
       ->capture_default_str();
-  cmd->add_flag("--list", args->list, "List the built-in motions and appearances, then exit");
+  cmd->add_flag("--list", args->list, "List the built-in motions, appearances and rooms, then exit");
   cmd->add_flag("--quiet", args->quiet, "No progress on stderr");
   cmd->callback([args] { run(*args); });
 }

@@ -14,10 +14,13 @@
 #include <atomic>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <set>
+#include <sstream>
 #include <thread>
 #include <variant>
 
+#include "voxcap/config/rig_config.hpp"
 #include "voxcap/emulated/emulated_rig.hpp"
 #include "voxcap/proto.h"
 #include "voxcap/record/recorder.hpp"
@@ -68,6 +71,105 @@ TEST(EmulatedRig, ThreeNodesSixHundredFramesCompleteAndMatchTheTrueSilhouettes) 
   EXPECT_GE(r.accuracy.agree, 0.995);
   EXPECT_GE(r.accuracy.body_recall, 0.8);
   // The rate (fps) is a figure, not a pass/fail criterion: `voxcap bench host` (rig.fps).
+}
+
+// Whether this build's host loads rig.toml's [silhouettes] and so asks the edges for their masks in
+// CONFIG (the wire change). Before it no edge sends SILHOUETTE; after it every scored frame must have
+// its masks. Decided from the rig's own rig.toml with the key added.
+bool host_asks_for_silhouettes(const std::filesystem::path& rig_toml) {
+  std::ifstream f(rig_toml);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  std::string text = ss.str();
+  if (text.find("[silhouettes]") == std::string::npos) text += "\n[silhouettes]\nevery = 3\n";
+  try {
+    return config::parse_rig_config(text, rig_toml).silhouettes.every > 0;
+  } catch (const config::ConfigError& e) {
+    if (std::string(e.what()).find("unknown key") != std::string::npos) return false;
+    throw;
+  }
+}
+
+TEST(EmulatedRig, PartGroupsCoverEveryBodyPartOnce) {
+  std::vector<int> parts_per_group(kPartGroups, 0);
+  for (int p = 0; p < 20; p++) {
+    const int g = part_group(p);
+    ASSERT_GE(g, 0);
+    ASSERT_LT(g, kPartGroups);
+    parts_per_group[static_cast<size_t>(g)]++;
+  }
+  EXPECT_EQ(parts_per_group[0], 2);   // head + neck
+  EXPECT_EQ(parts_per_group[1], 4);   // pelvis, abdomen, chest, shoulder girdle
+  EXPECT_EQ(parts_per_group[12], 2);  // left foot + toes
+  EXPECT_EQ(parts_per_group[13], 2);
+  EXPECT_EQ(part_group_names()[6], "l_hand");
+  EXPECT_THROW(part_group(20), std::out_of_range);
+  Options o = options();
+  o.room = "cave";
+  std::string why;
+  EXPECT_FALSE(o.valid(&why));
+  EXPECT_NE(why.find("unknown room 'cave'"), std::string::npos) << why;
+  o = options();
+  o.appearance = "purple";
+  EXPECT_FALSE(o.valid(&why));
+  o = options();
+  o.carve = "corner";
+  EXPECT_FALSE(o.valid(&why));
+  EXPECT_THROW(EmulatedRig{o}, std::invalid_argument);
+}
+
+// One cell of the accuracy sweep (tests/bench/rig_accuracy.cmake runs them all): wave, 3 nodes, the
+// default appearance and room. Every figure is present and sane, and the edges' masks are scored on
+// every scored frame once the host asks for them, or all counted missing before.
+TEST(EmulatedRig, SweepCellReportsPerPartHullAndSilhouetteFigures) {
+  Options o = options();
+  o.workdir = std::filesystem::path(::testing::TempDir()) / "vc_rig_sweep_cell";
+  std::filesystem::remove_all(o.workdir);
+  EmulatedRig rig(o);
+  rig.start(60);
+  rig.run_frames(300, 90);
+  Result r = rig.stop();
+  const Accuracy& a = r.accuracy;
+  ASSERT_GT(a.frames, 50u);
+  auto in01 = [](double v) { return v >= 0 && v <= 1; };
+  EXPECT_TRUE(in01(a.body_recall));
+  EXPECT_GT(a.body_recall, 0.5);
+  EXPECT_TRUE(in01(a.hull_precision));
+  EXPECT_GT(a.hull_precision, 0.8);
+  EXPECT_EQ(a.hull_precision_frames, a.frames);
+  EXPECT_FALSE(a.reference_carve.empty());
+  for (size_t g = 0; g < kPartGroups; g++) {
+    EXPECT_TRUE(in01(a.part_recall[g])) << part_group_names()[g];
+    EXPECT_GT(a.part_frames[g], 0u) << part_group_names()[g];
+    EXPECT_LE(a.part_frames[g], a.frames) << part_group_names()[g];
+  }
+  // Head and torso are always in the grid and mostly kept.
+  EXPECT_EQ(a.part_frames[0], a.frames);
+  EXPECT_EQ(a.part_frames[1], a.frames);
+  EXPECT_GT(a.part_recall[1], 0.8);
+  // Every scored frame accounts for every camera's mask: scored, missing or bad.
+  ASSERT_EQ(a.cameras.size(), 6u);
+  for (const SilhouetteScore& c : a.cameras) EXPECT_EQ(c.frames + c.missing + c.bad, a.frames);
+  EXPECT_EQ(a.silhouettes.frames + a.silhouettes.missing + a.silhouettes.bad, 6 * a.frames);
+  if (host_asks_for_silhouettes(o.workdir / "rig.toml")) {
+    // The edges send their masks for the frames whose seq is a multiple of truth_every: all of
+    // them, each the mask the edge carved with.
+    EXPECT_EQ(a.silhouettes.bad, 0u);
+    EXPECT_EQ(a.silhouettes.missing, 0u) << "the host asks for masks but the edges sent none for some frames";
+    ASSERT_GT(a.silhouettes.frames, 0u) << "the host asks for masks but no edge sent one";
+    for (const SilhouetteScore& c : a.cameras) {
+      EXPECT_GT(c.recall, 0.5);
+      EXPECT_LE(c.recall, 1.0);
+      EXPECT_GT(c.precision, 0.5);
+      EXPECT_LE(c.precision, 1.0);
+      EXPECT_TRUE(in01(c.shadow_kept));
+    }
+  } else {
+    // No edge sends masks yet: counted missing, never scored as perfect.
+    EXPECT_EQ(a.silhouettes.frames, 0u);
+    EXPECT_EQ(a.silhouettes.missing, 6 * a.frames);
+    EXPECT_EQ(a.silhouettes.recall, 0.0);
+  }
 }
 
 TEST(EmulatedRig, KilledEdgeIsMissedAndItsRestartRejoins) {

@@ -173,6 +173,30 @@ TEST_F(SimBackend, TwoCamerasOfOneSpecRenderTheirOwnViews) {
   vc_camera_release(cam2_, &f1);
 }
 
+TEST_F(SimBackend, AppearanceAndRoomOfTheSpecAreRendered) {
+  // What the emulated rig passes so that its edges render what its scorer renders.
+  vc_camera_config cfg = base(1);
+  const std::string spec = std::string(kSpec) + ",appearance=olive,room=camouflage";
+  cfg.device = spec.c_str();
+  ASSERT_EQ(open(&cam_, cfg), 0) << why_;
+  vc::sim::SceneOptions o = spec_options();
+  o.appearance = "olive";
+  o.room = "camouflage";
+  vc::sim::Scene scene(o), plain(spec_options());
+  ASSERT_EQ(vc_camera_start(cam_), 0);
+  vc_frame f;
+  ASSERT_EQ(vc_camera_capture(cam_, 1000, &f), 0) << vc_camera_last_error(cam_);
+  cv::Mat want, other;
+  scene.render(0, 1, want);
+  plain.render(0, 1, other);
+  EXPECT_TRUE(same_pixels(f, want));
+  EXPECT_FALSE(same_pixels(f, other));
+  vc_camera_release(cam_, &f);
+  cfg.device = "motion=wave,size=160x120,room=cave";
+  EXPECT_EQ(open(&cam2_, cfg), -EINVAL);
+  EXPECT_NE(why_.find("unknown room 'cave' (known: default, camouflage)"), std::string::npos) << why_;
+}
+
 TEST_F(SimBackend, ClearErrors) {
   vc_camera_config cfg = base(5);
   EXPECT_EQ(open(&cam_, cfg), -ENOENT);

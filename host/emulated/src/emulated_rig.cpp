@@ -10,9 +10,14 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <array>
 #include <atomic>
+#include <bit>
+#include <cerrno>
 #include <chrono>
 #include <condition_variable>
+#include <cstring>
 #include <deque>
 #include <fstream>
 #include <mutex>
@@ -49,6 +54,16 @@ bool Options::valid(std::string* why) const {
   if (deadline_ms <= 0) return fail("deadline: must be > 0");
   if (truth_every < 0) return fail("truth_every: must be >= 0");
   if (motion.empty()) return fail("motion: must be set");
+  if (carve != "footprint" && carve != "centre")
+    return fail("carve: footprint or centre, got '" + carve + "'");
+  if (silhouette_scale < 1 || silhouette_scale > 16) return fail("silhouette scale: must be in 1..16");
+  {
+    sim::SceneOptions so;
+    so.appearance = appearance;
+    so.room = room;
+    std::string w;
+    if (!so.valid(&w)) return fail(w);
+  }
   return true;
 }
 
@@ -82,9 +97,102 @@ static int free_port(int type) {
   return ntohs(a.sin_port);
 }
 
+const std::array<std::string_view, kPartGroups>& part_group_names() {
+  static const std::array<std::string_view, kPartGroups> names = {
+      "head",   "torso",   "l_upper_arm", "r_upper_arm", "l_forearm", "r_forearm", "l_hand",
+      "r_hand", "l_thigh", "r_thigh",     "l_shank",     "r_shank",   "l_foot",    "r_foot"};
+  return names;
+}
+
+int part_group(int part) {
+  using P = sim::Part;
+  switch (static_cast<P>(part)) {
+    case P::head:
+    case P::neck:
+      return 0;
+    case P::pelvis:
+    case P::abdomen:
+    case P::chest:
+    case P::shoulders:
+      return 1;
+    case P::l_upper_arm:
+      return 2;
+    case P::r_upper_arm:
+      return 3;
+    case P::l_forearm:
+      return 4;
+    case P::r_forearm:
+      return 5;
+    case P::l_hand:
+      return 6;
+    case P::r_hand:
+      return 7;
+    case P::l_thigh:
+      return 8;
+    case P::r_thigh:
+      return 9;
+    case P::l_shank:
+      return 10;
+    case P::r_shank:
+      return 11;
+    case P::l_foot:
+    case P::l_toes:
+      return 12;
+    case P::r_foot:
+    case P::r_toes:
+      return 13;
+  }
+  throw std::out_of_range(fmt::format("no body part {}", part));
+}
+
+namespace {
+
+// Running sums of one edge mask's figures; means when read.
+struct SilhouetteSums {
+  uint64_t frames = 0, missing = 0, bad = 0, recall_n = 0, precision_n = 0, shadow_n = 0;
+  double recall = 0, precision = 0, shadow = 0;
+
+  void add(const SilhouetteSums& o) {
+    frames += o.frames;
+    missing += o.missing;
+    bad += o.bad;
+    recall_n += o.recall_n;
+    precision_n += o.precision_n;
+    shadow_n += o.shadow_n;
+    recall += o.recall;
+    precision += o.precision;
+    shadow += o.shadow;
+  }
+  SilhouetteScore mean() const {
+    SilhouetteScore s;
+    s.frames = frames;
+    s.missing = missing;
+    s.bad = bad;
+    s.recall = recall_n ? recall / double(recall_n) : 0;
+    s.precision = precision_n ? precision / double(precision_n) : 0;
+    s.shadow_kept = shadow_n ? shadow / double(shadow_n) : 0;
+    s.shadow_frames = shadow_n;
+    return s;
+  }
+};
+
+vc_carve_rule carve_rule(const std::string& name) {
+  return name == "centre" ? VC_CARVE_CENTRE : VC_CARVE_FOOTPRINT;
+}
+
+}  // namespace
+
 // Scores merged frames against the simulator's truth: a consumer stage of the host's pipeline, on its
 // own thread behind a drop-oldest queue (when it falls behind, frames are skipped from scoring —
-// counted as the stage's drops — never from the rig). Every truth_every-th frame of the run is scored.
+// counted as the stage's drops — never from the rig). The frames whose seq is a multiple of
+// truth_every are scored (the edges send their masks for exactly those); the simulator's frame of seq
+// is seq − origin (the run's origin, START).
+//
+// Per scored frame: the true silhouettes and floor shadows of every camera (render_clean: the same
+// geometry as the edges' noisy frames), the true-silhouette hull (the edges' carve rule, AND over the
+// nodes), the part label of every voxel (Scene::occupancy_parts); then one pass over the voxels for
+// agreement, IoU and per-part recall, a separable 3x3x3 dilation of the body over its bounding box
+// for the hull's precision, and each edge mask (NodePart::silhouettes) against its camera's truth.
 class TruthScorer : public pipeline::Stage {
  public:
   TruthScorer(const Options& opt, const rig::Calibration& cal, const rig::VoxelGrid& grid,
@@ -95,16 +203,27 @@ class TruthScorer : public pipeline::Stage {
     so.motion.fps = opt.rate_hz;
     so.seed = opt.seed;
     so.noise_sigma = opt.noise;
+    so.appearance = opt.appearance;
+    so.room = opt.room;
     so.calibration = rig::read_calibration(spec_cal);
     scene_ = std::make_unique<sim::Scene>(so);
     const vc_voxel_grid g = rig::to_c_grid(grid);
+    vc_carve_rule rule = carve_rule(opt.carve);
+    reference_carve_ = opt.carve;
     for (int k = 0; k < opt.nodes; k++) {
       vc_camera a = rig::to_c_camera(cal.cameras[2 * static_cast<size_t>(k)]);
       vc_camera b = rig::to_c_camera(cal.cameras[2 * static_cast<size_t>(k) + 1]);
       vc_carver* c = nullptr;
       char why[200];
-      if (vc_carver_new(&g, &a, &b, VC_CARVE_CENTRE, &c, why, sizeof why) < 0)
-        throw std::runtime_error(std::string("truth: cannot build a carver for the rig: ") + why);
+      int rc = vc_carver_new(&g, &a, &b, rule, &c, why, sizeof why);
+      if (rc == -EINVAL && rule == VC_CARVE_FOOTPRINT && k == 0) {
+        // A carver without the footprint rule (before edge/core has it): so are the edges', which
+        // then carve with the centre rule; the reference says which rule it used.
+        rule = VC_CARVE_CENTRE;
+        reference_carve_ = "centre (this build's carver has no footprint rule)";
+        rc = vc_carver_new(&g, &a, &b, rule, &c, why, sizeof why);
+      }
+      if (rc < 0) throw std::runtime_error(std::string("truth: cannot build a carver for the rig: ") + why);
       carvers_.push_back(c);
     }
     voxels_ = static_cast<uint64_t>(grid.nx) * grid.ny * grid.nz;
@@ -112,7 +231,12 @@ class TruthScorer : public pipeline::Stage {
     merged_.resize(bytes);
     truth_.resize(bytes);
     part_.resize(bytes);
-    sil_.resize(2);
+    sil_.resize(2 * static_cast<size_t>(opt.nodes));
+    shadow_.resize(2 * static_cast<size_t>(opt.nodes));
+    cams_.resize(2 * static_cast<size_t>(opt.nodes));
+    // Build the scene's per-camera render caches now (~0.3 s per camera at 640x480), not on the first
+    // scored frame: that would hold the stage for a second while its queue fills.
+    for (int c = 0; c < scene_->camera_count(); c++) scene_->render_background_clean(c, rgb_);
   }
   ~TruthScorer() override {
     for (auto* c : carvers_) vc_carver_free(c);
@@ -122,55 +246,254 @@ class TruthScorer : public pipeline::Stage {
     return {static_cast<size_t>(8 * std::max(1, o.truth_every)), pipeline::Overflow::DropOldest};
   }
   std::string name() const override { return "score"; }
-  void set_origin(uint64_t origin) { origin_ = origin; }
+  void set_origin(uint64_t origin) {
+    origin_ = origin;
+    started_ = true;
+  }
   void process(pipeline::Frame& f) override {
     const uint64_t origin = origin_;
-    if (opt_.truth_every <= 0 || f.seq < origin ||
-        (f.seq - origin) % static_cast<uint64_t>(opt_.truth_every) != 0)
+    if (!started_ || opt_.truth_every <= 0 || f.seq < origin ||
+        f.seq % static_cast<uint64_t>(opt_.truth_every) != 0)
       return;
-    score(static_cast<int>(f.seq - origin), f.rle);
+    score(static_cast<int>(f.seq - origin), f);
   }
   Accuracy accuracy() const {
     std::lock_guard<std::mutex> g(mu_);
-    return acc_;
+    Accuracy a = acc_;
+    const double n = double(acc_.frames);
+    if (n > 0) {
+      a.agree = sum_agree_ / n;
+      a.iou_silhouette_hull = sum_iou_ / n;
+      a.body_recall = sum_recall_ / n;
+    }
+    a.hull_precision = a.hull_precision_frames ? sum_precision_ / double(a.hull_precision_frames) : 0;
+    for (int p = 0; p < kPartGroups; p++)
+      a.part_recall[static_cast<size_t>(p)] =
+          a.part_frames[static_cast<size_t>(p)]
+              ? sum_part_[static_cast<size_t>(p)] / double(a.part_frames[static_cast<size_t>(p)])
+              : 0;
+    a.reference_carve = reference_carve_;
+    SilhouetteSums all;
+    for (const SilhouetteSums& c : cams_) {
+      a.cameras.push_back(c.mean());
+      all.add(c);
+    }
+    a.silhouettes = all.mean();
+    return a;
   }
 
  private:
-  void score(int frame, const std::vector<uint8_t>& rle) {
-    std::vector<uint8_t>&merged = merged_, &truth = truth_, &part = part_, &body = body_;
-    std::vector<cv::Mat>& sil = sil_;
-    cv::Mat& rgb = rgb_;
-    const size_t bytes = merged.size();
-    {
-      vc_rle_decode(rle.data(), rle.size(), merged.data(), voxels_);
-      std::fill(truth.begin(), truth.end(), 0xFF);
-      for (int k = 0; k < opt_.nodes; k++) {
-        for (int c = 0; c < 2; c++) scene_->render_clean(frame, 2 * k + c, rgb, &sil[static_cast<size_t>(c)]);
-        vc_carver_run(carvers_[static_cast<size_t>(k)], sil[0].ptr<uint8_t>(), sil[1].ptr<uint8_t>(),
-                      part.data(), nullptr);
-        for (size_t i = 0; i < bytes; i++) truth[i] &= part[i];
+  void score(int frame, const pipeline::Frame& f) {
+    const size_t bytes = merged_.size();
+    const int ncam = 2 * opt_.nodes;
+    if (f.rle.empty() || vc_rle_decode(f.rle.data(), f.rle.size(), merged_.data(), voxels_) < 0)
+      std::fill(merged_.begin(), merged_.end(), 0);  // no merged hull: nothing of the body is in it
+    std::fill(truth_.begin(), truth_.end(), 0xFF);
+    for (int c = 0; c < ncam; c++)
+      scene_->render_clean(frame, c, rgb_, &sil_[static_cast<size_t>(c)], &shadow_[static_cast<size_t>(c)]);
+    for (int k = 0; k < opt_.nodes; k++) {
+      vc_carver_run(carvers_[static_cast<size_t>(k)], sil_[2 * static_cast<size_t>(k)].ptr<uint8_t>(),
+                    sil_[2 * static_cast<size_t>(k) + 1].ptr<uint8_t>(), part_.data(), nullptr);
+      for (size_t i = 0; i < bytes; i++) truth_[i] &= part_[i];
+    }
+    // Agreement and IoU with the true-silhouette hull, 64 voxels at a time (padding bits cleared in
+    // both; the last word's tail is zero-filled).
+    if (voxels_ % 8 != 0) {
+      const auto keep = static_cast<uint8_t>((1u << (voxels_ % 8)) - 1);
+      merged_[bytes - 1] &= keep;
+      truth_[bytes - 1] &= keep;
+    }
+    uint64_t same = 0, inter = 0, uni = 0, hull_n = 0;
+    for (size_t i = 0; i < bytes; i += 8) {
+      uint64_t m = 0, t = 0;
+      const size_t n = std::min<size_t>(8, bytes - i);
+      std::memcpy(&m, merged_.data() + i, n);
+      std::memcpy(&t, truth_.data() + i, n);
+      same += static_cast<uint64_t>(64 - std::popcount(m ^ t));
+      inter += static_cast<uint64_t>(std::popcount(m & t));
+      uni += static_cast<uint64_t>(std::popcount(m | t));
+      hull_n += static_cast<uint64_t>(std::popcount(m));
+    }
+    same -= ((bytes + 7) / 8) * 64 - voxels_;  // padding bits agree
+    // Per part: one pass over the part labels, with the body's bounding box.
+    scene_->occupancy_parts(grid_, frame, &label_);
+    std::array<uint64_t, kPartGroups> n_part{}, in_part{};
+    const int nx = grid_.nx, ny = grid_.ny, nz = grid_.nz;
+    int lo[3] = {nx, ny, nz}, hi[3] = {-1, -1, -1};
+    for (int k = 0; k < nz; k++) {
+      for (int j = 0; j < ny; j++) {
+        const size_t row = (static_cast<size_t>(k) * static_cast<size_t>(ny) + static_cast<size_t>(j)) *
+                           static_cast<size_t>(nx);
+        const uint8_t* lab = label_.data() + row;
+        for (int i = 0; i < nx; i++) {
+          if (lab[i] == sim::Scene::kNoPart) continue;
+          const auto g = static_cast<size_t>(group_[lab[i]]);
+          const size_t v = row + static_cast<size_t>(i);
+          n_part[g]++;
+          in_part[g] += (merged_[v / 8] >> (v % 8)) & 1u;
+          lo[0] = std::min(lo[0], i), hi[0] = std::max(hi[0], i);
+          lo[1] = std::min(lo[1], j), hi[1] = std::max(hi[1], j);
+          lo[2] = std::min(lo[2], k), hi[2] = std::max(hi[2], k);
+        }
       }
-      scene_->occupancy(grid_, frame, &body);
-      uint64_t same = 0, inter = 0, uni = 0, body_n = 0, body_in = 0;
-      for (uint64_t v = 0; v < voxels_; v++) {
-        bool m = (merged[v / 8] >> (v % 8)) & 1, t = (truth[v / 8] >> (v % 8)) & 1;
-        bool b = (body[v / 8] >> (v % 8)) & 1;
-        same += m == t;
-        inter += m && t;
-        uni += m || t;
-        body_n += b;
-        body_in += b && m;
+    }
+    const uint64_t near = hull_near_body(lo, hi);
+    std::vector<SilhouetteSums> cams(static_cast<size_t>(ncam));
+    for (int c = 0; c < ncam; c++) score_mask(f, c, &cams[static_cast<size_t>(c)]);
+
+    std::lock_guard<std::mutex> g(mu_);
+    const double agree = double(same) / double(voxels_);
+    acc_.frames++;
+    sum_agree_ += agree;
+    acc_.min_agree = std::min(acc_.min_agree, agree);
+    sum_iou_ += uni ? double(inter) / double(uni) : 1.0;
+    uint64_t body_n = 0, body_in = 0;
+    for (size_t p = 0; p < kPartGroups; p++) {
+      body_n += n_part[p];
+      body_in += in_part[p];
+      if (n_part[p] == 0) continue;
+      acc_.part_frames[p]++;
+      sum_part_[p] += double(in_part[p]) / double(n_part[p]);
+    }
+    sum_recall_ += body_n ? double(body_in) / double(body_n) : 1.0;
+    if (hull_n > 0) {
+      acc_.hull_precision_frames++;
+      sum_precision_ += double(near) / double(hull_n);
+    }
+    for (size_t c = 0; c < cams.size(); c++) cams_[c].add(cams[c]);
+  }
+
+  // Merged-hull voxels within one voxel (26-neighbourhood) of a body voxel: the body (label_) dilated
+  // by a 3x3x3 box, separably (x, then y, then z), over its bounding box lo..hi grown by one voxel.
+  uint64_t hull_near_body(const int lo_in[3], const int hi_in[3]) {
+    if (hi_in[0] < 0) return 0;
+    const int n[3] = {grid_.nx, grid_.ny, grid_.nz};
+    int lo[3], hi[3], d[3];
+    for (int a = 0; a < 3; a++) {
+      lo[a] = std::max(0, lo_in[a] - 1);
+      hi[a] = std::min(n[a] - 1, hi_in[a] + 1);
+      d[a] = hi[a] - lo[a] + 1;
+    }
+    const size_t box = static_cast<size_t>(d[0]) * static_cast<size_t>(d[1]) * static_cast<size_t>(d[2]);
+    dil_a_.assign(box, 0);
+    dil_b_.assign(box, 0);
+    auto at = [&](int i, int j, int k) {
+      return (static_cast<size_t>(k) * static_cast<size_t>(d[1]) + static_cast<size_t>(j)) *
+                 static_cast<size_t>(d[0]) +
+             static_cast<size_t>(i);
+    };
+    // x: a = body dilated along x.
+    for (int k = 0; k < d[2]; k++) {
+      for (int j = 0; j < d[1]; j++) {
+        const uint8_t* lab = label_.data() + grid_.index(lo[0], lo[1] + j, lo[2] + k);
+        uint8_t* out = &dil_a_[at(0, j, k)];
+        for (int i = 0; i < d[0]; i++) {
+          if (lab[i] == sim::Scene::kNoPart) continue;
+          out[i] = 1;
+          if (i > 0) out[i - 1] = 1;
+          if (i + 1 < d[0]) out[i + 1] = 1;
+        }
       }
-      std::lock_guard<std::mutex> g(mu_);
-      double agree = double(same) / double(voxels_);
-      double n = double(acc_.frames);
-      acc_.agree = (acc_.agree * n + agree) / (n + 1);
-      acc_.min_agree = std::min(acc_.min_agree, agree);
-      double iou = uni ? double(inter) / double(uni) : 1.0;
-      acc_.iou_silhouette_hull = (acc_.iou_silhouette_hull * n + iou) / (n + 1);
-      double rec = body_n ? double(body_in) / double(body_n) : 1.0;
-      acc_.body_recall = (acc_.body_recall * n + rec) / (n + 1);
-      acc_.frames++;
+    }
+    // y: b = a dilated along y; z: a = b dilated along z.
+    for (int k = 0; k < d[2]; k++) {
+      for (int j = 0; j < d[1]; j++) {
+        uint8_t* out = &dil_b_[at(0, j, k)];
+        for (int dj = -1; dj <= 1; dj++) {
+          if (j + dj < 0 || j + dj >= d[1]) continue;
+          const uint8_t* in = &dil_a_[at(0, j + dj, k)];
+          for (int i = 0; i < d[0]; i++) out[i] |= in[i];
+        }
+      }
+    }
+    std::fill(dil_a_.begin(), dil_a_.end(), 0);
+    for (int k = 0; k < d[2]; k++) {
+      for (int dk = -1; dk <= 1; dk++) {
+        if (k + dk < 0 || k + dk >= d[2]) continue;
+        const uint8_t* in = &dil_b_[at(0, 0, k + dk)];
+        uint8_t* out = &dil_a_[at(0, 0, k)];
+        const size_t plane = static_cast<size_t>(d[0]) * static_cast<size_t>(d[1]);
+        for (size_t v = 0; v < plane; v++) out[v] |= in[v];
+      }
+    }
+    uint64_t near = 0;
+    for (int k = 0; k < d[2]; k++) {
+      for (int j = 0; j < d[1]; j++) {
+        const size_t row = grid_.index(lo[0], lo[1] + j, lo[2] + k);
+        const uint8_t* dil = &dil_a_[at(0, j, k)];
+        for (int i = 0; i < d[0]; i++) {
+          const size_t v = row + static_cast<size_t>(i);
+          near += dil[i] & ((merged_[v / 8] >> (v % 8)) & 1u);
+        }
+      }
+    }
+    return near;
+  }
+
+  // Rig camera c's mask from its node (node_id k = c / 2, its camera c % 2) against the truth.
+  void score_mask(const pipeline::Frame& f, int c, SilhouetteSums* out) {
+    const pipeline::NodePart* node = f.node(static_cast<uint16_t>(c / 2));
+    const pipeline::Silhouette* s = nullptr;
+    if (node)
+      for (const pipeline::Silhouette& m : node->silhouettes)
+        if (m.camera == c % 2) s = &m;
+    if (!s) {
+      out->missing++;
+      return;
+    }
+    const cv::Mat& sil = sil_[static_cast<size_t>(c)];
+    const cv::Mat& shadow = shadow_[static_cast<size_t>(c)];
+    const int W = sil.cols, H = sil.rows, q = s->scale;
+    if (q < 1 || q > 16 || s->width != (W + q - 1) / q || s->height != (H + q - 1) / q) {
+      out->bad++;
+      return;
+    }
+    const size_t nbits = static_cast<size_t>(s->width) * s->height;
+    mask_.resize((nbits + 7) / 8);
+    if (vc_rle_decode(s->rle.data(), s->rle.size(), mask_.data(), nbits) < 0) {
+      out->bad++;
+      return;
+    }
+    // A scaled pixel is body when any pixel of its block is (as the edge scales its mask), shadow
+    // when any pixel of its block is shadow and none is body.
+    uint64_t body = 0, fg = 0, hit = 0, shade = 0, kept = 0;
+    for (int y = 0; y < s->height; y++) {
+      for (int x = 0; x < s->width; x++) {
+        bool b = false, sh = false;
+        for (int yy = y * q; yy < std::min(H, (y + 1) * q); yy++) {
+          const uint8_t* srow = sil.ptr<uint8_t>(yy);
+          const uint8_t* hrow = shadow.ptr<uint8_t>(yy);
+          for (int xx = x * q; xx < std::min(W, (x + 1) * q); xx++) {
+            b = b || srow[xx] != 0;
+            sh = sh || hrow[xx] != 0;
+          }
+        }
+        sh = sh && !b;
+        const size_t v = static_cast<size_t>(y) * s->width + static_cast<size_t>(x);
+        const bool e = (mask_[v / 8] >> (v % 8)) & 1u;
+        body += b;
+        fg += e;
+        hit += b && e;
+        shade += sh;
+        kept += sh && e;
+      }
+    }
+    if (fg != s->foreground) {
+      out->bad++;
+      return;
+    }
+    out->frames++;
+    if (body) {
+      out->recall_n++;
+      out->recall += double(hit) / double(body);
+    }
+    if (fg) {
+      out->precision_n++;
+      out->precision += double(hit) / double(fg);
+    }
+    if (shade) {
+      out->shadow_n++;
+      out->shadow += double(kept) / double(shade);
     }
   }
 
@@ -178,13 +501,24 @@ class TruthScorer : public pipeline::Stage {
   rig::VoxelGrid grid_;
   std::unique_ptr<sim::Scene> scene_;
   std::vector<vc_carver*> carvers_;
+  std::string reference_carve_;
   uint64_t voxels_ = 0;
   std::atomic<uint64_t> origin_{0};
-  std::vector<uint8_t> merged_, truth_, part_, body_;  // scratch, reused frame to frame
-  std::vector<cv::Mat> sil_;
+  std::atomic<bool> started_{false};
+  const std::array<int, sim::kPartCount> group_ = [] {
+    std::array<int, sim::kPartCount> g{};
+    for (int p = 0; p < sim::kPartCount; p++) g[static_cast<size_t>(p)] = part_group(p);
+    return g;
+  }();
+  // Scratch, reused frame to frame.
+  std::vector<uint8_t> merged_, truth_, part_, label_, dil_a_, dil_b_, mask_;
+  std::vector<cv::Mat> sil_, shadow_;
   cv::Mat rgb_;
-  mutable std::mutex mu_;  // acc_
+  mutable std::mutex mu_;  // everything below
   Accuracy acc_;
+  double sum_agree_ = 0, sum_iou_ = 0, sum_recall_ = 0, sum_precision_ = 0;
+  std::array<double, kPartGroups> sum_part_{};
+  std::vector<SilhouetteSums> cams_;
 };
 
 namespace {
@@ -220,6 +554,10 @@ config::RigConfig rig_config(const Options& o, const rig::Calibration& cal, cons
   c.subtraction.shadow_angle_deg = 8.0;
   c.subtraction.cleanup_radius_px = 1;
   c.subtraction.background_frames = 20;
+  // The edges carve with the rig's rule and send their masks for the scored frames.
+  c.carving.rule = o.carve == "centre" ? config::CarveRule::Centre : config::CarveRule::Footprint;
+  c.silhouettes.every = o.truth_every;
+  c.silhouettes.scale = o.silhouette_scale;
   c.trigger.backend = config::TriggerBackend::Udp;
   c.trigger.rate_hz = o.rate_hz;
   c.trigger.rt_priority = 0;
@@ -439,8 +777,9 @@ void EmulatedRig::start(double timeout_s) {
   config::RigConfig rig = rig_config(o, cal, cal_path, m.dir / "rig.toml", m.trigger_ports, m.host_port);
   write_rig_toml(rig, rig.source);  // for the workdir and the session recording's copy
 
-  m.sim_spec = fmt::format("motion={},fps={},seed={},noise={},calibration={}", o.motion, o.rate_hz, o.seed,
-                           o.noise, cal_path.string());
+  // What the edges' sim cameras render: the scorer's scene, to the last option.
+  m.sim_spec = fmt::format("motion={},fps={},seed={},noise={},appearance={},room={},calibration={}", o.motion,
+                           o.rate_hz, o.seed, o.noise, o.appearance, o.room, cal_path.string());
   aggregator::Options ao;
   if (o.quiet)
     ao.log = [out = log::to_spdlog("voxcap-host")](log::Level level, const std::string& line) {

@@ -62,8 +62,8 @@ void write_scene_yaml(const fs::path& p, const Scene& scene, int frames, int bac
   fs << "motion" << o.motion.source << "fps" << o.motion.fps << "frames" << frames << "lead_in_frames"
      << scene.motion().lead_in_frames() << "backgrounds" << backgrounds << "seed"
      << static_cast<double>(o.seed) << "noise_sigma" << o.noise_sigma << "flicker" << o.flicker
-     << "appearance" << o.appearance << "shadows" << static_cast<int>(o.shadows) << "shadow_factor"
-     << o.shadow_factor << "body_height_m" << o.body.height_m;
+     << "appearance" << o.appearance << "room" << o.room << "shadows" << static_cast<int>(o.shadows)
+     << "shadow_factor" << o.shadow_factor << "body_height_m" << o.body.height_m;
   if (const BvhMapping* m = scene.motion().bvh()) {
     fs << "bvh"
        << "{";

@@ -465,6 +465,10 @@ bool SceneOptions::valid(std::string* why) const {
     os << "room_half_m must be in (1, 100) and room_height_m in (2, 100)";
   } else if (!(light_m[2] > 0.5 && light_m[2] < room_height_m)) {
     os << "the light must hang between 0.5 m and the ceiling";
+  } else if (detail::room_style(room) < 0) {
+    std::string known;
+    for (const RoomPreset& r : room_presets()) known += (known.empty() ? "" : ", ") + r.name;
+    os << "unknown room '" << room << "' (known: " << known << ")";
   } else {
     try {
       (void)appearance_preset(appearance);
@@ -497,6 +501,7 @@ Scene::Scene(const SceneOptions& options) {
   m.room.half_m = half;
   m.room.height_m = height;
   m.room.light_m = options.light_m;
+  m.room.style = detail::room_style(options.room);
   // Noise table: Box-Muller from a counter-based generator, so it is the same everywhere.
   std::size_t max_values = 0;
   for (const auto& cam : m.calib.cameras) {
@@ -569,12 +574,14 @@ void Scene::Impl::build_cache(int cam_index, CameraCache& cc) const {
   cc.room.create(h, w, CV_8UC3);
   cc.tiles_x = (w + kTile - 1) / kTile;
   cc.tiles_y = (h + kTile - 1) / kTile;
-  cc.tiles.assign(static_cast<std::size_t>(cc.tiles_x * cc.tiles_y), TileInfo{});
+  cc.tiles.assign(static_cast<std::size_t>(cc.tiles_x) * static_cast<std::size_t>(cc.tiles_y), TileInfo{});
   // Undistorted coordinates of every pixel centre (one Newton solve each); the room's 2x2
   // supersamples interpolate between them (the distortion is smooth at this scale).
   std::vector<cv::Vec2d> und(npix);
   for (int y = 0; y < h; ++y) {
-    for (int x = 0; x < w; ++x) und[static_cast<std::size_t>(y * w + x)] = cam.undistort(cv::Point2d(x, y));
+    for (int x = 0; x < w; ++x)
+      und[static_cast<std::size_t>(y) * static_cast<std::size_t>(w) + static_cast<std::size_t>(x)] =
+          cam.undistort(cv::Point2d(x, y));
   }
   auto und_at = [&](double fx, double fy) {
     // Bilinear (extrapolating at the border) in the grid of pixel centres.
@@ -582,7 +589,9 @@ void Scene::Impl::build_cache(int cam_index, CameraCache& cc) const {
     const int y0 = std::clamp(static_cast<int>(std::floor(fy)), 0, std::max(0, h - 2));
     const int x1 = std::min(x0 + 1, w - 1), y1 = std::min(y0 + 1, h - 1);
     const double ax = fx - x0, ay = fy - y0;
-    auto U = [&](int xx, int yy) { return und[static_cast<std::size_t>(yy * w + xx)]; };
+    auto U = [&](int xx, int yy) {
+      return und[static_cast<std::size_t>(yy) * static_cast<std::size_t>(w) + static_cast<std::size_t>(xx)];
+    };
     return (U(x0, y0) * (1 - ax) + U(x1, y0) * ax) * (1 - ay) + (U(x0, y1) * (1 - ax) + U(x1, y1) * ax) * ay;
   };
   static const double kSub[4][2] = {{-0.25, -0.25}, {0.25, -0.25}, {-0.25, 0.25}, {0.25, 0.25}};
@@ -599,7 +608,8 @@ void Scene::Impl::build_cache(int cam_index, CameraCache& cc) const {
       int face = 0;
       if (!room.hit(cc.center, D, &t, &face)) throw std::logic_error("scene: camera outside the room");
       cc.room_z[i] = static_cast<float>(t);
-      TileInfo& tile = cc.tiles[static_cast<std::size_t>((y / kTile) * cc.tiles_x + x / kTile)];
+      TileInfo& tile = cc.tiles[static_cast<std::size_t>(y / kTile) * static_cast<std::size_t>(cc.tiles_x) +
+                                static_cast<std::size_t>(x / kTile)];
       tile.rays.add(cc.a[i], cc.b[i]);
       cc.fx[i] = cc.fy[i] = std::numeric_limits<float>::quiet_NaN();
       if (face == detail::kFloor) {
@@ -702,7 +712,8 @@ void Scene::Impl::render(int frame, int cam_index, const Finish& finish, cv::Mat
   TileClass cls;
   for (int ty = 0; ty < cc.tiles_y; ++ty) {
     for (int tx = 0; tx < cc.tiles_x; ++tx) {
-      const TileInfo& tile = cc.tiles[static_cast<std::size_t>(ty * cc.tiles_x + tx)];
+      const TileInfo& tile = cc.tiles[static_cast<std::size_t>(ty) * static_cast<std::size_t>(cc.tiles_x) +
+                                      static_cast<std::size_t>(tx)];
       body_cand.clear();
       shadow_cand.clear();
       for (const LineFamily& f : sight) {
@@ -863,7 +874,7 @@ std::vector<FeatureTruth> Scene::features(int frame, int cam_index) const {
   for (int f = 0; f < kFeatureCount; ++f) {
     FeatureTruth t;
     t.feature = static_cast<Feature>(f);
-    const cv::Vec3d p = pose.p(feature_joint(t.feature));
+    const cv::Vec3d& p = pose.p(feature_joint(t.feature));
     t.uv = cam.project(p);
     t.depth_m = cam.to_cam(p)[2];
     t.in_image = t.depth_m > 0 && cam.in_image(t.uv);
@@ -889,11 +900,15 @@ bool Scene::occupied(const cv::Vec3d& p_world, int frame) const {
   return false;
 }
 
-void Scene::occupancy(const rig::VoxelGrid& grid, int frame, std::vector<std::uint8_t>* bits) const {
+namespace {
+
+// Calls fn(prim, voxel index) for every voxel centre inside a primitive (above the floor), primitive
+// by primitive in Part order, visiting only the voxels of the primitive's bounding box.
+template <typename Fn>
+void for_each_inside(const rig::VoxelGrid& grid, const std::vector<Primitive>& prims, Fn&& fn) {
   std::string why;
   if (!grid.valid(&why)) throw std::invalid_argument("occupancy: grid: " + why);
-  bits->assign(grid.bitset_bytes(), 0);
-  for (const Primitive& prim : primitives(frame)) {
+  for (const Primitive& prim : prims) {
     cv::Vec3d lo(HUGE_VAL, HUGE_VAL, HUGE_VAL), hi(-HUGE_VAL, -HUGE_VAL, -HUGE_VAL);
     for (const cv::Vec3d& c : prim.box_corners()) {
       for (int a = 0; a < 3; ++a) {
@@ -915,11 +930,30 @@ void Scene::occupancy(const rig::VoxelGrid& grid, int frame, std::vector<std::ui
       for (int j = i0[1]; j <= i1[1]; ++j) {
         for (int i = i0[0]; i <= i1[0]; ++i) {
           const cv::Vec3d c = grid.center(i, j, k);
-          if (c[2] >= 0 && prim.contains(c)) rig::hull_set(bits->data(), grid.index(i, j, k));
+          if (c[2] >= 0 && prim.contains(c)) fn(prim, grid.index(i, j, k));
         }
       }
     }
   }
+}
+
+}  // namespace
+
+void Scene::occupancy(const rig::VoxelGrid& grid, int frame, std::vector<std::uint8_t>* bits) const {
+  bits->assign(grid.bitset_bytes(), 0);
+  for_each_inside(grid, primitives(frame),
+                  [&](const Primitive&, std::size_t v) { rig::hull_set(bits->data(), v); });
+}
+
+void Scene::occupancy_parts(const rig::VoxelGrid& grid, int frame, std::vector<std::uint8_t>* part) const {
+  std::string why;
+  if (!grid.valid(&why)) throw std::invalid_argument("occupancy: grid: " + why);
+  part->assign(static_cast<std::size_t>(grid.nx) * static_cast<std::size_t>(grid.ny) *
+                   static_cast<std::size_t>(grid.nz),
+               kNoPart);
+  // Primitives come in Part order: a later (higher) part overwrites an earlier one.
+  for_each_inside(grid, primitives(frame),
+                  [&](const Primitive& p, std::size_t v) { (*part)[v] = static_cast<std::uint8_t>(p.part); });
 }
 
 }  // namespace vc::sim

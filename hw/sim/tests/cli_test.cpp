@@ -10,6 +10,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <opencv2/core.hpp>
+
 #include "voxcap/rig/calibration.hpp"
 
 namespace {
@@ -38,22 +40,28 @@ CliRun voxcap(const std::string& args) {
 TEST(SimCli, WritesASequence) {
   const fs::path out = fs::path(::testing::TempDir()) / "vc_sim_cli";
   fs::remove_all(out);
-  const CliRun r = voxcap("sim --motion squat --frames 3 --cameras 4 --size 80x60 --backgrounds 2 --seed 3 "
-                       "--noise 1.5 --flicker 0.02 --appearance olive --distortion --quiet --out " + out.string());
+  const CliRun r = voxcap(
+      "sim --motion squat --frames 3 --cameras 4 --size 80x60 --backgrounds 2 --seed 3 "
+      "--noise 1.5 --flicker 0.02 --appearance olive --room camouflage --distortion --quiet --out " +
+      out.string());
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr("wrote 4 cameras x 3 frames"));
   const vc::rig::Calibration c = vc::rig::read_calibration((out / "rig.yaml").string());
   EXPECT_EQ(c.cameras.size(), 4u);
   EXPECT_EQ(c.cameras[0].width, 80);
   EXPECT_NE(c.cameras[0].dist[0], 0.0);
-  for (const char* f : {"cam3/2.png", "background/cam0/1.png", "truth/silhouettes/cam1/0.png", "truth/shadows/cam2/1.png",
-                        "truth/joints.csv", "truth/features.csv", "truth/motion.bvh", "truth/scene.yaml"}) {
+  for (const char* f :
+       {"cam3/2.png", "background/cam0/1.png", "truth/silhouettes/cam1/0.png", "truth/shadows/cam2/1.png",
+        "truth/joints.csv", "truth/features.csv", "truth/motion.bvh", "truth/scene.yaml"}) {
     EXPECT_TRUE(fs::is_regular_file(out / f)) << f;
   }
   std::ifstream joints(out / "truth" / "joints.csv");
   int lines = 0;
   for (std::string l; std::getline(joints, l);) ++lines;
   EXPECT_EQ(lines, 1 + 3 * 21);
+  cv::FileStorage info((out / "truth" / "scene.yaml").string(), cv::FileStorage::READ);
+  EXPECT_EQ(static_cast<std::string>(info["room"]), "camouflage");
+  EXPECT_EQ(static_cast<std::string>(info["appearance"]), "olive");
 }
 
 TEST(SimCli, BadInputIsAOneLineUsageError) {
@@ -71,12 +79,16 @@ TEST(SimCli, BadInputIsAOneLineUsageError) {
   r = voxcap("sim --appearance purple --out " + out);
   EXPECT_EQ(r.code, 2);
   EXPECT_THAT(r.output, HasSubstr("purple"));
+  r = voxcap("sim --room cave --out " + out);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_THAT(r.output, HasSubstr("unknown room 'cave' (known: default, camouflage)"));
   r = voxcap("sim --frames 2");
   EXPECT_EQ(r.code, 2);
   EXPECT_THAT(r.output, HasSubstr("--out"));
   r = voxcap("sim --list");
   EXPECT_EQ(r.code, 0);
   EXPECT_THAT(r.output, HasSubstr("arms-close"));
+  EXPECT_THAT(r.output, HasSubstr("camouflage"));
 }
 
 }  // namespace

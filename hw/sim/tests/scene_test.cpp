@@ -183,7 +183,8 @@ TEST(SimScene, OccupancyAgreesWithThePointTestAndTheImages) {
       for (int i = 0; i < grid.nx; ++i) {
         const bool bit = rig::hull_bit(bits.data(), grid.index(i, j, k));
         const cv::Vec3d c = grid.center(i, j, k);
-        const bool in_body = std::any_of(prims.begin(), prims.end(), [&](const Primitive& p) { return p.contains(c); });
+        const bool in_body =
+            std::any_of(prims.begin(), prims.end(), [&](const Primitive& p) { return p.contains(c); });
         ASSERT_EQ(bit, in_body && c[2] >= 0) << i << " " << j << " " << k;
         if ((i + j + k) % 97 == 0) {
           ASSERT_EQ(bit, s.occupied(c, frame));
@@ -303,6 +304,36 @@ TEST(SimScene, NoiseHasTheConfiguredSigmaAndFlickerTheConfiguredRange) {
   const double g = f.flicker_gain(10);
   const cv::Vec3b p = lit.at<cv::Vec3b>(5, 5), q = base.at<cv::Vec3b>(5, 5);
   for (int ch = 0; ch < 3; ++ch) EXPECT_EQ(p[ch], cv::saturate_cast<std::uint8_t>(q[ch] * g));
+}
+
+// FNV-1a over an image's bytes.
+std::uint64_t fnv1a(const cv::Mat& m) {
+  std::uint64_t h = 0xcbf29ce484222325ull;
+  for (int y = 0; y < m.rows; ++y) {
+    const auto* p = m.ptr<std::uint8_t>(y);
+    for (std::size_t i = 0; i < static_cast<std::size_t>(m.cols) * m.elemSize(); ++i) {
+      h = (h ^ p[i]) * 0x100000001b3ull;
+    }
+  }
+  return h;
+}
+
+TEST(SimScene, DefaultRoomKeepsItsPixels) {
+  // The room as it was before room presets existed (hashes of the clean empty room of every camera
+  // and of a clean frame with the performer and its shadow): the default room must not change.
+  const Scene s(small("wave"));
+  std::string hashes;
+  for (int cam = 0; cam < s.camera_count(); ++cam) {
+    cv::Mat img;
+    s.render_background_clean(cam, img);
+    hashes += std::to_string(fnv1a(img)) + " ";
+  }
+  cv::Mat img;
+  s.render_clean(120, 0, img);
+  hashes += std::to_string(fnv1a(img));
+  EXPECT_EQ(hashes,
+            "5428660355079113908 11180813951846702574 16396637256694128637 16651227523320548650 "
+            "9363011303830239858 8948948032044964216 10277829543945014776");
 }
 
 TEST(SimScene, OptionsAreValidated) {

@@ -6,17 +6,21 @@
 // be scored against ground truth by the scorer, a consumer stage of the host's pipeline (a live one:
 // it drops the oldest frames when behind, counted): the hull carved from the simulator's TRUE
 // silhouettes (the same carving rule as the edges, then the AND over nodes — what a perfect
-// subtraction would give) and the true body occupancy. Nodes can be killed and restarted (fault
-// tests). Used by `voxcap rig --emulated`, the integration tests and `voxcap bench host`.
+// subtraction would give) and the true body occupancy, per body part; and the edges' own masks (their
+// SILHOUETTE messages, which the rig asks for on every scored frame) against the true silhouettes and
+// floor shadows. Nodes can be killed and restarted (fault tests). Used by `voxcap rig --emulated`, the
+// integration tests and `voxcap bench host`.
 #pragma once
 
 #include <sys/types.h>
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "voxcap/aggregator/aggregator.hpp"
@@ -31,9 +35,15 @@ struct Options {
   int grid = 64;  // voxels per axis over the 2.24 m cube of the volume
   double noise = 2.0;
   uint64_t seed = 1;
+  std::string appearance = "default";  // hw/sim appearance preset (skin and clothes)
+  std::string room = "default";        // hw/sim room preset (default | camouflage)
+  std::string carve = "footprint";     // the edges' carve rule (rig.toml [carving] rule): footprint | centre
+  int silhouette_scale = 1;            // the edges' masks sent for scoring, downscaled by 1..16
   std::string missing_policy = "degraded";  // drop | degraded
   double deadline_ms = 100;
-  int truth_every = 10;               // score every k-th merged frame against ground truth (0: never)
+  // Score the merged frames whose seq is a multiple of k against ground truth (0: never); the edges
+  // send their masks for the same frames (rig.toml [silhouettes] every = k).
+  int truth_every = 10;
   std::filesystem::path workdir;      // rig.yaml, rig.toml, edge logs; empty: a fresh temp folder
   std::filesystem::path edge_binary;  // empty: voxcap-edge beside this executable
   std::filesystem::path record_dir;   // record the session in a new folder below this; empty: no recording
@@ -45,12 +55,45 @@ struct Options {
   bool valid(std::string* why) const;
 };
 
+// The body part groups of the per-part figures: hw/sim's 20 parts with head = head + neck, torso =
+// pelvis, abdomen, chest and shoulder girdle, foot = foot + toes.
+inline constexpr int kPartGroups = 14;
+const std::array<std::string_view, kPartGroups>& part_group_names();  // "head", "torso", "l_upper_arm", ...
+// The group of a hw/sim Part index (0..19).
+int part_group(int part);
+
+// An edge mask against the truth, averaged over the scored frames that had it. A mask that does not
+// fit its camera (size, scale, RLE, count) is counted as bad and not scored; a scored frame without it
+// is counted as missing, never scored as perfect.
+struct SilhouetteScore {
+  uint64_t frames = 0;         // scored frames with this mask
+  uint64_t missing = 0;        // scored frames without it
+  uint64_t bad = 0;            // masks received that do not fit the camera
+  double recall = 0;           // share of true body pixels the edge called foreground
+  double precision = 0;        // share of the edge's foreground pixels that are body
+  double shadow_kept = 0;      // share of true floor-shadow pixels the edge called foreground
+  uint64_t shadow_frames = 0;  // frames with floor shadow in view (shadow_kept's average)
+};
+
 struct Accuracy {
   uint64_t frames = 0;  // frames scored
   double agree = 0;     // mean fraction of all voxels equal to the true-silhouette hull
   double min_agree = 1;
   double iou_silhouette_hull = 0;  // mean IoU of occupied voxels vs the true-silhouette hull
   double body_recall = 0;          // mean fraction of true body voxels inside the merged hull
+  // Mean share of merged-hull voxels within one voxel (26-neighbourhood) of a true body voxel, over
+  // the frames with a non-empty hull (hull_precision_frames).
+  double hull_precision = 0;
+  uint64_t hull_precision_frames = 0;
+  // Per part group (part_group_names()): mean share of its true voxels inside the merged hull, over
+  // the frames where it had any.
+  std::array<double, kPartGroups> part_recall{};
+  std::array<uint64_t, kPartGroups> part_frames{};
+  std::string reference_carve;  // the carve rule of the true-silhouette hull (the edges')
+  // From the edges' real masks (SILHOUETTE messages), per rig camera (node k: cameras 2k and 2k+1),
+  // and over all cameras (means over every scored frame and camera).
+  std::vector<SilhouetteScore> cameras;
+  SilhouetteScore silhouettes;
 };
 
 struct Result {
