@@ -175,7 +175,8 @@ constexpr int kNx = 16, kNy = 12, kNz = 10;
 Bytes small_hull_bits() {
   Bytes bits((kNx * kNy * kNz + 7) / 8, 0);
   auto set = [&](int i, int j, int k) {
-    size_t b = static_cast<size_t>(i + kNx * (j + kNy * k));
+    size_t b = static_cast<size_t>(i) +
+               size_t{kNx} * (static_cast<size_t>(j) + size_t{kNy} * static_cast<size_t>(k));
     bits[b / 8] = static_cast<uint8_t>(bits[b / 8] | (1u << (b % 8)));
   };
   for (int k = 0; k < kNz; k++)
@@ -266,7 +267,7 @@ constexpr uint16_t kSilW = 20, kSilH = 15;
 Bytes silhouette_bits() {
   Bytes bits((kSilW * kSilH + 7) / 8, 0);
   auto set = [&](int x, int y) {
-    size_t b = static_cast<size_t>(x + kSilW * y);
+    size_t b = static_cast<size_t>(x) + size_t{kSilW} * static_cast<size_t>(y);
     bits[b / 8] = static_cast<uint8_t>(bits[b / 8] | (1u << (b % 8)));
   };
   for (int y = 0; y < kSilH; y++)
@@ -695,7 +696,7 @@ Json rle_vectors() {
   add("alternating_worst_case", 9, alt);
   add("three_byte_runs", 40000, range(100, 100 + 20000));
   add("padding_ignored", 13, {0, 12}, Bytes{0x00, 0xE0});
-  auto bad = [&](const char* name, Bytes rle, size_t nbits, const char* err) {
+  auto bad = [&](const char* name, const Bytes& rle, size_t nbits, const char* err) {
     Json e;
     e["name"] = name;
     e["nbits"] = nbits;
