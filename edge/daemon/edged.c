@@ -35,6 +35,7 @@ typedef struct edged {
   atomic_uint node_state;
   vc_link* link;
   uint64_t hulls_sent, frame_sum_ns, frame_max_ns, frame_n; /* pipeline thread */
+  uint64_t silhouettes_sent, silhouettes_dropped;           /* pipeline thread: queued / no room */
 } edged;
 
 static atomic_bool g_stop;
@@ -150,8 +151,12 @@ static void handle_ctl(edged* d, ctl* c) {
         send_error(d, VC_ERR_CONFIG, VC_SEVERITY_ERROR, VC_MSG_CONFIG, "CONFIG rejected: %s", why);
       } else {
         if (warn[0]) send_error(d, VC_ERR_CONFIG, VC_SEVERITY_WARNING, VC_MSG_CONFIG, "%s", warn);
-        vc_log(VC_LOG_INFO, "configured: grid %ux%ux%u (id %u)", c->cfg.grid.nx, c->cfg.grid.ny,
-               c->cfg.grid.nz, c->cfg.grid_id);
+        vc_log(VC_LOG_INFO,
+               "configured: grid %ux%ux%u (id %u), %s carving, a SILHOUETTE every %u frames (0: none) at "
+               "scale %u",
+               c->cfg.grid.nx, c->cfg.grid.ny, c->cfg.grid.nz, c->cfg.grid_id,
+               c->cfg.carve_rule == VC_CARVE_FOOTPRINT ? "footprint" : "centre", c->cfg.silhouette_every,
+               c->cfg.silhouette_scale);
       }
       break;
     case VC_MSG_BACKGROUND:
@@ -212,7 +217,15 @@ static void handle_work(edged* d, const vc_capture_pair* p) {
       d->frame_sum_ns += lat;
       if (lat > d->frame_max_ns) d->frame_max_ns = lat;
       d->frame_n++;
-      for (int i = 1; i < out.count; i++) vc_link_send(d->link, out.msg[i], out.len[i]);
+      for (int i = 1; i < out.count; i++) {
+        if (out.type[i] != VC_MSG_SILHOUETTE) {
+          vc_link_send(d->link, out.msg[i], out.len[i]);
+        } else if (vc_link_send_if_room(d->link, out.msg[i], out.len[i]) == 0) { /* never costs a HULL */
+          d->silhouettes_sent++;
+        } else {
+          d->silhouettes_dropped++;
+        }
+      }
     } else if (rc < 0 && rc != -EAGAIN) {
       send_error(d, VC_ERR_OVERLOAD, VC_SEVERITY_WARNING, 0, "frame %llu not sent: %s",
                  (unsigned long long)w->seq, vc_proto_strerror(rc));
@@ -262,6 +275,8 @@ static void send_stats(edged* d) {
       {VC_COUNTER_PULSES_WITHOUT_FRAME, ps->pulses_without_frame[0] + ps->pulses_without_frame[1]},
       {VC_COUNTER_HULLS_OVER_LIMIT, nc.hulls_over_limit},
       {VC_COUNTER_CAMERA_ERRORS, cam_errors},
+      {VC_COUNTER_SILHOUETTES_SENT, d->silhouettes_sent},
+      {VC_COUNTER_SILHOUETTES_DROPPED, d->silhouettes_dropped + nc.silhouettes_over_limit},
   };
   for (size_t i = 0; i < sizeof(c) / sizeof(c[0]); i++) {
     s.counters[i].counter_id = c[i].id;

@@ -356,6 +356,15 @@ int vc_link_send(vc_link* l, const uint8_t* msg, size_t len) {
   return rc;
 }
 
+int vc_link_send_if_room(vc_link* l, const uint8_t* msg, size_t len) {
+  if (!atomic_load(&l->connected)) return -ENOTCONN;
+  int rc = vc_sendq_push_if_room(l->q, msg, len);
+  uint64_t one = 1;
+  if (rc == 0 && write(l->wake_fd, &one, sizeof(one)) < 0) { /* counter saturation is harmless */
+  }
+  return rc;
+}
+
 bool vc_link_connected(const vc_link* l) {
   return atomic_load(&l->connected);
 }

@@ -66,6 +66,10 @@ void vc_link_free(vc_link* link);
 /* Queues a message for the host (copied). Never blocks on the network. 0, -EMSGSIZE or -ENOMEM;
  * while disconnected the message is dropped and counted (returns -ENOTCONN). */
 int vc_link_send(vc_link* link, const uint8_t* msg, size_t len);
+/* Queues a message only when the queue stays at most half full (vc_sendq_push_if_room): never drops
+ * another message for it. 0, -ENOBUFS (no room), -ENOTCONN or -ENOMEM; nothing is counted as a queue
+ * drop (the caller counts what it could not send). */
+int vc_link_send_if_room(vc_link* link, const uint8_t* msg, size_t len);
 bool vc_link_connected(const vc_link* link);
 void vc_link_get_stats(vc_link* link, vc_link_stats* stats);
 

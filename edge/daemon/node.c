@@ -49,6 +49,13 @@ struct vc_node {
   size_t msgcap;
   bool have_frame;
 
+  /* SILHOUETTE (CONFIG's silhouette_every > 0): each camera's mask packed to a bitset at 1/scale,
+   * and the message built from it; made at CONFIG, NULL otherwise. */
+  uint8_t* silbits[VC_NODE_CAMS];
+  uint8_t* silbuf[VC_NODE_CAMS];
+  size_t silcap[VC_NODE_CAMS];
+  uint16_t silw[VC_NODE_CAMS], silh[VC_NODE_CAMS];
+
   vc_features_producer producer; /* track == NULL: none */
   uint8_t featbuf[VC_NODE_CAMS][VC_PROTO_HEADER_SIZE + 6 + 16 * VC_PROTO_MAX_FEATURES];
 
@@ -106,7 +113,11 @@ void vc_node_free(vc_node* n) {
   if (!n) return;
   free_models(n);
   vc_carver_free(n->carver);
-  for (int c = 0; c < VC_NODE_CAMS; c++) free(n->masks[c]);
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
+    free(n->masks[c]);
+    free(n->silbits[c]);
+    free(n->silbuf[c]);
+  }
   free(n->scratch);
   free(n->bitset);
   free(n->msgbuf);
@@ -174,9 +185,20 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
     return -EINVAL;
   }
 
+  if (cfg->carve_rule != VC_CARVE_CENTRE && cfg->carve_rule != VC_CARVE_FOOTPRINT) { /* and the decoder */
+    vc_why(why, why_len, "CONFIG carve_rule %u: 0 centre or 1 footprint", cfg->carve_rule);
+    return -EINVAL;
+  }
+  if (cfg->silhouette_every &&
+      (cfg->silhouette_scale < 1 || cfg->silhouette_scale > VC_PROTO_MAX_SILHOUETTE_SCALE)) {
+    vc_why(why, why_len, "CONFIG silhouette_scale %u: 1..%d", cfg->silhouette_scale,
+           VC_PROTO_MAX_SILHOUETTE_SCALE);
+    return -EINVAL;
+  }
+
   vc_carver* carver = NULL;
-  int rc =
-      vc_carver_new(grid, &cfg->cameras[0], &cfg->cameras[1], VC_CARVE_CENTRE, &carver, bad, sizeof(bad));
+  int rc = vc_carver_new(grid, &cfg->cameras[0], &cfg->cameras[1], (vc_carve_rule)cfg->carve_rule, &carver,
+                         bad, sizeof(bad));
   if (rc < 0) {
     vc_why(why, why_len, "CONFIG: %s", bad);
     return rc;
@@ -189,15 +211,32 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
       n->cams[0].width > n->cams[1].width ? n->cams[0].width : n->cams[1].width, (int)cfg->cleanup_radius_px);
   uint8_t* scratch = malloc(scratch_len);
   uint8_t* masks[VC_NODE_CAMS] = {NULL, NULL};
-  for (int c = 0; c < VC_NODE_CAMS; c++)
+  uint8_t *silbits[VC_NODE_CAMS] = {NULL, NULL}, *silbuf[VC_NODE_CAMS] = {NULL, NULL};
+  size_t silcap[VC_NODE_CAMS] = {0, 0};
+  uint16_t silw[VC_NODE_CAMS] = {0, 0}, silh[VC_NODE_CAMS] = {0, 0};
+  bool sil_ok = true;
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
     masks[c] = calloc((size_t)n->cams[c].width * (size_t)n->cams[c].height, 1);
-  if (!bitset || !msgbuf || !scratch || !masks[0] || !masks[1]) {
+    if (!cfg->silhouette_every) continue;
+    const int s = cfg->silhouette_scale; /* cameras are <= 16384 wide and high: so are the masks */
+    silw[c] = (uint16_t)((n->cams[c].width + s - 1) / s);
+    silh[c] = (uint16_t)((n->cams[c].height + s - 1) / s);
+    const size_t px = (size_t)silw[c] * silh[c];
+    silbits[c] = malloc((px + 7) / 8);
+    silcap[c] = VC_PROTO_HEADER_SIZE + 16 + vc_rle_max_encoded_size(px);
+    silbuf[c] = malloc(silcap[c]);
+    sil_ok = sil_ok && silbits[c] && silbuf[c];
+  }
+  if (!bitset || !msgbuf || !scratch || !masks[0] || !masks[1] || !sil_ok) {
     vc_why(why, why_len, "CONFIG: out of memory");
     free(bitset);
     free(msgbuf);
     free(scratch);
-    free(masks[0]);
-    free(masks[1]);
+    for (int c = 0; c < VC_NODE_CAMS; c++) {
+      free(masks[c]);
+      free(silbits[c]);
+      free(silbuf[c]);
+    }
     vc_carver_free(carver);
     return -ENOMEM;
   }
@@ -216,6 +255,13 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
   for (int c = 0; c < VC_NODE_CAMS; c++) {
     free(n->masks[c]);
     n->masks[c] = masks[c];
+    free(n->silbits[c]);
+    n->silbits[c] = silbits[c];
+    free(n->silbuf[c]);
+    n->silbuf[c] = silbuf[c];
+    n->silcap[c] = silcap[c];
+    n->silw[c] = silw[c];
+    n->silh[c] = silh[c];
   }
   n->have_frame = false;
   n->cfg = *cfg;
@@ -425,9 +471,53 @@ static void produce_features(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
     }
     out->msg[out->count] = n->featbuf[c];
     out->len[out->count] = len;
+    out->type[out->count] = VC_MSG_FEATURES;
     out->count++;
   }
   n->counters.features_encoded += (uint64_t)k;
+}
+
+/* Packs a 0/255 mask of w x h bytes into a bitset of ceil(w/s) x ceil(h/s) bits (pixel x + sw*y,
+ * LSB-first): a scaled pixel is set when any pixel of its s x s block is. Integer only, no division
+ * per pixel, no allocation. */
+static void pack_mask(const uint8_t* mask, int w, int h, int s, uint8_t* bits, int sw, int sh) {
+  memset(bits, 0, ((size_t)sw * (size_t)sh + 7) / 8);
+  for (int y = 0, sy = 0, ky = 0; y < h; y++) {
+    const uint8_t* row = mask + (size_t)y * (size_t)w;
+    size_t b = (size_t)sy * (size_t)sw; /* bit of scaled pixel (sx, sy) */
+    for (int x = 0, kx = 0; x < w; x++) {
+      if (row[x]) bits[b >> 3] = (uint8_t)(bits[b >> 3] | (1u << (b & 7)));
+      if (++kx == s) {
+        kx = 0;
+        b++;
+      }
+    }
+    if (++ky == s) {
+      ky = 0;
+      sy++;
+    }
+  }
+}
+
+/* The SILHOUETTEs of this frame into out, after the HULL and FEATURES. */
+static void produce_silhouettes(vc_node* n, uint64_t seq, uint64_t t_trigger_ns, vc_node_output* out) {
+  vc_header hdr = {.node_id = n->id, .seq = seq, .t_trigger_ns = t_trigger_ns};
+  const int s = n->cfg.silhouette_scale;
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
+    pack_mask(n->masks[c], n->cams[c].width, n->cams[c].height, s, n->silbits[c], n->silw[c], n->silh[c]);
+    size_t len = 0;
+    int rc = vc_encode_silhouette_bits(n->silbuf[c], n->silcap[c], &len, &hdr, (uint16_t)c, (uint16_t)s,
+                                       n->silw[c], n->silh[c], n->silbits[c]);
+    if (rc < 0) { /* more runs or bytes than a message may hold: this camera's is not sent */
+      n->counters.silhouettes_over_limit++;
+      continue;
+    }
+    out->msg[out->count] = n->silbuf[c];
+    out->len[out->count] = len;
+    out->type[out->count] = VC_MSG_SILHOUETTE;
+    out->count++;
+    n->counters.silhouettes_encoded++;
+  }
 }
 
 int vc_node_process(vc_node* n, uint64_t seq, uint64_t t_trigger_ns, const uint8_t* const rgb[VC_NODE_CAMS],
@@ -481,9 +571,12 @@ int vc_node_process_frame(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
   n->counters.hulls_encoded++;
   out->msg[0] = n->msgbuf;
   out->len[0] = hull_len;
+  out->type[0] = VC_MSG_HULL;
   out->count = 1;
   if (n->producer.track && n->cfg.feature_role == VC_ROLE_FRONT)
     produce_features(n, seq, t_trigger_ns, rgb, stride, out);
+  if (n->cfg.silhouette_every && seq % n->cfg.silhouette_every == 0)
+    produce_silhouettes(n, seq, t_trigger_ns, out);
   return 0;
 }
 

@@ -44,9 +44,11 @@ void vc_node_free(vc_node* node); /* NULL is a no-op */
 /* The node's HELLO (written to buf, as vc_encode_hello). capabilities: VC_CAP_*. */
 int vc_node_hello(const vc_node* node, uint32_t capabilities, uint8_t* buf, size_t cap, size_t* len);
 
-/* Applies a CONFIG. On failure (-EINVAL: cameras disagree with HELLO, bad thresholds or grid;
- * -ENOMEM) the node keeps its previous configuration and why says what was wrong. On success
- * *warning is set (non-empty) when part of the grid is seen by neither camera. */
+/* Applies a CONFIG: the carver is built with its carve_rule (vc_carver_new says why a rule it cannot
+ * run is refused), the SILHOUETTE buffers when silhouette_every > 0. On failure (-EINVAL: cameras
+ * disagree with HELLO, bad thresholds, grid or carve rule; -ENOMEM) the node keeps its previous configuration
+ * and why says what was wrong. On success *warning is set (non-empty) when part of the grid is seen by
+ * neither camera. */
 int vc_node_configure(vc_node* node, const vc_config* cfg, char* why, size_t why_len, char* warning,
                       size_t warning_len);
 
@@ -90,20 +92,26 @@ typedef struct vc_features_producer {
 /* Installs (copied) or removes (NULL) the features producer. */
 void vc_node_set_features_producer(vc_node* node, const vc_features_producer* producer);
 
-/* What one frame gives the host, in the order to send: the HULL, then FEATURES per camera. The
+/* What one frame gives the host, in the order to send: the HULL, then FEATURES per camera, then (on
+ * frames whose seq is a multiple of CONFIG's silhouette_every) one SILHOUETTE per camera. type[i] is
+ * msg[i]'s message type: the sender queues SILHOUETTEs only where they cost no HULL its place. The
  * messages live in the node's buffers, valid until the next call on the node. */
-#define VC_NODE_MAX_MSGS (1 + VC_NODE_CAMS)
+#define VC_NODE_MAX_MSGS (1 + 2 * VC_NODE_CAMS)
 typedef struct vc_node_output {
   int count;
   const uint8_t* msg[VC_NODE_MAX_MSGS];
   size_t len[VC_NODE_MAX_MSGS];
+  uint16_t type[VC_NODE_MAX_MSGS]; /* VC_MSG_HULL, VC_MSG_FEATURES, VC_MSG_SILHOUETTE */
 } vc_node_output;
 
 /* One frame pair in RUNNING: subtract, clean up, carve, and encode the HULL (header seq and
  * t_trigger_ns as given); on a node with a tracking role and a producer, track and encode FEATURES for
- * the same seq. Returns 0 (out filled, HULL first), 1 when the frame was skipped (seq < first_seq),
- * -EAGAIN when not RUNNING, VC_PROTO_ELIMIT when the hull has too many runs (counted, nothing to
- * send). A producer's failure or invalid features cost only the FEATURES (counted). */
+ * the same seq; when CONFIG's silhouette_every N > 0 and seq % N == 0, encode each camera's mask
+ * (the one carved with, downscaled by silhouette_scale) as a SILHOUETTE into buffers made at CONFIG
+ * (no allocation here; one over a limit is not sent and counted in silhouettes_over_limit). Returns 0 (out
+ * filled, HULL first), 1 when the frame was skipped (seq < first_seq), -EAGAIN when not RUNNING,
+ * VC_PROTO_ELIMIT when the hull has too many runs (counted, nothing to send). A producer's failure or invalid
+ * features cost only the FEATURES (counted). */
 int vc_node_process_frame(vc_node* node, uint64_t seq, uint64_t t_trigger_ns,
                           const uint8_t* const rgb[VC_NODE_CAMS], const size_t stride[VC_NODE_CAMS],
                           vc_node_output* out);
@@ -127,8 +135,10 @@ typedef struct vc_node_counters {
   uint64_t frames_processed;
   uint64_t hulls_encoded;
   uint64_t hulls_over_limit;
-  uint64_t features_encoded; /* FEATURES messages */
-  uint64_t features_failed;  /* frames whose producer failed or gave features that do not encode */
+  uint64_t features_encoded;       /* FEATURES messages */
+  uint64_t features_failed;        /* frames whose producer failed or gave features that do not encode */
+  uint64_t silhouettes_encoded;    /* SILHOUETTE messages */
+  uint64_t silhouettes_over_limit; /* SILHOUETTEs not encoded: over a protocol limit (runs, payload) */
 } vc_node_counters;
 void vc_node_get_counters(const vc_node* node, vc_node_counters* out);
 

@@ -92,6 +92,33 @@ static bool drop_oldest(vc_sendq* q) {
   return true;
 }
 
+/* Copies msg into the next free slot and wakes the consumer. Caller holds the lock and made room. */
+static int append(vc_sendq* q, const uint8_t* msg, size_t len) {
+  slot* s = &q->slots[(q->head + q->count) % q->max_msgs];
+  if (s->cap < len) {
+    uint8_t* nb = realloc(s->buf, len);
+    if (!nb) return -ENOMEM;
+    s->buf = nb;
+    s->cap = len;
+  }
+  memcpy(s->buf, msg, len);
+  s->len = len;
+  q->count++;
+  q->bytes += len;
+  q->st.pushed++;
+  pthread_cond_signal(&q->cv);
+  return 0;
+}
+
+int vc_sendq_push_if_room(vc_sendq* q, const uint8_t* msg, size_t len) {
+  pthread_mutex_lock(&q->mu);
+  /* At most half full afterwards, in messages and in bytes: what the queue holds for frames to come. */
+  int rc = 2 * (q->count + 1) <= q->max_msgs && 2 * (q->bytes + len) <= q->max_bytes ? append(q, msg, len)
+                                                                                     : -ENOBUFS;
+  pthread_mutex_unlock(&q->mu);
+  return rc;
+}
+
 int vc_sendq_push(vc_sendq* q, const uint8_t* msg, size_t len) {
   int rc = 0;
   pthread_mutex_lock(&q->mu);
@@ -109,22 +136,7 @@ int vc_sendq_push(vc_sendq* q, const uint8_t* msg, size_t len) {
     q->st.dropped_bytes += len;
     goto out;
   }
-  slot* s = &q->slots[(q->head + q->count) % q->max_msgs];
-  if (s->cap < len) {
-    uint8_t* nb = realloc(s->buf, len);
-    if (!nb) {
-      rc = -ENOMEM;
-      goto out;
-    }
-    s->buf = nb;
-    s->cap = len;
-  }
-  memcpy(s->buf, msg, len);
-  s->len = len;
-  q->count++;
-  q->bytes += len;
-  q->st.pushed++;
-  pthread_cond_signal(&q->cv);
+  rc = append(q, msg, len);
 out:
   pthread_mutex_unlock(&q->mu);
   return rc;

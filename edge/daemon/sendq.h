@@ -39,6 +39,11 @@ void vc_sendq_free(vc_sendq* q); /* NULL is a no-op */
  * max_bytes (the message is dropped and counted), -ENOMEM. */
 int vc_sendq_push(vc_sendq* q, const uint8_t* msg, size_t len);
 
+/* Copies msg in only when the queue is then at most half full (messages and bytes), and never drops
+ * anything: for messages that must not cost a frame's HULL its place (SILHOUETTE). 0, -ENOBUFS when
+ * there is no such room (nothing counted: the caller counts what it did not send), -ENOMEM. */
+int vc_sendq_push_if_room(vc_sendq* q, const uint8_t* msg, size_t len);
+
 /* The oldest message, without removing it: *data and *len stay valid until vc_sendq_pop or
  * vc_sendq_clear (push never drops a peeked message). Returns 1, or 0 if the queue is empty. */
 int vc_sendq_peek(vc_sendq* q, const uint8_t** data, size_t* len);

@@ -97,6 +97,21 @@ Bytes encode(const vc_error& m, const vc_header& hdr) {
   });
 }
 
+Bytes encode(const vc_silhouette& m, const vc_header& hdr) {
+  return encode_with(VC_MSG_SILHOUETTE, [&](uint8_t* b, size_t cap, size_t* len) {
+    return vc_encode_silhouette(b, cap, len, &hdr, &m);
+  });
+}
+
+Bytes encode_silhouette_bits(std::span<const uint8_t> bits, uint16_t camera, uint16_t scale, uint16_t width,
+                             uint16_t height, const vc_header& hdr) {
+  if (bits.size() < (static_cast<size_t>(width) * height + 7) / 8)
+    throw ProtoError(-EINVAL, encoding(VC_MSG_SILHOUETTE) + " from a bitset");
+  return encode_with(VC_MSG_SILHOUETTE, [&](uint8_t* b, size_t cap, size_t* len) {
+    return vc_encode_silhouette_bits(b, cap, len, &hdr, camera, scale, width, height, bits.data());
+  });
+}
+
 Bytes encode_start(const vc_header& hdr) {
   return encode_with(VC_MSG_START,
                      [&](uint8_t* b, size_t cap, size_t* len) { return vc_encode_start(b, cap, len, &hdr); });

@@ -96,7 +96,13 @@ Json config_json(const vc_config& m) {
   j["t_lower"] = m.t_lower;
   j["shadow_angle_deg"] = m.shadow_angle_deg;
   j["cleanup_radius_px"] = m.cleanup_radius_px;
-  j["reserved"] = m.reserved;
+  j["carve_rule"] = m.carve_rule;
+  put_name(j, "carve_rule",
+           m.carve_rule == VC_CARVE_CENTRE      ? "centre"
+           : m.carve_rule == VC_CARVE_FOOTPRINT ? "footprint"
+                                                : nullptr);
+  j["silhouette_every"] = m.silhouette_every;
+  j["silhouette_scale"] = m.silhouette_scale;
   j["background_frames"] = m.background_frames;
   j["feature_role"] = m.feature_role;
   put_name(j, "feature_role", vc_role_name(m.feature_role));
@@ -118,6 +124,40 @@ Json config_json(const vc_config& m) {
   return j;
 }
 
+// The first max_runs runs of a validated RLE stream (a plain LEB128 walk, bounded by len and 64-bit
+// values anyway); sets runs_truncated when there are more than it shows.
+void put_runs(Json& j, const uint8_t* rle, uint32_t len, uint64_t run_count, const JsonOptions& opt) {
+  if (opt.max_runs == 0 || !rle) return;
+  Json runs = Json::array();
+  const uint8_t* p = rle;
+  const uint8_t* end = rle + len;
+  while (p < end && runs.size() < opt.max_runs) {
+    uint64_t v = 0;
+    for (unsigned shift = 0; p < end && shift < 64; shift += 7) {
+      uint8_t b = *p++;
+      v |= static_cast<uint64_t>(b & 0x7F) << shift;
+      if (!(b & 0x80)) break;
+    }
+    runs.push_back(v);
+  }
+  j["runs"] = runs;
+  if (runs.size() < run_count) j["runs_truncated"] = true;
+}
+
+Json silhouette_json(const vc_silhouette& m, const JsonOptions& opt) {
+  Json j;
+  j["camera"] = m.camera;
+  j["scale"] = m.scale;
+  j["width"] = m.width;
+  j["height"] = m.height;
+  j["rle_len"] = m.rle_len;
+  j["foreground_count"] = m.foreground_count;
+  j["run_count"] = m.run_count;
+  put_hex(j, "rle", m.rle, m.rle_len, opt);
+  put_runs(j, m.rle, m.rle_len, m.run_count, opt);
+  return j;
+}
+
 Json hull_json(const vc_hull& m, const JsonOptions& opt) {
   Json j;
   j["grid_id"] = m.grid_id;
@@ -126,24 +166,7 @@ Json hull_json(const vc_hull& m, const JsonOptions& opt) {
   j["occupied_count"] = m.occupied_count;
   j["run_count"] = m.run_count;
   put_hex(j, "rle", m.rle, m.rle_len, opt);
-  if (opt.max_runs > 0 && m.rle) {
-    // The first max_runs runs. A plain LEB128 walk: the decoder has already validated the RLE, and
-    // the walk is bounded by rle_len and 64-bit values anyway.
-    Json runs = Json::array();
-    const uint8_t* p = m.rle;
-    const uint8_t* end = m.rle + m.rle_len;
-    while (p < end && runs.size() < opt.max_runs) {
-      uint64_t v = 0;
-      for (unsigned shift = 0; p < end && shift < 64; shift += 7) {
-        uint8_t b = *p++;
-        v |= static_cast<uint64_t>(b & 0x7F) << shift;
-        if (!(b & 0x80)) break;
-      }
-      runs.push_back(v);
-    }
-    j["runs"] = runs;
-    if (runs.size() < m.run_count) j["runs_truncated"] = true;
-  }
+  put_runs(j, m.rle, m.rle_len, m.run_count, opt);
   return j;
 }
 
@@ -268,6 +291,9 @@ Json msg_to_json(const vc_msg& msg, const JsonOptions& opt) {
         break;
       case VC_MSG_ERROR:
         body = error_body_json(msg.u.error);
+        break;
+      case VC_MSG_SILHOUETTE:
+        body = silhouette_json(msg.u.silhouette, opt);
         break;
       default:
         break;  // START, STOP: no fields

@@ -92,7 +92,9 @@ static int parse_config(reader* r, vc_config* m) {
   m->t_lower = vc_ldf32(p + 52);
   m->shadow_angle_deg = vc_ldf32(p + 56);
   m->cleanup_radius_px = vc_ld32(p + 60);
-  m->reserved = vc_ld32(p + 64);
+  m->carve_rule = vc_ld16(p + 64);
+  m->silhouette_every = p[66];
+  m->silhouette_scale = p[67];
   m->background_frames = vc_ld32(p + 68);
   m->feature_role = vc_ld16(p + 72);
   m->camera_count = vc_ld16(p + 74);
@@ -225,6 +227,24 @@ static int parse_error(reader* r, vc_error* m) {
   return vc_check_error(m, r->diag);
 }
 
+static int parse_silhouette(reader* r, vc_silhouette* m) {
+  int rc = need(r, VC_SILHOUETTE_FIXED, "the fixed part");
+  if (rc) return rc;
+  const uint8_t* p = r->p;
+  m->camera = vc_ld16(p + 0);
+  m->scale = vc_ld16(p + 2);
+  m->width = vc_ld16(p + 4);
+  m->height = vc_ld16(p + 6);
+  m->rle_len = vc_ld32(p + 8);
+  m->foreground_count = vc_ld32(p + 12);
+  r->off = VC_SILHOUETTE_FIXED;
+  if ((rc = need(r, m->rle_len, "rle (rle_len)"))) return rc;
+  m->rle = p + VC_SILHOUETTE_FIXED;
+  r->off += m->rle_len;
+  if ((rc = finish(r))) return rc;
+  return vc_check_silhouette(m, &m->run_count, r->diag);
+}
+
 static int parse_body(vc_msg* m, vc_proto_diag* diag) {
   reader r = {m->payload,
               m->hdr.payload_len,
@@ -262,6 +282,9 @@ static int parse_body(vc_msg* m, vc_proto_diag* diag) {
       break;
     case VC_MSG_ERROR:
       rc = parse_error(&r, &m->u.error);
+      break;
+    case VC_MSG_SILHOUETTE:
+      rc = parse_silhouette(&r, &m->u.silhouette);
       break;
     default:
       return 0; /* unknown type: reported with known = false, body left unset */

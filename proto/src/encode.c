@@ -90,7 +90,9 @@ int vc_encode_config(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr
   vc_stf32(p + 52, m->t_lower);
   vc_stf32(p + 56, m->shadow_angle_deg);
   vc_st32(p + 60, m->cleanup_radius_px);
-  vc_st32(p + 64, m->reserved);
+  vc_st16(p + 64, m->carve_rule);
+  p[66] = m->silhouette_every;
+  p[67] = m->silhouette_scale;
   vc_st32(p + 68, m->background_frames);
   vc_st16(p + 72, m->feature_role);
   vc_st16(p + 74, m->camera_count);
@@ -249,6 +251,51 @@ int vc_encode_error(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr,
   return 0;
 }
 
+static void put_silhouette_fixed(uint8_t* p, uint16_t camera, uint16_t scale, uint16_t width, uint16_t height,
+                                 uint32_t rle_len, uint32_t foreground) {
+  vc_st16(p + 0, camera);
+  vc_st16(p + 2, scale);
+  vc_st16(p + 4, width);
+  vc_st16(p + 6, height);
+  vc_st32(p + 8, rle_len);
+  vc_st32(p + 12, foreground);
+}
+
+int vc_encode_silhouette(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr,
+                         const vc_silhouette* m) {
+  if (!m || !hdr) return -EINVAL;
+  int rc = vc_check_silhouette(m, NULL, NULL);
+  if (rc) return rc;
+  size_t plen = VC_SILHOUETTE_FIXED + (size_t)m->rle_len;
+  if ((rc = frame_begin(buf, cap, len, hdr, plen))) return rc;
+  uint8_t* p = buf + VC_PROTO_HEADER_SIZE;
+  put_silhouette_fixed(p, m->camera, m->scale, m->width, m->height, m->rle_len, m->foreground_count);
+  if (m->rle_len) memmove(p + VC_SILHOUETTE_FIXED, m->rle, m->rle_len);
+  seal(buf, hdr, VC_MSG_SILHOUETTE, plen);
+  return 0;
+}
+
+int vc_encode_silhouette_bits(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, uint16_t camera,
+                              uint16_t scale, uint16_t width, uint16_t height, const uint8_t* bits) {
+  if (!len || !hdr || (cap && !buf) || !bits) return -EINVAL;
+  int rc = vc_check_silhouette_fields(camera, scale, width, height, NULL);
+  if (rc) return rc;
+  const size_t nbits = (size_t)width * height;
+  const size_t fixed = VC_PROTO_HEADER_SIZE + VC_SILHOUETTE_FIXED;
+  uint8_t* rle = cap >= fixed ? buf + fixed : NULL;
+  size_t rle_cap = cap >= fixed ? cap - fixed : 0, rle_len = 0;
+  vc_rle_info info;
+  rc = vc_rle_encode_info(bits, nbits, rle, rle_cap, &rle_len, &info);
+  *len = fixed + rle_len;
+  if (info.runs > VC_PROTO_MAX_RLE_RUNS || VC_SILHOUETTE_FIXED + rle_len > VC_PROTO_MAX_PAYLOAD)
+    return VC_PROTO_ELIMIT;
+  if (rc) return rc; /* -ENOSPC, with *len the size needed */
+  put_silhouette_fixed(buf + VC_PROTO_HEADER_SIZE, camera, scale, width, height, (uint32_t)rle_len,
+                       (uint32_t)info.occupied);
+  seal(buf, hdr, VC_MSG_SILHOUETTE, VC_SILHOUETTE_FIXED + rle_len);
+  return 0;
+}
+
 int vc_msg_encode(uint8_t* buf, size_t cap, size_t* len, const vc_msg* msg) {
   if (!msg) return -EINVAL;
   const vc_header* h = &msg->hdr;
@@ -273,6 +320,8 @@ int vc_msg_encode(uint8_t* buf, size_t cap, size_t* len, const vc_msg* msg) {
       return vc_encode_heartbeat(buf, cap, len, h, &msg->u.heartbeat);
     case VC_MSG_ERROR:
       return vc_encode_error(buf, cap, len, h, &msg->u.error);
+    case VC_MSG_SILHOUETTE:
+      return vc_encode_silhouette(buf, cap, len, h, &msg->u.silhouette);
     default:
       return -EINVAL;
   }

@@ -66,8 +66,13 @@ int vc_check_config(const vc_config* m, vc_proto_diag* diag) {
   if (m->cleanup_radius_px > VC_CLEANUP_RADIUS_MAX_PX)
     return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: cleanup_radius_px %u is not in [0, %d]",
                        m->cleanup_radius_px, VC_CLEANUP_RADIUS_MAX_PX);
-  if (m->reserved != 0)
-    return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: reserved is %u, not 0", m->reserved);
+  if (m->carve_rule != VC_CARVE_CENTRE && m->carve_rule != VC_CARVE_FOOTPRINT)
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: unknown carve_rule %u (0 centre, 1 footprint)",
+                       m->carve_rule);
+  if (m->silhouette_scale > VC_PROTO_MAX_SILHOUETTE_SCALE || (m->silhouette_every && !m->silhouette_scale))
+    return vc_diag_set(diag, VC_PROTO_EFIELD,
+                       "CONFIG: silhouette_scale %u is not in [1, %d] (silhouette_every %u)",
+                       m->silhouette_scale, VC_PROTO_MAX_SILHOUETTE_SCALE, m->silhouette_every);
   if (m->background_frames == 0) return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: background_frames 0");
   if (vc_role_name(m->feature_role) == NULL)
     return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: unknown feature_role %u", m->feature_role);
@@ -204,5 +209,42 @@ int vc_check_error(const vc_error* m, vc_proto_diag* diag) {
   size_t bad = m->text_len ? utf8_check((const uint8_t*)m->text, m->text_len) : 0;
   if (bad < m->text_len)
     return vc_diag_set(diag, VC_PROTO_EFIELD, "ERROR: text is not UTF-8 without NUL (byte %zu)", bad);
+  return 0;
+}
+
+int vc_check_silhouette_fields(uint16_t camera, uint16_t scale, uint16_t width, uint16_t height,
+                               vc_proto_diag* diag) {
+  if (camera >= VC_PROTO_MAX_CAMERAS)
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "SILHOUETTE: camera %u >= %d", camera, VC_PROTO_MAX_CAMERAS);
+  if (scale == 0 || scale > VC_PROTO_MAX_SILHOUETTE_SCALE)
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "SILHOUETTE: scale %u is not in [1, %d]", scale,
+                       VC_PROTO_MAX_SILHOUETTE_SCALE);
+  if (width == 0 || height == 0)
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "SILHOUETTE: size %ux%u has no pixels", width, height);
+  if (width > VC_PROTO_MAX_SILHOUETTE_SIDE || height > VC_PROTO_MAX_SILHOUETTE_SIDE)
+    return vc_diag_set(diag, VC_PROTO_ELIMIT, "SILHOUETTE: size %ux%u, at most %d each", width, height,
+                       VC_PROTO_MAX_SILHOUETTE_SIDE);
+  return 0;
+}
+
+int vc_check_silhouette(const vc_silhouette* m, uint64_t* runs, vc_proto_diag* diag) {
+  int rc = vc_check_silhouette_fields(m->camera, m->scale, m->width, m->height, diag);
+  if (rc) return rc;
+  if (m->rle_len && !m->rle) return vc_diag_set(diag, -EINVAL, "SILHOUETTE: rle is NULL");
+  vc_rle_info info;
+  if (vc_rle_inspect(m->rle, m->rle_len, &info))
+    return vc_diag_set(diag, VC_PROTO_ERLE, "SILHOUETTE: RLE is malformed (bad varint or zero run)");
+  if (info.runs > VC_PROTO_MAX_RLE_RUNS)
+    return vc_diag_set(diag, VC_PROTO_ELIMIT, "SILHOUETTE: %llu runs > %llu", (unsigned long long)info.runs,
+                       (unsigned long long)VC_PROTO_MAX_RLE_RUNS);
+  const uint64_t pixels = (uint64_t)m->width * m->height;
+  if (info.total != pixels)
+    return vc_diag_set(diag, VC_PROTO_EINCONSISTENT, "SILHOUETTE: runs sum to %llu, %ux%u is %llu pixels",
+                       (unsigned long long)info.total, m->width, m->height, (unsigned long long)pixels);
+  if (info.occupied != m->foreground_count)
+    return vc_diag_set(diag, VC_PROTO_EINCONSISTENT,
+                       "SILHOUETTE: occupied runs sum to %llu, foreground_count is %u",
+                       (unsigned long long)info.occupied, m->foreground_count);
+  if (runs) *runs = info.runs;
   return 0;
 }

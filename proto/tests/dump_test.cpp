@@ -68,7 +68,10 @@ TEST(SpecFields, AreParsedFromTheSpec) {
   EXPECT_TRUE(fields.at("CONFIG").count("R_cam_from_world"));  // from the calibration record table
   EXPECT_TRUE(fields.at("STATS").count("counter_id"));
   EXPECT_TRUE(fields.count("STOP"));
-  for (uint16_t t = VC_MSG_HELLO; t <= VC_MSG_ERROR; t++) EXPECT_TRUE(fields.count(vc_msg_type_name(t))) << t;
+  for (uint16_t t = VC_MSG_HELLO; t <= VC_MSG_SILHOUETTE; t++)
+    EXPECT_TRUE(fields.count(vc_msg_type_name(t))) << t;
+  EXPECT_TRUE(fields.at("SILHOUETTE").count("foreground_count"));
+  EXPECT_TRUE(fields.at("CONFIG").count("carve_rule"));
 }
 
 // The text dump of the one-message vector of each type names every documented field.
@@ -77,7 +80,7 @@ TEST(Dump, TextNamesEveryDocumentedField) {
   const std::map<std::string, std::string> vector_of = {
       {"HELLO", "hello"},         {"CONFIG", "config"}, {"BACKGROUND", "background"}, {"START", "start"},
       {"STOP", "stop"},           {"HULL", "hull"},     {"FEATURES", "features"},     {"STATS", "stats"},
-      {"HEARTBEAT", "heartbeat"}, {"ERROR", "error"}};
+      {"HEARTBEAT", "heartbeat"}, {"ERROR", "error"},   {"SILHOUETTE", "silhouette"}};
   for (const auto& [type, name] : vector_of) {
     SCOPED_TRACE(type);
     std::ifstream in(kProto / "vectors" / (name + ".bin"), std::ios::binary);
@@ -117,7 +120,8 @@ TEST(Dump, JsonLinesHaveTheDocumentedFieldsAsKeys) {
       EXPECT_NE(flat.find("\"" + f + "\""), std::string::npos) << type << "." << f;
   }
   EXPECT_EQ(n, r.messages);
-  EXPECT_EQ(n, 14u);  // the session vector: 6 setup messages, 2 frames x 3, STATS, STOP
+  // The session vector: 6 setup messages, 2 frames x 3, the first frame's 2 SILHOUETTEs, STATS, STOP.
+  EXPECT_EQ(n, 16u);
 }
 
 TEST(Dump, ReportsErrorsWithCodeAndOffset) {

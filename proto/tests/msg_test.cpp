@@ -69,7 +69,7 @@ TEST(Layout, HeartbeatByteByByteAsInSpec) {
   m->hdr.flags = 0;
   m->u.heartbeat = {0x3132333435363738ull, VC_STATE_RUNNING};
   const Bytes b = encode(*m);
-  Bytes expected = {'V',  'X',  'C',  'P',  2,    0,    9,    0,    0,    0,    0x03,
+  Bytes expected = {'V',  'X',  'C',  'P',  2,    1,    9,    0,    0,    0,    0x03,
                     0x02, 12,   0,    0,    0,    0x18, 0x17, 0x16, 0x15, 0x14, 0x13,
                     0x12, 0x11, 0x28, 0x27, 0x26, 0x25, 0x24, 0x23, 0x22, 0x21};
   const Bytes payload = {0x38, 0x37, 0x36, 0x35, 0x34, 0x33, 0x32, 0x31, 5, 0, 0, 0};
@@ -93,6 +93,44 @@ TEST(Layout, HullFixedPartAndRleFollowTheHeader) {
   EXPECT_EQ(le32(&b[48]), 10u);          // voxel_count (low half)
   EXPECT_EQ(le32(&b[56]), 3u);           // occupied_count (low half)
   EXPECT_EQ(Bytes(b.begin() + 64, b.end()), rle);
+}
+
+TEST(Layout, SilhouetteFixedPartAndRleFollowTheHeader) {
+  const Bytes rle = {0x03, 0x03, 0x06};  // 4x3 pixels, pixels 3..5 foreground
+  auto m = new_msg(VC_MSG_SILHOUETTE, 1, 77, 99);
+  m->u.silhouette = {1, 2, 4, 3, 3, 3, rle.data(), 0};
+  const Bytes b = encode(*m);
+  ASSERT_EQ(b.size(), 40u + 16 + 3);
+  EXPECT_EQ(b[6], 11);           // type
+  EXPECT_EQ(le32(&b[12]), 19u);  // payload_len
+  EXPECT_EQ(b[40], 1);           // camera
+  EXPECT_EQ(b[42], 2);           // scale
+  EXPECT_EQ(b[44], 4);           // width
+  EXPECT_EQ(b[46], 3);           // height
+  EXPECT_EQ(le32(&b[48]), 3u);   // rle_len
+  EXPECT_EQ(le32(&b[52]), 3u);   // foreground_count
+  EXPECT_EQ(Bytes(b.begin() + 56, b.end()), rle);
+}
+
+TEST(Layout, ConfigCarveRuleAndSilhouettesWhereReservedWas) {
+  auto m = new_msg(VC_MSG_CONFIG);
+  vc_config& c = m->u.config;
+  c.grid.nx = c.grid.ny = c.grid.nz = 2, c.grid.voxel_m = 0.1, c.t_upper = 4, c.t_lower = 2;
+  c.background_frames = 2, c.camera_count = 1, c.cameras[0].width = 8, c.cameras[0].height = 6;
+  c.carve_rule = VC_CARVE_FOOTPRINT, c.silhouette_every = 3, c.silhouette_scale = 16;
+  const Bytes b = encode(*m);
+  EXPECT_EQ(b[40 + 64], 1);  // carve_rule u16
+  EXPECT_EQ(b[40 + 65], 0);
+  EXPECT_EQ(b[40 + 66], 3);   // silhouette_every
+  EXPECT_EQ(b[40 + 67], 16);  // silhouette_scale
+  // A 2.0 CONFIG (reserved 0) is a 2.1 CONFIG with the centre rule and no silhouettes.
+  c.carve_rule = VC_CARVE_CENTRE, c.silhouette_every = 0, c.silhouette_scale = 0;
+  const Bytes old = encode(*m);
+  EXPECT_EQ(le32(&old[40 + 64]), 0u);
+  Decoded d = decode(old);
+  ASSERT_EQ(d.rc, 1) << d.diag.detail;
+  EXPECT_EQ(d.msg->u.config.carve_rule, VC_CARVE_CENTRE);
+  EXPECT_EQ(d.msg->u.config.silhouette_every, 0);
 }
 
 TEST(Layout, EmptyPayloadHasZeroCrc) {
@@ -153,6 +191,23 @@ std::unique_ptr<vc_msg> sample(uint16_t type, const Bytes& rle, const std::strin
     case VC_MSG_ERROR:
       m->u.error = {VC_ERR_CAMERA, VC_SEVERITY_FATAL, 0, static_cast<uint16_t>(text.size()), text.data()};
       break;
+    case VC_MSG_SILHOUETTE: {
+      uint64_t occ = 0, total = 0;
+      EXPECT_EQ(vc_rle_popcount(rle.data(), rle.size(), &occ, &total), 0);
+      // Any width x height of `total` pixels: the RLE is a bitset of that many bits.
+      uint16_t w = 1;
+      for (uint16_t f = 2; f <= 1024 && uint64_t{f} * f <= total; f++)
+        if (total % f == 0) w = f;
+      m->u.silhouette = {7,
+                         1,
+                         w,
+                         static_cast<uint16_t>(total / w),
+                         static_cast<uint32_t>(rle.size()),
+                         static_cast<uint32_t>(occ),
+                         rle.data(),
+                         0};
+      break;
+    }
     default:
       break;
   }
@@ -167,7 +222,7 @@ TEST(RoundTrip, EveryTypeDecodesToWhatWasEncoded) {
   ASSERT_EQ(vc_rle_encode(body.bytes.data(), body.nbits, rle.data(), rle.size(), &rle_len), 0);
   rle.resize(rle_len);
   const std::string text = "camera 1 stopped delivering frames: \xc3\xa9t\xc3\xa9";
-  for (uint16_t type = VC_MSG_HELLO; type <= VC_MSG_ERROR; type++) {
+  for (uint16_t type = VC_MSG_HELLO; type <= VC_MSG_SILHOUETTE; type++) {
     SCOPED_TRACE(vc_msg_type_name(type));
     auto m = sample(type, rle, text);
     const Bytes b = encode(*m);
@@ -212,10 +267,64 @@ TEST(RoundTrip, EveryTypeDecodesToWhatWasEncoded) {
       case VC_MSG_ERROR:
         EXPECT_EQ(std::string(r.u.error.text, r.u.error.text_len), text);
         break;
+      case VC_MSG_SILHOUETTE:
+        EXPECT_EQ(r.u.silhouette.camera, 7);
+        EXPECT_EQ(uint64_t{r.u.silhouette.width} * r.u.silhouette.height, body.nbits);
+        EXPECT_EQ(r.u.silhouette.foreground_count, body.count());
+        EXPECT_EQ(Bytes(r.u.silhouette.rle, r.u.silhouette.rle + r.u.silhouette.rle_len), rle);
+        EXPECT_GT(r.u.silhouette.run_count, 10u);
+        break;
       default:
         break;
     }
   }
+}
+
+TEST(RoundTrip, SilhouetteFromBitsMatchesSilhouetteFromRle) {
+  // A 37x23 mask (odd sizes: rows do not start on byte boundaries) of a disc and a stripe.
+  const uint16_t w = 37, h = 23;
+  Bytes bits((w * h + 7) / 8, 0);
+  uint32_t fg = 0;
+  for (int y = 0; y < h; y++)
+    for (int x = 0; x < w; x++)
+      if ((x - 18) * (x - 18) + (y - 11) * (y - 11) <= 64 || y == 2) {
+        bits[(x + w * y) / 8] = static_cast<uint8_t>(bits[(x + w * y) / 8] | 1u << ((x + w * y) % 8));
+        fg++;
+      }
+  Bytes rle(vc_rle_max_encoded_size(w * h));
+  size_t rle_len = 0;
+  ASSERT_EQ(vc_rle_encode(bits.data(), w * h, rle.data(), rle.size(), &rle_len), 0);
+  auto m = new_msg(VC_MSG_SILHOUETTE, 2, 3, 4);
+  m->u.silhouette = {1, 4, w, h, static_cast<uint32_t>(rle_len), fg, rle.data(), 0};
+  const Bytes via_rle = encode(*m);
+  Bytes via_bits(via_rle.size() + 100);
+  size_t len = 0;
+  vc_header hd = header(2, 3, 4);
+  ASSERT_EQ(vc_encode_silhouette_bits(via_bits.data(), via_bits.size(), &len, &hd, 1, 4, w, h, bits.data()),
+            0);
+  via_bits.resize(len);
+  EXPECT_EQ(via_bits, via_rle);
+  Decoded d = decode(via_bits);
+  ASSERT_EQ(d.rc, 1) << d.diag.detail;
+  Bytes back((w * h + 7) / 8, 0xFF);
+  ASSERT_EQ(vc_rle_decode(d.msg->u.silhouette.rle, d.msg->u.silhouette.rle_len, back.data(), w * h), 0);
+  EXPECT_EQ(back, bits);
+  // Too small a buffer: -ENOSPC and the size needed; fields out of range: the decoder's codes.
+  Bytes small(60);
+  EXPECT_EQ(vc_encode_silhouette_bits(small.data(), small.size(), &len, &hd, 1, 4, w, h, bits.data()),
+            -ENOSPC);
+  EXPECT_EQ(len, via_rle.size());
+  EXPECT_EQ(vc_encode_silhouette_bits(via_bits.data(), via_bits.size(), &len, &hd, 8, 4, w, h, bits.data()),
+            VC_PROTO_EFIELD);
+  EXPECT_EQ(vc_encode_silhouette_bits(via_bits.data(), via_bits.size(), &len, &hd, 1, 17, w, h, bits.data()),
+            VC_PROTO_EFIELD);
+  EXPECT_EQ(vc_encode_silhouette_bits(via_bits.data(), via_bits.size(), &len, &hd, 1, 1, 0, h, bits.data()),
+            VC_PROTO_EFIELD);
+  EXPECT_EQ(
+      vc_encode_silhouette_bits(via_bits.data(), via_bits.size(), &len, &hd, 1, 1, 16385, 1, bits.data()),
+      VC_PROTO_ELIMIT);
+  EXPECT_EQ(vc_encode_silhouette_bits(via_bits.data(), via_bits.size(), &len, &hd, 1, 1, w, h, nullptr),
+            -EINVAL);
 }
 
 TEST(RoundTrip, HullFromBitsMatchesHullFromRle) {
@@ -286,8 +395,32 @@ TEST(Encoders, RefuseInvalidBodiesWithTheDecodersCode) {
   config->u.config.cleanup_radius_px = VC_CLEANUP_RADIUS_MAX_PX + 1;  // more than the edge runs
   expect_refused(*config, VC_PROTO_EFIELD);
   config = sample(VC_MSG_CONFIG, rle, "");
-  config->u.config.reserved = 1;
+  config->u.config.carve_rule = 2;  // 2.0's nonzero `reserved`, now an unknown carve rule
   expect_refused(*config, VC_PROTO_EFIELD);
+  config = sample(VC_MSG_CONFIG, rle, "");
+  config->u.config.silhouette_every = 2;  // silhouettes need a scale of at least 1
+  config->u.config.silhouette_scale = 0;
+  expect_refused(*config, VC_PROTO_EFIELD);
+  config->u.config.silhouette_scale = VC_PROTO_MAX_SILHOUETTE_SCALE + 1;
+  expect_refused(*config, VC_PROTO_EFIELD);
+  config->u.config.silhouette_every = 0;  // a scale over 16 is refused even when unused
+  expect_refused(*config, VC_PROTO_EFIELD);
+  auto sil = sample(VC_MSG_SILHOUETTE, rle, "");
+  sil->u.silhouette.foreground_count++;
+  expect_refused(*sil, VC_PROTO_EINCONSISTENT);
+  sil = sample(VC_MSG_SILHOUETTE, rle, "");
+  sil->u.silhouette.height++;
+  expect_refused(*sil, VC_PROTO_EINCONSISTENT);
+  sil = sample(VC_MSG_SILHOUETTE, rle, "");
+  sil->u.silhouette.camera = VC_PROTO_MAX_CAMERAS;
+  expect_refused(*sil, VC_PROTO_EFIELD);
+  sil = sample(VC_MSG_SILHOUETTE, rle, "");
+  sil->u.silhouette.width = VC_PROTO_MAX_SILHOUETTE_SIDE + 1;
+  expect_refused(*sil, VC_PROTO_ELIMIT);
+  sil = sample(VC_MSG_SILHOUETTE, rle, "");
+  const Bytes zero_run = {0x03, 0x00, 0x07};
+  sil->u.silhouette.rle = zero_run.data();
+  expect_refused(*sil, VC_PROTO_ERLE);
   auto hull = sample(VC_MSG_HULL, rle, "");
   hull->u.hull.occupied_count++;
   expect_refused(*hull, VC_PROTO_EINCONSISTENT);
@@ -578,9 +711,12 @@ TEST(Names, EveryCodeAndTypeHasOne) {
     EXPECT_STRNE(vc_proto_strerror(code), "unknown error") << code;
     EXPECT_STRNE(vc_proto_error_name(code), "UNKNOWN") << code;
   }
-  for (uint16_t t = VC_MSG_HELLO; t <= VC_MSG_ERROR; t++) EXPECT_NE(vc_msg_type_name(t), nullptr);
+  for (uint16_t t = VC_MSG_HELLO; t <= VC_MSG_SILHOUETTE; t++) EXPECT_NE(vc_msg_type_name(t), nullptr);
   EXPECT_EQ(vc_msg_type_name(0), nullptr);
-  EXPECT_EQ(vc_msg_type_name(11), nullptr);
+  EXPECT_STREQ(vc_msg_type_name(11), "SILHOUETTE");
+  EXPECT_EQ(vc_msg_type_name(12), nullptr);
+  EXPECT_STREQ(vc_counter_name(VC_COUNTER_SILHOUETTES_SENT), "silhouettes_sent");
+  EXPECT_STREQ(vc_counter_name(VC_COUNTER_SILHOUETTES_DROPPED), "silhouettes_dropped");
   EXPECT_STREQ(vc_feature_name(VC_FEATURE_RIGHT_FOOT), "right_foot");
   EXPECT_STREQ(vc_counter_name(VC_COUNTER_PULSES_WITHOUT_FRAME), "pulses_without_frame");
 }

@@ -138,6 +138,9 @@ vc_msg config_msg() {
   c.t_lower = 1.5f;
   c.shadow_angle_deg = 6.0f;
   c.cleanup_radius_px = 3;
+  c.carve_rule = VC_CARVE_FOOTPRINT;
+  c.silhouette_every = 4;
+  c.silhouette_scale = 2;
   c.background_frames = 30;
   c.feature_role = VC_ROLE_FRONT;
   c.camera_count = 2;
@@ -172,7 +175,8 @@ constexpr int kNx = 16, kNy = 12, kNz = 10;
 Bytes small_hull_bits() {
   Bytes bits((kNx * kNy * kNz + 7) / 8, 0);
   auto set = [&](int i, int j, int k) {
-    size_t b = static_cast<size_t>(i + kNx * (j + kNy * k));
+    size_t b = static_cast<size_t>(i) +
+               size_t{kNx} * (static_cast<size_t>(j) + size_t{kNy} * static_cast<size_t>(k));
     bits[b / 8] = static_cast<uint8_t>(bits[b / 8] | (1u << (b % 8)));
   };
   for (int k = 0; k < kNz; k++)
@@ -258,6 +262,38 @@ vc_msg error_msg() {
   return m;
 }
 
+// A 20x15 silhouette (a 40x30 camera at scale 2): an elliptic body and a one-pixel arm, in integers.
+constexpr uint16_t kSilW = 20, kSilH = 15;
+Bytes silhouette_bits() {
+  Bytes bits((kSilW * kSilH + 7) / 8, 0);
+  auto set = [&](int x, int y) {
+    size_t b = static_cast<size_t>(x) + size_t{kSilW} * static_cast<size_t>(y);
+    bits[b / 8] = static_cast<uint8_t>(bits[b / 8] | (1u << (b % 8)));
+  };
+  for (int y = 0; y < kSilH; y++)
+    for (int x = 0; x < kSilW; x++) {
+      int dx = 2 * x - 21, dy = 2 * y - 15;  // doubled, about (10.5, 7.5); semi-axes 4, 6 pixels
+      if (dx * dx * 36 + dy * dy * 16 <= 16 * 36 * 4) set(x, y);
+    }
+  for (int x = 2; x < 7; x++) set(x, 4);
+  return bits;
+}
+
+// The SILHOUETTE refers to d.rle: d must outlive it.
+vc_msg silhouette_msg(const HullData& d, uint16_t camera = 0, uint64_t seq = kSeq, uint64_t t = kTrigger) {
+  vc_msg m = make(VC_MSG_SILHOUETTE, seq, t);
+  vc_silhouette& s = m.u.silhouette;
+  s.camera = camera;
+  s.scale = 2;
+  s.width = kSilW;
+  s.height = kSilH;
+  s.rle_len = static_cast<uint32_t>(d.rle.size());
+  s.foreground_count = static_cast<uint32_t>(d.occupied);
+  s.rle = d.rle.data();
+  for (uint8_t b : d.rle) s.run_count += !(b & 0x80);
+  return m;
+}
+
 // ---- vectors -----------------------------------------------------------------------------------------
 
 struct Vector {
@@ -313,13 +349,15 @@ std::vector<Vector> build_streams() {
   const Bytes small_bits = small_hull_bits();
   const HullData small = hull_data(small_bits, kNx * kNy * kNz);
   const HullData empty = hull_data(Bytes((kNx * kNy * kNz + 7) / 8, 0), kNx * kNy * kNz);
+  const HullData sil = hull_data(silhouette_bits(), size_t{kSilW} * kSilH);
 
   // One valid message of each type.
   add("hello",
       "HELLO from node 3: software 0.1.0, two 640x480 RGB3 cameras at 60 fps, hull + features + udp trigger")
       .message(hello_msg());
   add("config",
-      "CONFIG for node 3: grid 7 (128^3 voxels of 2 cm), thresholds, role front, two calibrated cameras")
+      "CONFIG for node 3: grid 7 (128^3 voxels of 2 cm), thresholds, footprint carving, a SILHOUETTE "
+      "every 4th frame at scale 2, role front, two calibrated cameras")
       .message(config_msg());
   add("background", "BACKGROUND: learn 40 frames of the empty scene").message(background_msg());
   add("start", "START: stream frames (empty payload)").message(make(VC_MSG_START));
@@ -332,11 +370,15 @@ std::vector<Vector> build_streams() {
   add("stats", "STATS: the eight stage timings and eight counters of SPEC.md").message(stats_msg());
   add("heartbeat", "HEARTBEAT from a node in state ready").message(heartbeat_msg());
   add("error", "ERROR from node 3: CONFIG rejected, UTF-8 text").message(error_msg());
+  add("silhouette",
+      "SILHOUETTE of frame 1042, camera 1: a 20x15 mask (a 40x30 camera at scale 2), body and arm, as RLE")
+      .message(silhouette_msg(sil, 1));
 
   {  // A whole session as the host sees it, both directions interleaved.
     Vector& s = add("session",
                     "A session: HELLO, CONFIG, BACKGROUND, HEARTBEATs, START, two frames of HULL + "
-                    "FEATURES from both cameras, STATS, STOP");
+                    "FEATURES from both cameras (the first also with both cameras' SILHOUETTEs), STATS, "
+                    "STOP");
     s.message(hello_msg());
     s.message(config_msg());
     s.message(heartbeat_msg(VC_STATE_CONFIGURED, 17'300'000'000ull));
@@ -348,13 +390,15 @@ std::vector<Vector> build_streams() {
       s.message(hull_msg(f ? empty : small, seq, t));
       s.message(features_msg(0, seq, t));
       s.message(features_msg(1, seq, t));
+      if (f == 0)
+        for (uint16_t c = 0; c < 2; c++) s.message(silhouette_msg(sil, c, seq, t));
     }
     s.message(stats_msg());
     s.message(make(VC_MSG_STOP));
   }
   {  // Evolution: an unknown type is skipped, not fatal.
     Vector& u = add("unknown_type",
-                    "A message of type 77 (unknown to 2.0) with valid CRCs: reported as unknown and "
+                    "A message of type 77 (unknown to 2.1) with valid CRCs: reported as unknown and "
                     "skipped; the HEARTBEAT after it decodes");
     vc_msg m = make(77, 5, 6);
     m.known = false;
@@ -367,10 +411,10 @@ std::vector<Vector> build_streams() {
     u.message(m, b);
     u.message(heartbeat_msg());
   }
-  {  // Evolution: a newer minor version appends fields; a 2.0 receiver ignores them.
+  {  // Evolution: a newer minor version appends fields; a 2.1 receiver ignores them.
     Vector& n = add("newer_minor",
-                    "HELLO 2.1 with 16-byte camera records and 6 appended bytes, HULL 2.2 with 3 "
-                    "appended bytes: decoded, the unknown bytes counted in ignored_bytes");
+                    "HELLO 2.2 with 16-byte camera records and 6 appended bytes, HULL 2.3 with 3 "
+                    "appended bytes: decoded by a 2.1 receiver, the unknown bytes counted in ignored_bytes");
     vc_msg hello = hello_msg();
     Bytes p = payload_of(encode(hello));
     Bytes q(p.begin(), p.begin() + 16);
@@ -381,14 +425,14 @@ std::vector<Vector> build_streams() {
     }
     q.insert(q.end(), {1, 2, 3, 4, 5, 6});
     hello.hdr.version_major = VC_PROTO_VERSION_MAJOR;
-    hello.hdr.version_minor = 1;
+    hello.hdr.version_minor = VC_PROTO_VERSION_MINOR + 1;
     hello.u.hello.camera_record_size = 16;
     n.message(hello, frame(hello.hdr, q), 2 * 4 + 6);
     vc_msg hull = hull_msg(small);
     Bytes hp = payload_of(encode(hull));
     hp.insert(hp.end(), {0xEE, 0xEE, 0xEE});
     hull.hdr.version_major = VC_PROTO_VERSION_MAJOR;
-    hull.hdr.version_minor = 2;
+    hull.hdr.version_minor = VC_PROTO_VERSION_MINOR + 2;
     n.message(hull, frame(hull.hdr, hp), 3);
   }
 
@@ -484,7 +528,7 @@ std::vector<Vector> build_streams() {
   }
   {
     Vector& r = add("trailing_bytes",
-                    "A 2.0 HEARTBEAT with 4 bytes after its last field: VC_PROTO_ETRAILING; the "
+                    "A 2.1 HEARTBEAT with 4 bytes after its last field: VC_PROTO_ETRAILING; the "
                     "STOP after it decodes");
     r.rejected(patched(heartbeat_msg(),
                        [](Bytes& p) {
@@ -510,7 +554,7 @@ std::vector<Vector> build_streams() {
   }
   {
     Vector& r = add("inconsistent_record_size",
-                    "A 1.0 CONFIG whose camera_record_size is 208, not 216: "
+                    "A 2.1 CONFIG whose camera_record_size is 208, not 216: "
                     "VC_PROTO_EINCONSISTENT");
     r.rejected(patched(config_msg(), [](Bytes& p) { st16(p.data() + 76, 208); }), VC_PROTO_EINCONSISTENT);
   }
@@ -549,6 +593,59 @@ std::vector<Vector> build_streams() {
     Vector& r =
         add("bad_cleanup_radius", "A CONFIG with cleanup_radius_px 9 (the edge runs 0..8): VC_PROTO_EFIELD");
     r.rejected(patched(config_msg(), [](Bytes& p) { st32(p.data() + 60, 9); }), VC_PROTO_EFIELD);
+  }
+  {
+    Vector& r = add("bad_carve_rule",
+                    "A CONFIG with carve_rule 2 (0 centre, 1 footprint): VC_PROTO_EFIELD; the HEARTBEAT "
+                    "after it decodes");
+    r.rejected(patched(config_msg(), [](Bytes& p) { st16(p.data() + 64, 2); }), VC_PROTO_EFIELD);
+    r.message(heartbeat_msg());
+  }
+  {
+    Vector& r = add("bad_silhouette_scale",
+                    "A CONFIG asking for a SILHOUETTE every 4th frame at silhouette_scale 0, then one at "
+                    "scale 17 (1..16): VC_PROTO_EFIELD twice");
+    r.rejected(patched(config_msg(), [](Bytes& p) { p[67] = 0; }), VC_PROTO_EFIELD);
+    r.rejected(patched(config_msg(), [](Bytes& p) { p[67] = 17; }), VC_PROTO_EFIELD);
+  }
+  {
+    Vector& r = add("silhouette_inconsistent",
+                    "A SILHOUETTE whose foreground_count is one more than its occupied runs sum to, then "
+                    "one whose 20x16 size is not the 300 pixels its runs cover: VC_PROTO_EINCONSISTENT "
+                    "twice; the SILHOUETTE after them decodes");
+    r.rejected(patched(silhouette_msg(sil),
+                       [&](Bytes& p) { st32(p.data() + 12, static_cast<uint32_t>(sil.occupied + 1)); }),
+               VC_PROTO_EINCONSISTENT);
+    r.rejected(patched(silhouette_msg(sil), [](Bytes& p) { st16(p.data() + 6, kSilH + 1); }),
+               VC_PROTO_EINCONSISTENT);
+    r.message(silhouette_msg(sil, 0, kSeq + 4, kTrigger + 4 * 16'666'667ull));
+  }
+  {
+    Vector& r = add("silhouette_limits",
+                    "SILHOUETTEs with width 16385 (VC_PROTO_ELIMIT), camera 8 (VC_PROTO_EFIELD), scale 0 "
+                    "(VC_PROTO_EFIELD) and height 0 (VC_PROTO_EFIELD)");
+    r.rejected(
+        patched(silhouette_msg(sil), [](Bytes& p) { st16(p.data() + 4, VC_PROTO_MAX_SILHOUETTE_SIDE + 1); }),
+        VC_PROTO_ELIMIT);
+    r.rejected(patched(silhouette_msg(sil), [](Bytes& p) { st16(p.data() + 0, VC_PROTO_MAX_CAMERAS); }),
+               VC_PROTO_EFIELD);
+    r.rejected(patched(silhouette_msg(sil), [](Bytes& p) { st16(p.data() + 2, 0); }), VC_PROTO_EFIELD);
+    r.rejected(patched(silhouette_msg(sil), [](Bytes& p) { st16(p.data() + 6, 0); }), VC_PROTO_EFIELD);
+  }
+  {
+    Vector& r = add("silhouette_bad_rle",
+                    "A SILHOUETTE whose RLE has a zero run in the middle, then one whose rle_len runs past "
+                    "the payload: VC_PROTO_ERLE, VC_PROTO_ETRUNCATED");
+    r.rejected(patched(silhouette_msg(sil),
+                       [](Bytes& p) {
+                         p.resize(16);
+                         p.insert(p.end(), {0x96, 0x01, 0x00, 0x96, 0x01});  // 150, 0, 150
+                         st32(p.data() + 8, 5);
+                       }),
+               VC_PROTO_ERLE);
+    r.rejected(
+        patched(silhouette_msg(sil), [](Bytes& p) { st32(p.data() + 8, static_cast<uint32_t>(p.size())); }),
+        VC_PROTO_ETRUNCATED);
   }
   {
     Vector& r = add("bad_utf8", "An ERROR whose text is not UTF-8 (0xc3 0x28): VC_PROTO_EFIELD");
@@ -599,7 +696,7 @@ Json rle_vectors() {
   add("alternating_worst_case", 9, alt);
   add("three_byte_runs", 40000, range(100, 100 + 20000));
   add("padding_ignored", 13, {0, 12}, Bytes{0x00, 0xE0});
-  auto bad = [&](const char* name, Bytes rle, size_t nbits, const char* err) {
+  auto bad = [&](const char* name, const Bytes& rle, size_t nbits, const char* err) {
     Json e;
     e["name"] = name;
     e["nbits"] = nbits;

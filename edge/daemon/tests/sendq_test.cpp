@@ -96,6 +96,25 @@ TEST(SendQueue, ClearCountsDrops) {
   vc_sendq_free(q);
 }
 
+TEST(SendQueue, PushIfRoomKeepsHalfTheQueueAndNeverDrops) {
+  vc_sendq* q = new_queue(8, 100);
+  for (uint8_t i = 1; i <= 3; i++) EXPECT_EQ(vc_sendq_push_if_room(q, msg(i, 10).data(), 10), 0);
+  EXPECT_EQ(vc_sendq_push_if_room(q, msg(4, 30).data(), 30), -ENOBUFS);  // 60 bytes > half of 100
+  EXPECT_EQ(vc_sendq_push_if_room(q, msg(4, 10).data(), 10), 0);         // 4 of 8 messages
+  EXPECT_EQ(vc_sendq_push_if_room(q, msg(5, 1).data(), 1), -ENOBUFS);    // a 5th would pass half
+  vc_sendq_stats st;
+  vc_sendq_get_stats(q, &st);
+  EXPECT_EQ(st.pushed, 4u);
+  EXPECT_EQ(st.dropped, 0u);  // what did not fit is the caller's to count
+  EXPECT_EQ(st.queued, 4u);
+  // An ordinary push still takes the other half, then drops the oldest as before.
+  for (uint8_t i = 5; i <= 9; i++) EXPECT_EQ(vc_sendq_push(q, msg(i, 10).data(), 10), 0);
+  vc_sendq_get_stats(q, &st);
+  EXPECT_EQ(st.queued, 8u);
+  EXPECT_EQ(st.dropped, 1u);
+  vc_sendq_free(q);
+}
+
 TEST(SendQueue, FreeNullIsNoop) {
   vc_sendq_free(nullptr);
 }

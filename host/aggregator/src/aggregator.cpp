@@ -18,7 +18,8 @@ uint32_t grid_id(const rig::VoxelGrid& g) {
   return vc_crc32c(crc, n, sizeof(n));
 }
 
-vc_config make_config_message(const config::RigConfig& rig, const config::NodeConfig& node, uint32_t gid) {
+vc_config make_config_message(const config::RigConfig& rig, const config::NodeConfig& node, uint32_t gid,
+                              uint8_t node_minor) {
   vc_config c{};
   c.grid_id = gid;
   c.grid = rig::to_c_grid(rig.grid);
@@ -27,6 +28,11 @@ vc_config make_config_message(const config::RigConfig& rig, const config::NodeCo
   c.shadow_angle_deg = static_cast<float>(rig.subtraction.shadow_angle_deg);
   c.cleanup_radius_px = static_cast<uint32_t>(rig.subtraction.cleanup_radius_px);  // what the edge runs
   c.background_frames = static_cast<uint32_t>(rig.subtraction.background_frames);
+  if (node_minor >= 1) {  // 2.1: these bytes were 2.0's `reserved`, which a 2.0 node wants 0
+    c.carve_rule = rig.carving.wire_value();
+    c.silhouette_every = static_cast<uint8_t>(rig.silhouettes.every);
+    c.silhouette_scale = static_cast<uint8_t>(rig.silhouettes.scale);
+  }
   c.feature_role = node.is_front() && rig.features.enabled ? VC_ROLE_FRONT : VC_ROLE_NONE;
   c.camera_count = static_cast<uint16_t>(node.cameras.size());
   for (size_t k = 0; k < node.cameras.size() && k < VC_PROTO_MAX_CAMERAS; k++) {
@@ -64,7 +70,8 @@ double Latency::percentile_ms(double p) const {
 struct Aggregator::Node {
   uint16_t id = 0;
   const config::NodeConfig* cfg = nullptr;
-  std::vector<uint8_t> config_msg;
+  std::vector<uint8_t> config_msg;      // for a node of this protocol minor version (2.1)
+  std::vector<uint8_t> config_msg_v20;  // for a 2.0 node: centre carving, no SILHOUETTE
   session::ConnId conn = 0;
   bool connected = false;
   uint32_t state = VC_STATE_IDLE;
@@ -117,15 +124,18 @@ Aggregator::Aggregator(config::RigConfig rig, Options options)
     auto n = std::make_unique<Node>();
     n->cfg = &rig_.nodes[k];
     n->id = config::node_number(rig_.nodes[k], k, rig_.source.string());  // unique: rig_.valid() checked
-    vc_config c = make_config_message(rig_, *n->cfg, grid_id_);
-    n->config_msg.resize(VC_PROTO_HEADER_SIZE + 4096);
-    size_t len = 0;
-    vc_header hdr{};
-    int rc = vc_encode_config(n->config_msg.data(), n->config_msg.size(), &len, &hdr, &c);
-    if (rc < 0)
-      throw config::ConfigError(rig_.source.string(), fmt::format("nodes[{}]", k),
-                                fmt::format("cannot encode its CONFIG: {}", vc_proto_strerror(rc)));
-    n->config_msg.resize(len);
+    for (uint8_t minor : {uint8_t{VC_PROTO_VERSION_MINOR}, uint8_t{0}}) {
+      vc_config c = make_config_message(rig_, *n->cfg, grid_id_, minor);
+      std::vector<uint8_t>& msg = minor ? n->config_msg : n->config_msg_v20;
+      msg.resize(VC_PROTO_HEADER_SIZE + 4096);
+      size_t len = 0;
+      vc_header hdr{};
+      int rc = vc_encode_config(msg.data(), msg.size(), &len, &hdr, &c);
+      if (rc < 0)
+        throw config::ConfigError(rig_.source.string(), fmt::format("nodes[{}]", k),
+                                  fmt::format("cannot encode its CONFIG: {}", vc_proto_strerror(rc)));
+      msg.resize(len);
+    }
     n->rep.id = n->id;
     n->rep.name = n->cfg->id;
     ao.nodes.push_back(n->id);
@@ -247,7 +257,23 @@ std::string Aggregator::on_hello(session::ConnId conn, const vc_msg& m, const st
   n->rep.joins++;
   log(log::Level::info, fmt::format("node {} ({}) joined from {}", n->id, n->cfg->id, peer));
   // The server delivers HELLO's acceptance after this returns; the CONFIG is queued behind nothing.
-  send(*n, n->config_msg);
+  // A 2.0 node rejects the 2.1 fields (its `reserved`): it gets zeros there, and the user is told what
+  // the rig asked for that it cannot do (proto/SPEC.md "Evolution").
+  if (m.hdr.version_minor >= 1) {
+    send(*n, n->config_msg);
+  } else {
+    if (rig_.carving.rule != config::CarveRule::Centre || rig_.silhouettes.enabled())
+      log(log::Level::warn,
+          fmt::format("node {} ({}) speaks protocol 2.{}: it carves with the centre rule{} (the rig asks for "
+                      "{} carving{}); update its voxcap-edge",
+                      n->id, n->cfg->id, m.hdr.version_minor,
+                      rig_.silhouettes.enabled() ? " and sends no SILHOUETTE" : "",
+                      config::to_string(rig_.carving.rule),
+                      rig_.silhouettes.enabled()
+                          ? fmt::format(" and a SILHOUETTE every {} frames", rig_.silhouettes.every)
+                          : ""));
+    send(*n, n->config_msg_v20);
+  }
   return "";
 }
 
@@ -336,6 +362,23 @@ void Aggregator::on_message(session::ConnId conn, const vc_msg& m, uint64_t t_rx
       }
       assembly_->post_features(n->id, m.hdr.seq, m.hdr.t_trigger_ns, m.u.features);
       break;
+    case VC_MSG_SILHOUETTE: {
+      if (m.hdr.node_id != n->id) {
+        n->rep.rejected++;
+        break;
+      }
+      // The decoder checked sizes, counts and the RLE (proto/SPEC.md); the views die with this call.
+      const vc_silhouette& s = m.u.silhouette;
+      pipeline::Silhouette sil;
+      sil.camera = s.camera;
+      sil.scale = s.scale;
+      sil.width = s.width;
+      sil.height = s.height;
+      sil.foreground = s.foreground_count;
+      sil.rle.assign(s.rle, s.rle + s.rle_len);
+      assembly_->post_silhouette(n->id, m.hdr.seq, m.hdr.t_trigger_ns, std::move(sil));
+      break;
+    }
     case VC_MSG_STATS: {
       const vc_stats& s = m.u.stats;
       for (int i = 0; i < s.stage_count; i++) {

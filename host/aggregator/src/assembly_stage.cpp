@@ -79,6 +79,11 @@ bool AssemblyStage::post_stats(uint16_t node_id, const vc_stats& s) {
   return post(node_id, Stats{node_id, s});
 }
 
+bool AssemblyStage::post_silhouette(uint16_t node_id, uint64_t seq, uint64_t t_trigger_ns,
+                                    pipeline::Silhouette silhouette) {
+  return post(node_id, SilhouetteIn{node_id, seq, t_trigger_ns, std::move(silhouette)});
+}
+
 void AssemblyStage::set_running(uint16_t node_id, bool running) {
   inbox_.push_always(Running{node_id, running});
 }
@@ -107,6 +112,9 @@ void AssemblyStage::run() {
           assembler_.add_features(f->node_id, f->seq, f->t_trigger_ns, f->features, now, out);
         } else if (auto* s = std::get_if<Stats>(&*in)) {
           assembler_.add_stats(s->node_id, s->stats);
+        } else if (auto* sil = std::get_if<SilhouetteIn>(&*in)) {
+          assembler_.add_silhouette(sil->node_id, sil->seq, sil->t_trigger_ns, std::move(sil->silhouette),
+                                    now, out);
         } else if (auto* r = std::get_if<Running>(&*in)) {
           assembler_.set_running(r->node_id, r->running);
         }

@@ -243,6 +243,31 @@ TEST(Aggregator, ConfigMessageCarriesTheCalibrationOfTheNodesCameras) {
   EXPECT_NE(grid_id(rig.grid), 0u);
 }
 
+TEST(Aggregator, ConfigMessageCarriesCarvingAndSilhouettesToA21NodeOnly) {
+  TmpDir tmp;
+  config::RigConfig rig = make_rig(tmp.p);
+  vc_config c = make_config_message(rig, rig.nodes[0], 42);  // the rig's defaults
+  EXPECT_EQ(c.carve_rule, VC_CARVE_FOOTPRINT);
+  EXPECT_EQ(c.silhouette_every, 0);
+  EXPECT_EQ(c.silhouette_scale, 1);
+  rig.carving.rule = config::CarveRule::Centre;
+  rig.silhouettes.every = 3;
+  rig.silhouettes.scale = 4;
+  c = make_config_message(rig, rig.nodes[0], 42, 1);
+  EXPECT_EQ(c.carve_rule, VC_CARVE_CENTRE);
+  EXPECT_EQ(c.silhouette_every, 3);
+  EXPECT_EQ(c.silhouette_scale, 4);
+  rig.carving.rule = config::CarveRule::Footprint;
+  c = make_config_message(rig, rig.nodes[0], 42, 0);  // a 2.0 node: its `reserved` stays 0
+  EXPECT_EQ(c.carve_rule, 0);
+  EXPECT_EQ(c.silhouette_every, 0);
+  EXPECT_EQ(c.silhouette_scale, 0);
+  std::vector<uint8_t> buf(VC_PROTO_HEADER_SIZE + 4096);
+  size_t len = 0;
+  vc_header hdr{};
+  EXPECT_EQ(vc_encode_config(buf.data(), buf.size(), &len, &hdr, &c), 0);  // and a 2.1 encoder takes it
+}
+
 TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
   TmpDir tmp;
   Options o;

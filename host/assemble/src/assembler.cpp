@@ -215,6 +215,31 @@ bool Assembler::add_features(uint16_t node_id, uint64_t seq, uint64_t t_trigger_
   return true;
 }
 
+bool Assembler::add_silhouette(uint16_t node_id, uint64_t seq, uint64_t t_trigger_ns,
+                               pipeline::Silhouette silhouette, uint64_t now_ns,
+                               std::vector<MergedFrame>& out) {
+  auto node_it = stats_.nodes.find(node_id);
+  if (node_it == stats_.nodes.end()) return false;
+  NodeCounters& nc = node_it->second;
+  if (silhouette.camera >= VC_PROTO_MAX_CAMERAS) {
+    nc.silhouettes_rejected++;
+    return false;
+  }
+  Pending* p = slot(seq, t_trigger_ns, now_ns, out, nc.silhouettes_late);
+  if (!p) return false;
+  pipeline::NodePart& part = p->parts[node_id];
+  part.node_id = node_id;
+  for (const pipeline::Silhouette& s : part.silhouettes) {
+    if (s.camera == silhouette.camera) {  // one per camera and frame: a repeat cannot grow the frame
+      nc.silhouettes_rejected++;
+      return false;
+    }
+  }
+  part.silhouettes.push_back(std::move(silhouette));
+  nc.silhouettes++;
+  return true;
+}
+
 void Assembler::add_stats(uint16_t node_id, const vc_stats& stats) {
   if (!stats_.nodes.count(node_id)) return;
   std::vector<vc_stats>& w = stats_waiting_[node_id];
@@ -241,7 +266,10 @@ void Assembler::flush(uint64_t now_ns, std::vector<MergedFrame>& out) {
 size_t Assembler::pending_bytes() const {
   size_t b = 0;
   for (const auto& [seq, p] : pending_)
-    for (const auto& [n, part] : p.parts) b += part.rle.size();
+    for (const auto& [n, part] : p.parts) {
+      b += part.rle.size();
+      for (const pipeline::Silhouette& s : part.silhouettes) b += s.rle.size();
+    }
   return b;
 }
 

@@ -160,6 +160,48 @@ vc_features features(uint16_t camera, float u) {
   return f;
 }
 
+pipeline::Silhouette silhouette(uint16_t camera, uint16_t fg) {
+  pipeline::Silhouette s;
+  s.camera = camera;
+  s.scale = 2;
+  s.width = 8;
+  s.height = 4;
+  s.foreground = fg;
+  s.rle = {static_cast<uint8_t>(32 - fg), static_cast<uint8_t>(fg)};  // the last fg pixels
+  return s;
+}
+
+TEST(Assembler, SilhouettesJoinTheFrameOfTheirSeqBoundedAndLateOnesCounted) {
+  Assembler a(opts());
+  std::vector<MergedFrame> out;
+  EXPECT_TRUE(a.add_silhouette(2, 10, 1000, silhouette(1, 5), 0, out));  // before any hull of seq 10
+  a.add(hull(1, 10, random_bits(1, 0.5)), 0, out);
+  EXPECT_TRUE(a.add_silhouette(2, 10, 1000, silhouette(0, 7), 0, out));
+  EXPECT_FALSE(a.add_silhouette(2, 10, 1000, silhouette(0, 9), 0, out)) << "camera 0 twice for one frame";
+  EXPECT_FALSE(a.add_silhouette(2, 10, 1000, silhouette(VC_PROTO_MAX_CAMERAS, 1), 0, out));
+  EXPECT_FALSE(a.add_silhouette(9, 10, 1000, silhouette(0, 1), 0, out)) << "not a configured node";
+  EXPECT_GT(a.pending_bytes(), 0u);
+  a.add(hull(2, 10, random_bits(2, 0.5)), 0, out);
+  a.add(hull(3, 10, random_bits(3, 0.5)), 0, out);
+  ASSERT_EQ(out.size(), 1u) << "complete on the last hull: silhouettes are not waited for";
+  const pipeline::NodePart* n2 = out[0].node(2);
+  ASSERT_NE(n2, nullptr);
+  ASSERT_EQ(n2->silhouettes.size(), 2u);
+  EXPECT_EQ(n2->silhouettes[0].camera, 1);
+  EXPECT_EQ(n2->silhouettes[0].foreground, 5u);
+  EXPECT_EQ(n2->silhouettes[1].camera, 0);
+  EXPECT_EQ(n2->silhouettes[1].rle, (std::vector<uint8_t>{25, 7}));
+  EXPECT_EQ(n2->silhouettes[1].width, 8);
+  EXPECT_EQ(n2->silhouettes[1].scale, 2);
+  EXPECT_TRUE(out[0].node(1)->silhouettes.empty());
+  EXPECT_FALSE(a.add_silhouette(2, 10, 1000, silhouette(1, 1), 0, out)) << "frame 10 is gone: late";
+  const NodeCounters& c = a.stats().nodes.at(2);
+  EXPECT_EQ(c.silhouettes, 2u);
+  EXPECT_EQ(c.silhouettes_rejected, 2u);
+  EXPECT_EQ(c.silhouettes_late, 1u);
+  EXPECT_EQ(a.pending(), 0u);
+}
+
 TEST(Assembler, FeaturesJoinTheFrameOfTheirSeqWithoutHoldingItBack) {
   Assembler a(opts());
   std::vector<MergedFrame> out;

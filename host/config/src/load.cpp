@@ -225,6 +225,19 @@ void read_subtraction(Reader& r, SubtractionOptions* o) {
   r.finish();
 }
 
+void read_carving(Reader& r, CarvingOptions* o) {
+  std::string rule;
+  if (r.get("rule", &rule) && !parse_carve_rule(rule, &o->rule))
+    r.ctx().fail(r.key("rule"), fmt::format("must be \"footprint\" or \"centre\", got \"{}\"", rule));
+  r.finish();
+}
+
+void read_silhouettes(Reader& r, SilhouetteOptions* o) {
+  r.get_int("every", &o->every, 0, 100000);
+  r.get_int("scale", &o->scale, 0, 100000);
+  r.finish();
+}
+
 void read_trigger(Reader& r, TriggerOptions* o) {
   std::string backend;
   if (r.get("backend", &backend) && !parse_trigger_backend(backend, &o->backend))
@@ -344,6 +357,8 @@ void check_sections(const RigConfig& c, const Context& ctx) {
   for (size_t i = 0; i < c.nodes.size(); ++i)
     if (!c.nodes[i].valid(&why)) fail_validation(ctx, fmt::format("nodes[{}]", i), why);
   if (!c.subtraction.valid(&why)) fail_validation(ctx, "subtraction", why);
+  if (!c.carving.valid(&why)) fail_validation(ctx, "carving", why);
+  if (!c.silhouettes.valid(&why)) fail_validation(ctx, "silhouettes", why);
   if (!c.trigger.valid(&why)) fail_validation(ctx, "trigger", why);
   if (!c.assembly.valid(&why)) fail_validation(ctx, "assembly", why);
   if (!c.recording.valid(&why)) fail_validation(ctx, "recording", why);
@@ -420,6 +435,14 @@ RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::pa
   if (const toml::table* t = top.table("subtraction")) {
     Reader r(*t, "subtraction", ctx);
     read_subtraction(r, &c.subtraction);
+  }
+  if (const toml::table* t = top.table("carving")) {
+    Reader r(*t, "carving", ctx);
+    read_carving(r, &c.carving);
+  }
+  if (const toml::table* t = top.table("silhouettes")) {
+    Reader r(*t, "silhouettes", ctx);
+    read_silhouettes(r, &c.silhouettes);
   }
   if (const toml::table* t = top.table("features")) {
     Reader r(*t, "features", ctx);

@@ -1,6 +1,7 @@
 // Self-validation of the rig.toml option structs. Messages start with the key path relative to the
 // struct's table, then say what is wanted and what was found.
 #include "voxcap/config/options.hpp"
+#include "voxcap/proto.h"
 
 #include <arpa/inet.h>
 
@@ -89,6 +90,39 @@ bool SubtractionOptions::valid(std::string* why) const {
   if (background_frames < VC_BACKGROUND_FRAMES_MIN || background_frames > VC_BACKGROUND_FRAMES_MAX)
     return fail(why, fmt::format("background_frames: must be in [{}, {}], got {}", VC_BACKGROUND_FRAMES_MIN,
                                  VC_BACKGROUND_FRAMES_MAX, background_frames));
+  return true;
+}
+
+std::string_view to_string(CarveRule rule) {
+  return rule == CarveRule::Centre ? "centre" : "footprint";
+}
+
+bool parse_carve_rule(std::string_view name, CarveRule* out) {
+  for (CarveRule r : {CarveRule::Centre, CarveRule::Footprint}) {
+    if (name == to_string(r)) {
+      *out = r;
+      return true;
+    }
+  }
+  return false;
+}
+
+bool CarvingOptions::valid(std::string* why) const {
+  if (rule != CarveRule::Centre && rule != CarveRule::Footprint)
+    return fail(why,
+                fmt::format("rule: must be \"footprint\" or \"centre\", got {}", static_cast<int>(rule)));
+  return true;
+}
+
+uint16_t CarvingOptions::wire_value() const {
+  return rule == CarveRule::Centre ? VC_CARVE_CENTRE : VC_CARVE_FOOTPRINT;
+}
+
+bool SilhouetteOptions::valid(std::string* why) const {
+  if (every < 0 || every > 255)
+    return fail(why, fmt::format("every: must be in [0, 255] (0: never), got {}", every));
+  if (scale < 1 || scale > VC_PROTO_MAX_SILHOUETTE_SCALE)
+    return fail(why, fmt::format("scale: must be in [1, {}], got {}", VC_PROTO_MAX_SILHOUETTE_SCALE, scale));
   return true;
 }
 

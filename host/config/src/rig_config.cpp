@@ -105,6 +105,8 @@ bool RigConfig::valid(std::string* why) const {
   }
 
   if (!section_valid(subtraction, "subtraction", why)) return false;
+  if (!section_valid(carving, "carving", why)) return false;
+  if (!section_valid(silhouettes, "silhouettes", why)) return false;
   if (!section_valid(trigger, "trigger", why)) return false;
   if (!section_valid(assembly, "assembly", why)) return false;
   if (!section_valid(recording, "recording", why)) return false;

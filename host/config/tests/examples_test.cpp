@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <sstream>
 #include <string>
@@ -81,6 +82,22 @@ TEST(ExampleRigs, SubtractionAgreesWithTheDefaults) {
   }
 }
 
+// Every example rig says [carving] and [silhouettes] with their defaults: footprint, none.
+TEST(ExampleRigs, CarvingAndSilhouettesAreTheDefaults) {
+  for (const auto& file : rig_files()) {
+    SCOPED_TRACE(file.string());
+    const RigConfig rig = load_rig_config(file);
+    EXPECT_EQ(rig.carving.rule, CarvingOptions{}.rule);
+    EXPECT_EQ(rig.carving.rule, CarveRule::Footprint);
+    EXPECT_EQ(rig.silhouettes.every, SilhouetteOptions{}.every);
+    EXPECT_EQ(rig.silhouettes.scale, SilhouetteOptions{}.scale);
+    std::ifstream in(file);
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("[carving]"), std::string::npos);
+    EXPECT_NE(text.find("[silhouettes]"), std::string::npos);
+  }
+}
+
 // The README's [subtraction] rows quote the header's defaults and ranges.
 TEST(ExampleRigs, ReadmeQuotesTheDefaults) {
   std::ifstream in(std::filesystem::path(VOXCAP_SOURCE_DIR) / "host" / "config" / "README.md");
@@ -121,6 +138,9 @@ TEST(ExampleRigs, EveryNodeGetsAValidConfig) {
       c.shadow_angle_deg = static_cast<float>(rig.subtraction.shadow_angle_deg);
       c.cleanup_radius_px = static_cast<uint32_t>(rig.subtraction.cleanup_radius_px);
       c.background_frames = static_cast<uint32_t>(rig.subtraction.background_frames);
+      c.carve_rule = rig.carving.wire_value();
+      c.silhouette_every = static_cast<uint8_t>(rig.silhouettes.every);
+      c.silhouette_scale = static_cast<uint8_t>(rig.silhouettes.scale);
       c.camera_count = static_cast<uint16_t>(node.cameras.size());
       for (size_t k = 0; k < node.cameras.size(); k++) {
         const int idx = rig.camera_index(node.cameras[k]);

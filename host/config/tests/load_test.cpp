@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "test_rig.hpp"
+#include "voxcap/camera_model.h"
 #include "voxcap/config/rig_config.hpp"
 
 namespace vc::config {
@@ -107,6 +108,65 @@ targets = ["127.0.0.1:7700"]
   EXPECT_THAT(c.warnings,
               ::testing::Contains(HasSubstr("calibration camera cam2 (cam2) is not driven by any node")));
   EXPECT_EQ(c.warnings.size(), 4u);  // cam2..cam5
+}
+
+// [carving] and [silhouettes]: defaults (footprint, no silhouettes), the values given, and every bad one
+// named by its key.
+TEST(LoadRigConfig, CarvingAndSilhouettes) {
+  TempRig rig;
+  const std::string head = R"(calibration = "rig.yaml"
+[[nodes]]
+id = "a"
+number = 1
+cameras = ["cam0", "cam1"]
+role = "front"
+[trigger.udp]
+targets = ["127.0.0.1:7700"]
+)";
+  const RigConfig d = parse(rig, head);
+  EXPECT_EQ(d.carving.rule, CarveRule::Footprint);
+  EXPECT_EQ(d.carving.wire_value(), VC_CARVE_FOOTPRINT);
+  EXPECT_EQ(d.silhouettes.every, 0);
+  EXPECT_EQ(d.silhouettes.scale, 1);
+  EXPECT_FALSE(d.silhouettes.enabled());
+  const RigConfig c =
+      parse(rig, head + "[carving]\nrule = \"centre\"\n[silhouettes]\nevery = 5\nscale = 4\n");
+  EXPECT_EQ(c.carving.rule, CarveRule::Centre);
+  EXPECT_EQ(c.carving.wire_value(), VC_CARVE_CENTRE);
+  EXPECT_EQ(c.silhouettes.every, 5);
+  EXPECT_EQ(c.silhouettes.scale, 4);
+  EXPECT_TRUE(c.silhouettes.enabled());
+  EXPECT_EQ(parse(rig, head + "[carving]\nrule = \"footprint\"\n").carving.rule, CarveRule::Footprint);
+  const std::pair<std::string, std::string> bad[] = {
+      {"[carving]\nrule = \"center\"\n", "carving.rule: must be \"footprint\" or \"centre\", got \"center\""},
+      {"[carving]\nrul = \"centre\"\n", "carving.rul"},
+      {"[silhouettes]\nevery = 256\n", "silhouettes.every: must be in [0, 255] (0: never), got 256"},
+      {"[silhouettes]\nevery = -1\n", "silhouettes.every"},
+      {"[silhouettes]\nscale = 0\n", "silhouettes.scale: must be in [1, 16], got 0"},
+      {"[silhouettes]\nscale = 17\n", "silhouettes.scale: must be in [1, 16], got 17"},
+      {"[silhouettes]\nevery = \"2\"\n", "silhouettes.every"},
+  };
+  for (const auto& [text, expect] : bad) {
+    SCOPED_TRACE(text);
+    try {
+      parse(rig, head + text);
+      ADD_FAILURE() << "accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_THAT(std::string(e.what()), HasSubstr(expect));
+    }
+  }
+  // The structs check themselves too (a RigConfig built in code).
+  SilhouetteOptions s;
+  s.scale = 0;
+  std::string why;
+  EXPECT_FALSE(s.valid(&why));
+  EXPECT_EQ(why, "scale: must be in [1, 16], got 0");
+  EXPECT_TRUE(CarvingOptions{}.valid(&why));
+  CarveRule r{};
+  EXPECT_TRUE(parse_carve_rule("centre", &r));
+  EXPECT_EQ(r, CarveRule::Centre);
+  EXPECT_FALSE(parse_carve_rule("Centre", &r));
+  EXPECT_EQ(to_string(CarveRule::Footprint), "footprint");
 }
 
 TEST(LoadRigConfig, CamerasAreNamedByNameOrByCalibrationNode) {

@@ -62,6 +62,8 @@ Bytes encode_typed(const vc_msg& m) {
       return vc::proto::encode(m.u.heartbeat, m.hdr);
     case VC_MSG_ERROR:
       return vc::proto::encode(m.u.error, m.hdr);
+    case VC_MSG_SILHOUETTE:
+      return vc::proto::encode(m.u.silhouette, m.hdr);
     default:
       ADD_FAILURE() << "type " << m.hdr.type;
       return {};
@@ -79,7 +81,8 @@ TEST_P(EveryMessage, EncodesItsVectorByteForByte) {
 
 INSTANTIATE_TEST_SUITE_P(ProtoCxx, EveryMessage,
                          ::testing::Values("hello", "config", "background", "start", "stop", "hull",
-                                           "hull_empty", "features", "stats", "heartbeat", "error"));
+                                           "hull_empty", "features", "stats", "heartbeat", "error",
+                                           "silhouette"));
 
 TEST(ProtoCxx, HullFromBitsIsTheHullVector) {
   const Bytes want = read_vector("hull");
@@ -87,6 +90,19 @@ TEST(ProtoCxx, HullFromBitsIsTheHullVector) {
   Bytes bits((m.u.hull.voxel_count + 7) / 8);
   ASSERT_EQ(vc_rle_decode(m.u.hull.rle, m.u.hull.rle_len, bits.data(), m.u.hull.voxel_count), 0);
   EXPECT_EQ(vc::proto::encode_hull_bits(bits, m.u.hull.voxel_count, m.u.hull.grid_id, m.hdr), want);
+}
+
+TEST(ProtoCxx, SilhouetteFromBitsIsTheSilhouetteVector) {
+  const Bytes want = read_vector("silhouette");
+  const vc_msg m = decode_one(want);
+  const vc_silhouette& s = m.u.silhouette;
+  const size_t n = size_t{s.width} * s.height;
+  Bytes bits((n + 7) / 8);
+  ASSERT_EQ(vc_rle_decode(s.rle, s.rle_len, bits.data(), n), 0);
+  EXPECT_EQ(vc::proto::encode_silhouette_bits(bits, s.camera, s.scale, s.width, s.height, m.hdr), want);
+  bits.pop_back();  // one byte short of width*height bits: refused, never read past
+  EXPECT_THROW(vc::proto::encode_silhouette_bits(bits, s.camera, s.scale, s.width, s.height, m.hdr),
+               vc::proto::ProtoError);
 }
 
 // A message larger than the wrapper's first buffer is encoded again at its size: whole and valid.

@@ -1,4 +1,4 @@
-/* The voxcap wire protocol, both sides: framing, the ten message types, encoders, a streaming
+/* The voxcap wire protocol, both sides: framing, the eleven message types, encoders, a streaming
  * decoder, and the emulated trigger datagram. proto/SPEC.md is the normative text; every struct field
  * below is named as in SPEC.md and appears on the wire in the order listed there.
  *
@@ -29,7 +29,7 @@ extern "C" {
 
 #define VC_PROTO_MAGIC 0x50435856u /* "VXCP" in memory */
 #define VC_PROTO_VERSION_MAJOR 2
-#define VC_PROTO_VERSION_MINOR 0
+#define VC_PROTO_VERSION_MINOR 1
 #define VC_PROTO_HEADER_SIZE 40
 
 #define VC_PROTO_MAX_PAYLOAD (8u * 1024u * 1024u) /* bytes after the header, any type */
@@ -40,6 +40,8 @@ extern "C" {
 #define VC_PROTO_MAX_STAGES 32                    /* stage records per STATS */
 #define VC_PROTO_MAX_COUNTERS 32                  /* counter records per STATS */
 #define VC_PROTO_MAX_ERROR_TEXT 1024              /* bytes of ERROR text */
+#define VC_PROTO_MAX_SILHOUETTE_SIDE 16384        /* SILHOUETTE width and height, pixels (2.1) */
+#define VC_PROTO_MAX_SILHOUETTE_SCALE 16          /* CONFIG silhouette_scale, SILHOUETTE scale (2.1) */
 
 /* ---- Error codes of the decoder and encoders (SPEC.md "Errors") ----------------------------------
  * Fatal codes concern the framing: the byte stream cannot be resynchronised, the decoder stays in the
@@ -55,7 +57,7 @@ enum vc_proto_err {
   VC_PROTO_ETRUNCATED = -1007,    /* the payload is shorter than the fields it announces */
   VC_PROTO_ETRAILING = -1008,     /* bytes after the last field, and the message is not newer */
   VC_PROTO_EINCONSISTENT = -1009, /* counts or sizes that disagree with each other or the data */
-  VC_PROTO_ERLE = -1010,          /* malformed RLE in a HULL */
+  VC_PROTO_ERLE = -1010,          /* malformed RLE in a HULL or SILHOUETTE */
   VC_PROTO_ELIMIT = -1011,        /* a count over one of the VC_PROTO_MAX_* limits */
   VC_PROTO_EFIELD = -1012,        /* a field value outside its documented range */
 };
@@ -87,6 +89,7 @@ enum vc_msg_type {
   VC_MSG_STATS = 8,      /* node -> host, periodic */
   VC_MSG_HEARTBEAT = 9,  /* both ways, periodic */
   VC_MSG_ERROR = 10,     /* both ways */
+  VC_MSG_SILHOUETTE = 11 /* node -> host, per camera every silhouette_every-th frame (2.1) */
 };
 /* "HELLO", ... for known types, NULL otherwise. */
 const char* vc_msg_type_name(uint16_t type);
@@ -150,6 +153,8 @@ enum vc_counter_id {
   VC_COUNTER_PULSES_WITHOUT_FRAME = 5, /* pulses for which a camera delivered no frame */
   VC_COUNTER_HULLS_OVER_LIMIT = 6,     /* hulls not sent: RLE over VC_PROTO_MAX_* limits */
   VC_COUNTER_CAMERA_ERRORS = 7,
+  VC_COUNTER_SILHOUETTES_SENT = 8,    /* SILHOUETTE messages queued for the host (2.1) */
+  VC_COUNTER_SILHOUETTES_DROPPED = 9, /* SILHOUETTEs not sent: no room in the send queue, or a limit */
 };
 const char* vc_stage_name(uint32_t id);            /* "capture", ... or NULL */
 const char* vc_counter_name(uint32_t id);          /* "frames_captured", ... or NULL */
@@ -215,7 +220,9 @@ typedef struct vc_config {
   float t_lower;               /* background if below t_lower * sigma in all channels */
   float shadow_angle_deg;      /* eq. 2: angular (hue) threshold between the two */
   uint32_t cleanup_radius_px;  /* clean-up: one pass of a (2r+1)^2 majority filter, 0..8 (0: off) */
-  uint32_t reserved;           /* 0 */
+  uint16_t carve_rule;         /* vc_carve_rule (camera_model.h): 0 centre, 1 footprint (2.1) */
+  uint8_t silhouette_every;    /* 0: no SILHOUETTE; N: one per camera for every seq % N == 0 (2.1) */
+  uint8_t silhouette_scale;    /* SILHOUETTE downscale 1..16; may be 0 only when silhouette_every is 0 */
   uint32_t background_frames;  /* frames BACKGROUND learns when it says 0 */
   uint16_t feature_role;       /* vc_feature_role */
   uint16_t camera_count;       /* 1..VC_PROTO_MAX_CAMERAS, in the node's HELLO order */
@@ -235,6 +242,19 @@ typedef struct vc_hull {
   const uint8_t* rle;      /* rle_len bytes (rle.h format) */
   uint64_t run_count;      /* filled by the decoder; ignored by the encoder */
 } vc_hull;
+
+/* SILHOUETTE (2.1): one camera's mask after clean-up, exactly what the carver used, at 1/scale of the
+ * camera's resolution (a scaled pixel is foreground when any pixel of its scale x scale block is). The
+ * RLE (rle.h) is over the width*height bitset, pixel (x, y) at bit x + width*y. */
+typedef struct vc_silhouette {
+  uint16_t camera;           /* the node's camera index, < VC_PROTO_MAX_CAMERAS */
+  uint16_t scale;            /* 1..VC_PROTO_MAX_SILHOUETTE_SCALE */
+  uint16_t width, height;    /* of the scaled mask, 1..VC_PROTO_MAX_SILHOUETTE_SIDE */
+  uint32_t rle_len;          /* bytes of RLE */
+  uint32_t foreground_count; /* foreground pixels of the scaled mask: the sum of the occupied runs */
+  const uint8_t* rle;        /* rle_len bytes */
+  uint64_t run_count;        /* filled by the decoder; ignored by the encoder */
+} vc_silhouette;
 
 typedef struct vc_feature {
   uint16_t feature_id; /* vc_feature_id; unique within a message */
@@ -295,6 +315,7 @@ typedef struct vc_msg {
     vc_stats stats;
     vc_heartbeat heartbeat;
     vc_error error;
+    vc_silhouette silhouette;
   } u;
 } vc_msg;
 
@@ -322,6 +343,14 @@ int vc_encode_features(uint8_t* buf, size_t cap, size_t* len, const vc_header* h
 int vc_encode_stats(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_stats* m);
 int vc_encode_heartbeat(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_heartbeat* m);
 int vc_encode_error(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_error* m);
+/* m->rle holds m->rle_len bytes of RLE; it is validated (sizes, counts, runs) before it is copied. */
+int vc_encode_silhouette(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_silhouette* m);
+/* SILHOUETTE straight from a bitset of width*height bits (pixel x + width*y, LSB-first): the RLE is
+ * written into buf in place, foreground_count comes from the same pass; no allocation (the edge's
+ * path). cap >= VC_PROTO_HEADER_SIZE + 16 + vc_rle_max_encoded_size(width * height) always suffices.
+ * VC_PROTO_EFIELD / VC_PROTO_ELIMIT for a camera, scale or size out of range or too many runs. */
+int vc_encode_silhouette_bits(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, uint16_t camera,
+                              uint16_t scale, uint16_t width, uint16_t height, const uint8_t* bits);
 
 /* Dispatches on msg->hdr.type to the encoder above (msg->known types only; -EINVAL otherwise). */
 int vc_msg_encode(uint8_t* buf, size_t cap, size_t* len, const vc_msg* msg);

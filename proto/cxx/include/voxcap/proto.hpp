@@ -53,12 +53,17 @@ Bytes encode(const vc_hull& m, const vc_header& hdr = {});  // m.rle: m.rle_len 
 Bytes encode(const vc_features& m, const vc_header& hdr = {});
 Bytes encode(const vc_stats& m, const vc_header& hdr = {});
 Bytes encode(const vc_heartbeat& m, const vc_header& hdr = {});
-Bytes encode(const vc_error& m, const vc_header& hdr = {});  // m.text: m.text_len bytes, no NUL
+Bytes encode(const vc_error& m, const vc_header& hdr = {});       // m.text: m.text_len bytes, no NUL
+Bytes encode(const vc_silhouette& m, const vc_header& hdr = {});  // m.rle: m.rle_len bytes of RLE
 Bytes encode_start(const vc_header& hdr = {});
 Bytes encode_stop(const vc_header& hdr = {});
 // HULL straight from a bitset of nbits voxels (bits holds at least ceil(nbits / 8) bytes).
 Bytes encode_hull_bits(std::span<const uint8_t> bits, size_t nbits, uint32_t grid_id,
                        const vc_header& hdr = {});
+// SILHOUETTE straight from a bitset of width*height bits (pixel x + width*y, LSB-first; bits holds at
+// least ceil(width*height / 8) bytes).
+Bytes encode_silhouette_bits(std::span<const uint8_t> bits, uint16_t camera, uint16_t scale, uint16_t width,
+                             uint16_t height, const vc_header& hdr = {});
 // Any known message, dispatched on msg.hdr.type (-EINVAL for unknown types).
 Bytes encode(const vc_msg& msg);
 

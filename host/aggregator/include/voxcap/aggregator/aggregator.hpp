@@ -40,8 +40,11 @@
 
 namespace vc::aggregator {
 
-// The CONFIG message body for one node, from the rig configuration.
-vc_config make_config_message(const config::RigConfig& rig, const config::NodeConfig& node, uint32_t grid_id);
+// The CONFIG message body for one node, from the rig configuration. node_minor is the protocol minor
+// version of the node's HELLO: a 2.0 node (minor 0) gets carve_rule, silhouette_every and
+// silhouette_scale as 0 (its `reserved`: centre carving, no SILHOUETTE), as proto/SPEC.md "Evolution" says.
+vc_config make_config_message(const config::RigConfig& rig, const config::NodeConfig& node, uint32_t grid_id,
+                              uint8_t node_minor = VC_PROTO_VERSION_MINOR);
 // A stable id for the rig's grid (CRC32C of its parameters).
 uint32_t grid_id(const rig::VoxelGrid& grid);
 

@@ -43,6 +43,9 @@ class AssemblyStage {
   bool post_hull(assemble::PartialHull hull);
   bool post_features(uint16_t node_id, uint64_t seq, uint64_t t_trigger_ns, const vc_features& features);
   bool post_stats(uint16_t node_id, const vc_stats& stats);
+  // One SILHOUETTE (already copied out of the decoder's buffer): joins the frame of its seq.
+  bool post_silhouette(uint16_t node_id, uint64_t seq, uint64_t t_trigger_ns,
+                       pipeline::Silhouette silhouette);
   // Which nodes a frame waits for. Queued in order with the messages (never dropped, never waits):
   // hulls queued before a node started running are assembled as if it was not running yet.
   void set_running(uint16_t node_id, bool running);
@@ -62,11 +65,16 @@ class AssemblyStage {
     uint16_t node_id;
     vc_stats stats;
   };
+  struct SilhouetteIn {
+    uint16_t node_id;
+    uint64_t seq, t_trigger_ns;
+    pipeline::Silhouette silhouette;
+  };
   struct Running {
     uint16_t node_id;
     bool running;
   };
-  using Input = std::variant<assemble::PartialHull, Features, Stats, Running>;
+  using Input = std::variant<assemble::PartialHull, Features, Stats, Running, SilhouetteIn>;
 
   bool post(uint16_t node_id, Input in);
   void run();

@@ -1,14 +1,14 @@
 // Frame assembly on the host: group what the nodes send by trigger seq into one pipeline::Frame —
-// partial hulls, FEATURES (per camera) and STATS — and intersect the hulls.
+// partial hulls, FEATURES and SILHOUETTEs (per camera) and STATS — and intersect the hulls.
 //
 // A frame is merged as soon as every node that is currently running has sent its HULL for that seq,
 // or when its deadline (trigger time + deadline) passes. The merge is the AND of the partial hulls,
 // done on the RLE streams directly in one pass over all of them (vc_rle_and_n, no bitset in between).
 // When a configured node is missing from a frame, the policy decides: Drop the frame, or merge what
 // came and mark it degraded.
-// A HULL for a frame that was already emitted is late: counted per node and discarded. FEATURES join
-// the frame of their seq (they never hold it back; late ones are counted and discarded); STATS are not
-// about one seq and join the next frame the assembler emits.
+// A HULL for a frame that was already emitted is late: counted per node and discarded. FEATURES and
+// SILHOUETTEs join the frame of their seq (they never hold it back; late ones are counted and
+// discarded); STATS are not about one seq and join the next frame the assembler emits.
 // With AssemblerOptions::merge false the frames leave unmerged (the host's pipeline merges them in its
 // merge stage, merge_stage.hpp); merge() below is that step.
 //
@@ -58,12 +58,15 @@ struct AssemblerOptions {
 };
 
 struct NodeCounters {
-  uint64_t received = 0;       // partial hulls accepted
-  uint64_t missing = 0;        // frames resolved without this node's hull
-  uint64_t late = 0;           // hulls that came after their frame was resolved
-  uint64_t rejected = 0;       // wrong grid, wrong size, duplicate, inconsistent RLE
-  uint64_t features = 0;       // FEATURES messages that joined a frame
-  uint64_t features_late = 0;  // FEATURES for a frame already resolved
+  uint64_t received = 0;              // partial hulls accepted
+  uint64_t missing = 0;               // frames resolved without this node's hull
+  uint64_t late = 0;                  // hulls that came after their frame was resolved
+  uint64_t rejected = 0;              // wrong grid, wrong size, duplicate, inconsistent RLE
+  uint64_t features = 0;              // FEATURES messages that joined a frame
+  uint64_t features_late = 0;         // FEATURES for a frame already resolved
+  uint64_t silhouettes = 0;           // SILHOUETTEs that joined a frame
+  uint64_t silhouettes_late = 0;      // SILHOUETTEs for a frame already resolved (or older than all kept)
+  uint64_t silhouettes_rejected = 0;  // a second one of a camera for a frame, or a camera >= 8
 };
 
 struct AssemblerStats {
@@ -89,6 +92,12 @@ class Assembler {
   // Returns false when late or not from a configured node.
   bool add_features(uint16_t node_id, uint64_t seq, uint64_t t_trigger_ns, const vc_features& features,
                     uint64_t now_ns, std::vector<MergedFrame>& out);
+  // One node's SILHOUETTE (one camera) for frame `seq`: joins the frame like FEATURES (never holds it
+  // back; late ones are counted and discarded). At most one per camera and frame, camera <
+  // VC_PROTO_MAX_CAMERAS, so a frame's silhouettes are bounded. Returns false when late, rejected or
+  // not from a configured node.
+  bool add_silhouette(uint16_t node_id, uint64_t seq, uint64_t t_trigger_ns, pipeline::Silhouette silhouette,
+                      uint64_t now_ns, std::vector<MergedFrame>& out);
   // One node's STATS: they go with the next frame that leaves the assembler.
   void add_stats(uint16_t node_id, const vc_stats& stats);
 

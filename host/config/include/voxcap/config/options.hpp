@@ -143,15 +143,23 @@ struct FeatureOptions {
 // How the edges carve ([carving], CONFIG's carve_rule): the voxel's footprint or only its centre must
 // touch each silhouette (vc_carve_rule, proto/include/voxcap/camera_model.h).
 enum class CarveRule { Centre, Footprint };
+std::string_view to_string(CarveRule rule);                    // "centre", "footprint"
+bool parse_carve_rule(std::string_view name, CarveRule* out);  // false for anything else
 struct CarvingOptions {
-  CarveRule rule = CarveRule::Footprint;
+  CarveRule rule = CarveRule::Footprint;  // the conservative rule: the hull keeps hands and feet
+
+  bool valid(std::string* why) const;
+  uint16_t wire_value() const;  // CONFIG's carve_rule: VC_CARVE_CENTRE or VC_CARVE_FOOTPRINT
 };
 
 // The edges' own masks sent to the host ([silhouettes], CONFIG's silhouette_every/_scale, SILHOUETTE
 // messages): for scoring against truth and for previews.
 struct SilhouetteOptions {
-  int every = 0;  // 0: never; N: every frame whose seq is a multiple of N
+  int every = 0;  // 0: never; N: every frame whose seq is a multiple of N, 0..255
   int scale = 1;  // downscale factor, 1..16
+
+  bool valid(std::string* why) const;
+  bool enabled() const { return every > 0; }
 };
 
 }  // namespace vc::config
