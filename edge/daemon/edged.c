@@ -211,14 +211,15 @@ static void handle_work(edged* d, const vc_capture_pair* p) {
     vc_node_output out;
     int rc = vc_node_process_frame(d->node, w->seq, w->t_ns, rgb, stride, &out);
     if (rc == 0) {
-      /* the HULL first, then the frame's FEATURES (tracking nodes), all with this seq */
-      if (vc_link_send(d->link, out.msg[0], out.len[0]) == 0) d->hulls_sent++;
-      uint64_t lat = vc_clock_monotonic_ns() - w->t_ns; /* the frame stage: trigger edge -> HULL queued */
-      d->frame_sum_ns += lat;
-      if (lat > d->frame_max_ns) d->frame_max_ns = lat;
-      d->frame_n++;
-      for (int i = 1; i < out.count; i++) {
-        if (out.type[i] != VC_MSG_SILHOUETTE) {
+      /* the frame's FEATURES and SILHOUETTEs, then its HULL (the last: the host resolves a frame on it) */
+      for (int i = 0; i < out.count; i++) {
+        if (out.type[i] == VC_MSG_HULL) {
+          if (vc_link_send(d->link, out.msg[i], out.len[i]) == 0) d->hulls_sent++;
+          uint64_t lat = vc_clock_monotonic_ns() - w->t_ns; /* the frame stage: trigger edge -> HULL queued */
+          d->frame_sum_ns += lat;
+          if (lat > d->frame_max_ns) d->frame_max_ns = lat;
+          d->frame_n++;
+        } else if (out.type[i] != VC_MSG_SILHOUETTE) {
           vc_link_send(d->link, out.msg[i], out.len[i]);
         } else if (vc_link_send_if_room(d->link, out.msg[i], out.len[i]) == 0) { /* never costs a HULL */
           d->silhouettes_sent++;

@@ -499,7 +499,7 @@ static void pack_mask(const uint8_t* mask, int w, int h, int s, uint8_t* bits, i
   }
 }
 
-/* The SILHOUETTEs of this frame into out, after the HULL and FEATURES. */
+/* The SILHOUETTEs of this frame into out, after its FEATURES and before its HULL. */
 static void produce_silhouettes(vc_node* n, uint64_t seq, uint64_t t_trigger_ns, vc_node_output* out) {
   vc_header hdr = {.node_id = n->id, .seq = seq, .t_trigger_ns = t_trigger_ns};
   const int s = n->cfg.silhouette_scale;
@@ -524,9 +524,9 @@ int vc_node_process(vc_node* n, uint64_t seq, uint64_t t_trigger_ns, const uint8
                     const size_t stride[VC_NODE_CAMS], const uint8_t** msg, size_t* len) {
   vc_node_output out;
   int rc = vc_node_process_frame(n, seq, t_trigger_ns, rgb, stride, &out);
-  if (rc == 0) {
-    *msg = out.msg[0];
-    *len = out.len[0];
+  if (rc == 0) { /* the HULL is the last message of a frame */
+    *msg = out.msg[out.count - 1];
+    *len = out.len[out.count - 1];
   }
   return rc;
 }
@@ -569,14 +569,16 @@ int vc_node_process_frame(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
     return rc;
   }
   n->counters.hulls_encoded++;
-  out->msg[0] = n->msgbuf;
-  out->len[0] = hull_len;
-  out->type[0] = VC_MSG_HULL;
-  out->count = 1;
+  /* The frame's FEATURES and SILHOUETTEs first, its HULL last: the host resolves a frame when the last
+   * node's HULL arrives, so anything a node sends for the frame after its HULL could come too late. */
   if (n->producer.track && n->cfg.feature_role == VC_ROLE_FRONT)
     produce_features(n, seq, t_trigger_ns, rgb, stride, out);
   if (n->cfg.silhouette_every && seq % n->cfg.silhouette_every == 0)
     produce_silhouettes(n, seq, t_trigger_ns, out);
+  out->msg[out->count] = n->msgbuf;
+  out->len[out->count] = hull_len;
+  out->type[out->count] = VC_MSG_HULL;
+  out->count++;
   return 0;
 }
 

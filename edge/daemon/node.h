@@ -92,8 +92,9 @@ typedef struct vc_features_producer {
 /* Installs (copied) or removes (NULL) the features producer. */
 void vc_node_set_features_producer(vc_node* node, const vc_features_producer* producer);
 
-/* What one frame gives the host, in the order to send: the HULL, then FEATURES per camera, then (on
- * frames whose seq is a multiple of CONFIG's silhouette_every) one SILHOUETTE per camera. type[i] is
+/* What one frame gives the host, in the order to send: FEATURES per camera, then (on frames whose seq
+ * is a multiple of CONFIG's silhouette_every) one SILHOUETTE per camera, then the HULL, last because
+ * the host resolves a frame when its last HULL arrives (proto/SPEC.md, HULL). type[i] is
  * msg[i]'s message type: the sender queues SILHOUETTEs only where they cost no HULL its place. The
  * messages live in the node's buffers, valid until the next call on the node. */
 #define VC_NODE_MAX_MSGS (1 + 2 * VC_NODE_CAMS)
@@ -109,9 +110,9 @@ typedef struct vc_node_output {
  * the same seq; when CONFIG's silhouette_every N > 0 and seq % N == 0, encode each camera's mask
  * (the one carved with, downscaled by silhouette_scale) as a SILHOUETTE into buffers made at CONFIG
  * (no allocation here; one over a limit is not sent and counted in silhouettes_over_limit). Returns 0 (out
- * filled, HULL first), 1 when the frame was skipped (seq < first_seq), -EAGAIN when not RUNNING,
- * VC_PROTO_ELIMIT when the hull has too many runs (counted, nothing to send). A producer's failure or invalid
- * features cost only the FEATURES (counted). */
+ * filled: FEATURES, then SILHOUETTEs, the HULL last), 1 when the frame was skipped (seq < first_seq), -EAGAIN
+ * when not RUNNING, VC_PROTO_ELIMIT when the hull has too many runs (counted, nothing to send). A producer's
+ * failure or invalid features cost only the FEATURES (counted). */
 int vc_node_process_frame(vc_node* node, uint64_t seq, uint64_t t_trigger_ns,
                           const uint8_t* const rgb[VC_NODE_CAMS], const size_t stride[VC_NODE_CAMS],
                           vc_node_output* out);

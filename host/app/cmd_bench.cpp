@@ -1,7 +1,7 @@
-// `voxcap bench edge|host|silhouettes ...`: the benchmarks live in their own program, voxcap-bench (tests/bench), so
-// that voxcap links none of the bench code. This execs voxcap-bench from beside this executable (as
-// `voxcap rig --emulated` finds voxcap-edge) with every argument after the subcommand's name, --help
-// included: flags, output, JSON keys and exit codes are voxcap-bench's. argv[0] becomes
+// `voxcap bench edge|host|silhouettes ...`: the benchmarks live in their own program, voxcap-bench
+// (tests/bench), so that voxcap links none of the bench code. This execs voxcap-bench from beside this
+// executable (as `voxcap rig --emulated` finds voxcap-edge) with every argument after the subcommand's name,
+// --help included: flags, output, JSON keys and exit codes are voxcap-bench's. argv[0] becomes
 // "<voxcap's argv[0]> bench" so that its usage lines and error prefixes read `voxcap bench ...`.
 #include <unistd.h>
 
@@ -60,7 +60,8 @@ void add_bench_commands(CLI::App& app) {
               "Host: merge cost per frame (3/4/8 nodes, 64^3..256^3), the emulated rig's fps, latency and "
               "memory"},
         Group{"silhouettes",
-              "The edge's masks (subtraction + clean-up) against hw/sim's truth: recall per camera and body part, "
+              "The edge's masks (subtraction + clean-up) against hw/sim's truth: recall per camera and body "
+              "part, "
               "precision, floor shadow kept"}}) {
     auto* sub = bench->add_subcommand(g.name, g.description);
     sub->prefix_command();  // every argument after the group's name goes to voxcap-bench as given

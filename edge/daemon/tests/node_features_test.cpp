@@ -100,17 +100,17 @@ struct NodeFeatures : ::testing::Test {
   }
 };
 
-TEST_F(NodeFeatures, TrackingNodeSendsTheHullThenFeaturesPerCameraForTheSameSeq) {
+TEST_F(NodeFeatures, TrackingNodeSendsFeaturesPerCameraThenTheHullForTheSameSeq) {
   run(VC_ROLE_FRONT);
   vc_node_output out;
   ASSERT_EQ(vc_node_process_frame(n, 42, 7000, rgb, stride, &out), 0);
   ASSERT_EQ(out.count, 3);
   EXPECT_TRUE(tracker.saw_masks);
-  vc_msg hull = decode(out.msg[0], out.len[0]);
+  vc_msg hull = decode(out.msg[2], out.len[2]);  // the HULL last: the host resolves a frame on it
   EXPECT_EQ(hull.hdr.type, VC_MSG_HULL);
   EXPECT_EQ(hull.hdr.seq, 42u);
   for (int c = 0; c < 2; c++) {
-    vc_msg f = decode(out.msg[1 + c], out.len[1 + c]);
+    vc_msg f = decode(out.msg[c], out.len[c]);
     EXPECT_EQ(f.hdr.type, VC_MSG_FEATURES);
     EXPECT_EQ(f.hdr.seq, 42u);
     EXPECT_EQ(f.hdr.t_trigger_ns, 7000u);

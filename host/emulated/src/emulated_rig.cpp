@@ -208,7 +208,7 @@ class TruthScorer : public pipeline::Stage {
     so.calibration = rig::read_calibration(spec_cal);
     scene_ = std::make_unique<sim::Scene>(so);
     const vc_voxel_grid g = rig::to_c_grid(grid);
-    vc_carve_rule rule = carve_rule(opt.carve);
+    const vc_carve_rule rule = carve_rule(opt.carve);
     reference_carve_ = opt.carve;
     for (int k = 0; k < opt.nodes; k++) {
       vc_camera a = rig::to_c_camera(cal.cameras[2 * static_cast<size_t>(k)]);
@@ -216,13 +216,6 @@ class TruthScorer : public pipeline::Stage {
       vc_carver* c = nullptr;
       char why[200];
       int rc = vc_carver_new(&g, &a, &b, rule, &c, why, sizeof why);
-      if (rc == -EINVAL && rule == VC_CARVE_FOOTPRINT && k == 0) {
-        // A carver without the footprint rule (before edge/core has it): so are the edges', which
-        // then carve with the centre rule; the reference says which rule it used.
-        rule = VC_CARVE_CENTRE;
-        reference_carve_ = "centre (this build's carver has no footprint rule)";
-        rc = vc_carver_new(&g, &a, &b, rule, &c, why, sizeof why);
-      }
       if (rc < 0) throw std::runtime_error(std::string("truth: cannot build a carver for the rig: ") + why);
       carvers_.push_back(c);
     }
@@ -601,6 +594,8 @@ void write_rig_toml(const config::RigConfig& c, const fs::path& path) {
                                       {"cleanup_radius_px", c.subtraction.cleanup_radius_px},
                                       {"background_frames", c.subtraction.background_frames}});
   t.insert("features", toml::table{{"enabled", c.features.enabled}});
+  t.insert("carving", toml::table{{"rule", std::string(config::to_string(c.carving.rule))}});
+  t.insert("silhouettes", toml::table{{"every", c.silhouettes.every}, {"scale", c.silhouettes.scale}});
   toml::array targets;
   for (const config::Endpoint& e : c.trigger.udp.targets) targets.push_back(e.str());
   t.insert("trigger", toml::table{{"backend", std::string(config::to_string(c.trigger.backend))},
@@ -622,7 +617,9 @@ void write_rig_toml(const config::RigConfig& c, const fs::path& path) {
   const config::RigConfig back = config::load_rig_config(path);
   bool same = back.nodes.size() == c.nodes.size() && back.trigger.udp.targets == c.trigger.udp.targets &&
               back.subtraction.t_upper == c.subtraction.t_upper && back.network.port == c.network.port &&
-              back.grid.nx == c.grid.nx && back.assembly.deadline_ms == c.assembly.deadline_ms;
+              back.grid.nx == c.grid.nx && back.assembly.deadline_ms == c.assembly.deadline_ms &&
+              back.carving.rule == c.carving.rule && back.silhouettes.every == c.silhouettes.every &&
+              back.silhouettes.scale == c.silhouettes.scale;
   for (size_t k = 0; same && k < c.nodes.size(); k++)
     same = back.nodes[k].id == c.nodes[k].id && back.nodes[k].number == c.nodes[k].number &&
            back.nodes[k].role == c.nodes[k].role;
