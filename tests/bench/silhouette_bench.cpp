@@ -25,54 +25,17 @@ namespace {
 
 using vc::sim::Part;
 
-// The body parts: head (with the neck), torso, and each limb segment; a foot includes its toes.
-constexpr std::array<const char*, 14> kGroups = {
-    "head",   "torso",   "l_upper_arm", "l_forearm", "l_hand",  "r_upper_arm", "r_forearm",
-    "r_hand", "l_thigh", "l_shank",     "l_foot",    "r_thigh", "r_shank",     "r_foot"};
+// The body part groups (hw/sim's: head with the neck, torso, each limb segment, a foot with its toes).
+const std::array<std::string_view, vc::sim::kPartGroups>& kGroups = vc::sim::part_group_names();
 constexpr uint8_t kUnlabelled = 0xFF;
 
 uint8_t group_of(Part p) {
-  switch (p) {
-    case Part::head:
-    case Part::neck:
-      return 0;
-    case Part::pelvis:
-    case Part::abdomen:
-    case Part::chest:
-    case Part::shoulders:
-      return 1;
-    case Part::l_upper_arm:
-      return 2;
-    case Part::l_forearm:
-      return 3;
-    case Part::l_hand:
-      return 4;
-    case Part::r_upper_arm:
-      return 5;
-    case Part::r_forearm:
-      return 6;
-    case Part::r_hand:
-      return 7;
-    case Part::l_thigh:
-      return 8;
-    case Part::l_shank:
-      return 9;
-    case Part::l_foot:
-    case Part::l_toes:
-      return 10;
-    case Part::r_thigh:
-      return 11;
-    case Part::r_shank:
-      return 12;
-    case Part::r_foot:
-    case Part::r_toes:
-      return 13;
-  }
-  return kUnlabelled;
+  return static_cast<uint8_t>(vc::sim::part_group(static_cast<int>(p)));
 }
 
 bool hand_or_foot(size_t g) {
-  return g == 4 || g == 7 || g == 10 || g == 13;
+  const std::string_view n = kGroups[g];
+  return n.ends_with("_hand") || n.ends_with("_foot");
 }
 
 // Counts of one camera (or of all of them).
@@ -81,7 +44,7 @@ struct Counts {
   uint64_t mask = 0;                 // mask pixels (foreground after clean-up)
   uint64_t shadow = 0, shadow_kept = 0;
   uint64_t pixels = 0, band = 0, called_shadow = 0;
-  std::array<uint64_t, kGroups.size()> part{}, part_kept{};
+  std::array<uint64_t, vc::sim::kPartGroups> part{}, part_kept{};
 
   void add(const Counts& o) {
     body += o.body;
@@ -115,7 +78,7 @@ nlohmann::json to_json(const Counts& c) {
   uint64_t hf = 0, hf_kept = 0;
   nlohmann::json parts = nlohmann::json::object();
   for (size_t g = 0; g < kGroups.size(); g++) {
-    parts[kGroups[g]] = {{"pixels", c.part[g]}, {"recall", ratio(c.part_kept[g], c.part[g])}};
+    parts[std::string(kGroups[g])] = {{"pixels", c.part[g]}, {"recall", ratio(c.part_kept[g], c.part[g])}};
     if (hand_or_foot(g)) {
       hf += c.part[g];
       hf_kept += c.part_kept[g];

@@ -97,54 +97,6 @@ static int free_port(int type) {
   return ntohs(a.sin_port);
 }
 
-const std::array<std::string_view, kPartGroups>& part_group_names() {
-  static const std::array<std::string_view, kPartGroups> names = {
-      "head",   "torso",   "l_upper_arm", "r_upper_arm", "l_forearm", "r_forearm", "l_hand",
-      "r_hand", "l_thigh", "r_thigh",     "l_shank",     "r_shank",   "l_foot",    "r_foot"};
-  return names;
-}
-
-int part_group(int part) {
-  using P = sim::Part;
-  switch (static_cast<P>(part)) {
-    case P::head:
-    case P::neck:
-      return 0;
-    case P::pelvis:
-    case P::abdomen:
-    case P::chest:
-    case P::shoulders:
-      return 1;
-    case P::l_upper_arm:
-      return 2;
-    case P::r_upper_arm:
-      return 3;
-    case P::l_forearm:
-      return 4;
-    case P::r_forearm:
-      return 5;
-    case P::l_hand:
-      return 6;
-    case P::r_hand:
-      return 7;
-    case P::l_thigh:
-      return 8;
-    case P::r_thigh:
-      return 9;
-    case P::l_shank:
-      return 10;
-    case P::r_shank:
-      return 11;
-    case P::l_foot:
-    case P::l_toes:
-      return 12;
-    case P::r_foot:
-    case P::r_toes:
-      return 13;
-  }
-  throw std::out_of_range(fmt::format("no body part {}", part));
-}
-
 namespace {
 
 // Running sums of one edge mask's figures; means when read.

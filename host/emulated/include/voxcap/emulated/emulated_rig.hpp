@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "voxcap/aggregator/aggregator.hpp"
+#include "voxcap/sim/body.hpp"
 
 namespace vc::emulated {
 
@@ -55,12 +56,10 @@ struct Options {
   bool valid(std::string* why) const;
 };
 
-// The body part groups of the per-part figures: hw/sim's 20 parts with head = head + neck, torso =
-// pelvis, abdomen, chest and shoulder girdle, foot = foot + toes.
-inline constexpr int kPartGroups = 14;
-const std::array<std::string_view, kPartGroups>& part_group_names();  // "head", "torso", "l_upper_arm", ...
-// The group of a hw/sim Part index (0..19).
-int part_group(int part);
+// The body part groups of the per-part figures are hw/sim's (voxcap/sim/body.hpp).
+using sim::kPartGroups;
+using sim::part_group;
+using sim::part_group_names;
 
 // An edge mask against the truth, averaged over the scored frames that had it. A mask that does not
 // fit its camera (size, scale, RLE, count) is counted as bad and not scored; a scored frame without it

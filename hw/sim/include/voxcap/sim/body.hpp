@@ -53,6 +53,13 @@ inline constexpr int kPartCount = 20;
 std::string_view part_name(Part p);
 enum class Material : int { skin, shirt, trousers };
 Material part_material(Part p);
+// The body part groups that accuracy figures report (the emulated rig's scorer, `voxcap bench
+// silhouettes`): the 20 parts with head = head + neck, torso = pelvis, abdomen, chest and shoulder
+// girdle, foot = foot + toes, and each upper arm, forearm, hand, thigh and shank on its own.
+inline constexpr int kPartGroups = 14;
+const std::array<std::string_view, kPartGroups>& part_group_names();  // "head", "torso", "l_upper_arm", ...
+// The group of a Part index (0..19); std::out_of_range for anything else.
+int part_group(int part);
 // The parts that belong to a feature (a feature is occluded only by other parts).
 bool part_of_feature(Part p, Feature f);
 
