@@ -44,6 +44,8 @@ nlohmann::json to_json(const RigConfig& c) {
         {"cleanup_radius_px", c.subtraction.cleanup_radius_px},
         {"background_frames", c.subtraction.background_frames}}},
       {"features", {{"enabled", c.features.enabled}}},
+      {"carving", {{"rule", std::string(config::to_string(c.carving.rule))}}},
+      {"silhouettes", {{"every", c.silhouettes.every}, {"scale", c.silhouettes.scale}}},
       {"trigger",
        {{"backend", to_string(t.backend)},
         {"rate_hz", t.rate_hz},
@@ -101,6 +103,11 @@ void print_summary(const RigConfig& c) {
              c.subtraction.t_upper, c.subtraction.t_lower, c.subtraction.shadow_angle_deg,
              c.subtraction.cleanup_radius_px, c.subtraction.background_frames);
   fmt::print("  features     {}\n", c.features.enabled ? "tracked on the front nodes" : "off");
+  fmt::print("  carving      {} rule\n", config::to_string(c.carving.rule));
+  if (c.silhouettes.every > 0)
+    fmt::print("  silhouettes  every {}th frame, 1/{} scale\n", c.silhouettes.every, c.silhouettes.scale);
+  else
+    fmt::print("  silhouettes  not sent\n");
   fmt::print("  trigger      {}\n", trigger_summary(c.trigger));
   fmt::print("  assembly     deadline {} ms, missing node: {}\n", c.assembly.deadline_ms,
              to_string(c.assembly.missing_node_policy));
