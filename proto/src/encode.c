@@ -157,19 +157,29 @@ int vc_encode_hull(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, 
   return 0;
 }
 
+/* The RLE of `nbits` bits straight into a HULL's or SILHOUETTE's payload, after its `fixed` bytes (the
+ * caller then writes those and seals): *len is the whole message's size, also when it does not fit (-ENOSPC,
+ * *len the size needed); VC_PROTO_ELIMIT when the runs or the payload exceed the protocol's limits. */
+static int encode_rle_payload(uint8_t* buf, size_t cap, size_t* len, size_t fixed_payload,
+                              const uint8_t* bits, size_t nbits, size_t* rle_len, vc_rle_info* info) {
+  const size_t fixed = VC_PROTO_HEADER_SIZE + fixed_payload;
+  uint8_t* rle = cap >= fixed ? buf + fixed : NULL;
+  const size_t rle_cap = cap >= fixed ? cap - fixed : 0;
+  int rc = vc_rle_encode_info(bits, nbits, rle, rle_cap, rle_len, info);
+  *len = fixed + *rle_len;
+  if (info->runs > VC_PROTO_MAX_RLE_RUNS || fixed_payload + *rle_len > VC_PROTO_MAX_PAYLOAD)
+    return VC_PROTO_ELIMIT;
+  return rc; /* 0, or -ENOSPC with *len the size needed */
+}
+
 int vc_encode_hull_bits(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, uint32_t grid_id,
                         const uint8_t* bits, size_t nbits) {
   if (!len || !hdr || (cap && !buf) || (nbits && !bits)) return -EINVAL;
   if (nbits > VC_PROTO_MAX_VOXELS) return VC_PROTO_ELIMIT;
-  const size_t fixed = VC_PROTO_HEADER_SIZE + VC_HULL_FIXED;
-  uint8_t* rle = cap >= fixed ? buf + fixed : NULL;
-  size_t rle_cap = cap >= fixed ? cap - fixed : 0, rle_len = 0;
+  size_t rle_len = 0;
   vc_rle_info info;
-  int rc = vc_rle_encode_info(bits, nbits, rle, rle_cap, &rle_len, &info);
-  *len = fixed + rle_len;
-  if (info.runs > VC_PROTO_MAX_RLE_RUNS || VC_HULL_FIXED + rle_len > VC_PROTO_MAX_PAYLOAD)
-    return VC_PROTO_ELIMIT;
-  if (rc) return rc; /* -ENOSPC, with *len the size needed */
+  int rc = encode_rle_payload(buf, cap, len, VC_HULL_FIXED, bits, nbits, &rle_len, &info);
+  if (rc) return rc;
   put_hull_fixed(buf + VC_PROTO_HEADER_SIZE, grid_id, (uint32_t)rle_len, nbits, info.occupied);
   seal(buf, hdr, VC_MSG_HULL, VC_HULL_FIXED + rle_len);
   return 0;
@@ -280,16 +290,10 @@ int vc_encode_silhouette_bits(uint8_t* buf, size_t cap, size_t* len, const vc_he
   if (!len || !hdr || (cap && !buf) || !bits) return -EINVAL;
   int rc = vc_check_silhouette_fields(camera, scale, width, height, NULL);
   if (rc) return rc;
-  const size_t nbits = (size_t)width * height;
-  const size_t fixed = VC_PROTO_HEADER_SIZE + VC_SILHOUETTE_FIXED;
-  uint8_t* rle = cap >= fixed ? buf + fixed : NULL;
-  size_t rle_cap = cap >= fixed ? cap - fixed : 0, rle_len = 0;
+  size_t rle_len = 0;
   vc_rle_info info;
-  rc = vc_rle_encode_info(bits, nbits, rle, rle_cap, &rle_len, &info);
-  *len = fixed + rle_len;
-  if (info.runs > VC_PROTO_MAX_RLE_RUNS || VC_SILHOUETTE_FIXED + rle_len > VC_PROTO_MAX_PAYLOAD)
-    return VC_PROTO_ELIMIT;
-  if (rc) return rc; /* -ENOSPC, with *len the size needed */
+  rc = encode_rle_payload(buf, cap, len, VC_SILHOUETTE_FIXED, bits, (size_t)width * height, &rle_len, &info);
+  if (rc) return rc;
   put_silhouette_fixed(buf + VC_PROTO_HEADER_SIZE, camera, scale, width, height, (uint32_t)rle_len,
                        (uint32_t)info.occupied);
   seal(buf, hdr, VC_MSG_SILHOUETTE, VC_SILHOUETTE_FIXED + rle_len);

@@ -87,26 +87,34 @@ int vc_check_config(const vc_config* m, vc_proto_diag* diag) {
   return 0;
 }
 
+/* The RLE payload of a HULL or SILHOUETTE: canonical, within the run limit, covering exactly `bits` bits of
+ * which `ones` are set (what the message's own count fields say, named for the diagnostics). */
+static int check_rle_payload(const char* type, const uint8_t* rle, uint32_t rle_len, uint64_t bits,
+                             const char* bits_field, uint64_t ones, const char* ones_field, uint64_t* runs,
+                             vc_proto_diag* diag) {
+  if (rle_len && !rle) return vc_diag_set(diag, -EINVAL, "%s: rle is NULL", type);
+  vc_rle_info info;
+  if (vc_rle_inspect(rle, rle_len, &info))
+    return vc_diag_set(diag, VC_PROTO_ERLE, "%s: RLE is malformed (bad varint or zero run)", type);
+  if (info.runs > VC_PROTO_MAX_RLE_RUNS)
+    return vc_diag_set(diag, VC_PROTO_ELIMIT, "%s: %llu runs > %llu", type, (unsigned long long)info.runs,
+                       (unsigned long long)VC_PROTO_MAX_RLE_RUNS);
+  if (info.total != bits)
+    return vc_diag_set(diag, VC_PROTO_EINCONSISTENT, "%s: runs sum to %llu, %s is %llu", type,
+                       (unsigned long long)info.total, bits_field, (unsigned long long)bits);
+  if (info.occupied != ones)
+    return vc_diag_set(diag, VC_PROTO_EINCONSISTENT, "%s: occupied runs sum to %llu, %s is %llu", type,
+                       (unsigned long long)info.occupied, ones_field, (unsigned long long)ones);
+  if (runs) *runs = info.runs;
+  return 0;
+}
+
 int vc_check_hull(const vc_hull* m, uint64_t* runs, vc_proto_diag* diag) {
   if (m->voxel_count > VC_PROTO_MAX_VOXELS)
     return vc_diag_set(diag, VC_PROTO_ELIMIT, "HULL: voxel_count %llu > %llu",
                        (unsigned long long)m->voxel_count, (unsigned long long)VC_PROTO_MAX_VOXELS);
-  if (m->rle_len && !m->rle) return vc_diag_set(diag, -EINVAL, "HULL: rle is NULL");
-  vc_rle_info info;
-  int rc = vc_rle_inspect(m->rle, m->rle_len, &info);
-  if (rc) return vc_diag_set(diag, VC_PROTO_ERLE, "HULL: RLE is malformed (bad varint or zero run)");
-  if (info.runs > VC_PROTO_MAX_RLE_RUNS)
-    return vc_diag_set(diag, VC_PROTO_ELIMIT, "HULL: %llu runs > %llu", (unsigned long long)info.runs,
-                       (unsigned long long)VC_PROTO_MAX_RLE_RUNS);
-  if (info.total != m->voxel_count)
-    return vc_diag_set(diag, VC_PROTO_EINCONSISTENT, "HULL: runs sum to %llu, voxel_count is %llu",
-                       (unsigned long long)info.total, (unsigned long long)m->voxel_count);
-  if (info.occupied != m->occupied_count)
-    return vc_diag_set(diag, VC_PROTO_EINCONSISTENT,
-                       "HULL: occupied runs sum to %llu, occupied_count is %llu",
-                       (unsigned long long)info.occupied, (unsigned long long)m->occupied_count);
-  if (runs) *runs = info.runs;
-  return 0;
+  return check_rle_payload("HULL", m->rle, m->rle_len, m->voxel_count, "voxel_count", m->occupied_count,
+                           "occupied_count", runs, diag);
 }
 
 int vc_check_features(const vc_features* m, vc_proto_diag* diag) {
@@ -230,21 +238,6 @@ int vc_check_silhouette_fields(uint16_t camera, uint16_t scale, uint16_t width, 
 int vc_check_silhouette(const vc_silhouette* m, uint64_t* runs, vc_proto_diag* diag) {
   int rc = vc_check_silhouette_fields(m->camera, m->scale, m->width, m->height, diag);
   if (rc) return rc;
-  if (m->rle_len && !m->rle) return vc_diag_set(diag, -EINVAL, "SILHOUETTE: rle is NULL");
-  vc_rle_info info;
-  if (vc_rle_inspect(m->rle, m->rle_len, &info))
-    return vc_diag_set(diag, VC_PROTO_ERLE, "SILHOUETTE: RLE is malformed (bad varint or zero run)");
-  if (info.runs > VC_PROTO_MAX_RLE_RUNS)
-    return vc_diag_set(diag, VC_PROTO_ELIMIT, "SILHOUETTE: %llu runs > %llu", (unsigned long long)info.runs,
-                       (unsigned long long)VC_PROTO_MAX_RLE_RUNS);
-  const uint64_t pixels = (uint64_t)m->width * m->height;
-  if (info.total != pixels)
-    return vc_diag_set(diag, VC_PROTO_EINCONSISTENT, "SILHOUETTE: runs sum to %llu, %ux%u is %llu pixels",
-                       (unsigned long long)info.total, m->width, m->height, (unsigned long long)pixels);
-  if (info.occupied != m->foreground_count)
-    return vc_diag_set(diag, VC_PROTO_EINCONSISTENT,
-                       "SILHOUETTE: occupied runs sum to %llu, foreground_count is %u",
-                       (unsigned long long)info.occupied, m->foreground_count);
-  if (runs) *runs = info.runs;
-  return 0;
+  return check_rle_payload("SILHOUETTE", m->rle, m->rle_len, (uint64_t)m->width * m->height, "width x height",
+                           m->foreground_count, "foreground_count", runs, diag);
 }
