@@ -50,11 +50,13 @@ bool Options::valid(std::string* why) const {
   if (!(smooth_ratio >= 0 && smooth_ratio <= 0.05)) return bad("smooth_ratio must be 0..0.05");
   if (!(gvd_ratio >= 0.5 && gvd_ratio <= 1.9)) return bad("gvd_ratio must be 0.5..1.9");
   if (!(window_ratio >= 1 && window_ratio <= 10)) return bad("window_ratio must be 1..10");
+  if (!(min_ratio >= 0.5 && min_ratio <= window_ratio)) return bad("min_ratio must be 0.5..window_ratio");
   if (!(min_window_px >= 1 && min_window_px <= 100)) return bad("min_window_px must be 1..100");
   if (!(rise_ratio > 0 && rise_ratio <= 2)) return bad("rise_ratio must be in (0, 2]");
   if (!(min_region_ratio >= 0 && min_region_ratio <= 0.1)) return bad("min_region_ratio must be 0..0.1");
   if (!(foot_band_ratio > 0 && foot_band_ratio <= 0.5)) return bad("foot_band_ratio must be in (0, 0.5]");
   if (!(head_band_ratio > 0 && head_band_ratio <= 0.6)) return bad("head_band_ratio must be in (0, 0.6]");
+  if (!(wrist_shift >= 0 && wrist_shift <= 5)) return bad("wrist_shift must be 0..5");
   if (!(ankle_ratio >= 0 && ankle_ratio <= 0.2)) return bad("ankle_ratio must be 0..0.2");
   if (why) why->clear();
   return true;
@@ -214,6 +216,7 @@ bool Work::is_critical(int g, std::vector<int>* seen, int stamp, int* steps_to_r
   if (dp < 1.0F) return false;
   const int reach = static_cast<int>(std::ceil(std::max(opt_.min_window_px, opt_.window_ratio * dp)));
   const float tol = std::max(0.3F, 0.04F * dp);
+  const int min_reach = static_cast<int>(std::ceil(std::max(opt_.min_window_px, opt_.min_ratio * dp)));
   // Breadth-first along the GVD (8-connected), `reach` steps.
   std::vector<std::pair<int, int>>& q = queue_;  // (gvd index, steps)
   q.clear();
@@ -222,7 +225,9 @@ bool Work::is_critical(int g, std::vector<int>* seen, int stamp, int* steps_to_r
   for (size_t h = 0; h < q.size(); h++) {
     const auto [i, steps] = q[h];
     const cv::Point a = gvd_pts_[static_cast<size_t>(i)];
-    if (clear(a.x, a.y) < dp - tol) return false;  // not a minimum of its window
+    // A minimum near p only: farther away the window may reach into a thinner branch (an arm
+    // beside the neck), which is another constriction.
+    if (clear(a.x, a.y) < dp - tol && steps <= min_reach) return false;
     if (steps == reach) continue;
     for (const cv::Point& o : kN8) {
       const cv::Point b = a + o;
@@ -572,9 +577,15 @@ void Work::terminals(Segmentation* s) {
     s->point[kHead] = cv::Point2f(static_cast<float>(wx / n), static_cast<float>(wy / n)) + o;
   }
   // Hands and feet: the middle of the terminal's cut. Left is the image's right.
+  // The cut of a hand's leaf is where the hand widens; the wrist joint lies a little inside the arm.
   auto cut_mid = [&](int id) {
     const Cut* k = leaf_cut(id);
-    return k ? (k->a + k->b) * 0.5F + o : regions_[static_cast<size_t>(id)].centroid;
+    const Region& r = regions_[static_cast<size_t>(id)];
+    if (!k) return r.centroid;
+    const cv::Point2f mid = (k->a + k->b) * 0.5F + o;
+    cv::Point2f away = mid - r.centroid;
+    const float n = std::hypot(away.x, away.y);
+    return n > 0 ? mid + away * (static_cast<float>(opt_.wrist_shift) * k->clearance / n) : mid;
   };
   {
     const cv::Point2f p0 = cut_mid(hands[0]), p1 = cut_mid(hands[1]);

@@ -12,7 +12,8 @@
 //      own (more than gvd_ratio x the clearance: two boundary points at an angle, which prunes the
 //      spurs of a ragged border), one pixel wide.
 //   4. Critical points: GVD pixels whose clearance is the smallest along the GVD within
-//      window_ratio x clearance and rises by rise_ratio on at least two sides (a constriction).
+//      min_ratio x clearance, that the GVD leaves on two sides, and from which the clearance rises
+//      by rise_ratio within window_ratio x clearance on at least one (a constriction).
 //   5. Cuts: the line through the two boundary points nearest the critical point; the silhouette
 //      minus the cuts gives the regions, the cuts their adjacency graph; tiny regions are merged.
 //   6. Terminals: the leaves of the graph. Feet are the leaves at the bottom (legs together: one
@@ -49,13 +50,15 @@ struct Options {
   int min_height_px = 40;           // ... and one shorter than this
   double smooth_ratio = 0.006;      // opening/closing radius: this x height (rounded; 0: none)
   double gvd_ratio = 1.2;           // GVD: the two boundary points are more than this x clearance apart
-  double window_ratio = 3.0;        // critical points: minimum along the GVD within this x clearance ...
-  double min_window_px = 4.0;       // ... and at least this many pixels
-  double rise_ratio = 0.15;         // ... and the clearance rises by this fraction on two sides
+  double min_ratio = 1.0;           // critical points: minimum along the GVD within this x clearance,
+  double window_ratio = 3.0;        // ... the clearance rises by rise_ratio within this x clearance
+  double min_window_px = 4.0;       // ... (both windows at least this many pixels)
+  double rise_ratio = 0.15;         // ... on at least one side (a wrist: even width up to the elbow)
+  double wrist_shift = 1.0;         // the wrist: this x the cut's clearance beyond it, into the arm
   double min_region_ratio = 0.002;  // regions smaller than this x the silhouette's area are merged
   double foot_band_ratio = 0.15;    // feet: leaves reaching into the lowest fraction of the height
   double head_band_ratio = 0.35;    // head: a leaf whose centre is in the highest fraction
-  double ankle_ratio = 0.045;       // ankle: this x height above the foot's lowest pixel
+  double ankle_ratio = 0.08;        // ankle: this x height above the foot's lowest pixel
 
   // True when usable; otherwise *why (if given) names the first bad field.
   bool valid(std::string* why) const;
