@@ -27,6 +27,7 @@
 #include <cmath>
 #include <cstdint>
 #include <numeric>
+#include <queue>
 #include <stdexcept>
 
 #include <opencv2/imgproc.hpp>
@@ -57,6 +58,7 @@ bool Options::valid(std::string* why) const {
   if (!(foot_band_ratio > 0 && foot_band_ratio <= 0.5)) return bad("foot_band_ratio must be in (0, 0.5]");
   if (!(head_band_ratio > 0 && head_band_ratio <= 0.6)) return bad("head_band_ratio must be in (0, 0.6]");
   if (!(wrist_shift >= 0 && wrist_shift <= 5)) return bad("wrist_shift must be 0..5");
+  if (!(hand_ratio > 0 && hand_ratio <= 0.3)) return bad("hand_ratio must be in (0, 0.3]");
   if (!(ankle_ratio >= 0 && ankle_ratio <= 0.2)) return bad("ankle_ratio must be 0..0.2");
   if (why) why->clear();
   return true;
@@ -128,6 +130,10 @@ class Work {
   void regions(Segmentation* s);
   void terminals(Segmentation* s);
   bool find_feet(Segmentation* s);
+  void geodesic(cv::Point from);
+  cv::Point region_tip(int id) const;
+  std::vector<cv::Point> extremities(double height) const;
+  cv::Point2f wrist_from_tip(cv::Point tip, double len) const;
   void export_images(Segmentation* s) const;
 
   const Options& opt_;
@@ -142,6 +148,7 @@ class Work {
   std::vector<cv::Point> critical_;
   std::vector<Cut> cuts_;  // local coordinates until exported
   cv::Mat1i labels_;       // region id, -1 background
+  cv::Mat1f geo_;          // geodesic distance from the head's centre, -1 outside
   std::vector<Region> regions_;
   std::vector<std::pair<int, int>> cut_sides_;  // per cut: the two regions
   std::vector<std::pair<int, int>> queue_;      // is_critical's scratch
@@ -544,6 +551,7 @@ void Work::terminals(Segmentation* s) {
   for (int id : rest) {
     const Region& r = regions_[static_cast<size_t>(id)];
     if (r.centroid.y > top + opt_.head_band_ratio * height) continue;
+    if (std::abs(r.centroid.x - axis_x) > 0.15 * height) continue;  // a raised hand, not the head
     if (head < 0 ||
         std::abs(r.centroid.x - axis_x) < std::abs(regions_[static_cast<size_t>(head)].centroid.x - axis_x))
       head = id;
@@ -556,10 +564,8 @@ void Work::terminals(Segmentation* s) {
            std::abs(regions_[static_cast<size_t>(b)].centroid.x - axis_x);
   });
   if (hands.size() > 2) hands.resize(2);
-  const int found = (head >= 0) + static_cast<int>(hands.size());
-  if (head < 0 || hands.size() != 2) {
-    s->why = "5 terminals expected, found " + std::to_string(found) + " above the feet (head " +
-             std::to_string(head >= 0) + ", hands " + std::to_string(hands.size()) + ")";
+  if (head < 0) {
+    s->why = "5 terminals expected, found no head (no leaf of the graph near the top, near the body's axis)";
     return;
   }
   if (!find_feet(s)) return;
@@ -587,13 +593,52 @@ void Work::terminals(Segmentation* s) {
     const float n = std::hypot(away.x, away.y);
     return n > 0 ? mid + away * (static_cast<float>(opt_.wrist_shift) * k->clearance / n) : mid;
   };
+  // A hand's leaf whose cut is far from its tip holds the forearm too (a cut at the elbow or the
+  // shoulder): its wrist is found from the tip, like that of a hand without a leaf.
+  geodesic(s->point[kHead] - o);
+  const double hand_len = opt_.hand_ratio * height;
+  std::vector<std::pair<int, cv::Point2f>> found;  // (region, wrist)
+  for (int id : hands) {
+    const cv::Point tip = region_tip(id);
+    const Cut* k = leaf_cut(id);
+    const cv::Point2f mid = k ? (k->a + k->b) * 0.5F : cv::Point2f(-1e6F, -1e6F);
+    if (k &&
+        std::hypot(mid.x - static_cast<float>(tip.x), mid.y - static_cast<float>(tip.y)) < 1.3 * hand_len)
+      found.emplace_back(id, cut_mid(id));
+    else
+      found.emplace_back(id, wrist_from_tip(tip, hand_len) + o);
+  }
+  if (found.size() < 2) {
+    // Hands without a leaf (an arm of even width, a hand seen edge-on): the silhouette's
+    // extremities farthest from the head along the silhouette, other than the head, the feet and
+    // the hands already found.
+    const double foot_top = bottom - opt_.foot_band_ratio * height;
+    for (const cv::Point& t : extremities(height)) {
+      if (found.size() >= 2) break;
+      const cv::Point ti = t + origin_;
+      const int id = labels_(t);
+      if (ti.y >= foot_top || id == head) continue;
+      bool taken = false;
+      for (const auto& f : found) taken = taken || f.first == id;
+      if (taken) continue;
+      const cv::Point2f w = wrist_from_tip(t, hand_len);
+      const cv::Point wi(cvRound(w.x), cvRound(w.y));
+      found.emplace_back(fg(wi.x, wi.y) ? labels_(wi) : id, w + o);
+    }
+  }
+  if (found.size() != 2) {
+    s->why = "5 terminals expected, found " + std::to_string(1 + found.size()) +
+             " above the feet (head 1, hands " + std::to_string(found.size()) + ")";
+    return;
+  }
   {
-    const cv::Point2f p0 = cut_mid(hands[0]), p1 = cut_mid(hands[1]);
-    const bool first_is_left = p0.x > p1.x;
-    s->terminal[kLeftHand] = first_is_left ? hands[0] : hands[1];
-    s->terminal[kRightHand] = first_is_left ? hands[1] : hands[0];
-    s->point[kLeftHand] = first_is_left ? p0 : p1;
-    s->point[kRightHand] = first_is_left ? p1 : p0;
+    const bool first_is_left = found[0].second.x > found[1].second.x;
+    const auto& l = first_is_left ? found[0] : found[1];
+    const auto& r = first_is_left ? found[1] : found[0];
+    s->terminal[kLeftHand] = l.first;
+    s->terminal[kRightHand] = r.first;
+    s->point[kLeftHand] = l.second;
+    s->point[kRightHand] = r.second;
   }
   s->ok = true;
   s->why.clear();
@@ -680,6 +725,98 @@ bool Work::find_feet(Segmentation* s) {
     s->point[static_cast<size_t>(f)] = ankles[static_cast<size_t>(k)] + o;
   }
   return true;
+}
+
+// Geodesic distance (8-connected, steps 1 and sqrt 2) inside the silhouette from `from` (local).
+void Work::geodesic(cv::Point from) {
+  geo_ = cv::Mat1f(sil_.size(), -1.0F);
+  if (!fg(from.x, from.y)) {  // the head's centre is inside; be safe
+    double best = -1;
+    for (int y = 0; y < sil_.rows; y++)
+      for (int x = 0; x < sil_.cols; x++)
+        if (sil_(y, x) && (best < 0 || std::hypot(x - from.x, y - from.y) < best))
+          best = std::hypot(x - from.x, y - from.y), from = {x, y};
+  }
+  using Item = std::pair<float, int>;
+  std::priority_queue<Item, std::vector<Item>, std::greater<>> heap;
+  geo_(from) = 0;
+  heap.emplace(0.0F, from.y * sil_.cols + from.x);
+  while (!heap.empty()) {
+    const auto [g, i] = heap.top();
+    heap.pop();
+    const int x = i % sil_.cols, y = i / sil_.cols;
+    if (g > geo_(y, x)) continue;
+    for (const cv::Point& o : kN8) {
+      const int nx = x + o.x, ny = y + o.y;
+      if (!fg(nx, ny)) continue;
+      const float ng = g + ((o.x != 0 && o.y != 0) ? 1.41421356F : 1.0F);
+      if (geo_(ny, nx) < 0 || ng < geo_(ny, nx)) {
+        geo_(ny, nx) = ng;
+        heap.emplace(ng, ny * sil_.cols + nx);
+      }
+    }
+  }
+}
+
+// The pixel of a region farthest (geodesically) from the head.
+cv::Point Work::region_tip(int id) const {
+  cv::Point tip(-1, -1);
+  float best = -1;
+  for (int y = 0; y < sil_.rows; y++)
+    for (int x = 0; x < sil_.cols; x++)
+      if (labels_(y, x) == id && geo_(y, x) > best) best = geo_(y, x), tip = {x, y};
+  return tip;
+}
+
+// Local maxima of the geodesic distance: pixels in decreasing distance, each kept unless it lies on
+// the way to one already kept (no farther from it than their difference in distance, plus a slack).
+std::vector<cv::Point> Work::extremities(double height) const {
+  std::vector<std::pair<float, cv::Point>> px;
+  for (int y = 0; y < sil_.rows; y++)
+    for (int x = 0; x < sil_.cols; x++)
+      if (geo_(y, x) > 0) px.emplace_back(geo_(y, x), cv::Point(x, y));
+  std::sort(px.begin(), px.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  const float slack = static_cast<float>(0.06 * height);
+  std::vector<cv::Point> tips;
+  for (const auto& [g, p] : px) {
+    if (tips.size() >= 8) break;
+    bool on_way = false;
+    for (const cv::Point& t : tips) {
+      const float d = std::hypot(static_cast<float>(p.x - t.x), static_cast<float>(p.y - t.y));
+      on_way = on_way || d <= geo_(t) - g + slack;
+    }
+    if (!on_way) tips.push_back(p);
+  }
+  return tips;
+}
+
+// The wrist from a hand's tip: `len` along the geodesic path back towards the head, then onto the
+// nearest GVD pixel (the middle of the arm). Local coordinates.
+cv::Point2f Work::wrist_from_tip(cv::Point tip, double len) const {
+  cv::Point p = tip;
+  double walked = 0;
+  while (walked < len) {
+    cv::Point next = p;
+    float best = geo_(p);
+    for (const cv::Point& o : kN8) {
+      const cv::Point q = p + o;
+      if (fg(q.x, q.y) && geo_(q) >= 0 && geo_(q) < best) best = geo_(q), next = q;
+    }
+    if (next == p) break;
+    walked += (next.x != p.x && next.y != p.y) ? 1.41421356 : 1.0;
+    p = next;
+  }
+  const int r = std::max(3, static_cast<int>(std::ceil(2 * dist_(p))));
+  cv::Point axis = p;
+  double best = -1;
+  for (int dy = -r; dy <= r; dy++)
+    for (int dx = -r; dx <= r; dx++) {
+      const cv::Point q = p + cv::Point(dx, dy);
+      if (q.x < 0 || q.y < 0 || q.x >= sil_.cols || q.y >= sil_.rows || !gvd_(q)) continue;
+      const double d = std::hypot(dx, dy);
+      if (best < 0 || d < best) best = d, axis = q;
+    }
+  return {static_cast<float>(axis.x), static_cast<float>(axis.y)};
 }
 
 void Work::run(Segmentation* s) {

@@ -58,6 +58,7 @@ struct Options {
   double min_region_ratio = 0.002;  // regions smaller than this x the silhouette's area are merged
   double foot_band_ratio = 0.15;    // feet: leaves reaching into the lowest fraction of the height
   double head_band_ratio = 0.35;    // head: a leaf whose centre is in the highest fraction
+  double hand_ratio = 0.1;          // wrist to finger tips: this x height (when no cut is near)
   double ankle_ratio = 0.08;        // ankle: this x height above the foot's lowest pixel
 
   // True when usable; otherwise *why (if given) names the first bad field.
