@@ -557,8 +557,10 @@ void Work::terminals(Segmentation* s) {
       head = id;
   }
   std::vector<int> hands;
+  // Arms spread horizontally: a hand's leaf lies in the upper half (a notch of a ragged mask makes
+  // leaves elsewhere too).
   for (int id : rest)
-    if (id != head) hands.push_back(id);
+    if (id != head && regions_[static_cast<size_t>(id)].centroid.y <= top + 0.5 * height) hands.push_back(id);
   std::sort(hands.begin(), hands.end(), [&](int a, int b) {
     return std::abs(regions_[static_cast<size_t>(a)].centroid.x - axis_x) >
            std::abs(regions_[static_cast<size_t>(b)].centroid.x - axis_x);
@@ -617,7 +619,9 @@ void Work::terminals(Segmentation* s) {
       if (found.size() >= 2) break;
       const cv::Point ti = t + origin_;
       const int id = labels_(t);
-      if (ti.y >= foot_top || id == head) continue;
+      // Arms spread horizontally: hands are in the upper half (notches of a ragged mask elsewhere
+      // make extremities too).
+      if (ti.y >= foot_top || ti.y > top + 0.5 * height || id == head) continue;
       bool taken = false;
       for (const auto& f : found) taken = taken || f.first == id;
       if (taken) continue;
