@@ -552,6 +552,7 @@ void Work::terminals(Segmentation* s) {
     const Region& r = regions_[static_cast<size_t>(id)];
     if (r.centroid.y > top + opt_.head_band_ratio * height) continue;
     if (std::abs(r.centroid.x - axis_x) > 0.15 * height) continue;  // a raised hand, not the head
+    if (r.box.y > top + 0.08 * height) continue;  // the head is the top (a notch below is not it)
     if (head < 0 ||
         std::abs(r.centroid.x - axis_x) < std::abs(regions_[static_cast<size_t>(head)].centroid.x - axis_x))
       head = id;

@@ -59,10 +59,11 @@ cv::Mat1b edge_mask(const sim::Scene& scene, int cam, const cv::Mat& rgb) {
 }
 
 std::vector<View> init_views(int cameras, const std::string& appearance, bool edge, int width = 640,
-                             int height = 480) {
+                             int height = 480, const std::string& room = "default") {
   sim::SceneOptions o;
   o.motion.source = "wave";
   o.appearance = appearance;
+  o.room = room;
   o.rig.cameras = cameras;
   o.rig.width = width;
   o.rig.height = height;
@@ -137,14 +138,25 @@ TEST(SimSegment, RigsOf4_6_8Cameras) {
   }
 }
 
-// The edge's real masks, default room, every appearance preset but `dark` (whose masks lose parts of
-// the head and arms today: edge/core's issue, not this library's).
+// The edge's real masks, default room, every appearance preset. `dark`'s masks lose the head in
+// front of the blue painting (cam 1) and parts of an arm (cam 5) today (edge/core's issue #10):
+// those cameras must refuse, not label wrongly; the others are checked like the rest.
 TEST(SimSegment, EdgeMasksOfTheAppearancePresets) {
-  for (const std::string a : {"default", "pale", "olive", "brown", "beige"}) {
+  const std::array<std::pair<const char*, int>, 6> presets{
+      {{"default", 6}, {"pale", 6}, {"olive", 6}, {"brown", 6}, {"beige", 6}, {"dark", 4}}};
+  for (const auto& [a, want_ok] : presets) {
     const Score sc = check(init_views(6, a, true), 0.1, a);
-    EXPECT_EQ(sc.ok, 6) << a;
+    EXPECT_GE(sc.ok, want_ok) << a;
     EXPECT_LT(median(sc.errors), 4.0) << a;  // measured 2.0 .. 3.5 px
   }
+}
+
+// The camouflage room (beige tiled floor, walls close to the shirts): the edge's masks lose the head
+// of the front pair against the blue wall; those refuse, the others segment (measured 4 of 6).
+TEST(SimSegment, EdgeMasksInTheCamouflageRoom) {
+  const Score sc = check(init_views(6, "default", true, 640, 480, "camouflage"), 0.1, "camouflage");
+  EXPECT_GE(sc.ok, 4);
+  EXPECT_LT(median(sc.errors), 6.0);  // measured 5.0 px
 }
 
 // 320x240: the body is ~110 px high, arms ~4 px wide.
