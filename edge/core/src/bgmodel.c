@@ -544,7 +544,8 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
   const int w = m->width, h = m->height, r = VC_TEXTURE_RADIUS, rows = 2 * VC_TEXTURE_RADIUS + 1;
   const size_t row = (size_t)w * 3;
   const bool texture = m->k2_q8 != 0;
-  uint64_t bits[VC_MAX_DIM / 64]; /* the band pixels of the row in pass A and B */
+  uint64_t bits[VC_MAX_DIM / 64] = {0}; /* the band pixels of the row in pass A and B; pass A
+                                         * writes the words of the row, zeroed for the analyser */
   uint32_t band = 0, shadow = 0;
   int count[2 * VC_TEXTURE_RADIUS + 1] = {0}; /* candidates of row y in cand slot y mod rows */
   if (texture) memset(m->colsum, 0, (size_t)(w + 2 * r) * sizeof(*m->colsum));
