@@ -444,7 +444,8 @@ VC_TARGET_AVX2 static int classify_row_avx2(const uint8_t* restrict px, const ui
 /* Pass B: eq. 2 for the band pixels of one row (bit i of `bits`), walked with count-trailing-zeros
  * (words without band pixels cost a test). A pixel that fails is foreground (0xFF); one that
  * passes is background (0), and when the texture test is on (`cand` not NULL) also a candidate,
- * appended to cand[] with its terms. Returns the number of candidates; adds to stats->band. */
+ * appended to cand[] with its terms. Returns the number of pixels that passed (the candidates);
+ * adds the row's band pixels to *band_count. */
 static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mean, uint8_t* out,
                       const uint64_t* bits, int n, struct vc_cand* cand, uint32_t* band_count) {
   const uint64_t c2 = m->c2_q24, glo = m->glo_q16, ghi = m->ghi_q16;
