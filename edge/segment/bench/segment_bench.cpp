@@ -26,6 +26,7 @@ void BM_Segment(benchmark::State& state) {
   const cv::Mat1b mask = init_mask(w, h, static_cast<int>(state.range(2)));
   bool ok = true;
   for (auto _ : state) {
+    (void)_;
     const vc::segment::Segmentation s = vc::segment::segment(mask);
     ok = ok && s.ok;
     benchmark::DoNotOptimize(s.point);
