@@ -3,6 +3,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -37,9 +38,7 @@ void apply_camera(const std::string& spec, vc::edge::CameraSettings& c) {
   if (colon != std::string::npos) c.device = spec.substr(colon + 1);
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   CLI::App app{
       "voxcap-edge — the edge node of a voxcap rig: captures two cameras on the trigger, subtracts the "
       "background, carves the partial visual hull and streams it to the host.\n"
@@ -99,8 +98,14 @@ int main(int argc, char** argv) {
   }
   vc_edged_options opt = vc::edge::to_options(s);
   if (check) return vc_edged_check(&opt) == 0 ? 0 : 1;
-  vc::track::Producer tracker;
-  const vc_features_producer hook = {track_features, &tracker, reset_features};
+  std::optional<vc::track::Producer> tracker;
+  try {
+    tracker.emplace();
+  } catch (const std::exception& e) {
+    vc_log(VC_LOG_ERROR, "feature tracker: %s", e.what());
+    return 1;
+  }
+  const vc_features_producer hook = {track_features, &*tracker, reset_features};
   if (!no_tracking) opt.features = &hook;
 
   struct sigaction sa {};
@@ -114,4 +119,19 @@ int main(int argc, char** argv) {
     return 1;
   }
   return 0;
+}
+
+}  // namespace
+
+// Anything that escapes run() (an allocation failure while building the tracker or the options) is
+// one line and exit code 1, not std::terminate.
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    vc_log(VC_LOG_ERROR, "%s", e.what());
+  } catch (...) {
+    vc_log(VC_LOG_ERROR, "unexpected failure");
+  }
+  return 1;
 }

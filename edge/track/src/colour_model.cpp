@@ -7,6 +7,11 @@ namespace vc::track {
 
 namespace {
 
+// Index of (row, col) in a row-major table `cols` wide, computed in size_t.
+std::size_t idx(int row, int cols, int col) {
+  return static_cast<std::size_t>(row) * static_cast<std::size_t>(cols) + static_cast<std::size_t>(col);
+}
+
 int shifted_hue(int h) {
   return (h + ColourModel::kHueShift) % 180;
 }
@@ -48,7 +53,7 @@ ColourModel::ColourModel(const ColourModelOptions& options) : opt_(options) {
 
 void ColourModel::reset() {
   for (auto& c : counts_) c.assign(256, 0);
-  hist_counts_.assign(static_cast<std::size_t>(opt_.hue_bins * opt_.sat_bins), 0);
+  hist_counts_.assign(idx(opt_.hue_bins, opt_.sat_bins, 0), 0);
   samples_ = 0;
   ready_ = false;
   table_.assign(180 * 256, 0);
@@ -66,7 +71,7 @@ void ColourModel::learn(const cv::Mat3b& hsv, const cv::Mat1b& region) {
       counts_[1][p[x][1]]++;
       counts_[2][p[x][2]]++;
       const int hb = h * opt_.hue_bins / 180, sb = p[x][1] * opt_.sat_bins / 256;
-      hist_counts_[static_cast<std::size_t>(hb * opt_.sat_bins + sb)]++;
+      hist_counts_[idx(hb, opt_.sat_bins, sb)]++;
       samples_++;
     }
   }
@@ -103,9 +108,9 @@ bool ColourModel::finish() {
           const int h2 = hb + dh, s2 = sb + ds;
           if (h2 < 0 || h2 >= hb_n || s2 < 0 || s2 >= sb_n) continue;
           const double w = (dh == 0 ? 2.0 : 1.0) * (ds == 0 ? 2.0 : 1.0);
-          s += w * hist_counts_[static_cast<std::size_t>(h2 * sb_n + s2)];
+          s += w * hist_counts_[idx(h2, sb_n, s2)];
         }
-      smooth[static_cast<std::size_t>(hb * sb_n + sb)] = s;
+      smooth[idx(hb, sb_n, sb)] = s;
       peak = std::max(peak, s);
     }
   if (peak <= 0) return false;
@@ -113,10 +118,9 @@ bool ColourModel::finish() {
     const int hs = shifted_hue(h);
     if (hs < intervals_[0].lo || hs > intervals_[0].hi) continue;
     for (int s = intervals_[1].lo; s <= intervals_[1].hi; ++s) {
-      const double v = smooth[static_cast<std::size_t>((hs * hb_n / 180) * sb_n + s * sb_n / 256)] / peak;
+      const double v = smooth[idx(hs * hb_n / 180, sb_n, s * sb_n / 256)] / peak;
       // A floor inside the intervals: a pixel within the learnt skin intervals is never impossible.
-      table_[static_cast<std::size_t>(h * 256 + s)] =
-          static_cast<std::uint8_t>(std::clamp(16.0 + 239.0 * v, 0.0, 255.0));
+      table_[idx(h, 256, s)] = static_cast<std::uint8_t>(std::clamp(16.0 + 239.0 * v, 0.0, 255.0));
     }
   }
   ready_ = true;
@@ -125,7 +129,7 @@ bool ColourModel::finish() {
 
 std::uint8_t ColourModel::probability(const cv::Vec3b& hsv) const {
   if (!ready_ || hsv[2] < intervals_[2].lo || hsv[2] > intervals_[2].hi) return 0;
-  return table_[static_cast<std::size_t>(std::min<int>(hsv[0], 179) * 256 + hsv[1])];
+  return table_[idx(std::min<int>(hsv[0], 179), 256, hsv[1])];
 }
 
 void ColourModel::back_project(const cv::Mat3b& hsv, const cv::Mat1b& mask, cv::Mat1b& out) const {

@@ -94,7 +94,7 @@ bool extremity_seeds(const cv::Mat1b& mask, Seeds* seeds, std::string* why) {
           if (mask(y, x)) sx += x, sy += y, n++;
       if (n == 0) continue;
       const float inward = float((side == 0 ? -1 : 1) * 0.05 * H);
-      (*seeds)[static_cast<std::size_t>(1 + side)] = {true, {float(sx / n) + inward, float(sy / n)}};
+      (*seeds)[side == 0 ? 1u : 2u] = {true, {float(sx / n) + inward, float(sy / n)}};
     }
   }
   // Feet: the lowest rows, split at their median column.
@@ -114,8 +114,8 @@ bool extremity_seeds(const cv::Mat1b& mask, Seeds* seeds, std::string* why) {
       }
       for (int side = 0; side < 2; ++side)
         if (n[side] > 0)
-          (*seeds)[static_cast<std::size_t>(3 + side)] = {
-              true, {float(s[side] / n[side]), float(box.y + box.height - 0.03 * H)}};
+          (*seeds)[side == 0 ? 3u : 4u] = {true,
+                                           {float(s[side] / n[side]), float(box.y + box.height - 0.03 * H)}};
     }
   }
   if (!(*seeds)[0].found) return fail("no head at the top of the silhouette");
@@ -280,7 +280,7 @@ bool CameraTracker::estimate_point(int f, const cv::Rect& window, const cv::Mat1
     }
     max_row = std::max(max_row, row);
   }
-  if (n < opt_.min_blob_px / 2 + 1) return false;
+  if (n < 0.5 * opt_.min_blob_px + 1) return false;
   const cv::Point2f c(float(cx / n), float(cy / n));
   if (kind == FeatureKind::head) {
     const int need = int(std::ceil(kHeadRowShare * float(max_row)));

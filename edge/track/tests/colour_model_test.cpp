@@ -29,7 +29,7 @@ cv::Mat3b skin_and_sleeve() {
 }
 
 TEST(SkinPrior, AcceptsSkinTonesFromPaleToDarkAndRejectsClothesAndGrey) {
-  auto is_skin = [](cv::Vec3b rgb) {
+  auto is_skin = [](const cv::Vec3b& rgb) {
     cv::Mat3b p(1, 1, rgb);
     return skin_prior(hsv_of(p)(0, 0));
   };

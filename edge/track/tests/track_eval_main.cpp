@@ -3,6 +3,7 @@
 // while visible and tracked, visible frames not tracked, losses, frames to recover, and the cost.
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <string>
 
 #include "track_eval.hpp"
@@ -16,7 +17,13 @@ int main(int argc, char** argv) {
   if (argc > 4) o.truth_seeds = std::string(argv[4]) != "own";
   if (argc > 5) o.appearance = argv[5];
   if (argc > 6) o.room = argv[6];
-  const EvalResult r = evaluate(o);
+  EvalResult r;
+  try {
+    r = evaluate(o);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "track_eval: %s\n", e.what());
+    return 1;
+  }
   static const char* names[] = {"head", "left_hand", "right_hand", "left_foot", "right_foot"};
   std::printf("%s: %d frames x %d cameras, %s masks, %s seeds\n", o.motion.c_str(), o.frames, o.cameras,
               o.masks == Masks::truth ? "true" : "edge", o.truth_seeds ? "true" : "own");

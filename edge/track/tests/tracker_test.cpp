@@ -73,7 +73,7 @@ struct Hostile : ::testing::Test {
   void draw() {
     rgb.setTo(cv::Vec3b(90, 90, 90));
     mask.setTo(0);
-    auto part = [&](cv::Rect r, cv::Vec3b c) {
+    auto part = [&](const cv::Rect& r, const cv::Vec3b& c) {
       rgb(r).setTo(c);
       mask(r).setTo(255);
     };
