@@ -1,5 +1,7 @@
 #include "voxcap/edge/track/tracker.hpp"
 
+#include "voxcap/edge/segment.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
@@ -122,11 +124,25 @@ bool extremity_seeds(const cv::Mat1b& mask, Seeds* seeds, std::string* why) {
   return true;
 }
 
+bool segment_seeds(const cv::Mat1b& mask, Seeds* seeds, std::string* why) {
+  const segment::Segmentation s = segment::segment(mask);
+  if (!s.ok) {
+    std::string mine;
+    if (extremity_seeds(mask, seeds, &mine)) return true;
+    if (why) *why = "segmentation: " + s.why + "; extremities: " + mine;
+    return false;
+  }
+  *seeds = Seeds{};
+  for (std::size_t f = 0; f < static_cast<std::size_t>(kFeatures); ++f)
+    (*seeds)[f] = {s.terminal[f] >= 0, s.point[f]};
+  return true;
+}
+
 CameraTracker::CameraTracker(const TrackerOptions& options, Seeder seeder)
     : opt_(options), seeder_(std::move(seeder)) {
   std::string why;
   if (!opt_.valid(&why)) throw std::invalid_argument("tracker options: " + why);
-  if (!seeder_) seeder_ = extremity_seeds;
+  if (!seeder_) seeder_ = segment_seeds;
   for (auto& m : models_) m = ColourModel(opt_.colour);
   pooled_ = ColourModel(opt_.colour);
 }

@@ -193,6 +193,18 @@ TEST(ExtremitySeeds, FindTheFiveFeaturesOfTheInitPoseOnTheTrueFrontSilhouette) {
         0.1 * height)
         << f;
   }
+  // The default seeder (edge/segment's GVD terminals) on the same silhouette: the five joints.
+  Seeds g;
+  ASSERT_TRUE(segment_seeds(sil, &g, &why)) << why;
+  for (int f = 0; f < kFeatures; ++f) {
+    ASSERT_TRUE(g[static_cast<std::size_t>(f)].found) << f;
+    EXPECT_LT(
+        cv::norm(cv::Point2d(g[static_cast<std::size_t>(f)].point) - truth[static_cast<std::size_t>(f)].uv),
+        0.05 * height)
+        << f;
+  }
+  EXPECT_FALSE(segment_seeds(cv::Mat1b(480, 640, uchar(0)), &g, &why));
+  EXPECT_EQ(why.rfind("segmentation: ", 0), 0u) << why;
   EXPECT_FALSE(extremity_seeds(cv::Mat1b(480, 640, uchar(0)), &s, &why));
   EXPECT_EQ(why, "silhouette too small to segment");
 }

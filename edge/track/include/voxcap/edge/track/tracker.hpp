@@ -72,6 +72,11 @@ using Seeder = std::function<bool(const cv::Mat1b& mask, Seeds* seeds, std::stri
 // the pose from the side this is a guess that the colour check at the start of tracking may reject.
 bool extremity_seeds(const cv::Mat1b& mask, Seeds* seeds, std::string* why);
 
+// The default seeder: edge/segment's GVD segmentation (vc::segment::segment: the five terminal regions
+// and their joints' 2D positions); where it does not give all five (a side view of the init pose) the
+// silhouette's extremities give what they can, so a side camera still tracks the head and the feet.
+bool segment_seeds(const cv::Mat1b& mask, Seeds* seeds, std::string* why);
+
 struct TrackerOptions {
   ColourModelOptions colour;
   int init_frames = 5;           // initialization frames (seeder succeeded) to learn the colour models
@@ -92,7 +97,7 @@ struct TrackerOptions {
 
 class CameraTracker {
  public:
-  // seeder: nullptr = extremity_seeds. Throws std::invalid_argument for invalid options.
+  // seeder: nullptr = segment_seeds. Throws std::invalid_argument for invalid options.
   explicit CameraTracker(const TrackerOptions& options = {}, Seeder seeder = nullptr);
 
   // Back to initialization (a new START): models and windows are forgotten.
