@@ -353,6 +353,7 @@ static int setup(edged* d) {
     vc_log(VC_LOG_ERROR, "%s", why);
     return rc;
   }
+  if (opt->features) vc_node_set_features_producer(d->node, opt->features);
   if (opt->state_dir) {
     int lrc = vc_node_load_background(d->node, opt->state_dir, why, sizeof(why));
     if (lrc == 0)
@@ -365,6 +366,7 @@ static int setup(edged* d) {
   size_t hello_len = 0;
   uint32_t caps =
       VC_CAP_HULL | (strcmp(opt->trigger.backend, "udp") == 0 ? VC_CAP_UDP_TRIGGER : VC_CAP_GPIO_TRIGGER);
+  if (opt->features) caps |= VC_CAP_FEATURES;
   if ((rc = vc_node_hello(d->node, caps, hello, sizeof(hello), &hello_len)) < 0) return rc;
   vc_link_config lc = opt->link;
   lc.node_id = opt->node_id;

@@ -12,6 +12,7 @@
 #include <stdint.h>
 
 #include "link.h"
+#include "node.h"
 #include "voxcap/edge/camera.h"
 #include "voxcap/edge/trigger.h"
 
@@ -32,6 +33,9 @@ typedef struct vc_edged_options {
   unsigned frame_slots;  /* copied frames per camera, 0 = 4 */
   int verbosity;         /* 0 warnings, 1 info, 2 debug */
   const char* state_dir; /* keep the learnt background here and restore it at start (NULL: off) */
+  /* The feature tracker (edge/track), installed in the node and announced in HELLO (VC_CAP_FEATURES);
+   * it runs when the host's CONFIG gives the node the tracking role. NULL: the node does not track. */
+  const vc_features_producer* features;
 } vc_edged_options;
 
 /* Opens cameras and trigger once to check the configuration and the devices; prints what it found

@@ -3,6 +3,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <optional>
 #include <string>
 
 #include <CLI/CLI.hpp>
@@ -10,8 +11,21 @@
 #include "config.hpp"
 #include "edged.h"
 #include "log.h"
+#include "voxcap/edge/track/producer.hpp"
 
 namespace {
+
+// node.h's features hook over edge/track's Producer (the tracker of head, hands and feet).
+int track_features(void* user, uint64_t seq, const uint8_t* const rgb[VC_NODE_CAMS],
+                   const size_t stride[VC_NODE_CAMS], const uint8_t* const mask[VC_NODE_CAMS],
+                   const vc_node_camera cams[VC_NODE_CAMS], vc_features out[VC_NODE_CAMS]) {
+  const int width[VC_NODE_CAMS] = {cams[0].width, cams[1].width};
+  const int height[VC_NODE_CAMS] = {cams[0].height, cams[1].height};
+  return static_cast<vc::track::Producer*>(user)->track(seq, rgb, stride, mask, width, height, out);
+}
+void reset_features(void* user) {
+  static_cast<vc::track::Producer*>(user)->reset();
+}
 
 void on_signal(int) {
   vc_edged_request_stop();
@@ -24,15 +38,13 @@ void apply_camera(const std::string& spec, vc::edge::CameraSettings& c) {
   if (colon != std::string::npos) c.device = spec.substr(colon + 1);
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+int run(int argc, char** argv) {
   CLI::App app{
       "voxcap-edge — the edge node of a voxcap rig: captures two cameras on the trigger, subtracts the "
       "background, carves the partial visual hull and streams it to the host.\n"
       "Configuration: edge.toml (see edge/daemon/README.md for every key) with command-line overrides."};
   std::string config_path;
-  bool check = false;
+  bool check = false, no_tracking = false;
   int node_id = -1, port = -1, trigger_port = -1, gpio_line = -1, verbosity = -1;
   std::string host, trigger, gpio_chip, camera0, camera1, size, state_dir;
   app.add_option("-c,--config", config_path, "edge.toml to read (keys not given keep their defaults)");
@@ -52,6 +64,9 @@ int main(int argc, char** argv) {
   app.add_option(
       "--state-dir", state_dir,
       "keep the learnt background model here and restore it after a restart (overrides state_dir)");
+  app.add_flag("--no-tracking", no_tracking,
+               "do not offer feature tracking to the host (by default the node tracks head, hands and feet "
+               "when the host's rig.toml gives it the tracking role)");
   app.add_flag("--check", check,
                "validate the configuration, open the cameras and the trigger, report, and exit");
   CLI11_PARSE(app, argc, argv);
@@ -83,6 +98,15 @@ int main(int argc, char** argv) {
   }
   vc_edged_options opt = vc::edge::to_options(s);
   if (check) return vc_edged_check(&opt) == 0 ? 0 : 1;
+  std::optional<vc::track::Producer> tracker;
+  try {
+    tracker.emplace();
+  } catch (const std::exception& e) {
+    vc_log(VC_LOG_ERROR, "feature tracker: %s", e.what());
+    return 1;
+  }
+  const vc_features_producer hook = {track_features, &*tracker, reset_features};
+  if (!no_tracking) opt.features = &hook;
 
   struct sigaction sa {};
   sa.sa_handler = on_signal;
@@ -95,4 +119,19 @@ int main(int argc, char** argv) {
     return 1;
   }
   return 0;
+}
+
+}  // namespace
+
+// Anything that escapes run() (an allocation failure while building the tracker or the options) is
+// one line and exit code 1, not std::terminate.
+int main(int argc, char** argv) {
+  try {
+    return run(argc, argv);
+  } catch (const std::exception& e) {
+    vc_log(VC_LOG_ERROR, "%s", e.what());
+  } catch (...) {
+    vc_log(VC_LOG_ERROR, "unexpected failure");
+  }
+  return 1;
 }

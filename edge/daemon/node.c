@@ -434,6 +434,7 @@ int vc_node_start(vc_node* n, uint64_t first_seq) {
   if (n->state != VC_STATE_READY && n->state != VC_STATE_RUNNING) return -EAGAIN;
   n->first_seq = first_seq;
   n->state = VC_STATE_RUNNING;
+  if (n->producer.reset) n->producer.reset(n->producer.user);
   return 0;
 }
 

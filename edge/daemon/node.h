@@ -87,6 +87,9 @@ typedef struct vc_features_producer {
                const size_t stride[VC_NODE_CAMS], const uint8_t* const mask[VC_NODE_CAMS],
                const vc_node_camera cams[VC_NODE_CAMS], vc_features out[VC_NODE_CAMS]);
   void* user;
+  /* Optional (NULL: none): called at every START, before its first frame, so the tracker initializes
+   * anew (the performer stands in the init pose again). */
+  void (*reset)(void* user);
 } vc_features_producer;
 
 /* Installs (copied) or removes (NULL) the features producer. */

@@ -20,8 +20,11 @@ nlohmann::json to_json(const RigConfig& c) {
   using nlohmann::json;
   json nodes = json::array();
   for (const config::NodeConfig& n : c.nodes)
-    nodes.push_back(
-        {{"id", n.id}, {"address", n.address}, {"cameras", n.cameras}, {"role", to_string(n.role)}});
+    nodes.push_back({{"id", n.id},
+                     {"address", n.address},
+                     {"cameras", n.cameras},
+                     {"role", to_string(n.role)},
+                     {"tracks", c.tracks(n)}});
   json targets = json::array();
   for (const config::Endpoint& e : c.trigger.udp.targets) targets.push_back(e.str());
   const config::TriggerOptions& t = c.trigger;
@@ -44,6 +47,7 @@ nlohmann::json to_json(const RigConfig& c) {
         {"cleanup_radius_px", c.subtraction.cleanup_radius_px},
         {"background_frames", c.subtraction.background_frames}}},
       {"features", {{"enabled", c.features.enabled}}},
+      {"tracking", {{"nodes", std::string(config::to_string(c.tracking.nodes))}}},
       {"carving", {{"rule", std::string(config::to_string(c.carving.rule))}}},
       {"silhouettes", {{"every", c.silhouettes.every}, {"scale", c.silhouettes.scale}}},
       {"trigger",
@@ -102,7 +106,15 @@ void print_summary(const RigConfig& c) {
   fmt::print("  subtraction  T_u {} T_l {} shadow {} deg, clean-up {} px, {} background frames\n",
              c.subtraction.t_upper, c.subtraction.t_lower, c.subtraction.shadow_angle_deg,
              c.subtraction.cleanup_radius_px, c.subtraction.background_frames);
-  fmt::print("  features     {}\n", c.features.enabled ? "tracked on the front nodes" : "off");
+  if (c.features.enabled) {
+    std::string who;
+    for (const config::NodeConfig* n : c.tracking_nodes()) who += (who.empty() ? "" : ", ") + n->id;
+    fmt::print("  features     head, hands, feet tracked on {} ([tracking] nodes = \"{}\"{})\n", who,
+               config::to_string(c.tracking.nodes),
+               c.tracking.nodes == config::TrackingNodes::All ? ": every view" : ": the front nodes");
+  } else {
+    fmt::print("  features     off\n");
+  }
   fmt::print("  carving      {} rule\n", config::to_string(c.carving.rule));
   if (c.silhouettes.every > 0)
     fmt::print("  silhouettes  every {}th frame, 1/{} scale\n", c.silhouettes.every, c.silhouettes.scale);

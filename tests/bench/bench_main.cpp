@@ -52,7 +52,10 @@ constexpr const char* kEdgeKeys = R"(JSON keys (one object per grid; an array wh
   ir_per_voxel.{carve,carve_footprint,carve_subpixel,rle,lut_carve}
                          callgrind instructions (null when callgrind is unavailable)
   callgrind              "ok" or why the instruction counts are null
-  goals.*                the issue's targets and whether this run met them (reported, not asserted))";
+  goals.*                the issue's targets and whether this run met them (reported, not asserted)
+  track.*                edge/track on the virtual rig's front pair (wave, the edge's masks): init_frames,
+                         frames, init_ms_per_camera, frame_ms_per_camera (median; _p95, _max),
+                         tracking_share, losses, reacquisitions, goal_frame_ms_per_camera_max (0.3), goal_met)";
 
 void print_edge_table(const nlohmann::json& j) {
   auto num = [&](const nlohmann::json& v, const char* fmtspec) {
@@ -93,6 +96,13 @@ void print_edge_table(const nlohmann::json& j) {
         o["scratch_mb"].get<double>(), o["classes"][0].get<int>(), o["classes"][1].get<int>());
   }
   fmt::print("  callgrind: {}\n", j["callgrind"].get<std::string>());
+  const auto& t = j["track"];
+  fmt::print(
+      "  tracking   {:>10.3f} ms per camera frame (p95 {:.3f}; init {:.3f} ms), {:.0f} % tracked, {} "
+      "losses\n",
+      t["frame_ms_per_camera"].get<double>(), t["frame_ms_per_camera_p95"].get<double>(),
+      t["init_ms_per_camera"].get<double>(), 100.0 * t["tracking_share"].get<double>(),
+      t["losses"].get<int>());
 }
 
 void print_host_text(const nlohmann::json& j) {

@@ -9,6 +9,7 @@
 //  - a child under `valgrind --tool=callgrind --instr-atstart=no --collect-atstart=no` runs each
 //    stage once between callgrind client requests, one dump per stage; the parent parses the totals.
 #include "edge_bench.hpp"
+#include "track_bench.hpp"
 
 #include <sys/resource.h>
 #include <unistd.h>
@@ -637,6 +638,7 @@ json run_edge_bench(const EdgeBenchOptions& o) {
   goals["peak_rss_mb_met"] =
       j["peak_rss_mb"].is_null() ? json() : json(j["peak_rss_mb"].get<double>() < rss_goal);
   j["goals"] = goals;
+  j["track"] = run_track_bench(o.width, o.height, std::max(o.frames, 30));  // edge/track (track_bench.hpp)
   return j;
 }
 

@@ -15,6 +15,13 @@ foreach(key grid voxels cameras width height frames bg_frames subtract_ns cleanu
     message(FATAL_ERROR "key '${key}' missing or not a number (${type} ${jerr}):\n${out}")
   endif()
 endforeach()
+foreach(key init_frames frames init_ms_per_camera frame_ms_per_camera frame_ms_per_camera_p95
+            frame_ms_per_camera_max tracking_share losses reacquisitions goal_frame_ms_per_camera_max)
+  string(JSON type ERROR_VARIABLE jerr TYPE "${out}" track ${key})
+  if(jerr OR NOT type STREQUAL "NUMBER")
+    message(FATAL_ERROR "key 'track.${key}' missing or not a number (${type} ${jerr}):\n${out}")
+  endif()
+endforeach()
 foreach(key kernel callgrind)
   string(JSON type ERROR_VARIABLE jerr TYPE "${out}" ${key})
   if(jerr OR NOT type STREQUAL "STRING")

@@ -44,7 +44,9 @@ struct FakeTracker {
   int rc = 0;
   float confidence = 0.75f;
   int calls = 0;
+  int resets = 0;
   bool saw_masks = false;
+  static void reset(void* user) { static_cast<FakeTracker*>(user)->resets++; }
   static int track(void* user, uint64_t seq, const uint8_t* const rgb[2], const size_t stride[2],
                    const uint8_t* const mask[2], const vc_node_camera cams[2], vc_features out[2]) {
     auto* t = static_cast<FakeTracker*>(user);
@@ -74,7 +76,7 @@ struct NodeFeatures : ::testing::Test {
                               {W, H, VC_FOURCC('R', 'G', 'B', '3'), 60000}};
     ASSERT_EQ(vc_node_new(5, cams, &n, nullptr, 0), 0);
     ASSERT_NE(n, nullptr);
-    vc_features_producer p = {FakeTracker::track, &tracker};
+    vc_features_producer p = {FakeTracker::track, &tracker, FakeTracker::reset};
     vc_node_set_features_producer(n, &p);
   }
   void TearDown() override { vc_node_free(n); }
@@ -181,3 +183,15 @@ TEST_F(NodeFeatures, SkippedAndIdleFramesGiveNothing) {
 }
 
 }  // namespace
+
+TEST_F(NodeFeatures, EveryStartResetsTheTrackerBeforeItsFirstFrame) {
+  run(VC_ROLE_FRONT);  // START at 40
+  EXPECT_EQ(tracker.resets, 1);
+  vc_node_output out;
+  ASSERT_EQ(vc_node_process_frame(n, 42, 7000, rgb, stride, &out), 0);
+  EXPECT_EQ(tracker.calls, 1);
+  vc_node_stop(n);
+  ASSERT_EQ(vc_node_start(n, 100), 0);
+  EXPECT_EQ(tracker.resets, 2);
+  EXPECT_EQ(tracker.calls, 1);
+}

@@ -36,7 +36,7 @@ vc_config make_config_message(const config::RigConfig& rig, const config::NodeCo
     c.silhouette_every = static_cast<uint8_t>(rig.silhouettes.every);
     c.silhouette_scale = static_cast<uint8_t>(rig.silhouettes.scale);
   }
-  c.feature_role = node.is_front() && rig.features.enabled ? VC_ROLE_FRONT : VC_ROLE_NONE;
+  c.feature_role = rig.tracks(node) ? VC_ROLE_FRONT : VC_ROLE_NONE;  // FRONT (1) on the wire: "track"
   c.camera_count = static_cast<uint16_t>(node.cameras.size());
   for (size_t k = 0; k < node.cameras.size() && k < VC_PROTO_MAX_CAMERAS; k++) {
     int idx = rig.camera_index(node.cameras[k]);

@@ -332,6 +332,8 @@ void read_node(Reader& r, NodeConfig* n) {
     else
       r.ctx().fail(r.key("role"), fmt::format("must be \"front\" or \"side\", got \"{}\"", role));
   }
+  bool track = false;
+  if (r.get("track", &track)) n->track = track;
   r.finish();
 }
 
@@ -447,6 +449,14 @@ RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::pa
   if (const toml::table* t = top.table("features")) {
     Reader r(*t, "features", ctx);
     r.get("enabled", &c.features.enabled);
+    r.finish();
+  }
+  // [tracking]: which nodes track head, hands and feet (a node's own `track` key wins).
+  if (const toml::table* t = top.table("tracking")) {
+    Reader r(*t, "tracking", ctx);
+    std::string nodes;
+    if (r.get("nodes", &nodes) && !parse_tracking_nodes(nodes, &c.tracking.nodes))
+      r.ctx().fail(r.key("nodes"), fmt::format("must be \"all\" or \"front\", got \"{}\"", nodes));
     r.finish();
   }
   if (const toml::table* t = top.table("trigger")) {

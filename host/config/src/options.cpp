@@ -273,6 +273,20 @@ bool NetworkOptions::valid(std::string* why) const {
   return true;
 }
 
+std::string_view to_string(TrackingNodes nodes) {
+  return nodes == TrackingNodes::All ? "all" : "front";
+}
+
+bool parse_tracking_nodes(std::string_view name, TrackingNodes* out) {
+  if (name == "all")
+    *out = TrackingNodes::All;
+  else if (name == "front")
+    *out = TrackingNodes::Front;
+  else
+    return false;
+  return true;
+}
+
 std::string_view to_string(NodeRole role) {
   return role == NodeRole::Front ? "front" : "side";
 }

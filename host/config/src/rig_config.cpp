@@ -68,6 +68,19 @@ std::vector<const NodeConfig*> RigConfig::front_nodes() const {
   return out;
 }
 
+bool RigConfig::tracks(const NodeConfig& node) const {
+  if (!features.enabled) return false;
+  if (node.track) return *node.track;
+  return tracking.nodes == TrackingNodes::All || node.is_front();
+}
+
+std::vector<const NodeConfig*> RigConfig::tracking_nodes() const {
+  std::vector<const NodeConfig*> out;
+  for (const NodeConfig& n : nodes)
+    if (tracks(n)) out.push_back(&n);
+  return out;
+}
+
 bool RigConfig::valid(std::string* why) const {
   std::string sub;
   if (!grid.valid(&sub)) return fail(why, "grid: " + sub);
@@ -112,10 +125,12 @@ bool RigConfig::valid(std::string* why) const {
   if (!section_valid(recording, "recording", why)) return false;
   if (!section_valid(network, "network", why)) return false;
 
-  if (features.enabled && front_nodes().empty())
+  if (features.enabled && tracking_nodes().empty())
     return fail(why,
-                "features.enabled: feature tracking needs at least one node with role = \"front\" "
-                "(or set enabled = false)");
+                fmt::format("features.enabled: feature tracking needs at least one tracking node ([tracking] "
+                            "nodes = \"{}\" and no node with {}track = true; or set enabled = false)",
+                            to_string(tracking.nodes),
+                            tracking.nodes == TrackingNodes::Front ? "role = \"front\" or " : ""));
   if (trigger.backend == TriggerBackend::Udp && trigger.udp.targets.size() < nodes.size())
     return fail(why,
                 fmt::format("trigger.udp.targets: {} targets for {} nodes: the emulated trigger needs one "

@@ -174,6 +174,46 @@ targets = ["127.0.0.1:7700"]
   EXPECT_EQ(r, CarveRule::Subpixel);
 }
 
+TEST(LoadRigConfig, TrackingRolesEveryNodeByDefaultFrontOnlyOnRequestAndPerNodeOverrides) {
+  TempRig rig;
+  const std::string nodes = R"(calibration = "rig.yaml"
+[[nodes]]
+id = "node0"
+cameras = ["cam0", "cam1"]
+role = "front"
+[[nodes]]
+id = "node1"
+cameras = ["cam2", "cam3"]
+[[nodes]]
+id = "node2"
+cameras = ["cam4", "cam5"]
+track = false
+[trigger.udp]
+targets = ["127.0.0.1:7700", "127.0.0.1:7701", "127.0.0.1:7702"]
+)";
+  const RigConfig all = parse(rig, nodes);
+  EXPECT_EQ(all.tracking.nodes, TrackingNodes::All);
+  EXPECT_TRUE(all.tracks(all.nodes[0]));
+  EXPECT_TRUE(all.tracks(all.nodes[1]));   // a side node tracks too: every view counts
+  EXPECT_FALSE(all.tracks(all.nodes[2]));  // its own `track = false`
+  EXPECT_EQ(all.tracking_nodes().size(), 2u);
+
+  const RigConfig front = parse(rig, nodes + "[tracking]\nnodes = \"front\"\n");
+  EXPECT_EQ(front.tracking.nodes, TrackingNodes::Front);
+  EXPECT_TRUE(front.tracks(front.nodes[0]));
+  EXPECT_FALSE(front.tracks(front.nodes[1]));
+  EXPECT_FALSE(front.tracks(front.nodes[2]));
+
+  std::string with_override = nodes;
+  with_override.replace(with_override.find("track = false"), 13, "track = true");
+  const RigConfig over = parse(rig, with_override + "[tracking]\nnodes = \"front\"\n");
+  EXPECT_TRUE(over.tracks(over.nodes[2]));  // a side node that asks to track, in front-only mode
+  EXPECT_FALSE(over.tracks(over.nodes[1]));
+
+  const RigConfig off = parse(rig, nodes + "[features]\nenabled = false\n");
+  EXPECT_TRUE(off.tracking_nodes().empty());  // features off: nobody tracks, whatever the roles
+}
+
 TEST(LoadRigConfig, CamerasAreNamedByNameOrByCalibrationNode) {
   TempRig rig;
   const RigConfig c = parse(rig, edit("[\"cam0\", \"cam1\"]", "[\"cam1\", \"cam0\"]"));
@@ -294,8 +334,16 @@ std::vector<BadCase> bad_cases() {
             "\"node2\"\naddress = \"any\"\ncameras = [\"cam4\", \"cam5\"]\nrole = \"side\"\n",
             ""),
        "nodes: at least one [[nodes]] table is needed"},
-      {"features without front", edit("role = \"front\"", "role = \"side\""),
-       "features.enabled: feature tracking needs at least one node with role = \"front\""},
+      // Every node tracks by default ([tracking] nodes = "all"), so a rig without a front node tracks
+      // too (TrackingRoles below); the old "no front node" error now needs the front-only mode.
+      {"features without front", edit("role = \"front\"", "role = \"side\"\n[tracking]\nnodes = \"front\""),
+       "features.enabled: feature tracking needs at least one tracking node ([tracking] nodes = \"front\" "
+       "and no "
+       "node with role = \"front\" or track = true; or set enabled = false)"},
+      {"tracking nodes", edit("[[nodes]]", "[tracking]\nnodes = \"some\"\n\n[[nodes]]"),
+       "tracking.nodes: must be \"all\" or \"front\", got \"some\""},
+      {"node track type", edit("role = \"side\"", "role = \"side\"\ntrack = \"yes\""),
+       "nodes[2].track: expected true or false, got a string"},
       {"grid voxel", edit("voxel_m = 0.025", "voxel_m = 0"), "grid: voxel_m must be a positive number"},
       {"grid min_m size", edit("min_m = [-1.0, -1.0, 0.0]", "min_m = [-1.0, 0.0]"),
        "grid.min_m: expected 3 numbers [x, y, z], got 2"},

@@ -551,6 +551,7 @@ void write_rig_toml(const config::RigConfig& c, const fs::path& path) {
                                       {"cleanup_radius_px", c.subtraction.cleanup_radius_px},
                                       {"background_frames", c.subtraction.background_frames}});
   t.insert("features", toml::table{{"enabled", c.features.enabled}});
+  t.insert("tracking", toml::table{{"nodes", std::string(config::to_string(c.tracking.nodes))}});
   t.insert("carving", toml::table{{"rule", std::string(config::to_string(c.carving.rule))}});
   t.insert("silhouettes", toml::table{{"every", c.silhouettes.every}, {"scale", c.silhouettes.scale}});
   toml::array targets;
@@ -576,10 +577,10 @@ void write_rig_toml(const config::RigConfig& c, const fs::path& path) {
               back.subtraction.t_upper == c.subtraction.t_upper && back.network.port == c.network.port &&
               back.grid.nx == c.grid.nx && back.assembly.deadline_ms == c.assembly.deadline_ms &&
               back.carving.rule == c.carving.rule && back.silhouettes.every == c.silhouettes.every &&
-              back.silhouettes.scale == c.silhouettes.scale;
+              back.silhouettes.scale == c.silhouettes.scale && back.tracking.nodes == c.tracking.nodes;
   for (size_t k = 0; same && k < c.nodes.size(); k++)
     same = back.nodes[k].id == c.nodes[k].id && back.nodes[k].number == c.nodes[k].number &&
-           back.nodes[k].role == c.nodes[k].role;
+           back.nodes[k].role == c.nodes[k].role && back.tracks(back.nodes[k]) == c.tracks(c.nodes[k]);
   if (!same)
     throw std::logic_error(
         fmt::format("emulated rig: {} does not read back as the rig it was written from", path.string()));

@@ -130,14 +130,27 @@ struct NodeConfig {
   // is or ends in ("node3" → 3), set once by load_rig_config (parse_node_number); a node with neither
   // does not load. Unset only in a RigConfig built in code without it (config::node_number() says why).
   std::optional<uint16_t> number;
+  // The node's own say on tracking ([[nodes]] track = true|false), over [tracking] nodes; unset: that
+  // rule decides (RigConfig::tracks).
+  std::optional<bool> track;
 
   bool valid(std::string* why) const;
   bool is_front() const { return role == NodeRole::Front; }
 };
 
-// Feature tracking needs at least one front node; RigConfig::valid() checks that across sections.
+// Feature tracking needs at least one tracking node; RigConfig::valid() checks that across sections.
 struct FeatureOptions {
-  bool enabled = true;  // track head, hands, feet on the front nodes
+  bool enabled = true;  // track head, hands, feet on the tracking nodes ([tracking])
+};
+
+// Which nodes track head, hands and feet ([tracking], issue #11): every node by default, so the host
+// can triangulate from every view that sees a feature; `front` keeps the paper's front pair only.
+// A node's `track` key overrides this for that node. CONFIG's feature_role FRONT (1) means "track".
+enum class TrackingNodes { All, Front };
+std::string_view to_string(TrackingNodes nodes);                       // "all", "front"
+bool parse_tracking_nodes(std::string_view name, TrackingNodes* out);  // false for anything else
+struct TrackingOptions {
+  TrackingNodes nodes = TrackingNodes::All;
 };
 
 // How the edges carve ([carving], CONFIG's carve_rule): what of a voxel must touch each silhouette —

@@ -47,6 +47,7 @@ struct RigConfig {
   std::vector<NodeConfig> nodes;
   SubtractionOptions subtraction;
   FeatureOptions features;
+  TrackingOptions tracking;
   CarvingOptions carving;
   SilhouetteOptions silhouettes;
   TriggerOptions trigger;
@@ -56,10 +57,14 @@ struct RigConfig {
   std::vector<std::string> warnings;  // legal but suspicious ("3 udp targets for 2 nodes")
 
   // Cross-section checks (each section's own valid() included): node ids and camera assignments
-  // against the calibration, front nodes for features, trigger targets against nodes.
+  // against the calibration, tracking nodes for features, trigger targets against nodes.
   bool valid(std::string* why) const;
   const NodeConfig* node(std::string_view id) const;  // nullptr if absent
   std::vector<const NodeConfig*> front_nodes() const;
+  // Whether `node` tracks head, hands and feet: features enabled, and its `track` key, else
+  // [tracking] nodes ("all", or "front": its role). What the host puts in CONFIG's feature_role.
+  bool tracks(const NodeConfig& node) const;
+  std::vector<const NodeConfig*> tracking_nodes() const;
   // Index in calibration.cameras of a camera name; -1 if absent.
   int camera_index(std::string_view camera_name) const;
 };

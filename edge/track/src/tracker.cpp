@@ -1,0 +1,479 @@
+#include "voxcap/edge/track/tracker.hpp"
+
+#include "voxcap/edge/segment.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <opencv2/imgproc.hpp>
+#include <opencv2/video/tracking.hpp>
+
+namespace vc::track {
+
+namespace {
+
+cv::Point2f centre_of(const cv::Rect& r) {
+  return {float(r.x) + 0.5f * float(r.width), float(r.y) + 0.5f * float(r.height)};
+}
+
+double iou(const cv::Rect& a, const cv::Rect& b) {
+  const double inter = (a & b).area();
+  const double uni = double(a.area()) + double(b.area()) - inter;
+  return uni > 0 ? inter / uni : 0.0;
+}
+
+// Where the wrist and the ankle are against the skin blob of the hand or the foot. The blob ends where
+// the sleeve or the trouser begins (the junction J, the blob's pixels that touch non-skin silhouette);
+// the joint lies beyond it, inside the cuff, by a share of the visible blob's extent C -> J: the sleeve's
+// end covers the wrist by about a forearm radius (~4 cm of a ~15 cm visible hand, so J + 0.27 (J - C)),
+// the trouser's end covers the ankle by about a shank radius above the foot's visible top.
+constexpr float kWristBeyondJunction = 0.27f;
+constexpr float kAnkleBeyondJunction = 0.5f;
+// The head blob holds the neck too: the head's centre is the middle of the rows where the blob is
+// nearly as wide as it gets (the neck is ~0.7 of the head's width, so it never counts).
+constexpr float kHeadRowShare = 0.85f;
+// A window grows to at most this many times its reference area in one frame (CamShift alone would take
+// a whole neighbouring blob).
+constexpr double kMaxGrow = 2.0;
+
+}  // namespace
+
+FeatureKind feature_kind(int feature) {
+  return feature == 0 ? FeatureKind::head : feature <= 2 ? FeatureKind::hand : FeatureKind::foot;
+}
+
+bool TrackerOptions::valid(std::string* why) const {
+  auto fail = [&](const std::string& m) {
+    if (why) *why = m;
+    return false;
+  };
+  std::string cw;
+  if (!colour.valid(&cw)) return fail("colour: " + cw);
+  if (init_frames < 1 || init_frames > 1000) return fail("init_frames must be 1..1000");
+  if (!(seed_radius > 0 && seed_radius < 0.5)) return fail("seed_radius must be in (0, 0.5)");
+  if (min_blob_px < 1) return fail("min_blob_px must be >= 1");
+  if (prob_threshold < 1 || prob_threshold > 254) return fail("prob_threshold must be 1..254");
+  if (!(min_mass_ratio > 0 && min_mass_ratio < 1)) return fail("min_mass_ratio must be in (0, 1)");
+  if (!(min_area_ratio > 0 && min_area_ratio < 1)) return fail("min_area_ratio must be in (0, 1)");
+  if (!(min_inside >= 0 && min_inside <= 1)) return fail("min_inside must be in [0, 1]");
+  if (!(max_jump > 0)) return fail("max_jump must be > 0");
+  if (!(merge_iou > 0 && merge_iou <= 1)) return fail("merge_iou must be in (0, 1]");
+  if (recover_frames < 1) return fail("recover_frames must be >= 1");
+  if (!(reach_px >= 0 && reach_grow >= 0)) return fail("reach_px and reach_grow must be >= 0");
+  return true;
+}
+
+bool extremity_seeds(const cv::Mat1b& mask, Seeds* seeds, std::string* why) {
+  *seeds = Seeds{};
+  auto fail = [&](const char* m) {
+    if (why) *why = m;
+    return false;
+  };
+  if (mask.empty()) return fail("no silhouette");
+  const cv::Rect box = cv::boundingRect(mask);
+  if (box.height < 24 || box.width < 4) return fail("silhouette too small to segment");
+  const double H = box.height;
+  // Head: the centroid column of the top rows, its centre ~6.6 % of the height below the top (a head's
+  // vertical radius against a body's height).
+  {
+    const int rows = std::max(2, int(0.05 * H));
+    double sx = 0, n = 0;
+    for (int y = box.y; y < box.y + rows; ++y)
+      for (int x = box.x; x < box.x + box.width; ++x)
+        if (mask(y, x)) sx += x, n++;
+    if (n > 0) (*seeds)[0] = {true, {float(sx / n), float(box.y + 0.066 * H)}};
+  }
+  // Hands: only when the arms are spread (the silhouette is about as wide as tall); the extreme columns'
+  // pixels above the hips, moved inwards by half a hand. The performer's left is the image's right.
+  if (box.width > 0.6 * H) {
+    const int cols = std::max(2, int(0.03 * H));
+    for (int side = 0; side < 2; ++side) {
+      const int x0 = side == 0 ? box.x + box.width - cols : box.x;
+      double sx = 0, sy = 0, n = 0;
+      for (int y = box.y; y < box.y + int(0.6 * H); ++y)
+        for (int x = x0; x < x0 + cols; ++x)
+          if (mask(y, x)) sx += x, sy += y, n++;
+      if (n == 0) continue;
+      const float inward = float((side == 0 ? -1 : 1) * 0.05 * H);
+      (*seeds)[side == 0 ? 1u : 2u] = {true, {float(sx / n) + inward, float(sy / n)}};
+    }
+  }
+  // Feet: the lowest rows, split at their median column.
+  {
+    const int rows = std::max(2, int(0.04 * H));
+    std::vector<int> xs;
+    for (int y = box.y + box.height - rows; y < box.y + box.height; ++y)
+      for (int x = box.x; x < box.x + box.width; ++x)
+        if (mask(y, x)) xs.push_back(x);
+    if (xs.size() >= 4) {
+      std::nth_element(xs.begin(), xs.begin() + long(xs.size() / 2), xs.end());
+      const int mid = xs[xs.size() / 2];
+      double s[2] = {0, 0}, n[2] = {0, 0};
+      for (int x : xs) {
+        const int side = x > mid ? 0 : 1;  // image right: the performer's left foot
+        s[side] += x, n[side]++;
+      }
+      for (int side = 0; side < 2; ++side)
+        if (n[side] > 0)
+          (*seeds)[side == 0 ? 3u : 4u] = {true,
+                                           {float(s[side] / n[side]), float(box.y + box.height - 0.03 * H)}};
+    }
+  }
+  if (!(*seeds)[0].found) return fail("no head at the top of the silhouette");
+  return true;
+}
+
+bool segment_seeds(const cv::Mat1b& mask, Seeds* seeds, std::string* why) {
+  const segment::Segmentation s = segment::segment(mask);
+  if (!s.ok) {
+    std::string mine;
+    if (extremity_seeds(mask, seeds, &mine)) return true;
+    if (why) *why = "segmentation: " + s.why + "; extremities: " + mine;
+    return false;
+  }
+  *seeds = Seeds{};
+  for (std::size_t f = 0; f < static_cast<std::size_t>(kFeatures); ++f)
+    (*seeds)[f] = {s.terminal[f] >= 0, s.point[f]};
+  return true;
+}
+
+CameraTracker::CameraTracker(const TrackerOptions& options, Seeder seeder)
+    : opt_(options), seeder_(std::move(seeder)) {
+  std::string why;
+  if (!opt_.valid(&why)) throw std::invalid_argument("tracker options: " + why);
+  if (!seeder_) seeder_ = segment_seeds;
+  for (auto& m : models_) m = ColourModel(opt_.colour);
+  pooled_ = ColourModel(opt_.colour);
+}
+
+void CameraTracker::reset() {
+  phase_ = Phase::init;
+  init_done_ = 0;
+  seed_why_.clear();
+  last_seeds_ = Seeds{};
+  for (auto& m : models_) m.reset();
+  pooled_.reset();
+  tracks_ = {};
+}
+
+void CameraTracker::prepare(const cv::Mat3b& rgb, const cv::Mat1b& mask, const cv::Rect& roi,
+                            const ColourModel& model) {
+  cv::Mat3b hsv = hsv_(roi);
+  cv::cvtColor(rgb(roi), hsv, cv::COLOR_RGB2HSV);
+  cv::Mat1b prob = prob_(roi);
+  model.back_project(hsv, mask(roi), prob);
+}
+
+void CameraTracker::learn_frame(const cv::Mat3b& rgb, const cv::Mat1b& mask, const Seeds& seeds) {
+  const cv::Rect box = cv::boundingRect(mask);
+  const int radius = std::max(3, int(opt_.seed_radius * box.height));
+  const cv::Rect image(0, 0, rgb.cols, rgb.rows);
+  for (int f = 0; f < kFeatures; ++f) {
+    const Seed& s = seeds[static_cast<std::size_t>(f)];
+    if (!s.found) continue;
+    const cv::Rect roi =
+        cv::Rect(int(s.point.x) - radius, int(s.point.y) - radius, 2 * radius + 1, 2 * radius + 1) & image;
+    if (roi.empty()) continue;
+    cv::Mat3b hsv = hsv_(roi);
+    cv::cvtColor(rgb(roi), hsv, cv::COLOR_RGB2HSV);
+    cv::Mat1b region = region_(roi);
+    region.setTo(0);
+    cv::circle(region, cv::Point(int(s.point.x) - roi.x, int(s.point.y) - roi.y), radius, 255, cv::FILLED);
+    cv::bitwise_and(region, mask(roi), region);
+    models_[static_cast<std::size_t>(f)].learn(hsv, region);
+  }
+}
+
+void CameraTracker::adopt(int f, const cv::Rect& box, const cv::Mat1b& mask, bool recovered) {
+  Track& t = tracks_[static_cast<std::size_t>(f)];
+  t.window = box;
+  t.centre = centre_of(box);
+  t.velocity = {0, 0};
+  t.ref_mass = std::max(1.0, cv::sum(prob_(box))[0] / 255.0);
+  t.ref_area = std::max(1, box.area());
+  t.active = t.seen = true;
+  t.lost_frames = 0;
+  t.since_recovery = recovered ? 0 : opt_.recover_frames;
+  cv::Point2f uv;
+  t.uv = estimate_point(f, box, mask, &uv) ? uv : t.centre;
+  t.confidence = recovered ? 1.0f / float(opt_.recover_frames + 1) : 1.0f;
+}
+
+void CameraTracker::start_tracking(const cv::Mat3b& rgb, const cv::Mat1b& mask, const Seeds& seeds) {
+  pooled_.reset();
+  for (auto& m : models_) {
+    pooled_.merge(m);
+    m.finish();
+  }
+  if (!pooled_.finish()) {  // no skin seen at any seed: learn again from the next frames
+    for (auto& m : models_) m.reset();
+    init_done_ = 0;
+    seed_why_ = "no skin-coloured pixels at the seeds";
+    return;
+  }
+  for (auto& m : models_)
+    if (!m.ready()) m = pooled_;
+  const cv::Rect box = cv::boundingRect(mask);
+  const int radius = std::max(3, int(opt_.seed_radius * box.height));
+  const cv::Rect image(0, 0, rgb.cols, rgb.rows);
+  for (int f = 0; f < kFeatures; ++f) {
+    const Seed& s = seeds[static_cast<std::size_t>(f)];
+    if (!s.found) continue;
+    const cv::Rect roi =
+        cv::Rect(int(s.point.x) - 2 * radius, int(s.point.y) - 2 * radius, 4 * radius + 1, 4 * radius + 1) &
+        image;
+    if (roi.empty()) continue;
+    prepare(rgb, mask, roi, models_[static_cast<std::size_t>(f)]);
+    cv::Mat1b blobs = blobs_(roi);
+    cv::compare(prob_(roi), opt_.prob_threshold, blobs, cv::CMP_GT);
+    const int n = cv::connectedComponentsWithStats(blobs, labels_, stats_, centroids_, 8, CV_32S);
+    // The blob nearest to the seed (distance from the seed to the blob's box), within the seed radius.
+    int best = -1;
+    double best_d = radius;
+    const cv::Point2f p(s.point.x - float(roi.x), s.point.y - float(roi.y));
+    for (int k = 1; k < n; ++k) {
+      if (stats_(k, cv::CC_STAT_AREA) < opt_.min_blob_px) continue;
+      const cv::Rect b(stats_(k, cv::CC_STAT_LEFT), stats_(k, cv::CC_STAT_TOP), stats_(k, cv::CC_STAT_WIDTH),
+                       stats_(k, cv::CC_STAT_HEIGHT));
+      const double dx = std::max({double(b.x) - p.x, 0.0, double(p.x) - double(b.x + b.width)});
+      const double dy = std::max({double(b.y) - p.y, 0.0, double(p.y) - double(b.y + b.height)});
+      const double d = std::hypot(dx, dy);
+      if (d < best_d || (d == 0 && best_d == 0 && best >= 0 &&
+                         stats_(k, cv::CC_STAT_AREA) > stats_(best, cv::CC_STAT_AREA))) {
+        best_d = d;
+        best = k;
+      }
+    }
+    if (best < 0) continue;
+    const cv::Rect b(stats_(best, cv::CC_STAT_LEFT) + roi.x, stats_(best, cv::CC_STAT_TOP) + roi.y,
+                     stats_(best, cv::CC_STAT_WIDTH), stats_(best, cv::CC_STAT_HEIGHT));
+    adopt(f, b, mask, false);
+  }
+  // Two seeds on one blob (e.g. feet together seen from the side): the blob is one feature's only.
+  for (int a = 0; a < kFeatures; ++a)
+    for (int b = a + 1; b < kFeatures; ++b) {
+      Track& ta = tracks_[static_cast<std::size_t>(a)];
+      Track& tb = tracks_[static_cast<std::size_t>(b)];
+      if (ta.active && tb.active && iou(ta.window, tb.window) > opt_.merge_iou) tb = Track{};
+    }
+  phase_ = Phase::tracking;
+}
+
+void CameraTracker::lose(int f) {
+  Track& t = tracks_[static_cast<std::size_t>(f)];
+  if (!t.active) return;
+  t.active = false;
+  t.lost_frames = 0;
+  t.confidence = 0;
+  losses_++;
+}
+
+bool CameraTracker::estimate_point(int f, const cv::Rect& window, const cv::Mat1b& mask,
+                                   cv::Point2f* uv) const {
+  const cv::Rect image(0, 0, prob_.cols, prob_.rows);
+  const int gx = window.width / 4 + 1, gy = window.height / 4 + 1;
+  const cv::Rect e = cv::Rect(window.x - gx, window.y - gy, window.width + 2 * gx, window.height + 2 * gy) &
+                     cv::Rect(1, 1, image.width - 2, image.height - 2);
+  if (e.empty()) return false;
+  const int thr = opt_.prob_threshold, low = opt_.prob_threshold / 2;
+  const FeatureKind kind = feature_kind(f);
+  double cx = 0, cy = 0, n = 0, jx = 0, jy = 0, jn = 0;
+  int max_row = 0;
+  for (int y = e.y; y < e.y + e.height; ++y) {
+    const std::uint8_t* p = prob_[y];
+    int row = 0;
+    for (int x = e.x; x < e.x + e.width; ++x) {
+      if (p[x] <= thr) continue;
+      row++;
+      cx += x, cy += y, n++;
+      if (kind == FeatureKind::head) continue;
+      // A junction pixel touches silhouette that is not skin (sleeve, trouser).
+      const bool cloth = (mask(y, x - 1) && p[x - 1] <= low) || (mask(y, x + 1) && p[x + 1] <= low) ||
+                         (mask(y - 1, x) && prob_(y - 1, x) <= low) ||
+                         (mask(y + 1, x) && prob_(y + 1, x) <= low);
+      if (cloth) jx += x, jy += y, jn++;
+    }
+    max_row = std::max(max_row, row);
+  }
+  if (n < 0.5 * opt_.min_blob_px + 1) return false;
+  const cv::Point2f c(float(cx / n), float(cy / n));
+  if (kind == FeatureKind::head) {
+    const int need = int(std::ceil(kHeadRowShare * float(max_row)));
+    double hx = 0, hy = 0, hn = 0;
+    for (int y = e.y; y < e.y + e.height; ++y) {
+      const std::uint8_t* p = prob_[y];
+      int row = 0;
+      double rx = 0;
+      for (int x = e.x; x < e.x + e.width; ++x)
+        if (p[x] > thr) row++, rx += x;
+      if (row >= need && row > 0) hx += rx, hy += double(y) * row, hn += row;
+    }
+    *uv = hn > 0 ? cv::Point2f(float(hx / hn), float(hy / hn)) : c;
+    return true;
+  }
+  if (jn < 2) {
+    *uv = c;
+    return true;
+  }
+  const cv::Point2f j(float(jx / jn), float(jy / jn));
+  const float k = kind == FeatureKind::hand ? kWristBeyondJunction : kAnkleBeyondJunction;
+  *uv = j + k * (j - c);
+  return true;
+}
+
+void CameraTracker::track_one(int f, const cv::Mat3b& rgb, const cv::Mat1b& mask) {
+  Track& t = tracks_[static_cast<std::size_t>(f)];
+  const cv::Rect image(0, 0, rgb.cols, rgb.rows);
+  const cv::Point2f pred = t.centre + t.velocity;
+  const int w = std::max(2, t.window.width), h = std::max(2, t.window.height);
+  const int m = std::max(w, h);
+  const cv::Rect win =
+      cv::Rect(int(std::lround(pred.x - 0.5f * float(w))), int(std::lround(pred.y - 0.5f * float(h))), w, h);
+  const cv::Rect roi = cv::Rect(win.x - m, win.y - m, w + 2 * m, h + 2 * m) & image;
+  cv::Rect local = (win & image) - roi.tl();
+  if (roi.empty() || local.empty()) return lose(f);
+  prepare(rgb, mask, roi, models_[static_cast<std::size_t>(f)]);
+  // The other features' blobs are not this one's to take: touching feet or a hand by the face would
+  // otherwise pull both windows onto the union. The core of every other active window (its last one,
+  // or this frame's when already tracked) is blanked in this feature's back-projection.
+  for (int g = 0; g < kFeatures; ++g) {
+    const Track& o = tracks_[static_cast<std::size_t>(g)];
+    if (g == f || !o.active) continue;
+    const int sx = o.window.width / 6, sy = o.window.height / 6;
+    const cv::Rect core =
+        cv::Rect(o.window.x + sx, o.window.y + sy, o.window.width - 2 * sx, o.window.height - 2 * sy) & roi;
+    if (!core.empty()) prob_(core).setTo(0);
+  }
+  cv::CamShift(prob_(roi), local, cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 10, 1));
+  cv::Rect next = (local + roi.tl()) & image;
+  // A window may grow with the blob (closer, less foreshortened) but not swallow a neighbour at once.
+  const double grow = double(next.area()) / t.ref_area;
+  if (grow > kMaxGrow) {
+    const double s = std::sqrt(kMaxGrow / grow);
+    const cv::Point2f cc = centre_of(next);
+    const int nw = std::max(2, int(next.width * s)), nh = std::max(2, int(next.height * s));
+    next = cv::Rect(int(cc.x) - nw / 2, int(cc.y) - nh / 2, nw, nh) & image;
+  }
+  if (next.area() < 2) return lose(f);
+  const double mass = cv::sum(prob_(next))[0] / 255.0;
+  const double mass_ratio = mass / t.ref_mass;
+  const double area_ratio = double(next.area()) / t.ref_area;
+  const cv::Point2f c = centre_of(next);
+  const float moved = float(cv::norm(c - pred));
+  const double inside = double(cv::countNonZero(mask(next))) / double(next.area());
+  if (mass_ratio < opt_.min_mass_ratio || area_ratio < opt_.min_area_ratio ||
+      area_ratio > 1.0 / opt_.min_area_ratio || inside < opt_.min_inside * 0.5 ||
+      moved > float(opt_.max_jump * m + 4.0))
+    return lose(f);
+  cv::Point2f uv;
+  if (!estimate_point(f, next, mask, &uv)) return lose(f);
+  t.velocity = 0.5f * t.velocity + 0.5f * (c - t.centre);
+  t.centre = c;
+  t.window = next;
+  t.uv = uv;
+  t.moved = moved;
+  // The reference follows slow changes of size (distance, foreshortening), not a fast drop (occlusion).
+  if (mass_ratio > 0.6 && mass_ratio < 1.6) {
+    t.ref_mass = 0.95 * t.ref_mass + 0.05 * mass;
+    t.ref_area = 0.95 * t.ref_area + 0.05 * double(next.area());
+  }
+  t.since_recovery = std::min(t.since_recovery + 1, opt_.recover_frames);
+  const float ramp = float(t.since_recovery + 1) / float(opt_.recover_frames + 1);
+  t.confidence = float(std::clamp(mass_ratio, 0.0, 1.0)) * std::min(1.0f, ramp);
+}
+
+void CameraTracker::resolve_merges() {
+  for (int a = 0; a < kFeatures; ++a)
+    for (int b = a + 1; b < kFeatures; ++b) {
+      Track& ta = tracks_[static_cast<std::size_t>(a)];
+      Track& tb = tracks_[static_cast<std::size_t>(b)];
+      if (!ta.active || !tb.active || iou(ta.window, tb.window) <= opt_.merge_iou) continue;
+      lose(ta.moved > tb.moved ? a : b);
+    }
+}
+
+void CameraTracker::reacquire(const cv::Mat3b& rgb, const cv::Mat1b& mask) {
+  const cv::Rect image(0, 0, rgb.cols, rgb.rows);
+  const cv::Rect box = cv::boundingRect(mask);
+  const cv::Rect roi = cv::Rect(box.x - 2, box.y - 2, box.width + 4, box.height + 4) & image;
+  if (roi.area() < opt_.min_blob_px) return;
+  prepare(rgb, mask, roi, pooled_);
+  cv::Mat1b blobs = blobs_(roi);
+  cv::compare(prob_(roi), opt_.prob_threshold, blobs, cv::CMP_GT);
+  const int n = cv::connectedComponentsWithStats(blobs, labels_, stats_, centroids_, 8, CV_32S);
+  std::array<bool, 64> taken{};
+  for (int f = 0; f < kFeatures; ++f) {
+    Track& t = tracks_[static_cast<std::size_t>(f)];
+    if (!t.seen || t.active) continue;
+    const double reach =
+        std::min(opt_.reach_px + opt_.reach_grow * t.lost_frames, 0.5 * double(image.width)) +
+        std::max(t.window.width, t.window.height);
+    int best = -1;
+    double best_d = reach;
+    for (int k = 1; k < n && k < int(taken.size()); ++k) {
+      if (taken[static_cast<std::size_t>(k)]) continue;
+      const int area = stats_(k, cv::CC_STAT_AREA);
+      if (area < opt_.min_blob_px || double(area) < 0.15 * t.ref_area) continue;
+      const cv::Rect b(stats_(k, cv::CC_STAT_LEFT) + roi.x, stats_(k, cv::CC_STAT_TOP) + roi.y,
+                       stats_(k, cv::CC_STAT_WIDTH), stats_(k, cv::CC_STAT_HEIGHT));
+      bool held = false;
+      for (const Track& o : tracks_)
+        if (o.active && ((o.window & b).area() > 0)) held = true;
+      if (held) continue;
+      const double d = cv::norm(centre_of(b) - t.centre);
+      if (d < best_d) best_d = d, best = k;
+    }
+    if (best < 0) continue;
+    taken[static_cast<std::size_t>(best)] = true;
+    const cv::Rect b(stats_(best, cv::CC_STAT_LEFT) + roi.x, stats_(best, cv::CC_STAT_TOP) + roi.y,
+                     stats_(best, cv::CC_STAT_WIDTH), stats_(best, cv::CC_STAT_HEIGHT));
+    adopt(f, b, mask, true);
+    reacquired_++;
+  }
+}
+
+void CameraTracker::process(const cv::Mat3b& rgb, const cv::Mat1b& mask, FrameReport* out) {
+  *out = FrameReport{};
+  if (rgb.empty() || mask.size() != rgb.size()) return;
+  if (rgb.size() != size_) {
+    size_ = rgb.size();
+    hsv_.create(size_);
+    prob_.create(size_);
+    region_.create(size_);
+    blobs_.create(size_);
+    prob_.setTo(0);
+    reset();
+  }
+  if (phase_ == Phase::init) {
+    Seeds seeds;
+    std::string why;
+    if (seeder_(mask, &seeds, &why)) {
+      learn_frame(rgb, mask, seeds);
+      last_seeds_ = seeds;
+      if (++init_done_ >= opt_.init_frames) start_tracking(rgb, mask, seeds);
+    } else {
+      seed_why_ = why;
+    }
+    if (phase_ == Phase::init) return;
+  } else {
+    for (int f = 0; f < kFeatures; ++f)
+      if (tracks_[static_cast<std::size_t>(f)].active) track_one(f, rgb, mask);
+    resolve_merges();
+    bool any_lost = false;
+    for (const Track& t : tracks_) any_lost |= t.seen && !t.active;
+    if (any_lost) reacquire(rgb, mask);
+    for (Track& t : tracks_)
+      if (t.seen && !t.active) t.lost_frames++;
+  }
+  for (int f = 0; f < kFeatures; ++f) {
+    const Track& t = tracks_[static_cast<std::size_t>(f)];
+    FeatureReport& r = (*out)[static_cast<std::size_t>(f)];
+    if (!t.seen) continue;  // never seen in this camera: not_visible
+    r.uv = t.uv;
+    r.state = t.active ? FeatureState::tracking : FeatureState::lost;
+    r.confidence = t.active ? std::clamp(t.confidence, 0.0f, 1.0f) : 0.0f;
+  }
+}
+
+}  // namespace vc::track

@@ -1,0 +1,186 @@
+// Runs CameraTrackers over the virtual rig (hw/sim) and scores them against its truth: per feature the
+// 2D error while the feature is visible and tracked, how often a visible feature was not tracked, the
+// losses and the frames each loss took to recover once the part was visible again. Shared by the unit
+// tests (tracker_test.cpp) and the benchmark (tests/bench/track_bench.cpp).
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+#include "voxcap/edge/bgmodel.h"
+#include "voxcap/edge/cleanup.h"
+#include "voxcap/edge/track/tracker.hpp"
+#include "voxcap/sim/rig_layout.hpp"
+#include "voxcap/sim/scene.hpp"
+
+namespace vc::track::eval {
+
+enum class Masks { truth, edge };  // the true silhouettes, or the edge's own subtraction + clean-up
+
+struct EvalOptions {
+  std::string motion = "wave";
+  std::string appearance = "default";
+  std::string room = "default";
+  int cameras = 6;
+  int first_frame = 0;  // the init pose holds for the first 60 frames
+  int frames = 240;     // frames to run (from first_frame)
+  int frame_step = 1;
+  Masks masks = Masks::edge;
+  bool truth_seeds = true;  // seeds from the truth (else the tracker's own seeder)
+  TrackerOptions tracker;
+};
+
+struct FeatureScore {
+  std::vector<double> errors;  // px, visible & tracking
+  int visible = 0;             // frames where the truth says visible
+  int visible_untracked = 0;   // ... and the tracker did not report tracking
+  int losses = 0;              // tracking -> not tracking while the part is visible
+  std::vector<int> recover;    // frames from the part being visible again (after a loss) to tracking
+  int unrecovered = 0;         // losses still open at the end while the part was visible for > 10 frames
+  int far_tracking = 0;        // tracking with an error > 25 px (a confident wrong answer in 2D)
+  double pct(double q) const {
+    if (errors.empty()) return NAN;
+    std::vector<double> e = errors;
+    const auto k = static_cast<std::size_t>(std::clamp(q * double(e.size() - 1), 0.0, double(e.size() - 1)));
+    std::nth_element(e.begin(), e.begin() + long(k), e.end());
+    return e[k];
+  }
+};
+
+struct EvalResult {
+  std::array<FeatureScore, kFeatures> features;
+  double track_ms_per_camera_frame = 0;  // mean, tracking phase only
+  int camera_frames = 0;
+  std::vector<double> all_errors() const {
+    std::vector<double> a;
+    for (const auto& f : features) a.insert(a.end(), f.errors.begin(), f.errors.end());
+    return a;
+  }
+};
+
+// The truth's features in a camera, in vc_feature_id order (hw/body's Feature order is the wire's).
+inline std::array<sim::FeatureTruth, kFeatures> truth_features(const sim::Scene& scene, int frame, int cam) {
+  std::array<sim::FeatureTruth, kFeatures> t{};
+  for (const auto& ft : scene.features(frame, cam)) t[static_cast<std::size_t>(ft.feature)] = ft;
+  return t;
+}
+
+// Left/right as the tracker's seeder decides them: by image side as if the camera faced the performer
+// (the performer's left hand on the image's right). The truth says which joint; this says which of the
+// pair an image-side seeder would call left in this camera's init frame.
+inline bool sides_swapped(const sim::Scene& scene, int frame, int cam) {
+  const auto t = truth_features(scene, frame, cam);
+  return t[1].uv.x < t[2].uv.x;  // the performer's left hand left of the right one: seen from behind
+}
+
+inline EvalResult evaluate(const EvalOptions& o) {
+  sim::SceneOptions so;
+  so.motion.source = o.motion;
+  so.appearance = o.appearance;
+  so.room = o.room;
+  so.rig.cameras = o.cameras;
+  sim::Scene scene(so);
+  EvalResult res;
+  const int W = so.rig.width, H = so.rig.height;
+  for (int cam = 0; cam < o.cameras; ++cam) {
+    const bool swap = sides_swapped(scene, 0, cam);
+    auto map_truth = [&](int frame) {
+      auto t = truth_features(scene, frame, cam);
+      if (swap) std::swap(t[1], t[2]), std::swap(t[3], t[4]);
+      return t;
+    };
+    int frame = o.first_frame;
+    Seeder seeder = nullptr;
+    if (o.truth_seeds)
+      seeder = [&](const cv::Mat1b&, Seeds* seeds, std::string*) {
+        const auto t = map_truth(frame);
+        for (int f = 0; f < kFeatures; ++f)
+          (*seeds)[static_cast<std::size_t>(f)] = {t[static_cast<std::size_t>(f)].visible,
+                                                   cv::Point2f(t[static_cast<std::size_t>(f)].uv)};
+        return true;
+      };
+    CameraTracker tracker(o.tracker, seeder);
+    vc_bgmodel* bg = nullptr;
+    std::vector<std::uint8_t> scratch;
+    if (o.masks == Masks::edge) {
+      char why[256];
+      if (vc_bgmodel_new(W, H, &bg, why, sizeof(why)) < 0) throw std::runtime_error(why);
+      cv::Mat b;
+      for (int i = 0; i < 30; ++i) {
+        scene.render_background(cam, i, b);
+        vc_bgmodel_learn(bg, b.data, b.step);
+      }
+      vc_bgmodel_finish(bg);
+      vc_subtract_params p;
+      vc_subtract_params_default(&p);
+      vc_bgmodel_set_params(bg, &p);
+      scratch.resize(vc_cleanup_radius_scratch_size(W, 1));
+    }
+    std::unique_ptr<vc_bgmodel, void (*)(vc_bgmodel*)> bg_owner(bg, vc_bgmodel_free);
+    cv::Mat rgb, sil;
+    cv::Mat1b mask(H, W);
+    std::array<bool, kFeatures> was_tracking{}, pending{};
+    std::array<int, kFeatures> visible_since_loss{};
+    double ms = 0;
+    int timed = 0;
+    for (int i = 0; i < o.frames; ++i, frame += o.frame_step) {
+      scene.render(frame, cam, rgb, &sil);
+      if (bg) {
+        vc_subtract(bg, rgb.data, rgb.step, mask.data, nullptr);
+        vc_cleanup_radius(mask.data, W, H, 1, scratch.data(), scratch.size());
+      } else {
+        sil.copyTo(mask);
+      }
+      FrameReport rep;
+      const bool timing = tracker.initialised();
+      const auto t0 = std::chrono::steady_clock::now();
+      tracker.process(rgb, mask, &rep);
+      const auto t1 = std::chrono::steady_clock::now();
+      if (timing) ms += std::chrono::duration<double, std::milli>(t1 - t0).count(), timed++;
+      if (!tracker.initialised()) continue;
+      const auto truth = map_truth(frame);
+      for (int f = 0; f < kFeatures; ++f) {
+        const auto fs = static_cast<std::size_t>(f);
+        FeatureScore& s = res.features[fs];
+        const bool vis = truth[fs].visible;
+        const bool trk = rep[fs].state == FeatureState::tracking;
+        if (vis) {
+          s.visible++;
+          if (trk) {
+            const double e = cv::norm(cv::Point2d(rep[fs].uv) - truth[fs].uv);
+            s.errors.push_back(e);
+            if (e > 25) s.far_tracking++;
+          } else {
+            s.visible_untracked++;
+          }
+        }
+        if (was_tracking[fs] && !trk && vis) s.losses++, pending[fs] = true, visible_since_loss[fs] = 0;
+        if (pending[fs]) {
+          if (trk) {
+            s.recover.push_back(visible_since_loss[fs]);
+            pending[fs] = false;
+          } else if (vis) {
+            visible_since_loss[fs]++;
+          }
+        }
+        was_tracking[fs] = trk;
+      }
+    }
+    for (int f = 0; f < kFeatures; ++f)
+      if (pending[static_cast<std::size_t>(f)] && visible_since_loss[static_cast<std::size_t>(f)] > 10)
+        res.features[static_cast<std::size_t>(f)].unrecovered++;
+    res.track_ms_per_camera_frame += ms;
+    res.camera_frames += timed;
+  }
+  if (res.camera_frames) res.track_ms_per_camera_frame /= res.camera_frames;
+  return res;
+}
+
+}  // namespace vc::track::eval

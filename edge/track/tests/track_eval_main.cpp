@@ -1,0 +1,44 @@
+// track_eval MOTION [FRAMES] [truth|edge] [seeds|own] [APPEARANCE] [ROOM]: runs the trackers of every
+// camera of the 6-camera virtual rig over a motion and prints, per feature, the 2D error (p50/p95, px)
+// while visible and tracked, visible frames not tracked, losses, frames to recover, and the cost.
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <string>
+
+#include "track_eval.hpp"
+
+int main(int argc, char** argv) {
+  using namespace vc::track::eval;
+  EvalOptions o;
+  if (argc > 1) o.motion = argv[1];
+  if (argc > 2) o.frames = std::atoi(argv[2]);
+  if (argc > 3) o.masks = std::string(argv[3]) == "truth" ? Masks::truth : Masks::edge;
+  if (argc > 4) o.truth_seeds = std::string(argv[4]) != "own";
+  if (argc > 5) o.appearance = argv[5];
+  if (argc > 6) o.room = argv[6];
+  EvalResult r;
+  try {
+    r = evaluate(o);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "track_eval: %s\n", e.what());
+    return 1;
+  }
+  static const char* names[] = {"head", "left_hand", "right_hand", "left_foot", "right_foot"};
+  std::printf("%s: %d frames x %d cameras, %s masks, %s seeds\n", o.motion.c_str(), o.frames, o.cameras,
+              o.masks == Masks::truth ? "true" : "edge", o.truth_seeds ? "true" : "own");
+  std::printf("%-11s %7s %7s %8s %9s %7s %9s %11s %6s\n", "feature", "p50_px", "p95_px", "visible",
+              "untracked", "losses", "rec_max", "unrecovered", ">25px");
+  for (int f = 0; f < vc::track::kFeatures; ++f) {
+    const FeatureScore& s = r.features[static_cast<std::size_t>(f)];
+    int rmax = 0;
+    for (int k : s.recover) rmax = std::max(rmax, k);
+    std::printf("%-11s %7.2f %7.2f %8d %9d %7d %9d %11d %6d\n", names[f], s.pct(0.5), s.pct(0.95), s.visible,
+                s.visible_untracked, s.losses, rmax, s.unrecovered, s.far_tracking);
+  }
+  FeatureScore all;
+  all.errors = r.all_errors();
+  std::printf("all         %7.2f %7.2f   cost %.3f ms per camera frame (%d camera frames)\n", all.pct(0.5),
+              all.pct(0.95), r.track_ms_per_camera_frame, r.camera_frames);
+  return 0;
+}

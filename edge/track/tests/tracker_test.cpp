@@ -1,0 +1,213 @@
+// CameraTracker on the virtual rig (hw/sim): 2D error against the true head centre, wrists and ankles
+// while visible, losses and recovery on motions where parts occlude each other, and hostile input.
+// Masks are the edge's own (edge/core subtraction + clean-up), as on a node.
+#include <gtest/gtest.h>
+
+#include "track_eval.hpp"
+
+namespace vc::track {
+namespace {
+
+using eval::EvalOptions;
+using eval::EvalResult;
+using eval::FeatureScore;
+
+FeatureScore pooled(const EvalResult& r) {
+  FeatureScore all;
+  all.errors = r.all_errors();
+  for (const auto& f : r.features) {
+    all.visible += f.visible;
+    all.visible_untracked += f.visible_untracked;
+    all.far_tracking += f.far_tracking;
+    all.unrecovered += f.unrecovered;
+  }
+  return all;
+}
+
+void print(const char* name, const EvalResult& r) {
+  const FeatureScore all = pooled(r);
+  std::printf("%s: p50 %.2f px p95 %.2f px, visible %d untracked %d, >25 px %d, unrecovered %d\n", name,
+              all.pct(0.5), all.pct(0.95), all.visible, all.visible_untracked, all.far_tracking,
+              all.unrecovered);
+}
+
+TEST(CameraTracker, WaveOnSixCamerasFollowsHeadWristsAndAnklesFromTrueSeeds) {
+  EvalOptions o;
+  o.motion = "wave";
+  o.frames = 150;
+  const EvalResult r = eval::evaluate(o);
+  print("wave", r);
+  const FeatureScore all = pooled(r);
+  ASSERT_GT(all.errors.size(), 3000u);
+  EXPECT_LE(all.pct(0.5), 4.0);
+  EXPECT_LE(all.pct(0.95), 20.0);
+  EXPECT_LE(r.features[0].pct(0.5), 1.5);  // the head centre
+  EXPECT_LE(r.features[0].pct(0.95), 3.0);
+  // Visible and tracked nearly always, and hardly ever far from the truth.
+  EXPECT_LE(all.visible_untracked, all.visible / 10);
+  EXPECT_LE(all.far_tracking, int(all.errors.size()) / 50);
+  EXPECT_EQ(all.unrecovered, 0);
+}
+
+TEST(CameraTracker, CrossingForearmsLoseAHandAndGetItBack) {
+  EvalOptions o;
+  o.motion = "cross";
+  o.first_frame = 0;
+  o.frames = 200;
+  const EvalResult r = eval::evaluate(o);
+  print("cross", r);
+  const int losses = r.features[1].losses + r.features[2].losses;
+  EXPECT_GT(losses, 0);  // the forearms do cross in some views
+  int recovered = 0;
+  for (int f : {1, 2}) recovered += int(r.features[static_cast<std::size_t>(f)].recover.size());
+  EXPECT_GE(recovered, losses - 2);  // at most one loss per hand still open when the clip ends
+  // Issue #11 wants every loss back within 10 frames of the part being visible again; today up to two
+  // losses on this clip (of 6 cameras) stay open longer (README, figures).
+  EXPECT_LE(pooled(r).unrecovered, 2);
+}
+
+struct Hostile : ::testing::Test {
+  cv::Mat3b rgb = cv::Mat3b(120, 160, cv::Vec3b(200, 150, 120));
+  cv::Mat1b mask = cv::Mat1b(120, 160, uchar(0));
+  // A performer-like blob: skin head, blue body, skin hands and feet, seeds where they are.
+  void draw() {
+    rgb.setTo(cv::Vec3b(90, 90, 90));
+    mask.setTo(0);
+    auto part = [&](const cv::Rect& r, const cv::Vec3b& c) {
+      rgb(r).setTo(c);
+      mask(r).setTo(255);
+    };
+    part({60, 30, 40, 60}, {40, 60, 170});    // torso
+    part({70, 10, 20, 20}, {215, 165, 135});  // head
+    part({20, 40, 40, 8}, {40, 60, 170});     // arms
+    part({100, 40, 40, 8}, {40, 60, 170});
+    part({10, 38, 10, 12}, {215, 165, 135});  // hands
+    part({140, 38, 10, 12}, {215, 165, 135});
+    part({62, 90, 14, 20}, {60, 60, 80});  // legs
+    part({84, 90, 14, 20}, {60, 60, 80});
+    part({60, 110, 16, 6}, {215, 165, 135});  // feet
+    part({84, 110, 16, 6}, {215, 165, 135});
+  }
+  static bool seeds(const cv::Mat1b& m, Seeds* s, std::string* why) {
+    if (cv::countNonZero(m) == 0) {
+      *why = "empty";
+      return false;
+    }
+    *s = Seeds{};
+    (*s)[0] = {true, {80, 20}};
+    (*s)[1] = {true, {145, 44}};
+    (*s)[2] = {true, {15, 44}};
+    (*s)[3] = {true, {92, 113}};
+    // (*s)[4]: the right foot is never found
+    return true;
+  }
+};
+
+TEST_F(Hostile, EmptySilhouettesNeverStartTrackingAndSayWhy) {
+  CameraTracker t({}, seeds);
+  FrameReport rep;
+  for (int i = 0; i < 10; ++i) t.process(rgb, mask, &rep);
+  EXPECT_FALSE(t.initialised());
+  EXPECT_EQ(t.last_seed_failure(), "empty");
+  for (const auto& r : rep) EXPECT_EQ(r.state, FeatureState::not_visible);
+}
+
+TEST_F(Hostile, AFeatureNeverSeenStaysNotVisibleAndAnEmptyMaskLosesTheRest) {
+  draw();
+  TrackerOptions o;
+  o.init_frames = 3;
+  CameraTracker t(o, seeds);
+  FrameReport rep;
+  for (int i = 0; i < 5; ++i) t.process(rgb, mask, &rep);
+  ASSERT_TRUE(t.initialised());
+  for (int f = 0; f < 4; ++f) {
+    EXPECT_EQ(rep[static_cast<std::size_t>(f)].state, FeatureState::tracking) << f;
+    EXPECT_GT(rep[static_cast<std::size_t>(f)].confidence, 0.5f) << f;
+  }
+  EXPECT_EQ(rep[4].state, FeatureState::not_visible);
+  EXPECT_NEAR(rep[0].uv.x, 80, 2);  // the head's centre (it has no neck here)
+  EXPECT_NEAR(rep[0].uv.y, 20, 2);
+  const cv::Point2f head = rep[0].uv;
+  const cv::Mat1b empty(mask.size(), uchar(0));
+  t.process(rgb, empty, &rep);
+  for (int f = 0; f < 4; ++f) {
+    EXPECT_EQ(rep[static_cast<std::size_t>(f)].state, FeatureState::lost) << f;
+    EXPECT_EQ(rep[static_cast<std::size_t>(f)].confidence, 0.0f);
+  }
+  EXPECT_EQ(rep[0].uv, head);  // lost: the last known position
+  EXPECT_EQ(rep[4].state, FeatureState::not_visible);
+  // The silhouette comes back: every lost feature is re-acquired, with a confidence that starts low.
+  t.process(rgb, mask, &rep);
+  for (int f = 0; f < 4; ++f) {
+    EXPECT_EQ(rep[static_cast<std::size_t>(f)].state, FeatureState::tracking) << f;
+    EXPECT_LT(rep[static_cast<std::size_t>(f)].confidence, 0.5f) << f;
+  }
+  EXPECT_EQ(t.reacquisitions(), 4u);
+  for (int i = 0; i < o.recover_frames + 1; ++i) t.process(rgb, mask, &rep);
+  EXPECT_GT(rep[1].confidence, 0.9f);
+}
+
+TEST_F(Hostile, ANewImageSizeOrAMismatchedMaskStartsAgainWithoutCrashing) {
+  draw();
+  TrackerOptions o;
+  o.init_frames = 1;
+  CameraTracker t(o, seeds);
+  FrameReport rep;
+  t.process(rgb, mask, &rep);
+  ASSERT_TRUE(t.initialised());
+  t.process(rgb, cv::Mat1b(10, 10, uchar(255)), &rep);  // mask of another size: nothing reported
+  for (const auto& r : rep) EXPECT_EQ(r.state, FeatureState::not_visible);
+  cv::Mat3b small;
+  cv::resize(rgb, small, {80, 60});
+  cv::Mat1b small_mask(60, 80, uchar(0));
+  t.process(small, small_mask, &rep);
+  EXPECT_FALSE(t.initialised());
+}
+
+TEST(TrackerOptions, InvalidOptionsAreRefusedWithAReason) {
+  TrackerOptions o;
+  o.init_frames = 0;
+  EXPECT_THROW(CameraTracker{o}, std::invalid_argument);
+  std::string why;
+  EXPECT_FALSE(o.valid(&why));
+  EXPECT_EQ(why, "init_frames must be 1..1000");
+}
+
+TEST(ExtremitySeeds, FindTheFiveFeaturesOfTheInitPoseOnTheTrueFrontSilhouette) {
+  sim::SceneOptions so;
+  so.motion.source = "wave";
+  sim::Scene scene(so);
+  cv::Mat rgb, sil;
+  scene.render(0, 0, rgb, &sil);
+  Seeds s;
+  std::string why;
+  ASSERT_TRUE(extremity_seeds(sil, &s, &why)) << why;
+  const auto truth = eval::truth_features(scene, 0, 0);
+  const double height = cv::boundingRect(sil).height;
+  for (int f = 0; f < kFeatures; ++f) {
+    ASSERT_TRUE(s[static_cast<std::size_t>(f)].found) << f;
+    // On the same feature (left/right by image side), within a hand's length (0.11 of the height) of its
+    // true joint: a seed only has to put the learning disk on the feature's skin.
+    EXPECT_LT(
+        cv::norm(cv::Point2d(s[static_cast<std::size_t>(f)].point) - truth[static_cast<std::size_t>(f)].uv),
+        0.1 * height)
+        << f;
+  }
+  // The default seeder (edge/segment's GVD terminals) on the same silhouette: the five joints.
+  Seeds g;
+  ASSERT_TRUE(segment_seeds(sil, &g, &why)) << why;
+  for (int f = 0; f < kFeatures; ++f) {
+    ASSERT_TRUE(g[static_cast<std::size_t>(f)].found) << f;
+    EXPECT_LT(
+        cv::norm(cv::Point2d(g[static_cast<std::size_t>(f)].point) - truth[static_cast<std::size_t>(f)].uv),
+        0.05 * height)
+        << f;
+  }
+  EXPECT_FALSE(segment_seeds(cv::Mat1b(480, 640, uchar(0)), &g, &why));
+  EXPECT_EQ(why.rfind("segmentation: ", 0), 0u) << why;
+  EXPECT_FALSE(extremity_seeds(cv::Mat1b(480, 640, uchar(0)), &s, &why));
+  EXPECT_EQ(why, "silhouette too small to segment");
+}
+
+}  // namespace
+}  // namespace vc::track
