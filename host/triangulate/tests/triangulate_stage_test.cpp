@@ -7,8 +7,8 @@
 #include <mutex>
 #include <random>
 
-#include "synthetic.hpp"
 #include "voxcap/pipeline/pipeline.hpp"
+#include "voxcap/triangulate/synthetic.hpp"
 
 namespace vc::triangulate {
 namespace {

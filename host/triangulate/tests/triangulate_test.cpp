@@ -11,8 +11,8 @@
 #include <filesystem>
 #include <random>
 
-#include "synthetic.hpp"
 #include "voxcap/sim/rig_layout.hpp"
+#include "voxcap/triangulate/synthetic.hpp"
 
 namespace vc::triangulate {
 namespace {

@@ -1,4 +1,5 @@
-// Synthetic edge observations for the triangulation tests: hw/sim's true 2D features (the projections
+// Synthetic edge observations for the triangulation tests and benchmark (header-only; its user links
+// vc_sim): hw/sim's true 2D features (the projections
 // of the true head centre, wrists and ankles, with occlusion) turned into what an edge would send —
 // pixel noise, outliers at full confidence, lost features, and hands/feet labelled by image side (the
 // edge's "left" is the one further right in its image, as if each camera faced the performer).
