@@ -65,7 +65,7 @@ std::string summary_text(const Reader::Summary& s, const std::filesystem::path& 
     line("hulls", fmt::format("{} frames, {} RLE", s.hull_frames, human_bytes(s.hull_bytes)));
   }
   line("features", fmt::format("{} records, {} points", s.features, s.feature_points));
-  line("features 3d", fmt::format("{} records", s.features3d));
+  line("3d feats", fmt::format("{} records (the host's triangulated features)", s.features3d));
   std::string poses = fmt::format("{} records", s.poses);
   if (s.poses) poses += fmt::format(" (layout \"{}\", {} joint names)", s.pose_layout, s.joint_names.size());
   line("poses", poses);
