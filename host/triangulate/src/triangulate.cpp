@@ -557,7 +557,7 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
       }
     if (!have) continue;
     const double direct = err[0][0] + err[1][1], crossed = err[0][1] + err[1][0];
-    int8_t& s = swap_[static_cast<size_t>(c.camera)][static_cast<size_t>(pair)];
+    int& s = swap_[static_cast<size_t>(c.camera)][static_cast<size_t>(pair)];
     if (direct < opt_.swap_ratio * crossed)
       s = 0;
     else if (crossed < opt_.swap_ratio * direct)

@@ -104,7 +104,7 @@ class FeatureTriangulator {
   std::vector<int> front_;
   Options opt_;
   std::array<PairState, 2> pairs_{};
-  std::vector<std::array<int8_t, 2>> swap_;  // per rig camera, per pair: -1, 0, 1
+  std::vector<std::array<int, 2>> swap_;  // per rig camera, per pair: -1, 0, 1
   uint64_t frames_ = 0;
 };
 
