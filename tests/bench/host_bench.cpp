@@ -83,6 +83,7 @@ nlohmann::json run_host_bench(const HostBenchOptions& o) {
     std::vector<uint8_t> b = body(n);
     int max_nodes = *std::max_element(o.nodes.begin(), o.nodes.end());
     std::vector<std::vector<uint8_t>> parts;
+    parts.reserve(static_cast<size_t>(max_nodes));
     for (int k = 0; k < max_nodes; k++)
       parts.push_back(encode(extrude(b, n, M_PI * k / max_nodes, 1.0), nbits));
     for (int nodes : o.nodes) {
@@ -123,6 +124,7 @@ nlohmann::json run_host_bench(const HostBenchOptions& o) {
     triangulate::testing::Noise noise;
     noise.outlier = 0.05;
     std::vector<std::vector<triangulate::CameraObservations>> obs;
+    obs.reserve(static_cast<size_t>(o.tri_frames));
     for (int f = 0; f < o.tri_frames; ++f) obs.push_back(triangulate::testing::observe(scene, f, noise, rng));
     triangulate::FeatureTriangulator tri(scene.calibration().cameras, {0, 1}, triangulate::Options{});
     std::vector<double> ns, err;

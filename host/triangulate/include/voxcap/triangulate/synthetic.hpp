@@ -61,13 +61,13 @@ inline std::vector<CameraObservations> observe(const sim::Scene& scene, int fram
     }
     co.features[VC_FEATURE_HEAD] = by_truth[0];
     // Label each pair by image side: the edge's left is the one with the larger u.
-    for (int first : {VC_FEATURE_LEFT_HAND, VC_FEATURE_LEFT_FOOT}) {
-      Observation a = by_truth[static_cast<size_t>(first)], b = by_truth[static_cast<size_t>(first + 1)];
+    for (size_t first : {size_t{VC_FEATURE_LEFT_HAND}, size_t{VC_FEATURE_LEFT_FOOT}}) {
+      Observation a = by_truth[first], b = by_truth[first + 1];
       const bool va = a.state != VC_FEATURE_NOT_VISIBLE, vb = b.state != VC_FEATURE_NOT_VISIBLE;
       if ((va && vb && b.uv_px.x > a.uv_px.x) || (!va && vb)) std::swap(a, b);
       if (u01(rng) < noise.swap) std::swap(a, b);
-      co.features[static_cast<size_t>(first)] = a;
-      co.features[static_cast<size_t>(first + 1)] = b;
+      co.features[first] = a;
+      co.features[first + 1] = b;
     }
     out.push_back(co);
   }
