@@ -28,6 +28,7 @@ set(VC_LAYERS
   "edge/clock: vc_edge_clock"
   "edge/camera: vc_edge_camera_c vc_edge_camera_cxx vc_edge_camera_sim vc_edge_camera_nosim vc_edge_camera"
   "edge/trigger: vc_edge_trigger"
+  "edge/segment: vc_edge_segment"       # GVD segmentation (OpenCV only)
   "edge/daemon: vc_edge_daemon"
   "host/base: vc_host_base"             # the host's logger and clock, below every host library
   "host/config: vc_host_config"         # host/: in host/README.md's order

@@ -185,8 +185,8 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
     return -EINVAL;
   }
 
-  if (cfg->carve_rule != VC_CARVE_CENTRE && cfg->carve_rule != VC_CARVE_FOOTPRINT) { /* and the decoder */
-    vc_why(why, why_len, "CONFIG carve_rule %u: 0 centre or 1 footprint", cfg->carve_rule);
+  if (vc_carve_rule_name(cfg->carve_rule) == NULL) { /* and the decoder */
+    vc_why(why, why_len, "CONFIG carve_rule %u: 0 centre, 1 footprint or 2 subpixel", cfg->carve_rule);
     return -EINVAL;
   }
   if (cfg->silhouette_every &&

@@ -18,8 +18,9 @@ void add_config_commands(CLI::App& app);   // cmd_config.cpp: voxcap config chec
 void add_trigger_commands(CLI::App& app);  // cmd_trigger.cpp: voxcap trigger test|listen
 void add_session_commands(CLI::App& app);  // cmd_session.cpp: voxcap session info|dump
 void add_proto_commands(CLI::App& app);    // cmd_proto.cpp: voxcap proto dump
-void add_rig_commands(CLI::App& app);     // cmd_rig.cpp: voxcap rig [--emulated]
-void add_sim_commands(CLI::App& app);     // cmd_sim.cpp: voxcap sim (the virtual rig, hw/sim)
+void add_rig_commands(CLI::App& app);      // cmd_rig.cpp: voxcap rig [--emulated]
+void add_sim_commands(CLI::App& app);      // cmd_sim.cpp: voxcap sim (the virtual rig, hw/sim)
+void add_track_commands(CLI::App& app);    // cmd_track.cpp: voxcap track debug (edge/segment)
 
 // `voxcap bench ...` (cmd_bench.cpp).
 void add_bench_commands(CLI::App& app);

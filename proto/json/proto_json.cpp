@@ -97,10 +97,7 @@ Json config_json(const vc_config& m) {
   j["shadow_angle_deg"] = m.shadow_angle_deg;
   j["cleanup_radius_px"] = m.cleanup_radius_px;
   j["carve_rule"] = m.carve_rule;
-  put_name(j, "carve_rule",
-           m.carve_rule == VC_CARVE_CENTRE      ? "centre"
-           : m.carve_rule == VC_CARVE_FOOTPRINT ? "footprint"
-                                                : nullptr);
+  put_name(j, "carve_rule", vc_carve_rule_name(m.carve_rule));
   j["silhouette_every"] = m.silhouette_every;
   j["silhouette_scale"] = m.silhouette_scale;
   j["background_frames"] = m.background_frames;

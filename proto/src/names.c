@@ -144,6 +144,11 @@ const char* vc_role_name(uint32_t role) {
   return lookup(names, ARRAY_LEN(names), role);
 }
 
+const char* vc_carve_rule_name(uint32_t rule) {
+  static const char* const names[] = {"centre", "footprint", "subpixel"}; /* vc_carve_rule */
+  return lookup(names, ARRAY_LEN(names), rule);
+}
+
 const char* vc_error_code_name(uint32_t code) {
   static const char* const names[] = {NULL,     "protocol", "version",  "state",   "config",
                                       "camera", "trigger",  "overload", "internal"};

@@ -69,7 +69,7 @@ TEST(Layout, HeartbeatByteByByteAsInSpec) {
   m->hdr.flags = 0;
   m->u.heartbeat = {0x3132333435363738ull, VC_STATE_RUNNING};
   const Bytes b = encode(*m);
-  Bytes expected = {'V',  'X',  'C',  'P',  2,    1,    9,    0,    0,    0,    0x03,
+  Bytes expected = {'V',  'X',  'C',  'P',  2,    2,    9,    0,    0,    0,    0x03,
                     0x02, 12,   0,    0,    0,    0x18, 0x17, 0x16, 0x15, 0x14, 0x13,
                     0x12, 0x11, 0x28, 0x27, 0x26, 0x25, 0x24, 0x23, 0x22, 0x21};
   const Bytes payload = {0x38, 0x37, 0x36, 0x35, 0x34, 0x33, 0x32, 0x31, 5, 0, 0, 0};
@@ -395,7 +395,7 @@ TEST(Encoders, RefuseInvalidBodiesWithTheDecodersCode) {
   config->u.config.cleanup_radius_px = VC_CLEANUP_RADIUS_MAX_PX + 1;  // more than the edge runs
   expect_refused(*config, VC_PROTO_EFIELD);
   config = sample(VC_MSG_CONFIG, rle, "");
-  config->u.config.carve_rule = 2;  // 2.0's nonzero `reserved`, now an unknown carve rule
+  config->u.config.carve_rule = 3;  // 2.0's nonzero `reserved`, now an unknown carve rule (2 is subpixel)
   expect_refused(*config, VC_PROTO_EFIELD);
   config = sample(VC_MSG_CONFIG, rle, "");
   config->u.config.silhouette_every = 2;  // silhouettes need a scale of at least 1

@@ -398,7 +398,7 @@ std::vector<Vector> build_streams() {
   }
   {  // Evolution: an unknown type is skipped, not fatal.
     Vector& u = add("unknown_type",
-                    "A message of type 77 (unknown to 2.1) with valid CRCs: reported as unknown and "
+                    "A message of type 77 (unknown to 2.2) with valid CRCs: reported as unknown and "
                     "skipped; the HEARTBEAT after it decodes");
     vc_msg m = make(77, 5, 6);
     m.known = false;
@@ -411,10 +411,10 @@ std::vector<Vector> build_streams() {
     u.message(m, b);
     u.message(heartbeat_msg());
   }
-  {  // Evolution: a newer minor version appends fields; a 2.1 receiver ignores them.
+  {  // Evolution: a newer minor version appends fields; a 2.2 receiver ignores them.
     Vector& n = add("newer_minor",
-                    "HELLO 2.2 with 16-byte camera records and 6 appended bytes, HULL 2.3 with 3 "
-                    "appended bytes: decoded by a 2.1 receiver, the unknown bytes counted in ignored_bytes");
+                    "HELLO 2.3 with 16-byte camera records and 6 appended bytes, HULL 2.4 with 3 "
+                    "appended bytes: decoded by a 2.2 receiver, the unknown bytes counted in ignored_bytes");
     vc_msg hello = hello_msg();
     Bytes p = payload_of(encode(hello));
     Bytes q(p.begin(), p.begin() + 16);
@@ -596,9 +596,9 @@ std::vector<Vector> build_streams() {
   }
   {
     Vector& r = add("bad_carve_rule",
-                    "A CONFIG with carve_rule 2 (0 centre, 1 footprint): VC_PROTO_EFIELD; the HEARTBEAT "
+                    "A CONFIG with carve_rule 3 (0 centre, 1 footprint, 2 subpixel): VC_PROTO_EFIELD; the HEARTBEAT "
                     "after it decodes");
-    r.rejected(patched(config_msg(), [](Bytes& p) { st16(p.data() + 64, 2); }), VC_PROTO_EFIELD);
+    r.rejected(patched(config_msg(), [](Bytes& p) { st16(p.data() + 64, 3); }), VC_PROTO_EFIELD);
     r.message(heartbeat_msg());
   }
   {

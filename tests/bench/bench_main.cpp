@@ -43,10 +43,13 @@ constexpr const char* kEdgeKeys = R"(JSON keys (one object per grid; an array wh
   band_fraction, shadow_fraction   pixels through the shadow test / classified shadow
   occupied_voxels, leaves_tested, rle_bytes         per-frame means
   peak_rss_mb            VmHWM of a child running only the edge pipeline (null with --no-rss)
-  carve_footprint.*      the footprint carve rule on the same masks: carve_ns, edge_frame_ms, setup_ms,
-                         table_mb, scratch_mb, classes, unseen_fraction, occupied_voxels, leaves_tested,
-                         holds_centre, cost_vs_centre, peak_rss_mb (the keys above are the centre rule's)
-  ir_per_pixel.{subtract,cleanup,mog2}, ir_per_voxel.{carve,carve_footprint,rle,lut_carve}
+  carve_footprint.*, carve_subpixel.*
+                         the footprint and subpixel carve rules on the same masks: carve_ns,
+                         edge_frame_ms, setup_ms, table_mb, scratch_mb, classes, unseen_fraction,
+                         occupied_voxels, leaves_tested, holds_centre, cost_vs_centre, peak_rss_mb
+                         (the keys above are the centre rule's)
+  ir_per_pixel.{subtract,cleanup,mog2},
+  ir_per_voxel.{carve,carve_footprint,carve_subpixel,rle,lut_carve}
                          callgrind instructions (null when callgrind is unavailable)
   callgrind              "ok" or why the instruction counts are null
   goals.*                the issue's targets and whether this run met them (reported, not asserted))";
@@ -68,21 +71,27 @@ void print_edge_table(const nlohmann::json& j) {
              j["carve_ns"].get<double>(), j["lut_carve_ns"].get<double>(),
              j["speedup_carve_vs_lut"].get<double>(), num(j["ir_per_voxel"]["carve"], "{:.3f}"),
              num(j["ir_per_voxel"]["lut_carve"], "{:.2f}"));
-  const auto& fp = j["carve_footprint"];
-  fmt::print("  footprint  {:>10.0f} ns   (x{:.2f} the centre rule)              Ir/voxel {}\n",
-             fp["carve_ns"].get<double>(), fp["cost_vs_centre"].get<double>(),
-             num(j["ir_per_voxel"]["carve_footprint"], "{:.3f}"));
+  for (const char* rule : {"footprint", "subpixel"}) {
+    const std::string key = std::string("carve_") + rule;
+    const auto& o = j[key];
+    fmt::print("  {:<9}  {:>10.0f} ns   (x{:.2f} the centre rule)              Ir/voxel {}\n", rule,
+               o["carve_ns"].get<double>(), o["cost_vs_centre"].get<double>(),
+               num(j["ir_per_voxel"][key], "{:.3f}"));
+  }
   fmt::print("  rle        {:>10.0f} ns   ({:.0f} bytes)                        Ir/voxel {}\n",
              j["rle_ns"].get<double>(), j["rle_bytes"].get<double>(),
              num(j["ir_per_voxel"]["rle"], "{:.3f}"));
   fmt::print("  edge frame {:>10.3f} ms   peak RSS {} MB   carver tables {:.1f} MB\n",
              j["edge_frame_ms"].get<double>(), num(j["peak_rss_mb"], "{:.1f}"),
              j["carver_table_mb"].get<double>());
-  fmt::print(
-      "  footprint frame {:>5.3f} ms   peak RSS {} MB   tables {:.1f} MB (scratch {:.1f} MB, {}+{} "
-      "classes)\n",
-      fp["edge_frame_ms"].get<double>(), num(fp["peak_rss_mb"], "{:.1f}"), fp["table_mb"].get<double>(),
-      fp["scratch_mb"].get<double>(), fp["classes"][0].get<int>(), fp["classes"][1].get<int>());
+  for (const char* rule : {"footprint", "subpixel"}) {
+    const auto& o = j[std::string("carve_") + rule];
+    fmt::print(
+        "  {:<9} frame {:>5.3f} ms   peak RSS {} MB   tables {:.1f} MB (scratch {:.1f} MB, {}+{} "
+        "classes)\n",
+        rule, o["edge_frame_ms"].get<double>(), num(o["peak_rss_mb"], "{:.1f}"), o["table_mb"].get<double>(),
+        o["scratch_mb"].get<double>(), o["classes"][0].get<int>(), o["classes"][1].get<int>());
+  }
   fmt::print("  callgrind: {}\n", j["callgrind"].get<std::string>());
 }
 
@@ -140,9 +149,9 @@ void add_edge_command(CLI::App& app) {
   edge->add_flag("--no-rss", args->no_rss, "Skip the peak-memory child");
   edge->add_option(
           "--child", args->child,
-          "Internal: run as the benchmark's own measuring child (rss, rss-footprint or callgrind); not "
-          "for users")
-      ->check(CLI::IsMember({"rss", "rss-footprint", "callgrind"}));
+          "Internal: run as the benchmark's own measuring child (rss, rss-footprint, rss-subpixel or "
+          "callgrind); not for users")
+      ->check(CLI::IsMember({"rss", "rss-footprint", "rss-subpixel", "callgrind"}));
   edge->add_option("--frames-file", args->frames_file, "Internal: frames written by the parent, for --child");
 
   edge->callback([args] {

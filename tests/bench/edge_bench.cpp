@@ -1,9 +1,9 @@
 // The edge benchmark (see edge_bench.hpp). Structure:
 //  - the parent renders the frames once (EdgeScene), writes them to a temporary file for children,
-//    times every stage per frame (medians), the footprint rule's carve on the same masks, runs the
-//    two references and checks that the plain LUT carve and the edge carver agree bit for bit (and
-//    that the footprint hull holds the centre rule's);
-//  - a child `voxcap-bench edge ... --child rss` (and `rss-footprint`) learns and runs the edge
+//    times every stage per frame (medians), the other carve rules' (footprint, subpixel) carves on
+//    the same masks, runs the two references and checks that the plain LUT carve and the edge carver
+//    agree bit for bit (and that the other rules' hulls hold the centre rule's);
+//  - a child `voxcap-bench edge ... --child rss` (and `rss-footprint`, `rss-subpixel`) learns and runs the edge
 //    pipeline alone from that file and reports its peak resident memory (VmHWM), so that the
 //    parent's renderer, references and other grid sizes do not count;
 //  - a child under `valgrind --tool=callgrind --instr-atstart=no --collect-atstart=no` runs each
@@ -33,6 +33,7 @@
 #include "voxcap/edge/bgmodel.h"
 #include "voxcap/edge/carver.h"
 #include "voxcap/edge/cleanup.h"
+#include "voxcap/proto.h"
 #include "voxcap/rle.h"
 
 #if defined(__SANITIZE_ADDRESS__)
@@ -102,21 +103,33 @@ CarverPtr make_carver(const vc_voxel_grid& grid, const vc_camera cams[2], vc_car
   return CarverPtr(cv);
 }
 
+// A carver with another rule than the pipeline's, run on the same masks (the JSON key carve_<name>).
+struct OtherRule {
+  vc_carve_rule rule;
+  const char* name;  // vc_carve_rule_name()
+  CarverPtr cv;
+  std::vector<uint8_t> bits;
+  vc_carve_stats stats{};
+  double setup_ms = 0;
+};
+constexpr vc_carve_rule kOtherRules[] = {VC_CARVE_FOOTPRINT, VC_CARVE_SUBPIXEL};
+
 // Everything the edge holds for one node: two models, the carver and the per-frame buffers. The
-// benchmark's parent also holds a second carver with the footprint rule (`fp`), run on the same masks.
+// benchmark's parent also holds carvers with the other rules (`others`), run on the same masks.
 struct EdgePipeline {
   int w, h;
   BgPtr bg[2];
-  CarverPtr carver, fp;
-  std::vector<uint8_t> mask[2], scratch, bits, fp_bits, rle;
+  CarverPtr carver;
+  std::vector<OtherRule> others;
+  std::vector<uint8_t> mask[2], scratch, bits, rle;
   size_t rle_len = 0;
   vc_subtract_stats sub_stats[2]{};
-  vc_carve_stats carve_stats{}, fp_stats{};
-  double carver_setup_ms = 0, fp_setup_ms = 0;
+  vc_carve_stats carve_stats{};
+  double carver_setup_ms = 0;
 
-  // `rule`: the carver's; `with_footprint`: also build the footprint carver beside it.
+  // `rule`: the carver's; `with_others`: also build the carvers of kOtherRules beside it.
   EdgePipeline(int width, int height, const vc_voxel_grid& grid, const vc_camera cams[2], vc_carve_rule rule,
-               bool with_footprint)
+               bool with_others)
       : w(width), h(height) {
     for (int c = 0; c < 2; c++) {
       vc_bgmodel* m = nullptr;
@@ -128,11 +141,13 @@ struct EdgePipeline {
     auto t0 = Clock::now();
     carver = make_carver(grid, cams, rule);
     carver_setup_ms = ns_since(t0) / 1e6;
-    if (with_footprint) {
+    for (vc_carve_rule r : kOtherRules) {
+      if (!with_others) break;
+      OtherRule& o = others.emplace_back(OtherRule{r, vc_carve_rule_name(r), nullptr, {}});
       t0 = Clock::now();
-      fp = make_carver(grid, cams, VC_CARVE_FOOTPRINT);
-      fp_setup_ms = ns_since(t0) / 1e6;
-      fp_bits.resize(vc_carver_bitset_bytes(fp.get()));
+      o.cv = make_carver(grid, cams, r);
+      o.setup_ms = ns_since(t0) / 1e6;
+      o.bits.resize(vc_carver_bitset_bytes(o.cv.get()));
     }
     scratch.resize(vc_cleanup_scratch_size(w));
     bits.resize(vc_carver_bitset_bytes(carver.get()));
@@ -155,8 +170,8 @@ struct EdgePipeline {
   void carve() {
     check(vc_carver_run(carver.get(), mask[0].data(), mask[1].data(), bits.data(), &carve_stats), "carve");
   }
-  void carve_footprint() {
-    check(vc_carver_run(fp.get(), mask[0].data(), mask[1].data(), fp_bits.data(), &fp_stats), "carve");
+  void carve_other(OtherRule& o) {
+    check(vc_carver_run(o.cv.get(), mask[0].data(), mask[1].data(), o.bits.data(), &o.stats), "carve");
   }
   void encode() {
     check(vc_rle_encode(bits.data(), vc_carver_voxels(carver.get()), rle.data(), rle.size(), &rle_len),
@@ -291,11 +306,13 @@ json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
   const vc_voxel_grid grid = EdgeScene::grid(o.grid);
   FrameReader reader(frames_file, frame_bytes(o));
   std::vector<uint8_t> frame[2];
-  if (mode != "rss" && mode != "rss-footprint" && mode != "callgrind")
+  vc_carve_rule rule = VC_CARVE_CENTRE;
+  for (vc_carve_rule r : kOtherRules)
+    if (mode == std::string("rss-") + vc_carve_rule_name(r)) rule = r;
+  if (mode != "rss" && rule == VC_CARVE_CENTRE && mode != "callgrind")
     throw std::invalid_argument("unknown child mode " + mode);
-  // rss: the edge pipeline alone, with the rule it measures; callgrind: both carvers.
-  EdgePipeline edge(o.width, o.height, grid, cams,
-                    mode == "rss-footprint" ? VC_CARVE_FOOTPRINT : VC_CARVE_CENTRE, mode == "callgrind");
+  // rss: the edge pipeline alone, with the rule it measures; callgrind: every rule's carver.
+  EdgePipeline edge(o.width, o.height, grid, cams, rule, mode == "callgrind");
   for (int f = 0; f < o.bg_frames; f++)
     for (int c = 0; c < 2; c++) {
       reader.next(frame[c]);
@@ -357,7 +374,7 @@ json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
   });
   for (int c = 0; c < 2; c++) edge.cleanup(c);
   stage("carve", [&] { edge.carve(); });
-  stage("carve_footprint", [&] { edge.carve_footprint(); });
+  for (OtherRule& r : edge.others) stage((std::string("carve_") + r.name).c_str(), [&] { edge.carve_other(r); });
   stage("rle", [&] { edge.encode(); });
   stage("lut_carve", [&] { lut.run(edge.mask[0].data(), edge.mask[1].data(), lut_bits.data()); });
   stage("mog2", [&] {
@@ -403,9 +420,14 @@ json run_edge_bench(const EdgeBenchOptions& o) {
   for (int f = 0; f < o.bg_frames; f++)
     for (int c = 0; c < 2; c++) edge.learn(c, bg[size_t(f) * 2 + c].data());
   edge.finish();
-  std::vector<double> t_sub, t_clean, t_carve, t_rle, t_frame, t_fp, t_fp_frame;
-  double band = 0, shadow = 0, occupied = 0, rle_bytes = 0, leaves = 0, fp_occupied = 0, fp_leaves = 0;
-  bool fp_holds_centre = true;
+  std::vector<double> t_sub, t_clean, t_carve, t_rle, t_frame;
+  double band = 0, shadow = 0, occupied = 0, rle_bytes = 0, leaves = 0;
+  struct OtherFigures {
+    std::vector<double> t_carve, t_frame;
+    double occupied = 0, leaves = 0;
+    bool holds_centre = true;
+  };
+  std::vector<OtherFigures> ofig(edge.others.size());
   for (int f = -1; f < o.frames; f++) {  // frame -1 warms the caches and is not counted
     const int src = std::max(f, 0);
     double sub = 0, clean = 0;
@@ -426,23 +448,28 @@ json run_edge_bench(const EdgeBenchOptions& o) {
     double rle = ns_since(t0);
     if (f >= 0) rle_bytes += double(edge.rle_len);
     double frame = ns_since(t_start);
-    // The footprint rule on the same masks: its frame is the same with its carve in place of the
-    // centre rule's (RLE of its own, larger hull timed too).
-    t0 = Clock::now();
-    edge.carve_footprint();
-    double fp = ns_since(t0);
-    t0 = Clock::now();
-    check(vc_rle_encode(edge.fp_bits.data(), vc_carver_voxels(edge.fp.get()), edge.rle.data(),
-                        edge.rle.size(), &edge.rle_len),
-          "rle");
-    double fp_rle = ns_since(t0);
-    for (size_t b = 0; b < edge.bits.size(); b++)
-      fp_holds_centre = fp_holds_centre && (edge.bits[b] & ~edge.fp_bits[b]) == 0;
+    // The other rules on the same masks: a frame is the same with its carve in place of the centre
+    // rule's (and the RLE of its own, larger hull).
+    for (size_t r = 0; r < edge.others.size(); r++) {
+      OtherRule& other = edge.others[r];
+      t0 = Clock::now();
+      edge.carve_other(other);
+      double oc = ns_since(t0);
+      t0 = Clock::now();
+      check(vc_rle_encode(other.bits.data(), vc_carver_voxels(other.cv.get()), edge.rle.data(), edge.rle.size(),
+                          &edge.rle_len),
+            "rle");
+      double orle = ns_since(t0);
+      OtherFigures& of = ofig[r];
+      for (size_t b = 0; b < edge.bits.size(); b++)
+        of.holds_centre = of.holds_centre && (edge.bits[b] & ~other.bits[b]) == 0;
+      if (f < 0) continue;
+      of.t_carve.push_back(oc);
+      of.t_frame.push_back(frame - carve - rle + oc + orle);
+      of.occupied += double(other.stats.occupied);
+      of.leaves += other.stats.leaves_tested;
+    }
     if (f < 0) continue;
-    t_fp.push_back(fp);
-    t_fp_frame.push_back(frame - carve - rle + fp + fp_rle);
-    fp_occupied += double(edge.fp_stats.occupied);
-    fp_leaves += edge.fp_stats.leaves_tested;
     t_sub.push_back(sub);
     t_clean.push_back(clean);
     t_carve.push_back(carve);
@@ -517,19 +544,24 @@ json run_edge_bench(const EdgeBenchOptions& o) {
   j["occupied_voxels"] = occupied / n;
   j["leaves_tested"] = leaves / n;
   j["rle_bytes"] = rle_bytes / n;
-  json fp;
-  fp["carve_ns"] = median(t_fp);
-  fp["edge_frame_ms"] = median(t_fp_frame) / 1e6;
-  fp["setup_ms"] = edge.fp_setup_ms;
-  fp["table_mb"] = double(vc_carver_memory_bytes(edge.fp.get())) / (1024.0 * 1024.0);
-  fp["scratch_mb"] = double(vc_carver_scratch_bytes(edge.fp.get())) / (1024.0 * 1024.0);
-  fp["classes"] = {vc_carver_classes(edge.fp.get(), 0), vc_carver_classes(edge.fp.get(), 1)};
-  fp["unseen_fraction"] = vc_carver_unseen_fraction(edge.fp.get());
-  fp["occupied_voxels"] = fp_occupied / n;
-  fp["leaves_tested"] = fp_leaves / n;
-  fp["holds_centre"] = fp_holds_centre;
-  fp["cost_vs_centre"] = median(t_fp) / median(t_carve);
-  fp["peak_rss_mb"] = nullptr;
+  std::vector<json> ojs;
+  for (size_t r = 0; r < edge.others.size(); r++) {
+    const vc_carver* cv = edge.others[r].cv.get();
+    const OtherFigures& of = ofig[r];
+    json& oj = ojs.emplace_back();
+    oj["carve_ns"] = median(of.t_carve);
+    oj["edge_frame_ms"] = median(of.t_frame) / 1e6;
+    oj["setup_ms"] = edge.others[r].setup_ms;
+    oj["table_mb"] = double(vc_carver_memory_bytes(cv)) / (1024.0 * 1024.0);
+    oj["scratch_mb"] = double(vc_carver_scratch_bytes(cv)) / (1024.0 * 1024.0);
+    oj["classes"] = {vc_carver_classes(cv, 0), vc_carver_classes(cv, 1)};
+    oj["unseen_fraction"] = vc_carver_unseen_fraction(cv);
+    oj["occupied_voxels"] = of.occupied / n;
+    oj["leaves_tested"] = of.leaves / n;
+    oj["holds_centre"] = of.holds_centre;
+    oj["cost_vs_centre"] = median(of.t_carve) / median(t_carve);
+    oj["peak_rss_mb"] = nullptr;
+  }
 
   // Peak memory of the edge pipeline alone, in a child.
   j["peak_rss_mb"] = nullptr;
@@ -538,14 +570,17 @@ json run_edge_bench(const EdgeBenchOptions& o) {
     std::string out = run_capture(child_command(o, "rss", frames_file) + " 2>&1", &status);
     if (status != 0) throw std::runtime_error("rss child failed: " + out);
     j["peak_rss_mb"] = json::parse(out).at("peak_rss_mb");
-    out = run_capture(child_command(o, "rss-footprint", frames_file) + " 2>&1", &status);
-    if (status != 0) throw std::runtime_error("rss child failed: " + out);
-    fp["peak_rss_mb"] = json::parse(out).at("peak_rss_mb");
+    for (size_t r = 0; r < edge.others.size(); r++) {
+      out = run_capture(child_command(o, std::string("rss-") + edge.others[r].name, frames_file) + " 2>&1", &status);
+      if (status != 0) throw std::runtime_error("rss child failed: " + out);
+      ojs[r]["peak_rss_mb"] = json::parse(out).at("peak_rss_mb");
+    }
   }
 
   // Instruction counts, from a child under callgrind.
   json ir_px = {{"subtract", nullptr}, {"cleanup", nullptr}, {"mog2", nullptr}};
-  json ir_vox = {{"carve", nullptr}, {"carve_footprint", nullptr}, {"rle", nullptr}, {"lut_carve", nullptr}};
+  json ir_vox = {{"carve", nullptr}, {"rle", nullptr}, {"lut_carve", nullptr}};
+  for (const OtherRule& r : edge.others) ir_vox[std::string("carve_") + r.name] = nullptr;
   std::string cg_status = "ok";
   if (!o.callgrind) {
     cg_status = "skipped (--no-callgrind)";
@@ -576,15 +611,16 @@ json run_edge_bench(const EdgeBenchOptions& o) {
       ir_px = {{"subtract", per("subtract", pixels)},
                {"cleanup", clean >= 0 ? json(clean / pixels) : json()},
                {"mog2", per("mog2", pixels)}};
-      ir_vox = {{"carve", per("carve", nvox)},
-                {"carve_footprint", per("carve_footprint", nvox)},
-                {"rle", per("rle", nvox)},
-                {"lut_carve", per("lut_carve", nvox)}};
+      ir_vox = {{"carve", per("carve", nvox)}, {"rle", per("rle", nvox)}, {"lut_carve", per("lut_carve", nvox)}};
+      for (const OtherRule& r : edge.others) {
+        const std::string k = std::string("carve_") + r.name;
+        ir_vox[k] = per(k.c_str(), nvox);
+      }
     }
   }
   j["ir_per_pixel"] = ir_px;
   j["ir_per_voxel"] = ir_vox;
-  j["carve_footprint"] = fp;
+  for (size_t r = 0; r < edge.others.size(); r++) j[std::string("carve_") + edge.others[r].name] = ojs[r];
   j["callgrind"] = cg_status;
 
   // Goals of the issue, as reported figures (never asserted).

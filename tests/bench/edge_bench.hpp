@@ -1,8 +1,9 @@
 // `voxcap bench edge`: speed, instruction counts and memory of the edge's per-frame work (two
 // cameras: subtraction, clean-up, partial-hull carving, RLE) on ray-cast 640x480 frames, next to two
 // references run on the same frames: OpenCV's BackgroundSubtractorMOG2 (shadow detection on) and a
-// plain per-voxel lookup-table carve. Both carve rules are measured: the centre rule (the top-level
-// keys) and the footprint rule (`carve_footprint`), on the same masks. The JSON keys are documented
+// plain per-voxel lookup-table carve. Every carve rule is measured: the centre rule (the top-level
+// keys), the footprint rule (`carve_footprint`) and the subpixel rule (`carve_subpixel`), on the same
+// masks. The JSON keys are documented
 // in tests/bench/README.md.
 #pragma once
 

@@ -2,10 +2,10 @@
  *
  * Learning sums each channel and its square per pixel (uint32: exact for up to 65535 frames); finish()
  * turns them into an 8-bit mean image and a Q8.8 standard deviation image (sample deviation, n-1).
- * set_params() then precomputes, per pixel and channel, the two integer thresholds the frame loop
+ * set_params() then precomputes, per pixel and channel, the integer thresholds the frame loop
  * needs: since p and mu are integers, d > x  <=>  d > floor(x)  and  d >= x  <=>  d > ceil(x) - 1, so
- * eq. 1 and the lower threshold become exact byte comparisons (tu, tl below), with no rounding
- * difference to a float implementation.
+ * eq. 1 and the lower threshold become exact byte comparisons (tu, tl below, stored as the bounds
+ * blo, flo, fhi on p), with no rounding difference to a float implementation.
  *
  * The rule (bgmodel.h has it in full). A shadow only darkens, by a bounded ratio, keeps the
  * background's colour direction and keeps its texture. With T_u = 60 sigma (deep floor shadows must
@@ -13,13 +13,18 @@
  * angle cannot tell skin (222,170,138) over oak (160,114,74), ~6 degrees apart, or the shirt over
  * the blue painting (~1.7 degrees) from a shadow; what a shadow shows and a body does not is the
  * background's texture, scaled. Hence:
- *  A. vectorised, byte-wise over the interleaved RGB row: up = sat(p - mu), dn = sat(mu - p);
- *     code = 0xFF if up > tl (brighter than the noise: shadow_max_gain <= 1) or dn > tu (darker than
- *     the deepest shadow: tu = min(floor(T_u sigma), floor((1 - g_lo) mu + T_l sigma))), 1 if
- *     dn > tl, else 0; a pixel's class is the OR of its three channel codes (0 = background, 1 = in
- *     the band, 0xFF = foreground). Branch-free; the compiler vectorises it.
- *  B. the band pixels only (typically a few percent: shadows and darker body parts) get eq. 2 in
- *     64-bit integers: with dot = p.mu, pp = |p|^2, mm = |mu|^2 (exact integers < 2^18),
+ *  A. vectorised, byte-wise over the interleaved RGB row, against three planes that hold the
+ *     thresholds as bounds on p itself: blo = mu - tl, flo = mu - tu, fhi = mu + tl (saturated;
+ *     tl = ceil(T_l sigma) - 1, tu = min(floor(T_u sigma), floor((1 - g_lo) mu + T_l sigma))):
+ *     code = 0xFF if p > fhi (brighter than the noise: shadow_max_gain <= 1) or p < flo (darker
+ *     than the deepest shadow), 1 if p < blo, else 0 -- three saturated subtractions a byte. A
+ *     pixel's class is the OR of its three channel codes (0 = background, 1 = in the band,
+ *     0xFF = foreground), written to the mask row, and pass A also gives the row's band pixels
+ *     as a bitmap. The AVX2 variant folds the channels with lane shuffles and takes the bitmap
+ *     from a movemask (32 pixels a step); the portable one is left to the auto-vectoriser.
+ *  B. the band pixels only (typically a few percent: shadows and darker body parts), walked
+ *     through the bitmap, get eq. 2 in 64-bit integers: with dot = p.mu, pp = |p|^2, mm = |mu|^2
+ *     (exact integers < 2^18),
  *        candidate  <=>  dot^2 * 2^24 >= c2 * pp * mm              (c2 = cos^2(T_angular) in Q0.24)
  *                   and  g_lo * mm <= dot * 2^16 <= g_hi * mm     (alpha = dot/mm, gains in Q16.16)
  *     the others are foreground. With the texture test off a candidate is background (shadow).
@@ -27,15 +32,17 @@
  *     window, fitted as one scaled copy of the background (P = a * M over all their channels), leave
  *     a residual within k noise sigmas. Lit floor next to a shadow is background in pass A and
  *     outside the fit, so shadow edges pass; body pixels that failed eq. 2 are outside it too.
- *     Passes A and B run 2 rows ahead of C and the mask rows themselves hold the in-flight codes;
- *     pass B keeps each candidate's |p|^2, p.mu and |mu|^2 (which eq. 2 computes anyway) in a
- *     5-row ring in the model (12 bytes per pixel per row: 38 KB at 640 wide, allocated once by
- *     set_params; no allocation per frame). C only visits rows with candidates; its window sums
- *     are exact integers (64-bit, the last comparison 128-bit), built from column sums that a run
- *     of candidates shares (each column summed once per run, not once per window).
- * Model data per pixel for pass A: mean, tu, tl = 9 bytes, planar by role, interleaved by channel
- * like the image, so that pass A is three aligned streams of bytes. Memory traffic dominates: at
- * 640x480 a frame reads 0.9 MB of pixels and 2.8 MB of model (plus sigma near candidates).
+ *     Passes A and B run 2 rows ahead of C. Pass B lists each row's candidates with their |p|^2,
+ *     p.mu and |mu|^2 (which eq. 2 computes anyway) in a 5-row ring, and adds them to running
+ *     column sums (count and three sums per column over the window's rows); a row leaves the sums
+ *     when the windows below no longer reach it. A window's sums are then those of its 5 columns,
+ *     so the work is a few dozen operations per candidate and nothing per other pixel. Ring and
+ *     sums live in the model (16 bytes per pixel of 5 rows + 16 per column: 61 KB at 640 wide),
+ *     allocated once by set_params; no allocation per frame. Exact integers (64-bit, the last
+ *     comparison 128-bit).
+ * Model data per pixel for pass A: blo, flo, fhi = 9 bytes, planar by role, interleaved by channel
+ * like the image, so that pass A is four streams of bytes; mean is read for band pixels only, sigma
+ * for candidates. At 640x480 a frame reads 0.9 MB of pixels and 2.8 MB of model.
  * Limits: sigma is clamped to 255.99 (Q8.8); thresholds at or above 255 never fire.
  */
 #include "voxcap/edge/bgmodel.h"
@@ -49,15 +56,20 @@
 #include "dispatch.h"
 #include "voxcap/why.h"
 
+#if VC_HAVE_AVX2_VARIANT
+#include <immintrin.h>
+#endif
+
 #define VC_MAX_DIM 16384
 #define VC_MAX_FRAMES 65535
 #define VC_CHUNK 256            /* pixels per pass-A chunk: the code buffer stays in L1 */
 #define VC_TEXTURE_RADIUS 2     /* the texture test's window is (2r+1)^2 pixels */
 #define VC_TEXTURE_MIN_PIXELS 3 /* fewer candidates in the window: the per-pixel tests decide */
-/* Mask codes while a frame is in flight (the mask rows are the texture test's ring of codes). */
-#define VC_CODE_CANDIDATE 0x02u  /* passed the per-pixel shadow tests, texture test pending */
-#define VC_CODE_SHADOW 0x42u     /* candidate, decided shadow (background) */
-#define VC_CODE_FOREGROUND 0x82u /* candidate, decided foreground */
+
+/* A shadow candidate as pass B found it: its column and the terms of eq. 2 (< 2^18 each). */
+struct vc_cand {
+  uint32_t x, pp, pm, mm;
+};
 
 struct vc_bgmodel {
   int width, height;
@@ -67,17 +79,19 @@ struct vc_bgmodel {
   uint32_t* sumsq;    /* [3*w*h] sum of squared samples, while learning */
   uint8_t* mean;      /* [3*w*h] rounded mean, grey levels */
   uint16_t* sigma_q8; /* [3*w*h] Q8.8 standard deviation, grey levels */
-  uint8_t* tu;        /* [3*w*h] min(floor(T_u*sigma), floor((1-g_lo)*mu + T_l*sigma)), clamped to 255:
-                       * foreground when mu - p > tu (darker than the deepest shadow) */
-  uint8_t* tl;        /* [3*w*h] ceil(T_l*sigma)-1 clamped to 255: band when mu - p > tl, foreground
-                       * when p - mu > tl (shadows only darken) */
-  uint64_t c2_q24;    /* Q0.24 cos^2(T_angular) */
-  uint64_t glo_q16;   /* Q16.16 lowest brightness ratio of a shadow */
-  uint64_t ghi_q16;   /* Q16.16 highest brightness ratio of a shadow */
-  uint64_t k2_q8;     /* Q8.8 k^2 of the texture test; 0 = test off */
-  uint16_t floor_q8;  /* Q8.8 sigma floor (rounded), grey levels: the texture test's noise floor */
-  uint32_t* terms;    /* [5][w][3] scratch of vc_subtract: |p|^2, p.mu, |mu|^2 of each candidate as
-                       * pass B computed them, for row y in slot y mod 5 (the texture window's rows) */
+  /* Pass A's planes, from tu = min(floor(T_u*sigma), floor((1-g_lo)*mu + T_l*sigma)) and
+   * tl = ceil(T_l*sigma)-1 (both clamped to 255), as bounds on p itself (grey levels): */
+  uint8_t* blo;      /* [3*w*h] max(mu - tl, 0): band when p < blo (mu - p > tl) */
+  uint8_t* flo;      /* [3*w*h] max(mu - tu, 0): foreground when p < flo (darker than the deepest shadow) */
+  uint8_t* fhi;      /* [3*w*h] min(mu + tl, 255): foreground when p > fhi (shadows only darken) */
+  uint64_t c2_q24;   /* Q0.24 cos^2(T_angular) */
+  uint64_t glo_q16;  /* Q16.16 lowest brightness ratio of a shadow */
+  uint64_t ghi_q16;  /* Q16.16 highest brightness ratio of a shadow */
+  uint64_t k2_q8;    /* Q8.8 k^2 of the texture test; 0 = test off */
+  uint16_t floor_q8; /* Q8.8 sigma floor (rounded), grey levels: the texture test's noise floor */
+  /* Scratch of vc_subtract's texture test (allocated by set_params when it is on): */
+  struct vc_cand* cand;  /* [5][w] the candidates of row y (slot y mod 5) with their terms */
+  uint32_t (*colsum)[4]; /* [w + 4] per column: the candidates' count and term sums over the window's rows */
 };
 
 void vc_subtract_params_default(vc_subtract_params* params) {
@@ -163,9 +177,11 @@ void vc_bgmodel_free(vc_bgmodel* m) {
   free(m->sumsq);
   free(m->mean);
   free(m->sigma_q8);
-  free(m->tu);
-  free(m->tl);
-  free(m->terms);
+  free(m->blo);
+  free(m->flo);
+  free(m->fhi);
+  free(m->cand);
+  free(m->colsum);
   free(m);
 }
 
@@ -247,24 +263,32 @@ int vc_bgmodel_set_params(vc_bgmodel* m, const vc_subtract_params* p) {
   if (m == NULL || vc_subtract_params_check(p, NULL, 0) != 0) return -EINVAL;
   if (!m->finished) return -EAGAIN;
   const size_t n = (size_t)m->width * (size_t)m->height * 3;
-  if (m->tu == NULL) m->tu = malloc(n);
-  if (m->tl == NULL) m->tl = malloc(n);
-  if (m->tu == NULL || m->tl == NULL) return -ENOMEM;
+  if (m->blo == NULL) m->blo = malloc(n);
+  if (m->flo == NULL) m->flo = malloc(n);
+  if (m->fhi == NULL) m->fhi = malloc(n);
+  m->ready = false;
+  if (m->blo == NULL || m->flo == NULL || m->fhi == NULL) return -ENOMEM;
   const uint16_t floor_q8 = (uint16_t)llround(p->sigma_floor * 256.0);
   for (size_t i = 0; i < n; i++) {
     double sigma = fmax((double)m->sigma_q8[i] / 256.0, p->sigma_floor);
     double up =
         fmin(floor(p->t_upper * sigma), floor((1.0 - p->shadow_min_gain) * m->mean[i] + p->t_lower * sigma));
     double lo = ceil(p->t_lower * sigma) - 1.0;
-    m->tu[i] = (uint8_t)(up > 255.0 ? 255.0 : up);
-    m->tl[i] = (uint8_t)(lo > 255.0 ? 255.0 : lo);
+    const int mu = m->mean[i], tu = (int)(up > 255.0 ? 255.0 : up), tl = (int)(lo > 255.0 ? 255.0 : lo);
+    m->blo[i] = (uint8_t)(mu - tl > 0 ? mu - tl : 0);
+    m->flo[i] = (uint8_t)(mu - tu > 0 ? mu - tu : 0);
+    m->fhi[i] = (uint8_t)(mu + tl < 255 ? mu + tl : 255);
   }
   m->floor_q8 = floor_q8;
   m->k2_q8 = (uint64_t)llround(p->shadow_texture_k * p->shadow_texture_k * 256.0);
-  if (m->k2_q8 != 0 && m->terms == NULL) {
-    m->terms = malloc((size_t)(2 * VC_TEXTURE_RADIUS + 1) * (size_t)m->width * 3 * sizeof(*m->terms));
-    if (m->terms == NULL) {
-      m->ready = false;
+  if (m->k2_q8 != 0 && m->cand == NULL) {
+    m->cand = malloc((size_t)(2 * VC_TEXTURE_RADIUS + 1) * (size_t)m->width * sizeof(*m->cand));
+    m->colsum = malloc((size_t)(m->width + 2 * VC_TEXTURE_RADIUS) * sizeof(*m->colsum));
+    if (m->cand == NULL || m->colsum == NULL) {
+      free(m->cand);
+      free(m->colsum);
+      m->cand = NULL;
+      m->colsum = NULL;
       return -ENOMEM;
     }
   }
@@ -297,249 +321,267 @@ static inline uint8_t u8min(uint8_t a, uint8_t b) {
   return a < b ? a : b;
 }
 
-/* Pass A over one row: out[i] = 0 (background), 1 (band: darker than the noise) or 0xFF (foreground:
- * brighter than the noise in some channel, or darker than the deepest shadow). Written as min/max
- * byte arithmetic so that gcc and clang both vectorise the first loop; the second loop folds the
- * three channel codes of each pixel (a stride-3 gather, vectorised where the ISA has byte shuffles). */
-VC_HOT uint64_t classify_row_body(const uint8_t* restrict px, const uint8_t* restrict mean,
-                                  const uint8_t* restrict tu, const uint8_t* restrict tl,
-                                  uint8_t* restrict out, int n) {
+/* Pass A, portable, over pixels [x0, n) of a row: out[i] = 0 (background), 1 (band: darker than
+ * the noise) or 0xFF (foreground), from the three byte planes (see the top of this file). Written
+ * as min/sub byte arithmetic so that gcc and clang vectorise the first loop; the second folds the
+ * three channel codes of each pixel (a stride-3 gather, vectorised where the ISA has it: NEON ld3). */
+static void classify_span(const uint8_t* restrict px, const uint8_t* restrict blo,
+                          const uint8_t* restrict flo, const uint8_t* restrict fhi, uint8_t* restrict out,
+                          int x0, int n) {
   uint8_t code[3 * VC_CHUNK];
-  uint64_t chunks = 0; /* bit c: chunk c (pixels c*VC_CHUNK...) has a band pixel (value 1) */
-  for (int x0 = 0; x0 < n; x0 += VC_CHUNK) {
-    uint8_t any_band = 0;
+  for (; x0 < n; x0 += VC_CHUNK) {
     const int len = n - x0 < VC_CHUNK ? n - x0 : VC_CHUNK;
     const int nb = 3 * len;
     const uint8_t* restrict p = px + 3 * x0;
-    const uint8_t* restrict mu = mean + 3 * x0;
-    const uint8_t* restrict u = tu + 3 * x0;
-    const uint8_t* restrict l = tl + 3 * x0;
-    for (int b = 0; b < nb; b++) {
-      uint8_t up = (uint8_t)(p[b] - u8min(p[b], mu[b]));  /* saturated p - mu */
-      uint8_t dn = (uint8_t)(mu[b] - u8min(p[b], mu[b])); /* saturated mu - p */
-      uint8_t band = (uint8_t)(dn - u8min(dn, l[b]));     /* > 0 iff mu - p > tl */
-      uint8_t fg =
-          (uint8_t)((up - u8min(up, l[b])) | (dn - u8min(dn, u[b]))); /* p - mu > tl or mu - p > tu */
-      code[b] = (uint8_t)(u8min(band, 1) | (uint8_t)(0u - u8min(fg, 1)));
+    const uint8_t* restrict b = blo + 3 * x0;
+    const uint8_t* restrict fl = flo + 3 * x0;
+    const uint8_t* restrict fh = fhi + 3 * x0;
+    for (int k = 0; k < nb; k++) {
+      const uint8_t band = (uint8_t)(b[k] - u8min(b[k], p[k])); /* p < blo */
+      const uint8_t fg =
+          (uint8_t)((fl[k] - u8min(fl[k], p[k])) | (p[k] - u8min(p[k], fh[k]))); /* p < flo, p > fhi */
+      code[k] = (uint8_t)(u8min(band, 1) | (uint8_t)(0u - u8min(fg, 1)));
     }
     uint8_t* restrict o = out + x0;
-    for (int i = 0; i < len; i++) {
-      uint8_t v = (uint8_t)(code[3 * i] | code[3 * i + 1] | code[3 * i + 2]);
-      o[i] = v;
-      any_band |= (uint8_t)(v & (uint8_t) ~(v >> 1) & 1u); /* 1 only for the band value 0x01 */
-    }
-    chunks |= (uint64_t)any_band << (x0 / VC_CHUNK);
+    for (int i = 0; i < len; i++) o[i] = (uint8_t)(code[3 * i] | code[3 * i + 1] | code[3 * i + 2]);
   }
-  return chunks;
 }
 
-static uint64_t classify_row_generic(const uint8_t* restrict px, const uint8_t* restrict mean,
-                                     const uint8_t* restrict tu, const uint8_t* restrict tl,
-                                     uint8_t* restrict out, int n) {
-  return classify_row_body(px, mean, tu, tl, out, n);
+/* The band pixels (value 1) of out[x0, n) as bits of `bits` (bit i of word i / 64; the words from
+ * x0 / 64 on are overwritten, x0 a multiple of 64). A band byte is the only value whose bit 0
+ * differs from its bit 1 (0x00 and 0xFF do not), and the multiply gathers the 8 marks of a word. */
+static int band_bits(const uint8_t* out, int x0, int n, uint64_t* bits) {
+  const uint64_t lsb = 0x0101010101010101ull;
+  uint64_t any = 0;
+  for (int x = x0; x < n; x += 64) {
+    uint64_t word = 0;
+    for (int k = 0; k < 64 && x + k < n; k += 8) {
+      uint64_t w = 0;
+      if (n - (x + k) >= 8)
+        memcpy(&w, out + x + k, 8); /* a constant size: one load */
+      else
+        memcpy(&w, out + x + k, (size_t)(n - (x + k)));
+      const uint64_t marks = (w ^ (w >> 1)) & lsb;
+      word |= ((marks * 0x0102040810204080ull) >> 56) << k;
+    }
+    bits[x / 64] = word;
+    any |= word;
+  }
+  return any != 0;
+}
+
+static int classify_row_generic(const uint8_t* restrict px, const uint8_t* restrict blo,
+                                const uint8_t* restrict flo, const uint8_t* restrict fhi,
+                                uint8_t* restrict out, uint64_t* restrict bits, int n) {
+  classify_span(px, blo, flo, fhi, out, 0, n);
+  return band_bits(out, 0, n, bits);
 }
 
 #if VC_HAVE_AVX2_VARIANT
-VC_TARGET_AVX2 static uint64_t classify_row_avx2(const uint8_t* restrict px, const uint8_t* restrict mean,
-                                                 const uint8_t* restrict tu, const uint8_t* restrict tl,
-                                                 uint8_t* restrict out, int n) {
-  return classify_row_body(px, mean, tu, tl, out, n);
+/* Pass A with AVX2, 32 pixels (96 bytes of each plane) per step; the same codes as classify_span.
+ * The 3 code vectors c0 c1 c2 (bytes 0-31, 32-63, 64-95) are regrouped by 128-bit lanes into
+ * A = [0-15 | 48-63], B = [16-31 | 64-79], C = [32-47 | 80-95], so that each lane holds 16 whole
+ * pixels' bytes in a row; OR-ing each byte with its next two (alignr) puts a pixel's code at its
+ * first byte, and three shuffles gather those 16 bytes per lane. The band mask is one movemask. */
+VC_TARGET_AVX2 static inline __m256i codes32(const uint8_t* p, const uint8_t* b, const uint8_t* fl,
+                                             const uint8_t* fh) {
+  const __m256i vp = _mm256_loadu_si256((const __m256i*)(const void*)p);
+  const __m256i band = _mm256_subs_epu8(_mm256_loadu_si256((const __m256i*)(const void*)b), vp);
+  const __m256i fg =
+      _mm256_or_si256(_mm256_subs_epu8(_mm256_loadu_si256((const __m256i*)(const void*)fl), vp),
+                      _mm256_subs_epu8(vp, _mm256_loadu_si256((const __m256i*)(const void*)fh)));
+  const __m256i zero = _mm256_setzero_si256();
+  /* 0xFF where fg != 0, else min(band, 1) */
+  return _mm256_or_si256(_mm256_andnot_si256(_mm256_cmpeq_epi8(fg, zero), _mm256_set1_epi8(-1)),
+                         _mm256_min_epu8(band, _mm256_set1_epi8(1)));
+}
+
+VC_TARGET_AVX2 static int classify_row_avx2(const uint8_t* restrict px, const uint8_t* restrict blo,
+                                            const uint8_t* restrict flo, const uint8_t* restrict fhi,
+                                            uint8_t* restrict out, uint64_t* restrict bits, int n) {
+  const __m256i m0 = _mm256_setr_epi8(0, 3, 6, 9, 12, 15, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, /* A */
+                                      0, 3, 6, 9, 12, 15, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1);
+  const __m256i m1 = _mm256_setr_epi8(-1, -1, -1, -1, -1, -1, 2, 5, 8, 11, 14, -1, -1, -1, -1, -1, /* B */
+                                      -1, -1, -1, -1, -1, -1, 2, 5, 8, 11, 14, -1, -1, -1, -1, -1);
+  const __m256i m2 = _mm256_setr_epi8(-1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, 1, 4, 7, 10, 13, /* C */
+                                      -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, 1, 4, 7, 10, 13);
+  const __m256i one = _mm256_set1_epi8(1);
+  const int n32 = n & ~31;
+  uint64_t any = 0;
+  for (int x = 0; x < n32; x += 32) {
+    const size_t o = 3 * (size_t)x;
+    const __m256i c0 = codes32(px + o, blo + o, flo + o, fhi + o);
+    const __m256i c1 = codes32(px + o + 32, blo + o + 32, flo + o + 32, fhi + o + 32);
+    const __m256i c2 = codes32(px + o + 64, blo + o + 64, flo + o + 64, fhi + o + 64);
+    const __m256i a = _mm256_permute2x128_si256(c0, c1, 0x30);
+    const __m256i b = _mm256_permute2x128_si256(c0, c2, 0x21);
+    const __m256i c = _mm256_permute2x128_si256(c1, c2, 0x30);
+    const __m256i ta =
+        _mm256_or_si256(a, _mm256_or_si256(_mm256_alignr_epi8(b, a, 1), _mm256_alignr_epi8(b, a, 2)));
+    const __m256i tb =
+        _mm256_or_si256(b, _mm256_or_si256(_mm256_alignr_epi8(c, b, 1), _mm256_alignr_epi8(c, b, 2)));
+    const __m256i tc = _mm256_or_si256(c, _mm256_or_si256(_mm256_srli_si256(c, 1), _mm256_srli_si256(c, 2)));
+    const __m256i v =
+        _mm256_or_si256(_mm256_shuffle_epi8(ta, m0),
+                        _mm256_or_si256(_mm256_shuffle_epi8(tb, m1), _mm256_shuffle_epi8(tc, m2)));
+    _mm256_storeu_si256((__m256i*)(void*)(out + x), v);
+    const uint64_t mb = (uint32_t)_mm256_movemask_epi8(_mm256_cmpeq_epi8(v, one));
+    if ((x & 63) == 0)
+      bits[x / 64] = mb;
+    else
+      bits[x / 64] |= mb << 32;
+    any |= mb;
+  }
+  if (n32 < n) { /* the last n % 32 pixels: the portable code, from a multiple of 32 */
+    const int x64 = n32 & ~63;
+    classify_span(px, blo, flo, fhi, out, n32, n);
+    any |= (uint64_t)band_bits(out, x64, n, bits);
+  }
+  return any != 0;
 }
 #endif
 
-/* Pass B: eq. 2 for the band pixels of one row (out[i] == 1), in the chunks pass A marked. Those
- * are scanned 8 bytes at a time;
- * a band byte (0x01) is the only value whose bit 0 differs from its bit 1 (0x00 and 0xFF do not), so
- * (w ^ w >> 1) & 0x01..01 marks them, and count-trailing-zeros walks the marks without a branch per
- * pixel. Words without band pixels (the vast majority) cost a load and a test. */
-static bool shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mean, uint8_t* out, int n,
-                       uint64_t chunks, uint32_t* terms, int span[2], vc_subtract_stats* stats) {
-  int lo = n, hi = -1; /* the first and last candidate */
-  const uint64_t lsb = 0x0101010101010101ull;
-  /* A pixel that passes: background (0) when it is final, a texture candidate (0x02) when not. */
-  const unsigned pass_code = m->k2_q8 != 0 ? VC_CODE_CANDIDATE : 0u;
-  uint32_t band = 0, shadow = 0;
+/* Pass B: eq. 2 for the band pixels of one row (bit i of `bits`), walked with count-trailing-zeros
+ * (words without band pixels cost a test). A pixel that fails is foreground (0xFF); one that
+ * passes is background (0), and when the texture test is on (`cand` not NULL) also a candidate,
+ * appended to cand[] with its terms. Returns the number of pixels that passed (the candidates);
+ * adds the row's band pixels to *band_count. */
+static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mean, uint8_t* out,
+                      const uint64_t* bits, int n, struct vc_cand* cand, uint32_t* band_count) {
   const uint64_t c2 = m->c2_q24, glo = m->glo_q16, ghi = m->ghi_q16;
-  for (; chunks != 0; chunks &= chunks - 1) { /* only the chunks pass A found band pixels in */
-    const int c0 = __builtin_ctzll(chunks) * VC_CHUNK, c1 = c0 + VC_CHUNK < n ? c0 + VC_CHUNK : n;
-    for (int x0 = c0; x0 < c1; x0 += 8) {
-      uint64_t w = 0;
-      if (n - x0 >= 8)
-        memcpy(&w, out + x0, 8); /* a constant size: one load */
-      else
-        memcpy(&w, out + x0, (size_t)(n - x0));
-      uint64_t marks = (w ^ (w >> 1)) & lsb;
-      while (marks != 0) {
-        int i = x0 + (__builtin_ctzll(marks) >> 3);
-        marks &= marks - 1;
-        const uint8_t *p = px + 3 * i, *mu = mean + 3 * i;
-        uint64_t dot = (uint64_t)p[0] * mu[0] + (uint64_t)p[1] * mu[1] + (uint64_t)p[2] * mu[2];
-        uint64_t pp = (uint64_t)p[0] * p[0] + (uint64_t)p[1] * p[1] + (uint64_t)p[2] * p[2];
-        uint64_t mm = (uint64_t)mu[0] * mu[0] + (uint64_t)mu[1] * mu[1] + (uint64_t)mu[2] * mu[2];
-        /* dot, pp, mm < 2^18: dot^2 * 2^24 < 2^60 and c2 * pp * mm <= 2^24 * 2^36 = 2^60. */
-        uint64_t dot16 = dot << 16;
-        unsigned is_shadow = ((dot * dot << 24) >= c2 * pp * mm) & (dot16 >= glo * mm) & (dot16 <= ghi * mm);
-        out[i] = (uint8_t)(is_shadow ? pass_code : 0xFFu); /* shadow -> 0 or a candidate, else 0xFF */
-        if (terms != NULL) {                               /* < 2^18 each */
-          terms[3 * i] = (uint32_t)pp;
-          terms[3 * i + 1] = (uint32_t)dot;
-          terms[3 * i + 2] = (uint32_t)mm;
-        }
-        band++;
-        shadow += is_shadow;
-        if (is_shadow) {
-          lo = i < lo ? i : lo;
-          hi = i;
-        }
+  int k = 0;
+  uint32_t band = 0;
+  for (int wi = 0; wi < (n + 63) / 64; wi++) {
+    for (uint64_t b = bits[wi]; b != 0; b &= b - 1) {
+      const int i = wi * 64 + __builtin_ctzll(b);
+      const uint8_t *p = px + 3 * i, *mu = mean + 3 * i;
+      const uint64_t dot = (uint64_t)p[0] * mu[0] + (uint64_t)p[1] * mu[1] + (uint64_t)p[2] * mu[2];
+      const uint64_t pp = (uint64_t)p[0] * p[0] + (uint64_t)p[1] * p[1] + (uint64_t)p[2] * p[2];
+      const uint64_t mm = (uint64_t)mu[0] * mu[0] + (uint64_t)mu[1] * mu[1] + (uint64_t)mu[2] * mu[2];
+      /* dot, pp, mm < 2^18: dot^2 * 2^24 < 2^60 and c2 * pp * mm <= 2^24 * 2^36 = 2^60. */
+      const uint64_t dot16 = dot << 16;
+      const unsigned is_shadow =
+          ((dot * dot << 24) >= c2 * pp * mm) & (dot16 >= glo * mm) & (dot16 <= ghi * mm);
+      out[i] = (uint8_t)(is_shadow - 1u); /* shadow -> 0 (background, or a candidate), else 0xFF */
+      band++;
+      if (cand != NULL && is_shadow) {
+        cand[k].x = (uint32_t)i;
+        cand[k].pp = (uint32_t)pp;
+        cand[k].pm = (uint32_t)dot;
+        cand[k].mm = (uint32_t)mm;
+        k++;
+      } else {
+        k += (int)is_shadow; /* counted as shadows when the texture test is off */
       }
     }
   }
-  if (span != NULL) {
-    span[0] = lo;
-    span[1] = hi;
-  }
-  if (stats != NULL) {
-    stats->band += band;
-    if (pass_code == 0) stats->shadow += shadow; /* else counted by texture_row */
-  }
-  return shadow != 0;
+  *band_count += band;
+  return k;
 }
 
-/* The texture test for the candidates of row t (codes 0x02 from shadow_row): over the (2r+1)^2
- * window, the candidates' frame colours P (each channel of each pixel: 3n values) must be one scaled
- * copy of the background's M (through the origin: P = a*M, a = sum PM / sum MM) up to the noise:
+/* Adds (sign +1) or removes (-1) a row's candidates to the column sums: colsum[x + r] holds, for
+ * column x, the count and the sums of |p|^2, p.mu, |mu|^2 over the candidates of the rows in the
+ * texture window (< 5 * 3 * 255^2 < 2^20 each). The r columns of zeros on either side make the
+ * window's horizontal sum branch-free at the image's edges. */
+static void colsum_update(uint32_t (*colsum)[4], const struct vc_cand* cand, int count, uint32_t sign) {
+  for (int k = 0; k < count; k++) {
+    uint32_t* c = colsum[cand[k].x + VC_TEXTURE_RADIUS];
+    c[0] += sign;
+    c[1] += sign * cand[k].pp;
+    c[2] += sign * cand[k].pm;
+    c[3] += sign * cand[k].mm;
+  }
+}
+
+/* The texture test for the candidates of row t (their list from shadow_row), with colsum holding
+ * rows t - r .. t + r: over the (2r+1)^2 window, the candidates' frame colours P (each channel of
+ * each pixel: 3n values) must be one scaled copy of the background's M (through the origin: P = a*M,
+ * a = sum PM / sum MM) up to the noise:
  *     SS = sum PP - (sum PM)^2 / sum MM  <=  k^2 * n * sum_c max(sigma_c, floor)^2
  * (n candidates in the window, sigma of the candidate at the centre: the window's noise is taken as
  * its own), i.e. (sum PP * sum MM - (sum PM)^2) * 2^24 <= k2_q8 * n * V_q16 * sum MM, in 128-bit
  * integers: P, M <= 255 and 3n <= 75 values, so the sums are < 2^23, their products < 2^46,
- * n * V_q16 < 2^38 and k2_q8 <= 2^16. One scale for all channels makes the test see both the background's
- * texture (missing under skin over wood grain) and a colour bias that is below the per-pixel angle but
- * consistent over the window. With fewer than VC_TEXTURE_MIN_PIXELS candidates in the window the
- * per-pixel tests decide. The decision is written as 0x42 (shadow) or 0x82 (foreground): the low
- * bits still say "candidate" for the windows of the rows below; finish_row() turns them into
- * 0 / 0xFF once no window needs them. */
-/* Sums of one window column (rows y0..y1 of column x): the candidates' count and sum PP, PM, MM. */
-typedef struct {
-  uint32_t n, pp, pm, mm; /* < 5 * 3 * 255^2 < 2^20 */
-} col_sums;
-
-static col_sums column_sums(const vc_bgmodel* m, const uint8_t* mask, int x, int y0, int y1) {
-  col_sums cs = {0, 0, 0, 0};
-  const size_t w = (size_t)m->width;
-  for (int y = y0; y <= y1; y++) {
-    if ((mask[(size_t)y * w + (size_t)x] & 0x3F) != VC_CODE_CANDIDATE) continue;
-    const uint32_t* t = m->terms + ((size_t)(y % (2 * VC_TEXTURE_RADIUS + 1)) * w + (size_t)x) * 3;
-    cs.n++;
-    cs.pp += t[0];
-    cs.pm += t[1];
-    cs.mm += t[2];
-  }
-  return cs;
-}
-
-static uint32_t texture_row(const vc_bgmodel* m, uint8_t* mask, int t, int lo, int hi) {
-  const int w = m->width, h = m->height, r = VC_TEXTURE_RADIUS;
-  const int y0 = t - r < 0 ? 0 : t - r, y1 = t + r >= h ? h - 1 : t + r;
-  const uint64_t lsb = 0x0101010101010101ull, k2 = m->k2_q8;
-  const uint64_t fl = m->floor_q8;
-  uint8_t* out = mask + (size_t)t * (size_t)w;
-  const uint16_t* sigma_row = m->sigma_q8 + (size_t)t * (size_t)w * 3;
-  /* Column sums of the columns last computed, by column mod 8 (a window spans 5): candidates come
-   * left to right, so each column is summed once per run of nearby candidates, not once per window. */
-  col_sums ring[8] = {{0, 0, 0, 0}}; /* every slot read was written first; zeroed for the analyser */
-  int have_hi = -8;                  /* columns (have_lo..have_hi] are in the ring; -8: none */
+ * n * V_q16 < 2^38 and k2_q8 <= 2^16. One scale for all channels makes the test see both the
+ * background's texture (missing under skin over wood grain) and a colour bias that is below the
+ * per-pixel angle but consistent over the window. With fewer than VC_TEXTURE_MIN_PIXELS candidates
+ * in the window the per-pixel tests decide (shadow). A candidate that fails becomes foreground.
+ * Returns the number of shadows. */
+static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, const uint16_t* sigma_row,
+                            const struct vc_cand* cand, int count) {
+  const uint64_t k2 = m->k2_q8, fl = m->floor_q8;
+  const uint32_t(*colsum)[4] = (const uint32_t(*)[4])m->colsum;
   uint32_t shadow = 0;
-  for (int x0 = lo & ~7; x0 <= hi; x0 += 8) { /* the candidates lie in [lo, hi] */
-    uint64_t word = 0;
-    if (w - x0 >= 8)
-      memcpy(&word, out + x0, 8);
-    else
-      memcpy(&word, out + x0, (size_t)(w - x0));
-    uint64_t marks = ((word >> 1) ^ word) & lsb; /* 0x02 is the only value here whose bits 0, 1 differ */
-    while (marks != 0) {
-      const int x = x0 + (__builtin_ctzll(marks) >> 3);
-      marks &= marks - 1;
-      const int xa = x - r < 0 ? 0 : x - r, xb = x + r >= w ? w - 1 : x + r;
-      for (int xx = have_hi >= xa - 1 ? have_hi + 1 : xa; xx <= xb; xx++)
-        ring[xx & 7] = column_sums(m, mask, xx, y0, y1);
-      have_hi = xb;
-      uint64_t n = 0, spp = 0, spm = 0, smm = 0;
-      for (int xx = xa; xx <= xb; xx++) {
-        n += ring[xx & 7].n;
-        spp += ring[xx & 7].pp;
-        spm += ring[xx & 7].pm;
-        smm += ring[xx & 7].mm;
+  for (int k = 0; k < count; k++) {
+    const uint32_t x = cand[k].x;
+    uint32_t s[4];
+    for (int j = 0; j < 4; j++) /* columns x - r .. x + r: colsum[x] .. colsum[x + 2r] */
+      s[j] = colsum[x][j] + colsum[x + 1][j] + colsum[x + 2][j] + colsum[x + 3][j] + colsum[x + 4][j];
+    const uint64_t n = s[0], spp = s[1], spm = s[2], smm = s[3];
+    unsigned is_shadow = 1;
+    if (n >= VC_TEXTURE_MIN_PIXELS) {
+      uint64_t v = 0; /* the noise: sum_c max(sigma_c, floor)^2 of the candidate (Q16.16) */
+      for (uint32_t ch = 0; ch < 3; ch++) {
+        const uint64_t sg = sigma_row[3 * x + ch] > fl ? sigma_row[3 * x + ch] : fl;
+        v += sg * sg;
       }
-      unsigned is_shadow = 1;
-      if (n >= VC_TEXTURE_MIN_PIXELS) {
-        /* The noise: n times the candidate's own sum_c max(sigma_c, floor)^2 (Q16.16). */
-        uint64_t v = 0;
-        for (int ch = 0; ch < 3; ch++) {
-          const uint64_t sg = sigma_row[3 * x + ch] > fl ? sigma_row[3 * x + ch] : fl;
-          v += sg * sg;
-        }
-        const unsigned __int128 lhs = (unsigned __int128)(spp * smm - spm * spm) << 24;
-        is_shadow = lhs <= (unsigned __int128)(k2 * n * v) * smm;
-      }
-      out[x] = (uint8_t)(is_shadow ? VC_CODE_SHADOW : VC_CODE_FOREGROUND);
-      shadow += is_shadow;
+      const unsigned __int128 lhs = (unsigned __int128)(spp * smm - spm * spm) << 24;
+      is_shadow = lhs <= (unsigned __int128)(k2 * n * v) * smm;
     }
+    out[x] = (uint8_t)(is_shadow - 1u);
+    shadow += is_shadow;
   }
   return shadow;
-}
-
-/* Turns the decided candidates of a row's span into the mask's 0 / 0xFF. */
-static void finish_row(uint8_t* out, int n) {
-  for (int i = 0; i < n; i++) {
-    const uint8_t v = out[i];
-    out[i] = v == VC_CODE_SHADOW ? 0 : v == VC_CODE_FOREGROUND ? 0xFF : v;
-  }
 }
 
 int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t* mask,
                 vc_subtract_stats* stats) {
   if (m == NULL || rgb == NULL || mask == NULL || stride < (size_t)m->width * 3) return -EINVAL;
   if (!m->ready) return -EAGAIN;
-  uint64_t (*classify)(const uint8_t* restrict, const uint8_t* restrict, const uint8_t* restrict,
-                       const uint8_t* restrict, uint8_t* restrict, int) = classify_row_generic;
+  int (*classify)(const uint8_t* restrict, const uint8_t* restrict, const uint8_t* restrict,
+                  const uint8_t* restrict, uint8_t* restrict, uint64_t* restrict, int) = classify_row_generic;
 #if VC_HAVE_AVX2_VARIANT
   if (vc__use_avx2()) classify = classify_row_avx2;
 #endif
-  if (stats != NULL) memset(stats, 0, sizeof(*stats));
-  const int w = m->width, h = m->height, r = VC_TEXTURE_RADIUS;
+  const int w = m->width, h = m->height, r = VC_TEXTURE_RADIUS, rows = 2 * VC_TEXTURE_RADIUS + 1;
   const size_t row = (size_t)w * 3;
-  if (m->k2_q8 == 0) { /* texture test off: each row is final after its pass B */
-    for (int y = 0; y < h; y++) {
-      const uint8_t* px = rgb + (size_t)y * stride;
-      const size_t off = (size_t)y * row;
-      uint8_t* out = mask + (size_t)y * (size_t)w;
-      const uint64_t chunks = classify(px, m->mean + off, m->tu + off, m->tl + off, out, w);
-      if (chunks) (void)shadow_row(m, px, m->mean + off, out, w, chunks, NULL, NULL, stats);
-    }
-    return 0;
-  }
-  /* Pass A and B run r rows ahead of the texture test; a row is finished r rows after its test,
-   * when no window needs its codes any more. Bit (y mod 32) of `cand` marks rows with candidates. */
-  uint32_t cand = 0, shadow = 0;
-  int span[32][2]; /* the candidates' first and last column, of row y in span[y mod 32] */
-  for (int y = 0; y < h + 2 * r; y++) {
+  const bool texture = m->k2_q8 != 0;
+  uint64_t bits[VC_MAX_DIM / 64] = {0}; /* the band pixels of the row in pass A and B; pass A
+                                         * writes the words of the row, zeroed for the analyser */
+  uint32_t band = 0, shadow = 0;
+  int count[2 * VC_TEXTURE_RADIUS + 1] = {0}; /* candidates of row y in cand slot y mod rows */
+  if (texture) memset(m->colsum, 0, (size_t)(w + 2 * r) * sizeof(*m->colsum));
+  /* Passes A and B run r rows ahead of the texture test, which needs the candidates of rows
+   * t - r .. t + r in the column sums; row t - r leaves them after row t's test. */
+  for (int y = 0; y < h + (texture ? r : 0); y++) {
     if (y < h) {
       const uint8_t* px = rgb + (size_t)y * stride;
       const size_t off = (size_t)y * row;
       uint8_t* out = mask + (size_t)y * (size_t)w;
-      const uint64_t chunks = classify(px, m->mean + off, m->tu + off, m->tl + off, out, w);
-      const bool any =
-          chunks != 0 && shadow_row(m, px, m->mean + off, out, w, chunks,
-                                    m->terms + (size_t)(y % (2 * r + 1)) * row, span[y & 31], stats);
-      cand = (cand & ~(1u << (y & 31))) | ((uint32_t)any << (y & 31));
+      struct vc_cand* cand = texture ? m->cand + (size_t)(y % rows) * (size_t)w : NULL;
+      int k = 0;
+      if (classify(px, m->blo + off, m->flo + off, m->fhi + off, out, bits, w))
+        k = shadow_row(m, px, m->mean + off, out, bits, w, cand, &band);
+      if (!texture) {
+        shadow += (uint32_t)k;
+        continue;
+      }
+      count[y % rows] = k;
+      colsum_update(m->colsum, cand, k, 1u);
     }
     const int t = y - r;
-    if (t >= 0 && t < h && ((cand >> (t & 31)) & 1u))
-      shadow += texture_row(m, mask, t, span[t & 31][0], span[t & 31][1]);
-    const int f = y - 2 * r;
-    if (f >= 0 && ((cand >> (f & 31)) & 1u))
-      finish_row(mask + (size_t)f * (size_t)w + span[f & 31][0], span[f & 31][1] - span[f & 31][0] + 1);
+    if (t < 0) continue;
+    const struct vc_cand* cand_t = m->cand + (size_t)(t % rows) * (size_t)w;
+    shadow +=
+        texture_row(m, mask + (size_t)t * (size_t)w, m->sigma_q8 + (size_t)t * row, cand_t, count[t % rows]);
+    const int gone = t - r; /* the windows of rows after t no longer reach row t - r */
+    if (gone >= 0) {
+      colsum_update(m->colsum, m->cand + (size_t)(gone % rows) * (size_t)w, count[gone % rows], 0u - 1u);
+      count[gone % rows] = 0;
+    }
   }
-  if (stats != NULL) stats->shadow = shadow;
+  if (stats != NULL) {
+    stats->band = band;
+    stats->shadow = shadow;
+  }
   return 0;
 }

@@ -418,6 +418,22 @@ static void footprint_leaf(const grid_i* g, const vc_camera* cam, int W, int H, 
   }
 }
 
+/* The subpixel rule's rectangle of voxel v (centre p) in camera `cam` (see carver.h): pixel x's square
+ * [x - 1/2, x + 1/2] overlaps [u - 1/2, u + 1/2] iff u - 1 < x < u + 1, so x runs from
+ * floor(u - 1) + 1 to ceil(u + 1) - 1 (one pixel when u is an integer, else two), clipped to the image. */
+static void subpixel_voxel(const vc_camera* cam, const double p[3], int W, int H, int v, int c, leaf_proj* lp) {
+  double u, w;
+  if (!project_uv(cam, p, &u, &w) || !(fabs(u) < 1e6 && fabs(w) < 1e6)) return; /* behind, or absurd */
+  double x0 = dmax(floor(u - 1.0) + 1.0, 0.0), x1 = dmin(ceil(u + 1.0) - 1.0, (double)(W - 1));
+  double y0 = dmax(floor(w - 1.0) + 1.0, 0.0), y1 = dmin(ceil(w + 1.0) - 1.0, (double)(H - 1));
+  if (!(x0 <= x1 && y0 <= y1)) return; /* wholly outside the image */
+  lp->seen[c] |= 1ull << v;
+  lp->px[c][v] = (int)x0;
+  lp->py[c][v] = (int)y0;
+  lp->pw[c][v] = (int)(x1 - x0) + 1;
+  lp->ph[c][v] = (int)(y1 - y0) + 1;
+}
+
 /* Per leaf with a table, while building (freed at the end of vc_carver_new): what the node ranges
  * and the footprint classes are made from. Pixel coordinates fit 16 bits (images <= 16384). */
 typedef struct leaf_build {
@@ -448,6 +464,10 @@ static int build_leaf(vc_carver* cv, const vc_camera* cam[2], int i0, int j0, in
       if (!(lp.in_grid >> v & 1)) continue;
       double p[3];
       voxel_centre(g, i0 + (v & 3), j0 + (v >> 2 & 3), k0 + (v >> 4), p);
+      if (cv->rule == VC_CARVE_SUBPIXEL) {
+        subpixel_voxel(cam[c], p, cv->W[c], cv->H[c], v, c, &lp);
+        continue;
+      }
       if (vc_camera_project(cam[c], p, &lp.px[c][v], &lp.py[c][v])) {
         lp.seen[c] |= 1ull << v;
         lp.pw[c][v] = lp.ph[c][v] = 1;
@@ -682,8 +702,8 @@ int vc_carver_new(const vc_voxel_grid* grid, const vc_camera* cam0, const vc_cam
     vc_why(why, why_len, "carver: no place for the carver");
     return -EINVAL;
   }
-  if (rule != VC_CARVE_CENTRE && rule != VC_CARVE_FOOTPRINT) {
-    vc_why(why, why_len, "carver: carve rule %d is neither centre (0) nor footprint (1)", (int)rule);
+  if (rule != VC_CARVE_CENTRE && rule != VC_CARVE_FOOTPRINT && rule != VC_CARVE_SUBPIXEL) {
+    vc_why(why, why_len, "carver: carve rule %d is not centre (0), footprint (1) or subpixel (2)", (int)rule);
     return -EINVAL;
   }
   if (vc_grid_check(grid, bad, sizeof(bad)) != 0) {
@@ -1084,7 +1104,7 @@ int vc_carver_run(vc_carver* cv, const uint8_t* mask0, const uint8_t* mask1, uin
   const uint8_t* cm[2][MAX_CLASS] = {{mask0}, {mask1}}; /* this frame's mask per class (mask or dil) */
   for (int c = 0; c < 2; c++) {
     summarise(&cv->fr[c], mask[c], cv->W[c], cv->H[c]);
-    if (cv->rule == VC_CARVE_FOOTPRINT) fg_list(&cv->fr[c]);
+    if (cv->rule != VC_CARVE_CENTRE) fg_list(&cv->fr[c]);
     for (int i = 0; i < cv->ncls[c]; i++) {
       const int k = cv->order[c][i];
       fp_class* f = &cv->cls[c][k];

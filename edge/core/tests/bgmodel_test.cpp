@@ -104,6 +104,82 @@ std::vector<uint8_t> reference_subtract(const vc_bgmodel* m, const vc_subtract_p
   return done;
 }
 
+// The rule of bgmodel.h in the kernel's own integers, written plainly (a loop per pixel, the 5x5
+// window summed afresh for every candidate): the thresholds as vc_bgmodel_set_params derives them,
+// eq. 2 and the texture test's comparisons exactly as bgmodel.c states them. The kernel's passes,
+// vectors and running sums must give this mask bit for bit.
+std::vector<uint8_t> integer_subtract(const vc_bgmodel* m, const vc_subtract_params& p,
+                                      const std::vector<uint8_t>& rgb) {
+  const int w = vc_bgmodel_width(m), h = vc_bgmodel_height(m);
+  const uint8_t* mean = vc_bgmodel_mean(m);
+  const uint16_t* sigma_q8 = vc_bgmodel_sigma_q8(m);
+  const uint64_t c2 = static_cast<uint64_t>(std::llround(p.cos2_angular * 16777216.0));
+  const uint64_t glo = static_cast<uint64_t>(std::llround(p.shadow_min_gain * 65536.0));
+  const uint64_t ghi = static_cast<uint64_t>(std::llround(p.shadow_max_gain * 65536.0));
+  const uint64_t k2 = static_cast<uint64_t>(std::llround(p.shadow_texture_k * p.shadow_texture_k * 256.0));
+  const uint64_t fl = static_cast<uint64_t>(std::llround(p.sigma_floor * 256.0));
+  enum : uint8_t { kBg = 0, kCandidate = 1, kFg = 255 };
+  std::vector<uint8_t> cls(static_cast<size_t>(w) * h);
+  for (size_t i = 0; i < cls.size(); i++) {
+    const uint8_t* px = &rgb[3 * i];
+    const uint8_t* mu = &mean[3 * i];
+    bool fg = false, band = false;
+    for (int c = 0; c < 3; c++) {
+      const double sigma = std::max(sigma_q8[3 * i + c] / 256.0, p.sigma_floor);
+      const double up = std::min(std::floor(p.t_upper * sigma),
+                                 std::floor((1.0 - p.shadow_min_gain) * mu[c] + p.t_lower * sigma));
+      const double lo = std::ceil(p.t_lower * sigma) - 1.0;
+      const int tu = static_cast<int>(std::min(up, 255.0)), tl = static_cast<int>(std::min(lo, 255.0));
+      const int d = px[c] - mu[c];
+      fg = fg || d > tl || -d > tu;
+      band = band || -d > tl;
+    }
+    uint8_t v = fg ? kFg : band ? kCandidate : kBg;
+    if (v == kCandidate) {
+      uint64_t dot = 0, pp = 0, mm = 0;
+      for (int c = 0; c < 3; c++) {
+        dot += uint64_t{px[c]} * mu[c];
+        pp += uint64_t{px[c]} * px[c];
+        mm += uint64_t{mu[c]} * mu[c];
+      }
+      const bool shadow =
+          (dot * dot << 24) >= c2 * pp * mm && (dot << 16) >= glo * mm && (dot << 16) <= ghi * mm;
+      v = shadow ? (k2 != 0 ? kCandidate : kBg) : kFg;
+    }
+    cls[i] = v;
+  }
+  std::vector<uint8_t> out = cls;
+  for (int y = 0; y < h; y++)
+    for (int x = 0; x < w; x++) {
+      const size_t i = static_cast<size_t>(y) * w + x;
+      if (cls[i] != kCandidate) continue;
+      uint64_t n = 0, spp = 0, spm = 0, smm = 0;
+      for (int yy = std::max(0, y - 2); yy <= std::min(h - 1, y + 2); yy++)
+        for (int xx = std::max(0, x - 2); xx <= std::min(w - 1, x + 2); xx++) {
+          const size_t j = static_cast<size_t>(yy) * w + xx;
+          if (cls[j] != kCandidate) continue;
+          n++;
+          for (int c = 0; c < 3; c++) {
+            spp += uint64_t{rgb[3 * j + c]} * rgb[3 * j + c];
+            spm += uint64_t{rgb[3 * j + c]} * mean[3 * j + c];
+            smm += uint64_t{mean[3 * j + c]} * mean[3 * j + c];
+          }
+        }
+      bool shadow = true;
+      if (n >= 3) {
+        uint64_t v = 0;
+        for (int c = 0; c < 3; c++) {
+          const uint64_t sg = std::max<uint64_t>(sigma_q8[3 * i + c], fl);
+          v += sg * sg;
+        }
+        const unsigned __int128 lhs = static_cast<unsigned __int128>(spp * smm - spm * spm) << 24;
+        shadow = lhs <= static_cast<unsigned __int128>(k2 * n * v) * smm;
+      }
+      out[i] = shadow ? kBg : kFg;
+    }
+  return out;
+}
+
 Scene test_scene() {
   Scene s;
   s.people = {{100, 120, 30, 70, 200, 60, 50, 0},
@@ -546,6 +622,76 @@ TEST_P(SubtractVariants, FixedPointMatchesTheDoubleRuleOnRandomInputs) {
   }
   EXPECT_GT(candidates, total / 10) << "the inputs must exercise the shadow and texture tests";
   EXPECT_GE(static_cast<double>(same) / total, 0.9999) << (total - same) << " pixels differ";
+}
+
+// The kernel gives the plain integer rule's mask bit for bit (integer_subtract above): with both
+// kernel variants, widths around the vector and bitmap word sizes (31 .. 130 pixels), frames with
+// shadows, people, random pixels and whole shadow-like regions, texture test on and off.
+TEST_P(SubtractVariants, SameMaskAsThePlainIntegerRuleBitForBit) {
+  std::mt19937 rng(31);
+  std::uniform_int_distribution<int> byte(0, 255), sig(64, 1536), coin(0, 3);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const int widths[] = {31, 32, 33, 63, 64, 65, 97, 130, 7, 1};
+  size_t band = 0, pixels = 0;
+  for (int round = 0; round < 20; round++) {
+    const int w = widths[round % 10], h = 2 + (round * 7) % 23;
+    std::vector<uint8_t> mean(static_cast<size_t>(w) * h * 3);
+    std::vector<uint16_t> sigma(mean.size());
+    for (size_t i = 0; i < mean.size(); i++) {
+      mean[i] = static_cast<uint8_t>(byte(rng));
+      sigma[i] = static_cast<uint16_t>(sig(rng));
+    }
+    vc_subtract_params p;
+    vc_subtract_params_default(&p);
+    if (round % 2 == 1) {  // defaults on even rounds, random thresholds on odd ones
+      p.t_lower = 1.5 + 3.0 * unit(rng);
+      p.t_upper = p.t_lower + 70.0 * unit(rng);
+      const double angle = (2.0 + 14.0 * unit(rng)) * M_PI / 180.0;
+      p.cos2_angular = std::cos(angle) * std::cos(angle);
+      p.shadow_min_gain = 0.6 * unit(rng);
+      p.shadow_max_gain = p.shadow_min_gain + (1.0 - p.shadow_min_gain) * unit(rng);
+      p.sigma_floor = 0.5 + 2.0 * unit(rng);
+      p.shadow_texture_k = round % 3 == 0 ? 0.0 : 0.5 + 4.0 * unit(rng);
+    }
+    vc_bgmodel* raw = nullptr;
+    ASSERT_EQ(vc_bgmodel_new(w, h, &raw, nullptr, 0), 0);
+    ModelPtr m(raw);
+    ASSERT_EQ(vc_bgmodel_restore(m.get(), mean.data(), sigma.data(), 30), 0);
+    ASSERT_EQ(vc_bgmodel_set_params(m.get(), &p), 0);
+    const double gain = 0.3 + 0.7 * unit(rng);
+    std::normal_distribution<double> noise(0.0, 1.0 + 3.0 * unit(rng));
+    std::vector<uint8_t> frame(mean.size());
+    for (size_t i = 0; i < frame.size(); i += 3) {
+      const int kind = coin(rng) == 0 ? 2 : static_cast<int>(((i / 3) % w) / 9 % 4);
+      for (int c = 0; c < 3; c++) {
+        const double mu = mean[i + c];
+        frame[i + c] = kind == 0   ? clamp8(mu + noise(rng))
+                       : kind == 1 ? clamp8(gain * mu + noise(rng))
+                       : kind == 2 ? static_cast<uint8_t>(byte(rng))
+                                   : clamp8(0.9 * gain * mu + noise(rng));
+      }
+    }
+    std::vector<uint8_t> mask(static_cast<size_t>(w) * h);
+    vc_subtract_stats st;
+    ASSERT_EQ(vc_subtract(m.get(), frame.data(), 3 * static_cast<size_t>(w), mask.data(), &st), 0);
+    EXPECT_EQ(mask, integer_subtract(m.get(), p, frame)) << "round " << round << ", " << w << "x" << h;
+    band += st.band;
+    pixels += mask.size();
+  }
+  // The synthetic scene of the other tests too, frame after frame with moving blobs.
+  Scene s = test_scene();
+  ModelPtr m = learn(s, 30, rng);
+  vc_subtract_params p;
+  vc_subtract_params_default(&p);
+  ASSERT_EQ(vc_bgmodel_set_params(m.get(), &p), 0);
+  std::vector<uint8_t> rgb, mask(static_cast<size_t>(s.width) * s.height);
+  for (int f = 0; f < 4; f++) {
+    for (Blob& b : s.people) b.cx += 4;
+    s.render(rng, rgb, nullptr);
+    ASSERT_EQ(vc_subtract(m.get(), rgb.data(), 3 * static_cast<size_t>(s.width), mask.data(), nullptr), 0);
+    EXPECT_EQ(mask, integer_subtract(m.get(), p, rgb)) << "scene frame " << f;
+  }
+  EXPECT_GT(band, pixels / 10) << "the inputs must exercise the shadow and texture tests";
 }
 
 TEST(SubtractParams, GainsAndTextureKAreBounded) {

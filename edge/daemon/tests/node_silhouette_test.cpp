@@ -180,7 +180,7 @@ TEST(NodeCarveRule, CentreIsTakenAnUnknownRuleIsRefusedWithAReason) {
   bad.carve_rule = 7;
   char why[200] = "", warn[200] = "";
   EXPECT_EQ(vc_node_configure(f.n, &bad, why, sizeof why, warn, sizeof warn), -EINVAL);
-  EXPECT_STREQ(why, "CONFIG carve_rule 7: 0 centre or 1 footprint");
+  EXPECT_STREQ(why, "CONFIG carve_rule 7: 0 centre, 1 footprint or 2 subpixel");
   EXPECT_EQ(vc_node_state(f.n), uint32_t{VC_STATE_RUNNING});  // the previous configuration goes on
   bad = make_config(3, 0);                                    // silhouettes without a scale
   EXPECT_EQ(vc_node_configure(f.n, &bad, why, sizeof why, warn, sizeof warn), -EINVAL);
@@ -200,6 +200,10 @@ TEST(NodeCarveRule, CentreIsTakenAnUnknownRuleIsRefusedWithAReason) {
     EXPECT_STREQ(why, "");
   }
   EXPECT_EQ(vc_node_state(f.n), uint32_t{VC_STATE_READY});
+  vc_config sub = make_config(0, 0);  // and the subpixel rule (2.2)
+  sub.carve_rule = VC_CARVE_SUBPIXEL;
+  EXPECT_EQ(vc_node_configure(f.n, &sub, why, sizeof why, warn, sizeof warn), 0) << why;
+  EXPECT_STREQ(why, "");
 }
 
 }  // namespace

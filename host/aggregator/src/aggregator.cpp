@@ -3,6 +3,7 @@
 #include <fmt/core.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "voxcap/assemble/merge_stage.hpp"
@@ -31,6 +32,8 @@ vc_config make_config_message(const config::RigConfig& rig, const config::NodeCo
   c.background_frames = static_cast<uint32_t>(rig.subtraction.background_frames);
   if (node_minor >= 1) {  // 2.1: these bytes were 2.0's `reserved`, which a 2.0 node wants 0
     c.carve_rule = rig.carving.wire_value();
+    // 2.2 added subpixel; a 2.1 node gets footprint, whose hull holds the subpixel one (SPEC "Evolution")
+    if (node_minor < 2 && c.carve_rule == VC_CARVE_SUBPIXEL) c.carve_rule = VC_CARVE_FOOTPRINT;
     c.silhouette_every = static_cast<uint8_t>(rig.silhouettes.every);
     c.silhouette_scale = static_cast<uint8_t>(rig.silhouettes.scale);
   }
@@ -71,8 +74,9 @@ double Latency::percentile_ms(double p) const {
 struct Aggregator::Node {
   uint16_t id = 0;
   const config::NodeConfig* cfg = nullptr;
-  std::vector<uint8_t> config_msg;      // for a node of this protocol minor version (2.1)
-  std::vector<uint8_t> config_msg_v20;  // for a 2.0 node: centre carving, no SILHOUETTE
+  // CONFIG for a node of protocol minor version m (2.m), m = 0..VC_PROTO_VERSION_MINOR; a newer node
+  // gets this version's: 2.0 centre carving, no SILHOUETTE; 2.1 footprint for subpixel carving.
+  std::array<std::vector<uint8_t>, VC_PROTO_VERSION_MINOR + 1> config_msg;
   session::ConnId conn = 0;
   bool connected = false;
   uint32_t state = VC_STATE_IDLE;
@@ -125,9 +129,9 @@ Aggregator::Aggregator(config::RigConfig rig, Options options)
     auto n = std::make_unique<Node>();
     n->cfg = &rig_.nodes[k];
     n->id = config::node_number(rig_.nodes[k], k, rig_.source.string());  // unique: rig_.valid() checked
-    for (uint8_t minor : {uint8_t{VC_PROTO_VERSION_MINOR}, uint8_t{0}}) {
+    for (uint8_t minor = 0; minor <= VC_PROTO_VERSION_MINOR; minor++) {
       vc_config c = make_config_message(rig_, *n->cfg, grid_id_, minor);
-      std::vector<uint8_t>& msg = minor ? n->config_msg : n->config_msg_v20;
+      std::vector<uint8_t>& msg = n->config_msg[minor];
       msg.resize(VC_PROTO_HEADER_SIZE + 4096);
       size_t len = 0;
       vc_header hdr{};
@@ -260,10 +264,16 @@ std::string Aggregator::on_hello(session::ConnId conn, const vc_msg& m, const st
   n->rep.joins++;
   log(log::Level::info, fmt::format("node {} ({}) joined from {}", n->id, n->cfg->id, peer));
   // The server delivers HELLO's acceptance after this returns; the CONFIG is queued behind nothing.
-  // A 2.0 node rejects the 2.1 fields (its `reserved`): it gets zeros there, and the user is told what
-  // the rig asked for that it cannot do (proto/SPEC.md "Evolution").
-  if (m.hdr.version_minor >= 1) {
-    send(*n, n->config_msg);
+  // An older node gets the CONFIG of its minor version, and the user is told what the rig asked for
+  // that it cannot do (proto/SPEC.md "Evolution"): a 2.0 node rejects the 2.1 fields (its `reserved`)
+  // and gets zeros there; a 2.1 node rejects the 2.2 carve rule subpixel and carves with footprint.
+  const uint8_t minor = std::min<uint8_t>(m.hdr.version_minor, VC_PROTO_VERSION_MINOR);
+  if (minor == 1 && rig_.carving.rule == config::CarveRule::Subpixel)
+    log(log::Level::warn, fmt::format("node {} ({}) speaks protocol 2.1: it carves with the footprint rule (the "
+                                      "rig asks for subpixel carving); update its voxcap-edge",
+                                      n->id, n->cfg->id));
+  if (minor >= 1) {
+    send(*n, n->config_msg[minor]);
   } else {
     if (rig_.carving.rule != config::CarveRule::Centre || rig_.silhouettes.enabled())
       log(log::Level::warn,
@@ -275,7 +285,7 @@ std::string Aggregator::on_hello(session::ConnId conn, const vc_msg& m, const st
                       rig_.silhouettes.enabled()
                           ? fmt::format(" and a SILHOUETTE every {} frames", rig_.silhouettes.every)
                           : ""));
-    send(*n, n->config_msg_v20);
+    send(*n, n->config_msg[0]);
   }
   return "";
 }

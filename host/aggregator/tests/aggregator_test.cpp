@@ -247,7 +247,11 @@ TEST(Aggregator, ConfigMessageCarriesCarvingAndSilhouettesToA21NodeOnly) {
   TmpDir tmp;
   config::RigConfig rig = make_rig(tmp.p);
   vc_config c = make_config_message(rig, rig.nodes[0], 42);  // the rig's defaults
+  EXPECT_EQ(c.carve_rule, VC_CARVE_SUBPIXEL);
+  c = make_config_message(rig, rig.nodes[0], 42, 1);  // a 2.1 node knows no subpixel: footprint holds it
   EXPECT_EQ(c.carve_rule, VC_CARVE_FOOTPRINT);
+  c = make_config_message(rig, rig.nodes[0], 42, 2);
+  EXPECT_EQ(c.carve_rule, VC_CARVE_SUBPIXEL);
   EXPECT_EQ(c.silhouette_every, 0);
   EXPECT_EQ(c.silhouette_scale, 1);
   rig.carving.rule = config::CarveRule::Centre;

@@ -94,11 +94,16 @@ bool SubtractionOptions::valid(std::string* why) const {
 }
 
 std::string_view to_string(CarveRule rule) {
-  return rule == CarveRule::Centre ? "centre" : "footprint";
+  switch (rule) {
+    case CarveRule::Centre: return "centre";
+    case CarveRule::Footprint: return "footprint";
+    case CarveRule::Subpixel: return "subpixel";
+  }
+  return "?";
 }
 
 bool parse_carve_rule(std::string_view name, CarveRule* out) {
-  for (CarveRule r : {CarveRule::Centre, CarveRule::Footprint}) {
+  for (CarveRule r : {CarveRule::Centre, CarveRule::Footprint, CarveRule::Subpixel}) {
     if (name == to_string(r)) {
       *out = r;
       return true;
@@ -108,14 +113,19 @@ bool parse_carve_rule(std::string_view name, CarveRule* out) {
 }
 
 bool CarvingOptions::valid(std::string* why) const {
-  if (rule != CarveRule::Centre && rule != CarveRule::Footprint)
-    return fail(why,
-                fmt::format("rule: must be \"footprint\" or \"centre\", got {}", static_cast<int>(rule)));
+  if (rule != CarveRule::Centre && rule != CarveRule::Footprint && rule != CarveRule::Subpixel)
+    return fail(why, fmt::format("rule: must be \"subpixel\", \"footprint\" or \"centre\", got {}",
+                                 static_cast<int>(rule)));
   return true;
 }
 
 uint16_t CarvingOptions::wire_value() const {
-  return rule == CarveRule::Centre ? VC_CARVE_CENTRE : VC_CARVE_FOOTPRINT;
+  switch (rule) {
+    case CarveRule::Centre: return VC_CARVE_CENTRE;
+    case CarveRule::Footprint: return VC_CARVE_FOOTPRINT;
+    case CarveRule::Subpixel: return VC_CARVE_SUBPIXEL;
+  }
+  return VC_CARVE_SUBPIXEL;
 }
 
 bool SilhouetteOptions::valid(std::string* why) const {

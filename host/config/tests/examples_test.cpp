@@ -82,13 +82,13 @@ TEST(ExampleRigs, SubtractionAgreesWithTheDefaults) {
   }
 }
 
-// Every example rig says [carving] and [silhouettes] with their defaults: footprint, none.
+// Every example rig says [carving] and [silhouettes] with their defaults: subpixel, none.
 TEST(ExampleRigs, CarvingAndSilhouettesAreTheDefaults) {
   for (const auto& file : rig_files()) {
     SCOPED_TRACE(file.string());
     const RigConfig rig = load_rig_config(file);
     EXPECT_EQ(rig.carving.rule, CarvingOptions{}.rule);
-    EXPECT_EQ(rig.carving.rule, CarveRule::Footprint);
+    EXPECT_EQ(rig.carving.rule, CarveRule::Subpixel);
     EXPECT_EQ(rig.silhouettes.every, SilhouetteOptions{}.every);
     EXPECT_EQ(rig.silhouettes.scale, SilhouetteOptions{}.scale);
     std::ifstream in(file);

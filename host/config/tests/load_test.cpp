@@ -124,8 +124,8 @@ role = "front"
 targets = ["127.0.0.1:7700"]
 )";
   const RigConfig d = parse(rig, head);
-  EXPECT_EQ(d.carving.rule, CarveRule::Footprint);
-  EXPECT_EQ(d.carving.wire_value(), VC_CARVE_FOOTPRINT);
+  EXPECT_EQ(d.carving.rule, CarveRule::Subpixel);
+  EXPECT_EQ(d.carving.wire_value(), VC_CARVE_SUBPIXEL);
   EXPECT_EQ(d.silhouettes.every, 0);
   EXPECT_EQ(d.silhouettes.scale, 1);
   EXPECT_FALSE(d.silhouettes.enabled());
@@ -137,8 +137,10 @@ targets = ["127.0.0.1:7700"]
   EXPECT_EQ(c.silhouettes.scale, 4);
   EXPECT_TRUE(c.silhouettes.enabled());
   EXPECT_EQ(parse(rig, head + "[carving]\nrule = \"footprint\"\n").carving.rule, CarveRule::Footprint);
+  EXPECT_EQ(parse(rig, head + "[carving]\nrule = \"footprint\"\n").carving.wire_value(), VC_CARVE_FOOTPRINT);
+  EXPECT_EQ(parse(rig, head + "[carving]\nrule = \"subpixel\"\n").carving.rule, CarveRule::Subpixel);
   const std::pair<std::string, std::string> bad[] = {
-      {"[carving]\nrule = \"center\"\n", "carving.rule: must be \"footprint\" or \"centre\", got \"center\""},
+      {"[carving]\nrule = \"center\"\n", "carving.rule: must be \"subpixel\", \"footprint\" or \"centre\", got \"center\""},
       {"[carving]\nrul = \"centre\"\n", "carving.rul"},
       {"[silhouettes]\nevery = 256\n", "silhouettes.every: must be in [0, 255] (0: never), got 256"},
       {"[silhouettes]\nevery = -1\n", "silhouettes.every"},
@@ -167,6 +169,9 @@ targets = ["127.0.0.1:7700"]
   EXPECT_EQ(r, CarveRule::Centre);
   EXPECT_FALSE(parse_carve_rule("Centre", &r));
   EXPECT_EQ(to_string(CarveRule::Footprint), "footprint");
+  EXPECT_EQ(to_string(CarveRule::Subpixel), "subpixel");
+  EXPECT_TRUE(parse_carve_rule("subpixel", &r));
+  EXPECT_EQ(r, CarveRule::Subpixel);
 }
 
 TEST(LoadRigConfig, CamerasAreNamedByNameOrByCalibrationNode) {

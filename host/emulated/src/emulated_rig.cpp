@@ -28,6 +28,7 @@
 #include <toml++/toml.h>
 
 #include "voxcap/aggregator/record_stage.hpp"
+#include "voxcap/config/options.hpp"
 #include "voxcap/edge/carver.h"
 #include "voxcap/rig/c_models.hpp"
 #include "voxcap/rig/calibration.hpp"
@@ -54,8 +55,9 @@ bool Options::valid(std::string* why) const {
   if (deadline_ms <= 0) return fail("deadline: must be > 0");
   if (truth_every < 0) return fail("truth_every: must be >= 0");
   if (motion.empty()) return fail("motion: must be set");
-  if (carve != "footprint" && carve != "centre")
-    return fail("carve: footprint or centre, got '" + carve + "'");
+  config::CarveRule rule{};
+  if (!config::parse_carve_rule(carve, &rule))
+    return fail("carve: subpixel, footprint or centre, got '" + carve + "'");
   if (silhouette_scale < 1 || silhouette_scale > 16) return fail("silhouette scale: must be in 1..16");
   {
     sim::SceneOptions so;
@@ -128,8 +130,11 @@ struct SilhouetteSums {
   }
 };
 
+// The rule named (Options::valid() checked it), as the wire's value.
 vc_carve_rule carve_rule(const std::string& name) {
-  return name == "centre" ? VC_CARVE_CENTRE : VC_CARVE_FOOTPRINT;
+  config::CarvingOptions c;
+  config::parse_carve_rule(name, &c.rule);
+  return static_cast<vc_carve_rule>(c.wire_value());
 }
 
 }  // namespace
@@ -500,7 +505,7 @@ config::RigConfig rig_config(const Options& o, const rig::Calibration& cal, cons
   c.subtraction.cleanup_radius_px = 1;
   c.subtraction.background_frames = 20;
   // The edges carve with the rig's rule and send their masks for the scored frames.
-  c.carving.rule = o.carve == "centre" ? config::CarveRule::Centre : config::CarveRule::Footprint;
+  config::parse_carve_rule(o.carve, &c.carving.rule);  // o.valid() checked the name
   c.silhouettes.every = o.truth_every;
   c.silhouettes.scale = o.silhouette_scale;
   c.trigger.backend = config::TriggerBackend::Udp;

@@ -41,8 +41,13 @@ typedef struct vc_voxel_grid {
  *  - VC_CARVE_CENTRE: the voxel's centre projects onto a silhouette pixel in both cameras (the paper's rule);
  *  - VC_CARVE_FOOTPRINT: the voxel's projected footprint touches a silhouette pixel in both cameras, so
  *    the hull holds every voxel that holds some of the body when the silhouettes are exact (a superset
- *    of the body, at the price of about half a voxel of extra thickness on every surface). */
-typedef enum vc_carve_rule { VC_CARVE_CENTRE = 0, VC_CARVE_FOOTPRINT = 1 } vc_carve_rule;
+ *    of the body, at the price of about half a voxel of extra thickness on every surface);
+ *  - VC_CARVE_SUBPIXEL (2.2): a one-pixel square centred on the voxel centre's exact (sub-pixel)
+ *    projection touches a silhouette pixel in both cameras: the centre rule without its rounding to
+ *    one pixel, so a voxel whose centre is inside the body is kept although the pixel its centre
+ *    rounds to lies just outside a mask edge (1 to 4 pixels read instead of 1). */
+typedef enum vc_carve_rule { VC_CARVE_CENTRE = 0, VC_CARVE_FOOTPRINT = 1, VC_CARVE_SUBPIXEL = 2 } vc_carve_rule;
+#define VC_CARVE_RULE_COUNT 3
 
 #ifdef __cplusplus
 }

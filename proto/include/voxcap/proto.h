@@ -29,7 +29,7 @@ extern "C" {
 
 #define VC_PROTO_MAGIC 0x50435856u /* "VXCP" in memory */
 #define VC_PROTO_VERSION_MAJOR 2
-#define VC_PROTO_VERSION_MINOR 1
+#define VC_PROTO_VERSION_MINOR 2
 #define VC_PROTO_HEADER_SIZE 40
 
 #define VC_PROTO_MAX_PAYLOAD (8u * 1024u * 1024u) /* bytes after the header, any type */
@@ -162,6 +162,7 @@ const char* vc_feature_name(uint32_t id);          /* "head", "left_hand", ... o
 const char* vc_feature_state_name(uint32_t state); /* "tracking", ... or NULL */
 const char* vc_node_state_name(uint32_t state);    /* "host", "idle", ... or NULL */
 const char* vc_role_name(uint32_t role);           /* "none", "front" or NULL */
+const char* vc_carve_rule_name(uint32_t rule);     /* "centre", "footprint", "subpixel" or NULL */
 
 /* ERROR codes (the ERROR message's `code`; open set) and severities. */
 enum vc_error_code {

@@ -34,9 +34,10 @@
  * float implementation of the rules above on those values gives the same mask (see the tests).
  *
  * Thread safety: a model may be used by one thread at a time. vc_subtract() keeps the texture
- * test's per-row terms in the model (5 rows x 12 bytes per pixel: 38 KB at 640 wide, allocated by
- * vc_bgmodel_set_params when the test is on), so one frame at a time per model, as the edge runs
- * it (one model per camera); with shadow_texture_k 0 it only reads the model.
+ * test's candidates of 5 rows and its running column sums in the model (16 bytes per pixel of 5
+ * rows + 16 per column: 61 KB at 640 wide, allocated by vc_bgmodel_set_params when the test is on),
+ * so one frame at a time per model, as the edge runs it (one model per camera); with
+ * shadow_texture_k 0 it only reads the model.
  */
 #ifndef VOXCAP_EDGE_BGMODEL_H
 #define VOXCAP_EDGE_BGMODEL_H

@@ -1,11 +1,21 @@
 /* Partial visual hull carving over a voxel grid from the two silhouettes of one edge node
  * (paper section 7). The projection is OpenCV's (cv::projectPoints): x_cam = R x_world + t, pinhole
  * with k1 k2 p1 p2 k3 distortion, continuous pixel position (u, v) with pixel centres at integer
- * coordinates; pixel (x, y) is the square [x-1/2, x+1/2] x [y-1/2, y+1/2]. Two rules (vc_carve_rule):
+ * coordinates; pixel (x, y) is the square [x-1/2, x+1/2] x [y-1/2, y+1/2]. Three rules (vc_carve_rule):
  *
  * VC_CARVE_CENTRE (the paper's): a voxel is occupied when its centre's pixel (floor(u + 0.5),
  * floor(v + 0.5)) is foreground (nonzero) in both masks; a centre outside an image, or behind a
  * camera (z_cam <= 0), is empty.
+ *
+ * VC_CARVE_SUBPIXEL: a voxel reads every pixel whose square overlaps the one-pixel square centred on
+ * its centre's exact projection (u, v), i.e. x in (u - 1, u + 1) and y in (v - 1, v + 1): the 1 to 4
+ * pixels nearest to (u, v), clipped to the image, among them the centre rule's pixel. It is occupied
+ * when one of them is foreground in both masks; a centre behind a camera, or whose square lies wholly
+ * outside an image, is empty. A mask pixel is foreground when the body covers its centre (about), so
+ * the centre rule misses a voxel whose centre is inside the body but within half a pixel of the
+ * silhouette's edge; this rule keeps it, at the cost of a hull about half a pixel thicker in each
+ * view (far less than the footprint rule's whole voxel). Same machinery and per-frame cost shape as
+ * the footprint rule (one or two small dilated masks per camera).
  *
  * VC_CARVE_FOOTPRINT (conservative): per camera, the voxel's 8 corners in normalized coordinates
  * (X/Z, Y/Z) have a bounding box B; without distortion the cube projects inside B (a convex polytope
@@ -98,7 +108,8 @@ size_t vc_carver_scratch_bytes(const vc_carver* carver);
 int vc_carver_classes(const vc_carver* carver, int cam);
 
 /* The pixels voxel (i, j, k) reads in each camera, as rect[c] = {x0, y0, x1, y1} (inclusive): its
- * centre's pixel for the centre rule, its widened footprint rectangle for the footprint rule.
+ * centre's pixel for the centre rule, its widened footprint rectangle for the footprint rule, the up to
+ * 2x2 pixels nearest to its centre's projection (widened to its class) for the subpixel rule.
  * Returns 1 when the voxel is seen by both cameras (it is occupied exactly when both rectangles hold
  * foreground), 0 when it is always empty or out of the grid (rect untouched). For tests and tools. */
 int vc_carver_footprint(const vc_carver* carver, uint32_t i, uint32_t j, uint32_t k, uint32_t rect[2][4]);

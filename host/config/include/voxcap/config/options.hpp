@@ -140,16 +140,19 @@ struct FeatureOptions {
   bool enabled = true;  // track head, hands, feet on the front nodes
 };
 
-// How the edges carve ([carving], CONFIG's carve_rule): the voxel's footprint or only its centre must
-// touch each silhouette (vc_carve_rule, proto/include/voxcap/camera_model.h).
-enum class CarveRule { Centre, Footprint };
-std::string_view to_string(CarveRule rule);                    // "centre", "footprint"
+// How the edges carve ([carving], CONFIG's carve_rule): what of a voxel must touch each silhouette —
+// its centre's pixel, its whole projected footprint, or the one-pixel square at its centre's exact
+// projection (vc_carve_rule, proto/include/voxcap/camera_model.h; proto/SPEC.md "Carve rules").
+enum class CarveRule { Centre, Footprint, Subpixel };
+std::string_view to_string(CarveRule rule);                    // "centre", "footprint", "subpixel"
 bool parse_carve_rule(std::string_view name, CarveRule* out);  // false for anything else
 struct CarvingOptions {
-  CarveRule rule = CarveRule::Footprint;  // the conservative rule: the hull keeps hands and feet
+  // subpixel: keeps the hands and feet (the centre rule loses voxels at mask edges) without the
+  // footprint rule's phantom volume; footprint: a superset of the body with exact silhouettes.
+  CarveRule rule = CarveRule::Subpixel;
 
   bool valid(std::string* why) const;
-  uint16_t wire_value() const;  // CONFIG's carve_rule: VC_CARVE_CENTRE or VC_CARVE_FOOTPRINT
+  uint16_t wire_value() const;  // CONFIG's carve_rule: VC_CARVE_CENTRE, _FOOTPRINT or _SUBPIXEL
 };
 
 // The edges' own masks sent to the host ([silhouettes], CONFIG's silhouette_every/_scale, SILHOUETTE
