@@ -13,6 +13,8 @@
 #include "commands.hpp"
 #include "voxcap/aggregator/aggregator.hpp"
 #include "voxcap/config/rig_config.hpp"
+#include "voxcap/pipeline/frame.hpp"
+#include "voxcap/proto.h"
 #include "voxcap/record/recorder.hpp"
 #include "voxcap/record/session_info.hpp"
 
@@ -67,6 +69,12 @@ void run_info(const InfoArgs& a) {
   }
 }
 
+// "head", "left_hand", ... for a vc_feature_id; "feature<N>" for anything else.
+std::string feature_name(uint16_t id) {
+  const char* n = vc_feature_name(id);
+  return n ? std::string(n) : fmt::format("feature{}", id);
+}
+
 struct DumpArgs {
   std::string dir;
   std::string type;
@@ -101,6 +109,22 @@ nlohmann::json to_json(const record::Record& r) {
                   {"node_id", x.node_id},
                   {"camera", x.camera},
                   {"features", fs_json}};
+        } else if constexpr (std::is_same_v<T, record::Features3DRecord>) {
+          json fs_json = json::array();
+          for (const auto& f : x.features) {
+            json one = {
+                {"id", f.id},
+                {"name", feature_name(f.id)},
+                {"state", pipeline::feature3d_state_name(static_cast<pipeline::Feature3DState>(f.state))},
+                {"confidence", f.confidence},
+                {"views", f.views}};
+            if (f.state == 0) {
+              one["p_world_m"] = {f.x, f.y, f.z};
+              one["reproj_px"] = f.reproj_px;
+            }
+            fs_json.push_back(one);
+          }
+          return {{"type", "features3d"}, {"seq", x.seq}, {"features", fs_json}};
         } else if constexpr (std::is_same_v<T, record::PoseRecord>) {
           return {{"type", "pose"},
                   {"seq", x.seq},
@@ -136,6 +160,19 @@ std::string to_text(const record::Record& r) {
             fs_text +=
                 fmt::format("  #{} ({:.1f}, {:.1f}) s{} c{:.2f}", f.id, f.u, f.v, f.state, f.confidence);
           return fmt::format("features seq {:<8} node {} camera {}:{}", x.seq, x.node_id, x.camera, fs_text);
+        } else if constexpr (std::is_same_v<T, record::Features3DRecord>) {
+          std::string fs_text;
+          for (const auto& f : x.features) {
+            if (f.state == 0)
+              fs_text +=
+                  fmt::format("  {} ({:.3f}, {:.3f}, {:.3f}) m c{:.2f} {:.1f} px cams {}", feature_name(f.id),
+                              f.x, f.y, f.z, f.confidence, f.reproj_px, fmt::join(f.views, ","));
+            else
+              fs_text +=
+                  fmt::format("  {} {}", feature_name(f.id),
+                              pipeline::feature3d_state_name(static_cast<pipeline::Feature3DState>(f.state)));
+          }
+          return fmt::format("features3d seq {:<8}{}", x.seq, fs_text);
         } else if constexpr (std::is_same_v<T, record::PoseRecord>) {
           return fmt::format(
               "pose     seq {:<8} {} values ({}){}", x.seq, x.values.size(), x.layout,
@@ -150,13 +187,15 @@ std::string to_text(const record::Record& r) {
 }
 
 const char* type_name(const record::Record& r) {
-  static const char* const kNames[] = {"frame", "features", "pose", "stats"};
+  static const char* const kNames[] = {"frame", "features", "pose", "stats", "features3d"};
   return kNames[r.index()];
 }
 
 void run_dump(const DumpArgs& a) {
-  if (!a.type.empty() && a.type != "frame" && a.type != "features" && a.type != "pose" && a.type != "stats")
-    throw UsageError(fmt::format("--type: must be frame, features, pose or stats, got \"{}\"", a.type));
+  if (!a.type.empty() && a.type != "frame" && a.type != "features" && a.type != "pose" && a.type != "stats" &&
+      a.type != "features3d")
+    throw UsageError(
+        fmt::format("--type: must be frame, features, features3d, pose or stats, got \"{}\"", a.type));
   Reader reader = open_session(a.dir);
   record::Record r;
   uint64_t printed = 0;
@@ -198,7 +237,9 @@ void add_session_commands(CLI::App& app) {
                                            "Print a session's records in file order, one line each "
                                            "(up to its last complete record)");
   dump->add_option("DIR", dump_args->dir, "Session folder")->required();
-  dump->add_option("--type", dump_args->type, "Only records of this type: frame, features, pose or stats");
+  dump->add_option("--type", dump_args->type,
+                   "Only records of this type: frame, features, features3d (the host's triangulated "
+                   "features), pose or stats");
   dump->add_option("--limit", dump_args->limit, "Stop after printing this many records (0: all)");
   dump->add_flag("--json", dump_args->json,
                  "One JSON object per line (hull RLE given as its size, rle_bytes)");

@@ -106,6 +106,10 @@ void print_edge_table(const nlohmann::json& j) {
 }
 
 void print_host_text(const nlohmann::json& j) {
+  for (const auto& t : j["triangulate"])
+    fmt::print("triangulate {} cameras: {:.1f} us per frame (p99 {:.1f} us), 3D error p50 {:.1f} mm\n",
+               t["cameras"].get<int>(), t["ns_per_frame"].get<double>() / 1e3,
+               t["ns_p99"].get<double>() / 1e3, t["err3d_mm_p50"].get<double>());
   for (const auto& m : j["merge"])
     fmt::print("merge {} nodes at {}^3: {:.1f} us per frame (p99 {:.1f} us), {} B RLE per node\n",
                m["nodes"].get<int>(), m["grid"].get<int>(), m["merge_ns_per_frame"].get<double>() / 1e3,
@@ -192,17 +196,21 @@ void add_host_command(CLI::App& app) {
   auto hsize = std::make_shared<std::string>("640x480");
   auto grids = std::make_shared<std::vector<int>>();
   auto nodes = std::make_shared<std::vector<int>>();
-  auto* host = app.add_subcommand(
-      "host",
-      "Host: merge cost per frame (3/4/8 nodes, 64^3..256^3), the emulated rig's fps, latency and memory");
+  auto* host = app.add_subcommand("host",
+                                  "Host: merge cost per frame (3/4/8 nodes, 64^3..256^3), triangulation cost "
+                                  "per frame (6/8 cameras), the emulated rig's fps, latency and memory");
   host->footer(
       "JSON keys: merge[] {nodes, grid, voxels, rle_bytes_per_node, merged_occupied, merge_ns_per_frame "
       "(median), "
-      "merge_ns_p99}; rig {nodes, size, grid, seconds, pulses, frames, complete, degraded, fps, "
+      "merge_ns_p99}; triangulate[] {cameras, frames, ns_per_frame, ns_p99, err3d_mm_p50}; rig {nodes, size, "
+      "grid, seconds, pulses, frames, complete, degraded, fps, "
       "trigger_to_merged_ms {p50, p99}, host_rss_kb {start, end}}. Keys also in tests/bench/README.md.");
   host->add_option("--grid", *grids, "merge: voxels per axis; repeat for several (default 64 128 256)");
   host->add_option("--nodes", *nodes, "merge: node counts; repeat for several (default 3 4 8)");
   host->add_option("--repeats", hopt->repeats, "merge: timed merges per configuration")
+      ->capture_default_str();
+  host->add_option("--tri-frames", hopt->tri_frames, "triangulate: frames timed per camera count")
+      ->check(CLI::Range(1, 100000))
       ->capture_default_str();
   host->add_option("--minutes", hopt->rig_minutes,
                    "rig: how long the emulated rig runs (memory at start and end)")

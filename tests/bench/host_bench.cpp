@@ -6,12 +6,15 @@
 #include <chrono>
 #include <cmath>
 #include <numeric>
+#include <random>
 #include <thread>
 
 #include "voxcap/assemble/assembler.hpp"
 #include "voxcap/emulated/emulated_rig.hpp"
 #include "voxcap/rle.h"
 #include "voxcap/sim/scene.hpp"
+#include "voxcap/triangulate/synthetic.hpp"
+#include "voxcap/triangulate/triangulate.hpp"
 
 namespace vc::bench {
 namespace {
@@ -80,6 +83,7 @@ nlohmann::json run_host_bench(const HostBenchOptions& o) {
     std::vector<uint8_t> b = body(n);
     int max_nodes = *std::max_element(o.nodes.begin(), o.nodes.end());
     std::vector<std::vector<uint8_t>> parts;
+    parts.reserve(static_cast<size_t>(max_nodes));
     for (int k = 0; k < max_nodes; k++)
       parts.push_back(encode(extrude(b, n, M_PI * k / max_nodes, 1.0), nbits));
     for (int nodes : o.nodes) {
@@ -108,6 +112,39 @@ nlohmann::json run_host_bench(const HostBenchOptions& o) {
                             {"merge_ns_per_frame", ns[ns.size() / 2]},
                             {"merge_ns_p99", ns[std::min(ns.size() - 1, ns.size() * 99 / 100)]}});
     }
+  }
+  j["triangulate"] = nlohmann::json::array();
+  for (int cams : o.tri_cameras) {
+    sim::SceneOptions so;
+    so.motion.source = "wave";
+    so.rig.cameras = cams;
+    so.rig.distortion = true;
+    const sim::Scene scene(so);
+    std::mt19937_64 rng(7);
+    triangulate::testing::Noise noise;
+    noise.outlier = 0.05;
+    std::vector<std::vector<triangulate::CameraObservations>> obs;
+    obs.reserve(static_cast<size_t>(o.tri_frames));
+    for (int f = 0; f < o.tri_frames; ++f) obs.push_back(triangulate::testing::observe(scene, f, noise, rng));
+    triangulate::FeatureTriangulator tri(scene.calibration().cameras, {0, 1}, triangulate::Options{});
+    std::vector<double> ns, err;
+    for (int f = 0; f < o.tri_frames; ++f) {
+      auto t0 = Clock::now();
+      const auto r = tri.process(obs[static_cast<size_t>(f)]);
+      ns.push_back(std::chrono::duration<double, std::nano>(Clock::now() - t0).count());
+      for (int id = 0; id < 5; ++id)
+        if (r[static_cast<size_t>(id)].state == pipeline::Feature3DState::Triangulated) {
+          const auto& p = r[static_cast<size_t>(id)].p_world;
+          err.push_back(cv::norm(cv::Vec3d(p[0], p[1], p[2]) - triangulate::testing::truth(scene, f, id)));
+        }
+    }
+    std::sort(ns.begin(), ns.end());
+    std::sort(err.begin(), err.end());
+    j["triangulate"].push_back({{"cameras", cams},
+                                {"frames", o.tri_frames},
+                                {"ns_per_frame", ns[ns.size() / 2]},
+                                {"ns_p99", ns[std::min(ns.size() - 1, ns.size() * 99 / 100)]},
+                                {"err3d_mm_p50", err.empty() ? 0.0 : 1000 * err[err.size() / 2]}});
   }
   if (o.rig) {
     emulated::Options eo;

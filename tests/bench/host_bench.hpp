@@ -3,6 +3,9 @@
 //           for 3, 4 and 8 nodes at 64^3, 128^3 and 256^3, on human-shaped partial hulls: the simulator's
 //           true body occupancy extruded along each node's horizontal viewing direction (what two nearby
 //           views leave of a body: a prism around it), so run counts are those of real hulls.
+//   triangulate: cost per frame of the host's triangulation stage (host/triangulate: five features,
+//           RANSAC over views, left/right agreement) on synthetic edge observations of hw/sim's wave
+//           motion (1 px noise, 5 % confident outliers, image-side labels), 6 and 8 cameras.
 //   rig:    the emulated rig's sustained fps, trigger -> merged-hull latency (p50, p99), frames complete,
 //           and the host's resident memory at the start and at the end of the run (default 10 minutes);
 //           then one edge killed and restarted: its time to rejoin the run (rejoin_ms).
@@ -16,7 +19,9 @@ namespace vc::bench {
 struct HostBenchOptions {
   std::vector<int> grids{64, 128, 256};
   std::vector<int> nodes{3, 4, 8};
-  int repeats = 50;         // merges timed per configuration
+  int repeats = 50;  // merges timed per configuration
+  std::vector<int> tri_cameras{6, 8};
+  int tri_frames = 240;     // triangulated frames timed per camera count
   bool rig = true;          // run the emulated rig part
   double rig_minutes = 10;  // how long the emulated rig runs
   int rig_nodes = 3;

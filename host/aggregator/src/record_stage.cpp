@@ -60,6 +60,23 @@ void RecordStage::process(pipeline::Frame& f) {
     }
     for (const vc_stats& st : p.stats) rec_->append(record::to_record(p.node_id, now, st));
   }
+  if (f.triangulated) {
+    features3d_.seq = f.seq;
+    features3d_.features.resize(f.features3d.size());
+    for (size_t i = 0; i < f.features3d.size(); ++i) {
+      const pipeline::Feature3D& in = f.features3d[i];
+      record::Features3DRecord::P& o = features3d_.features[i];
+      o.id = in.feature_id;
+      o.state = static_cast<uint8_t>(in.state);
+      o.x = in.p_world[0];
+      o.y = in.p_world[1];
+      o.z = in.p_world[2];
+      o.confidence = in.confidence;
+      o.reproj_px = in.reproj_px;
+      o.views.assign(in.views.begin(), in.views.end());
+    }
+    rec_->append(features3d_);
+  }
   auto t = std::chrono::steady_clock::now();
   if (t - last_sync_ >= std::chrono::seconds(1)) {
     rec_->flush();

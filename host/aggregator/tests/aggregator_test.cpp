@@ -423,7 +423,10 @@ TEST(Aggregator, FeaturesAndStatsTravelWithTheirFrameThroughEveryStageIntoTheRec
     EXPECT_EQ(r.nodes[0].features + r.nodes[0].features_late, 2u) << "both FEATURES accounted";
     EXPECT_EQ(r.nodes[0].features, feats);
     EXPECT_DOUBLE_EQ(r.nodes[0].edge_frame_ms, 2.0);
-    for (const char* stage : {"assemble", "merge", "test-sink", "record", "figures"}) {
+    // The triangulation stage runs after merge (the rig has features and [triangulation] enabled).
+    EXPECT_TRUE(f.triangulated);
+    EXPECT_EQ(f.features3d.size(), 5u);
+    for (const char* stage : {"assemble", "merge", "triangulate", "test-sink", "record", "figures"}) {
       const pipeline::StageReport* s = r.pipeline.stage(stage);
       ASSERT_NE(s, nullptr) << stage;
       EXPECT_EQ(s->queue.dropped, 0u) << stage;
@@ -433,7 +436,9 @@ TEST(Aggregator, FeaturesAndStatsTravelWithTheirFrameThroughEveryStageIntoTheRec
     EXPECT_GE(r.pipeline.stage("assemble")->processed, 5u);
     std::vector<std::string> order;
     for (const auto& s : r.pipeline.stages) order.push_back(s.name);
-    EXPECT_EQ(order, (std::vector<std::string>{"assemble", "merge", "test-sink", "record", "figures"}));
+    EXPECT_EQ(order, (std::vector<std::string>{"assemble", "merge", "triangulate", "test-sink", "record",
+                                               "figures"}));
+    EXPECT_EQ(r.pipeline.stage("triangulate")->processed, 1u);
   }
   record::Reader reader = record::Reader::open(rec.dir());
   const record::Reader::Summary& s = reader.summary();

@@ -238,6 +238,18 @@ void read_silhouettes(Reader& r, SilhouetteOptions* o) {
   r.finish();
 }
 
+void read_triangulation(Reader& r, TriangulationOptions* o) {
+  r.get("enabled", &o->enabled);
+  r.get("min_confidence", &o->min_confidence);
+  r.get("predicted_weight", &o->predicted_weight);
+  r.get("inlier_px", &o->inlier_px);
+  r.get_int("refine_iterations", &o->refine_iterations, 0, 1000);
+  r.get("confident", &o->confident);
+  r.get("swap_ratio", &o->swap_ratio);
+  r.get_int("identity_gap_frames", &o->identity_gap_frames, 0, 10000000);
+  r.finish();
+}
+
 void read_trigger(Reader& r, TriggerOptions* o) {
   std::string backend;
   if (r.get("backend", &backend) && !parse_trigger_backend(backend, &o->backend))
@@ -361,6 +373,7 @@ void check_sections(const RigConfig& c, const Context& ctx) {
   if (!c.subtraction.valid(&why)) fail_validation(ctx, "subtraction", why);
   if (!c.carving.valid(&why)) fail_validation(ctx, "carving", why);
   if (!c.silhouettes.valid(&why)) fail_validation(ctx, "silhouettes", why);
+  if (!c.triangulation.valid(&why)) fail_validation(ctx, "triangulation", why);
   if (!c.trigger.valid(&why)) fail_validation(ctx, "trigger", why);
   if (!c.assembly.valid(&why)) fail_validation(ctx, "assembly", why);
   if (!c.recording.valid(&why)) fail_validation(ctx, "recording", why);
@@ -459,6 +472,10 @@ RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::pa
       r.ctx().fail(r.key("nodes"), fmt::format("must be \"all\" or \"front\", got \"{}\"", nodes));
     r.finish();
   }
+  if (const toml::table* t = top.table("triangulation")) {
+    Reader r(*t, "triangulation", ctx);
+    read_triangulation(r, &c.triangulation);
+  }
   if (const toml::table* t = top.table("trigger")) {
     Reader r(*t, "trigger", ctx);
     read_trigger(r, &c.trigger);
@@ -517,6 +534,29 @@ RigConfig load_rig_config(const std::filesystem::path& path, const LoadOptions& 
   std::ostringstream text;
   text << in.rdbuf();
   return parse_rig_config(text.str(), path, options);
+}
+
+// Here rather than in options.cpp: [triangulation] is read and checked in this file alone.
+bool TriangulationOptions::valid(std::string* why) const {
+  auto bad = [why](std::string m) {
+    if (why) *why = std::move(m);
+    return false;
+  };
+  auto unit = [](double x) { return x >= 0 && x <= 1; };
+  if (!unit(min_confidence))
+    return bad(fmt::format("min_confidence: must be in [0, 1], got {}", min_confidence));
+  if (!unit(predicted_weight))
+    return bad(fmt::format("predicted_weight: must be in [0, 1], got {}", predicted_weight));
+  if (!(inlier_px > 0 && inlier_px <= 1000))
+    return bad(fmt::format("inlier_px: must be in (0, 1000], got {}", inlier_px));
+  if (refine_iterations < 0 || refine_iterations > 50)
+    return bad(fmt::format("refine_iterations: must be in [0, 50], got {}", refine_iterations));
+  if (!unit(confident)) return bad(fmt::format("confident: must be in [0, 1], got {}", confident));
+  if (!(swap_ratio > 0 && swap_ratio < 1))
+    return bad(fmt::format("swap_ratio: must be in (0, 1), got {}", swap_ratio));
+  if (identity_gap_frames < 1 || identity_gap_frames > 100000)
+    return bad(fmt::format("identity_gap_frames: must be in [1, 100000], got {}", identity_gap_frames));
+  return true;
 }
 
 std::filesystem::path default_rig_config_path() {

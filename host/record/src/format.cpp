@@ -180,12 +180,35 @@ const char* to_string(RecordType type) {
       return "stats";
     case RecordType::End:
       return "end";
+    case RecordType::Features3D:
+      return "features3d";
   }
   return "unknown";
 }
 
 // ---------------------------------------------------------------------------------------------------
 // check
+
+namespace {
+size_t features3d_body(const Features3DRecord& r) {
+  size_t n = kFeatures3DFixed;
+  for (const Features3DRecord::P& f : r.features) n += kFeature3DFixed + 2 * f.views.size();
+  return n;
+}
+}  // namespace
+
+bool check(const Features3DRecord& r, std::string* why) {
+  if (r.features.size() > Features3DRecord::kMaxFeatures)
+    return fail(why, fmt::format("features3d seq {}: {} features are too many", r.seq, r.features.size()));
+  for (const Features3DRecord::P& f : r.features) {
+    if (f.views.size() > Features3DRecord::kMaxViews)
+      return fail(why, fmt::format("features3d seq {}: feature {} has {} views, at most {}", r.seq, f.id,
+                                   f.views.size(), Features3DRecord::kMaxViews));
+    if (f.state > 2)
+      return fail(why, fmt::format("features3d seq {}: feature {} state {}", r.seq, f.id, f.state));
+  }
+  return true;
+}
 
 bool check(const FrameRecord& r, std::string* why) {
   if (r.nodes_present.size() > 0xFFFF || r.nodes_missing.size() > 0xFFFF)
@@ -287,6 +310,28 @@ void encode(const FeatureRecord& r, uint64_t index, std::vector<uint8_t>& out) {
   end_record(put, out);
 }
 
+// FEATURES3D (7): `0` u64 seq · `8` u16 count · `10` u16 reserved 0 · then count × (u16 id, u8 state,
+// u8 n_views, f64 x, f64 y, f64 z, f32 confidence, f32 reproj_px, n_views × u16 camera).
+void encode(const Features3DRecord& r, uint64_t index, std::vector<uint8_t>& out) {
+  require(r);
+  Put put = begin_record(RecordType::Features3D, index, features3d_body(r), out);
+  put.u64(r.seq);
+  put.u16(static_cast<uint16_t>(r.features.size()));
+  put.u16(0);
+  for (const Features3DRecord::P& f : r.features) {
+    put.u16(f.id);
+    put.u8(f.state);
+    put.u8(static_cast<uint8_t>(f.views.size()));
+    put.f64(f.x);
+    put.f64(f.y);
+    put.f64(f.z);
+    put.f32(f.confidence);
+    put.f32(f.reproj_px);
+    for (uint16_t v : f.views) put.u16(v);
+  }
+  end_record(put, out);
+}
+
 void encode(const PoseRecord& r, uint64_t index, std::vector<uint8_t>& out) {
   require(r);
   Put put = begin_record(RecordType::Pose, index, pose_body(r), out);
@@ -329,7 +374,7 @@ bool decode_header(const uint8_t* p, Header* out, std::string* why) {
   if (magic != kMagic) return fail(why, fmt::format("bad magic 0x{:08x}", magic));
   if (load_u32(p + 20) != vc_crc32c(0, p, 20)) return fail(why, "bad header CRC");
   const uint8_t type = p[4];
-  if (type < static_cast<uint8_t>(RecordType::Begin) || type > static_cast<uint8_t>(RecordType::End))
+  if (type < static_cast<uint8_t>(RecordType::Begin) || type > static_cast<uint8_t>(RecordType::Features3D))
     return fail(why, fmt::format("unknown record type {} (written by a newer voxcap?)", type));
   if (p[5] != 0 || p[6] != 0 || p[7] != 0) return fail(why, "nonzero reserved header bytes");
   const uint32_t body = load_u32(p + 8);
@@ -356,9 +401,9 @@ bool decode_body(std::span<const uint8_t> body, BeginRecord* out, std::string* w
   out->created_unix_ns = static_cast<int64_t>(get.u64());
   out->created_mono_ns = get.u64();
   if (!get.ok()) return fail(why, "begin record too short");
-  if (out->format_version != kFormatVersion)
-    return fail(why,
-                fmt::format("format version {} (this voxcap reads {})", out->format_version, kFormatVersion));
+  if (out->format_version < kOldestFormatVersion || out->format_version > kFormatVersion)
+    return fail(why, fmt::format("format version {} (this voxcap reads {} to {})", out->format_version,
+                                 kOldestFormatVersion, kFormatVersion));
   if (reserved != 0) return fail(why, "begin record: nonzero reserved bytes");
   if (get.left() != manifest_len) return fail(why, "begin record: manifest length does not match the body");
   const uint8_t* m = get.take(manifest_len);
@@ -411,6 +456,35 @@ bool decode_body(std::span<const uint8_t> body, FeatureRecord* out, std::string*
     f.confidence = get.f32();
   }
   return get.ok() && check(*out, why);
+}
+
+bool decode_body(std::span<const uint8_t> body, Features3DRecord* out, std::string* why) {
+  Get get(body);
+  out->seq = get.u64();
+  const uint16_t count = get.u16();
+  const uint16_t reserved = get.u16();
+  if (!get.ok()) return fail(why, "features3d record too short");
+  if (reserved != 0) return fail(why, fmt::format("features3d seq {}: nonzero reserved bytes", out->seq));
+  if (count > Features3DRecord::kMaxFeatures || get.left() < kFeature3DFixed * size_t{count})
+    return fail(why, fmt::format("features3d seq {}: count {} does not match the body", out->seq, count));
+  out->features.resize(count);
+  for (Features3DRecord::P& f : out->features) {
+    f.id = get.u16();
+    f.state = get.u8();
+    const uint8_t n_views = get.u8();
+    f.x = get.f64();
+    f.y = get.f64();
+    f.z = get.f64();
+    f.confidence = get.f32();
+    f.reproj_px = get.f32();
+    if (!get.ok() || get.left() < 2 * size_t{n_views})
+      return fail(why, fmt::format("features3d seq {}: feature {} is cut short", out->seq, f.id));
+    f.views.resize(n_views);
+    for (uint16_t& v : f.views) v = get.u16();
+  }
+  if (!get.ok() || get.left() != 0)
+    return fail(why, fmt::format("features3d seq {}: the body does not match its features", out->seq));
+  return check(*out, why);
 }
 
 bool decode_body(std::span<const uint8_t> body, PoseRecord* out, std::string* why) {

@@ -187,6 +187,8 @@ bool decode_data(const RawRecord& raw, Record& out, std::string* why) {
       return format::decode_body(raw.body, &holding<PoseRecord>(out), why);
     case RecordType::Stats:
       return format::decode_body(raw.body, &holding<StatsRecord>(out), why);
+    case RecordType::Features3D:
+      return format::decode_body(raw.body, &holding<Features3DRecord>(out), why);
     case RecordType::Begin:
     case RecordType::End:
       break;
@@ -248,6 +250,7 @@ class Tally {
     if (!p.joint_names.empty()) s_->joint_names = p.joint_names;
     s_->pose_layout = p.layout;
   }
+  void add_one(const Features3DRecord&) { ++s_->features3d; }
   void add_one(const StatsRecord& st) {
     ++s_->stats;
     node(st.node_id, [](auto& c) { ++c.stats_records; });

@@ -226,6 +226,9 @@ void Recorder::append(const PoseRecord& pose) {
 void Recorder::append(const StatsRecord& stats) {
   impl_->append(stats);
 }
+void Recorder::append(const Features3DRecord& features3d) {
+  impl_->append(features3d);
+}
 
 void Recorder::flush() {
   std::lock_guard lock(impl_->mu);

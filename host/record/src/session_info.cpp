@@ -65,6 +65,7 @@ std::string summary_text(const Reader::Summary& s, const std::filesystem::path& 
     line("hulls", fmt::format("{} frames, {} RLE", s.hull_frames, human_bytes(s.hull_bytes)));
   }
   line("features", fmt::format("{} records, {} points", s.features, s.feature_points));
+  line("3d feats", fmt::format("{} records (the host's triangulated features)", s.features3d));
   std::string poses = fmt::format("{} records", s.poses);
   if (s.poses) poses += fmt::format(" (layout \"{}\", {} joint names)", s.pose_layout, s.joint_names.size());
   line("poses", poses);
@@ -130,6 +131,7 @@ std::string summary_json(const Reader::Summary& s, const std::filesystem::path& 
       {"hull_bytes", s.hull_bytes},
       {"features", s.features},
       {"feature_points", s.feature_points},
+      {"features3d", s.features3d},
       {"poses", s.poses},
       {"pose_layout", s.pose_layout},
       {"joint_names", s.joint_names},

@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "session_fixture.hpp"
+#include "voxcap/record/format.hpp"
 #include "voxcap/record/recorder.hpp"
 
 namespace vc::record {
@@ -60,7 +61,8 @@ TEST_F(RecordSession, CreateWritesTheSessionFolder) {
   const std::vector<uint8_t> manifest = read_bytes(dir / "session.json");
   const auto m = nlohmann::json::parse(manifest.begin(), manifest.end());
   EXPECT_EQ(m["format"], "voxcap-session");
-  EXPECT_EQ(m["format_version"], 1);
+  EXPECT_EQ(m["format_version"], format::kFormatVersion);
+  EXPECT_EQ(format::kFormatVersion, 2u) << "FEATURES3D records need version 2";
   EXPECT_EQ(m["rig_name"], "testrig");
   EXPECT_EQ(m["meta"]["operator"], "ana");
   EXPECT_EQ(m["meta"]["take"], 3);
@@ -144,7 +146,7 @@ TEST_F(RecordSession, ClosedSessionRoundTrips) {
   EXPECT_TRUE(s.calibration_ok);
   EXPECT_THAT(s.rig_node_ids, ::testing::ElementsAre("front0", "side1", "side2"));
   EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
-  EXPECT_EQ(s.format_version, 1u);
+  EXPECT_EQ(s.format_version, 2u);
   EXPECT_EQ(nlohmann::json::parse(s.meta_json)["take"], 1);
   EXPECT_EQ(s.records, records.size());
   EXPECT_EQ(s.frames, 30u);

@@ -35,6 +35,7 @@ class RecordStage : public pipeline::Stage {
   std::optional<record::Recorder> rec_;
   record::FrameRecord frame_;  // reused: no allocation per frame once warmed up
   record::FeatureRecord features_;
+  record::Features3DRecord features3d_;  // the triangulation stage's 3D features, when it ran
   std::chrono::steady_clock::time_point last_sync_;
 };
 

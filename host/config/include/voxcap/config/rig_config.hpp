@@ -35,6 +35,22 @@ class ConfigError : public std::runtime_error {
   int line_;
 };
 
+// [triangulation]: how the host's triangulation stage (host/triangulate) turns the edges' 2D features
+// into 3D ones. Defaults are documented in host/config/README.md and host/triangulate/README.md.
+struct TriangulationOptions {
+  bool enabled = true;            // run the stage (voxcap-host, voxcap rig)
+  double min_confidence = 0.2;    // a view counts when its feature's confidence is above this, 0..1
+  double predicted_weight = 0.5;  // weight of a `predicted` view against a `tracking` one, 0..1
+  double inlier_px = 6.0;         // a view agrees with a point when it reprojects within this, pixels
+  int refine_iterations = 5;      // Gauss-Newton steps on the reprojection error, 0..50
+  double confident = 0.5;         // the documented threshold: a feature above it is within 10 cm
+  double swap_ratio = 0.5;        // a camera's left/right is decided when one assignment's error is
+                                  // below this fraction of the other's, else it keeps its last, 0..1
+  int identity_gap_frames = 30;   // both sides unseen longer than this: left/right named afresh, 1..100000
+
+  bool valid(std::string* why) const;
+};
+
 enum class GridSource { Config, Calibration };  // [grid] in rig.toml wins over the calibration's grid
 
 struct RigConfig {
@@ -50,6 +66,7 @@ struct RigConfig {
   TrackingOptions tracking;
   CarvingOptions carving;
   SilhouetteOptions silhouettes;
+  TriangulationOptions triangulation;
   TriggerOptions trigger;
   AssemblyOptions assembly;
   RecordingOptions recording;

@@ -4,6 +4,7 @@
 // and the consumers at the end (recording, the emulated rig's scorer, a viewer) read it.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <memory>
 #include <vector>
@@ -36,6 +37,37 @@ struct NodePart {
   std::vector<Silhouette> silhouettes;  // its SILHOUETTEs for this seq, one per camera, when it sent any
 };
 
+// One tracked feature in 3D, from the triangulation stage (host/triangulate): where the views that
+// report it agree. feature_id is the performer's own side (left_hand is the performer's left hand),
+// agreed across views — not the edge's image-side label (host/triangulate/README.md, "Left and right").
+enum class Feature3DState : uint8_t {
+  Triangulated = 0,  // p_world holds the position (two or more consistent views)
+  TooFewViews = 1,   // fewer than two views reported it (tracking/predicted, above the confidence floor)
+  Inconsistent = 2,  // two or more views reported it but no two of them agree on one point
+};
+inline constexpr int kFeature3DStateCount = 3;
+// "triangulated", "too_few_views", "inconsistent"; "?" for anything else.
+inline const char* feature3d_state_name(Feature3DState s) {
+  switch (s) {
+    case Feature3DState::Triangulated:
+      return "triangulated";
+    case Feature3DState::TooFewViews:
+      return "too_few_views";
+    case Feature3DState::Inconsistent:
+      return "inconsistent";
+  }
+  return "?";
+}
+
+struct Feature3D {
+  uint16_t feature_id = 0;  // vc_feature_id
+  Feature3DState state = Feature3DState::TooFewViews;
+  std::array<double, 3> p_world{0, 0, 0};  // metres, world frame; only when Triangulated
+  float confidence = 0;                    // 0..1 (host/triangulate/README.md, "Confidence")
+  float reproj_px = 0;                     // RMS reprojection error over the views used, pixels
+  std::vector<uint16_t> views;             // rig camera indices (calibration order) used, ascending
+};
+
 struct Frame {
   uint64_t seq = 0;                              // the trigger pulse counter
   uint64_t t_trigger_ns = 0;                     // host CLOCK_MONOTONIC of the pulse
@@ -52,8 +84,12 @@ struct Frame {
   std::vector<uint8_t> rle;                // the merged hull (AND of the partial hulls)
 
   // ---- The pose goes here. ----
-  // The fitting issue adds the skeleton's pose for this frame (and triangulation its 3D features) as
-  // fields of their own types; there is deliberately no placeholder type until then.
+  // The triangulation stage's 3D features: one per vc_feature_id (head, left_hand, ..., in id order)
+  // once the stage ran, empty before it (or without it).
+  std::vector<Feature3D> features3d;
+  bool triangulated = false;  // the triangulation stage ran on this frame
+  // The fitting issue adds the skeleton's pose for this frame as a field of its own type; there is
+  // deliberately no placeholder type until then.
 
   const NodePart* node(uint16_t id) const {
     for (const NodePart& p : nodes)

@@ -18,7 +18,9 @@
 namespace vc::record::format {
 
 inline constexpr uint32_t kMagic = 0x43525856;  // "VXRC" in file order
-inline constexpr uint16_t kFormatVersion = 1;   // BEGIN record's format_version
+// BEGIN record's format_version: 2 since FEATURES3D (7); the reader also reads 1 (no FEATURES3D).
+inline constexpr uint16_t kFormatVersion = 2;
+inline constexpr uint16_t kOldestFormatVersion = 1;
 inline constexpr size_t kHeaderBytes = 24;
 inline constexpr size_t kTrailerBytes = 4;
 inline constexpr uint32_t kMaxBodyBytes = 256u << 20;  // 256 MiB: a 256^3 hull's worst-case RLE fits
@@ -30,6 +32,7 @@ enum class RecordType : uint8_t {
   Pose = 4,
   Stats = 5,
   End = 6,
+  Features3D = 7,
 };
 const char* to_string(RecordType type);  // "begin", "frame", ...; "unknown" otherwise
 
@@ -47,6 +50,8 @@ inline constexpr size_t kFeatureBytes = 16;
 inline constexpr size_t kPoseFixed = 16;
 inline constexpr size_t kStatsFixed = 16;
 inline constexpr size_t kEndBody = 16;
+inline constexpr size_t kFeatures3DFixed = 12;
+inline constexpr size_t kFeature3DFixed = 36;  // without its views (2 bytes each)
 
 struct BeginRecord {
   uint16_t format_version = kFormatVersion;
@@ -67,6 +72,7 @@ bool check(const FrameRecord& r, std::string* why);
 bool check(const FeatureRecord& r, std::string* why);
 bool check(const PoseRecord& r, std::string* why);
 bool check(const StatsRecord& r, std::string* why);  // includes: json is valid JSON
+bool check(const Features3DRecord& r, std::string* why);
 
 // Encode one whole record (header, body, CRC) with record number `index` into `out` (resized; its
 // capacity is reused). The record must pass check() (the Recorder checks before; callers of these
@@ -76,6 +82,7 @@ void encode(const FrameRecord& r, uint64_t index, std::vector<uint8_t>& out);
 void encode(const FeatureRecord& r, uint64_t index, std::vector<uint8_t>& out);
 void encode(const PoseRecord& r, uint64_t index, std::vector<uint8_t>& out);
 void encode(const StatsRecord& r, uint64_t index, std::vector<uint8_t>& out);
+void encode(const Features3DRecord& r, uint64_t index, std::vector<uint8_t>& out);
 void encode(const EndRecord& r, uint64_t index, std::vector<uint8_t>& out);
 
 // Header of the kHeaderBytes at `p`: false + *why on bad magic, bad header CRC, unknown type,
@@ -92,6 +99,7 @@ bool decode_body(std::span<const uint8_t> body, FrameRecord* out, std::string* w
 bool decode_body(std::span<const uint8_t> body, FeatureRecord* out, std::string* why);
 bool decode_body(std::span<const uint8_t> body, PoseRecord* out, std::string* why);
 bool decode_body(std::span<const uint8_t> body, StatsRecord* out, std::string* why);
+bool decode_body(std::span<const uint8_t> body, Features3DRecord* out, std::string* why);
 bool decode_body(std::span<const uint8_t> body, EndRecord* out, std::string* why);
 
 }  // namespace vc::record::format

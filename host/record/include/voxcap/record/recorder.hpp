@@ -78,7 +78,25 @@ struct StatsRecord {  // per-node (or kHostNodeId: host) statistics as JSON text
   bool operator==(const StatsRecord&) const = default;
 };
 
-using Record = std::variant<FrameRecord, FeatureRecord, PoseRecord, StatsRecord>;
+// The host's 3D features of a frame (host/triangulate, pipeline::Feature3D): one entry per feature.
+struct Features3DRecord {
+  uint64_t seq = 0;
+  struct P {
+    uint16_t id = 0;             // vc_feature_id, the performer's side
+    uint8_t state = 0;           // pipeline::Feature3DState: 0 triangulated, 1 too_few_views, 2 inconsistent
+    double x = 0, y = 0, z = 0;  // metres, world frame (any bits stored exactly)
+    float confidence = 0, reproj_px = 0;  // 0..1; RMS reprojection error, pixels
+    std::vector<uint16_t> views;          // rig camera indices used, at most kMaxViews
+    bool operator==(const P&) const = default;
+  };
+  static constexpr size_t kMaxViews = 255;
+  static constexpr size_t kMaxFeatures = 255;
+  std::vector<P> features;
+
+  bool operator==(const Features3DRecord&) const = default;
+};
+
+using Record = std::variant<FrameRecord, FeatureRecord, PoseRecord, StatsRecord, Features3DRecord>;
 
 // Append-only writer. Every append() is one record with its own CRC32C, written with one write(2):
 // no per-record fsync, no buffering beyond the record being written, and no allocation in steady
@@ -112,6 +130,7 @@ class Recorder {
   void append(const FeatureRecord& features);
   void append(const PoseRecord& pose);
   void append(const StatsRecord& stats);
+  void append(const Features3DRecord& features3d);
 
   // fdatasync: everything appended so far survives a power loss. write(2) already happened per record,
   // so a kill -9 loses nothing appended even without flush(). Called by the host every ~1 s.
@@ -152,12 +171,13 @@ class Reader {
   struct Summary {
     // Counts of valid records (the brief's fields first).
     uint64_t frames = 0, degraded_frames = 0, features = 0, poses = 0, stats = 0;
+    uint64_t features3d = 0;               // Features3DRecords (format version 2)
     uint64_t first_seq = 0, last_seq = 0;  // seq of the first and the last frame record; 0 without frames
     bool closed_cleanly = false;
     uint64_t truncated_bytes = 0;  // bytes after the last valid record that were ignored (torn/corrupt tail)
     std::string rig_name;
 
-    uint64_t records = 0;         // data records (frames + features + poses + stats)
+    uint64_t records = 0;         // data records (frames + features + poses + stats + features3d)
     uint64_t feature_points = 0;  // FeatureRecord::F entries in all feature records
     uint64_t hull_frames = 0;     // frames with a recorded hull
     uint64_t hull_bytes = 0;      // RLE bytes of all recorded hulls

@@ -1,0 +1,111 @@
+// Robust multi-view triangulation of the tracked features (head, hands, feet) from the edges' 2D
+// positions, and the agreement of left and right across views. The algorithm, its confidence and the
+// left/right rule are written out in host/triangulate/README.md and at the top of triangulate.cpp.
+//
+//   triangulate_point()    one point from n >= 2 views: undistort (cv::undistortPoints), every pair
+//                          of views as a two-view DLT hypothesis (exhaustive RANSAC over views, at most
+//                          28 pairs for 8 cameras), the hypothesis most views agree with, a weighted DLT
+//                          over those views, Gauss-Newton on the reprojection error.
+//   FeatureTriangulator    per frame, all five features: the head from its views; each pair (hands,
+//                          feet) from the views' observations taken without their labels, then named
+//                          the performer's left/right in 3D, kept by continuity; per camera the swap of
+//                          its labels (kept over time, re-decided when the data is clear).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "voxcap/config/rig_config.hpp"
+#include "voxcap/pipeline/frame.hpp"
+#include "voxcap/rig/camera.hpp"
+
+namespace vc::triangulate {
+
+using Options = config::TriangulationOptions;
+
+// One camera's 2D observation of one point.
+struct View {
+  int camera = 0;     // rig camera index (calibration order)
+  cv::Point2d uv_px;  // distorted pixel position, as the edge reports it
+  double weight = 1;  // the view's confidence times its state's weight (predicted: predicted_weight)
+};
+
+struct PointResult {
+  bool ok = false;             // two or more views agree (else `p_world` is meaningless)
+  cv::Vec3d p_world{0, 0, 0};  // metres
+  double rms_px = 0;           // RMS reprojection error over the inliers, pixels
+  double confidence = 0;       // 0..1, see confidence() (before any left/right naming cap)
+  std::vector<int> inliers;    // indices into the views given, ascending
+};
+
+// Triangulates one point from its views (any order; a camera at most once). Throws
+// std::invalid_argument for a camera index outside `cameras`.
+PointResult triangulate_point(const std::vector<rig::Camera>& cameras, const std::vector<View>& views,
+                              const Options& options);
+
+// The 3D confidence of a point (README, "Confidence"): the mean weight of the views used, times a
+// factor for their count (two views: 0.5, three: 0.85, more: 1 — two views cannot outvote an
+// outlier), times sqrt(views used / views that reported it), times exp(-(rms / (inlier_px/2))^2 / 2),
+// times min(1, widest angle between two rays used / 20 degrees).
+double confidence(double mean_weight, int used, int reported, double rms_px, double widest_angle_rad,
+                  const Options& options);
+
+// A camera's observations for one frame: the edges' five features in vc_feature_id order.
+struct Observation {
+  bool present = false;
+  uint16_t state = 0;  // vc_feature_state
+  cv::Point2d uv_px;
+  double confidence = 0;
+};
+struct CameraObservations {
+  int camera = 0;  // rig camera index
+  std::array<Observation, 5> features;
+};
+
+enum class Pair { hands = 0, feet = 1 };
+
+class FeatureTriangulator {
+ public:
+  // `front_cameras`: rig indices of the cameras of the nodes whose role is front (the performer faces
+  // them at initialization). Throws std::invalid_argument for invalid options.
+  FeatureTriangulator(std::vector<rig::Camera> cameras, std::vector<int> front_cameras, Options options);
+
+  // One frame. Returns the five features in vc_feature_id order, named by the performer's side.
+  std::array<pipeline::Feature3D, 5> process(const std::vector<CameraObservations>& frame);
+
+  // Whether camera `camera`'s left/right labels of a pair are the performer's right/left: 1 swapped,
+  // 0 not, -1 not decided yet.
+  int swapped(int camera, Pair pair) const;
+  // The frame count processed (for tests and figures).
+  uint64_t frames() const { return frames_; }
+
+ private:
+  struct Track {
+    std::optional<cv::Vec3d> last, before;  // the last two positions (before: the frame before last)
+    uint64_t last_frame = 0;                // frame index of `last`
+  };
+  struct PairState {
+    Track side[2];         // 0: the performer's left, 1: right
+    bool named = false;    // left/right have been named (init rule or swap votes) and are followed
+    bool certain = false;  // the naming is trusted (confidence not capped)
+  };
+
+  void solve_pair(const std::vector<CameraObservations>& frame, Pair pair,
+                  const std::optional<cv::Vec3d>& head, std::array<pipeline::Feature3D, 5>* out);
+  bool usable(const Observation& o) const;
+  double view_weight(const Observation& o) const;
+  int camera_slot(int camera) const;
+
+  std::vector<rig::Camera> cameras_;
+  std::vector<int> front_;
+  Options opt_;
+  std::array<PairState, 2> pairs_{};
+  std::vector<std::array<int, 2>> swap_;  // per rig camera, per pair: -1, 0, 1
+  uint64_t frames_ = 0;
+};
+
+}  // namespace vc::triangulate

@@ -1,0 +1,40 @@
+// The triangulation stage of the host's pipeline ("triangulate", a chain stage after merge): each
+// frame's FEATURES (per node, per node camera) mapped to the rig's cameras, triangulated by a
+// FeatureTriangulator into Frame::features3d (five entries, vc_feature_id order, performer's sides).
+// Options from [triangulation] of the rig config; configure() throws on a rig it cannot use.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "voxcap/pipeline/stage.hpp"
+#include "voxcap/triangulate/triangulate.hpp"
+
+namespace vc::triangulate {
+
+class TriangulateStage : public pipeline::Stage {
+ public:
+  std::string name() const override { return "triangulate"; }
+  void configure(const pipeline::StageContext& ctx) override;
+  void process(pipeline::Frame& frame) override;
+
+  // The running solver (after configure), e.g. for its per-camera swaps; nullptr before.
+  const FeatureTriangulator* triangulator() const { return tri_.get(); }
+
+ private:
+  struct NodeMap {
+    uint16_t node_id;
+    std::vector<int> rig_camera;  // node camera index -> rig camera index
+  };
+  std::vector<NodeMap> nodes_;
+  std::unique_ptr<FeatureTriangulator> tri_;
+  std::vector<CameraObservations> obs_;  // kept: no allocation per frame after the first
+};
+
+// The rig camera index of node `node_id`'s camera `camera` in `rig`, or -1.
+int rig_camera_of(const config::RigConfig& rig, uint16_t node_id, uint16_t camera);
+// The rig camera indices of the front nodes' cameras, ascending.
+std::vector<int> front_cameras(const config::RigConfig& rig);
+
+}  // namespace vc::triangulate

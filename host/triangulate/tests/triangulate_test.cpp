@@ -1,0 +1,237 @@
+// Triangulation against hw/sim's ground truth: one point from exact, noisy and outlier-ridden views;
+// the five features over whole motions (built-in and CMU clips) with noise, outliers, lost features and
+// hands/feet labelled by image side — positions, the left/right naming and the confidence promise
+// (a feature above the `confident` threshold is within 10 cm of the truth).
+#include "voxcap/triangulate/triangulate.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <random>
+
+#include "voxcap/sim/rig_layout.hpp"
+#include "voxcap/triangulate/synthetic.hpp"
+
+namespace vc::triangulate {
+namespace {
+
+using testing::Noise;
+
+std::vector<View> project_all(const rig::Calibration& cal, const cv::Vec3d& p, double sigma,
+                              std::mt19937_64& rng) {
+  std::normal_distribution<double> n(0, sigma);
+  std::vector<View> v;
+  for (size_t c = 0; c < cal.cameras.size(); ++c)
+    v.push_back({static_cast<int>(c), cal.cameras[c].project(p) + cv::Point2d(n(rng), n(rng)), 0.9});
+  return v;
+}
+
+TEST(TriangulatePoint, ExactViewsGiveThePointWithDistortion) {
+  sim::RigLayout layout;
+  layout.cameras = 8;
+  layout.distortion = true;
+  const rig::Calibration cal = sim::default_rig(layout);
+  std::mt19937_64 rng(1);
+  const cv::Vec3d p(0.31, -0.22, 1.41);
+  const PointResult r = triangulate_point(cal.cameras, project_all(cal, p, 0, rng), Options{});
+  ASSERT_TRUE(r.ok);
+  EXPECT_LT(cv::norm(r.p_world - p), 1e-6);
+  EXPECT_LT(r.rms_px, 1e-4);
+  EXPECT_EQ(r.inliers.size(), 8u);
+  EXPECT_GT(r.confidence, 0.85);
+}
+
+TEST(TriangulatePoint, OutlierViewsAreVotedOut) {
+  const rig::Calibration cal = sim::default_rig({});
+  std::mt19937_64 rng(2);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int trial = 0; trial < 50; ++trial) {
+    const cv::Vec3d p(0.8 * u(rng), 0.8 * u(rng), 1.0 + 0.8 * u(rng));
+    std::vector<View> v = project_all(cal, p, 1.0, rng);
+    // Two of six views are confident outliers, 30..100 px off.
+    for (int k : {trial % 6, (trial + 3) % 6})
+      v[static_cast<size_t>(k)].uv_px += cv::Point2d(30 + 70 * std::abs(u(rng)), 40 * u(rng));
+    const PointResult r = triangulate_point(cal.cameras, v, Options{});
+    ASSERT_TRUE(r.ok) << trial;
+    EXPECT_LT(cv::norm(r.p_world - p), 0.025) << trial;  // four views, 1 px noise (~5 mm per pixel)
+    EXPECT_EQ(r.inliers.size(), 4u) << trial;
+    for (int i : r.inliers) EXPECT_TRUE(i != trial % 6 && i != (trial + 3) % 6) << trial;
+  }
+}
+
+TEST(TriangulatePoint, TwoViewsAreNeverConfidentAndDisagreeingViewsGiveNoPoint) {
+  const rig::Calibration cal = sim::default_rig({});
+  std::mt19937_64 rng(3);
+  const cv::Vec3d p(0.1, 0.2, 1.2);
+  std::vector<View> v = project_all(cal, p, 0.5, rng);
+  v.resize(2);
+  v[0].weight = v[1].weight = 1.0;
+  const PointResult two = triangulate_point(cal.cameras, v, Options{});
+  ASSERT_TRUE(two.ok);
+  EXPECT_LT(cv::norm(two.p_world - p), 0.02);
+  EXPECT_LE(two.confidence, Options{}.confident);
+
+  // Every view a different point, 0.3 m apart in height (the ring's epipolar lines run nearly
+  // horizontally, so no two of them agree).
+  std::vector<View> scattered;
+  for (int c = 2; c < 6; ++c) {
+    const cv::Vec3d q = p + cv::Vec3d(0, 0, 0.3 * (c - 2));
+    scattered.push_back({c, cal.cameras[static_cast<size_t>(c)].project(q), 1.0});
+  }
+  EXPECT_FALSE(triangulate_point(cal.cameras, scattered, Options{}).ok);
+  EXPECT_THROW(triangulate_point(cal.cameras, {{0, {1, 1}, 1}, {9, {1, 1}, 1}}, Options{}),
+               std::invalid_argument);
+}
+
+TEST(TriangulateConfidence, FallsWithFewerViewsWorseFitAndNarrowGeometry) {
+  const Options o;
+  const double base = confidence(1, 4, 4, 0.5, 1.0, o);
+  EXPECT_GT(base, 0.9);
+  EXPECT_LT(confidence(1, 3, 3, 0.5, 1.0, o), base);
+  EXPECT_LE(confidence(1, 2, 2, 0, 1.0, o), 0.5);
+  EXPECT_LT(confidence(1, 4, 6, 0.5, 1.0, o), base);
+  EXPECT_LT(confidence(1, 4, 4, 3.0, 1.0, o), base);
+  EXPECT_LT(confidence(1, 4, 4, 0.5, 0.1, o), base);
+  EXPECT_EQ(confidence(1, 1, 1, 0, 1.0, o), 0);
+}
+
+TEST(TriangulateOptions, ValidateThemselves) {
+  Options o;
+  std::string why;
+  EXPECT_TRUE(o.valid(&why)) << why;
+  o.inlier_px = 0;
+  EXPECT_FALSE(o.valid(&why));
+  EXPECT_NE(why.find("inlier_px"), std::string::npos);
+  o = Options{};
+  o.swap_ratio = 1.5;
+  EXPECT_FALSE(o.valid(&why));
+  EXPECT_THROW(FeatureTriangulator(sim::default_rig({}).cameras, {0, 1}, o), std::invalid_argument);
+}
+
+struct Figures {
+  std::vector<double> err;  // triangulated, metres
+  int frames = 0, named_wrong = 0, confident_wrong = 0, confident = 0, triangulated = 0;
+  double worst_confident = 0;
+};
+
+Figures run(const std::string& motion, int cameras, int frames, int step, const Noise& noise, uint64_t seed) {
+  sim::SceneOptions so;
+  so.motion.source = motion;
+  so.rig.cameras = cameras;
+  so.rig.distortion = true;
+  const sim::Scene scene(so);
+  const Options opt;
+  FeatureTriangulator tri(scene.calibration().cameras, {0, 1}, opt);
+  std::mt19937_64 rng(seed);
+  Figures fig;
+  for (int f = 0; f < frames; f += step) {
+    const auto obs = testing::observe(scene, f, noise, rng);
+    const auto res = tri.process(obs);
+    fig.frames++;
+    for (int id = 0; id < 5; ++id) {
+      const pipeline::Feature3D& r = res[static_cast<size_t>(id)];
+      EXPECT_EQ(r.feature_id, id);
+      if (r.state != pipeline::Feature3DState::Triangulated) continue;
+      const cv::Vec3d p(r.p_world[0], r.p_world[1], r.p_world[2]);
+      const double e = cv::norm(p - testing::truth(scene, f, id));
+      fig.triangulated++;
+      fig.err.push_back(e);
+      if (id > 0) {
+        const double other = cv::norm(p - testing::truth(scene, f, id % 2 == 1 ? id + 1 : id - 1));
+        if (other + 0.05 < e) fig.named_wrong++;
+      }
+      if (r.confidence > opt.confident) {
+        fig.confident++;
+        fig.worst_confident = std::max(fig.worst_confident, e);
+        if (e > 0.10) {
+          fig.confident_wrong++;
+          ADD_FAILURE() << motion << " frame " << f << " feature " << id << ": confident " << r.confidence
+                        << " but " << e << " m off";
+        }
+      }
+    }
+  }
+  std::sort(fig.err.begin(), fig.err.end());
+  const auto pct = [&](double q) {
+    return fig.err.empty() ? 0.0 : fig.err[static_cast<size_t>(q * static_cast<double>(fig.err.size() - 1))];
+  };
+  std::printf(
+      "%s, %d cameras: %d frames, %d triangulated, %d confident, p50 %.1f mm, p95 %.1f mm, "
+      "worst confident %.1f mm, named wrong %d\n",
+      motion.c_str(), cameras, fig.frames, fig.triangulated, fig.confident, 1000 * pct(0.5), 1000 * pct(0.95),
+      1000 * fig.worst_confident, fig.named_wrong);
+  return fig;
+}
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[static_cast<size_t>(q * static_cast<double>(v.size() - 1))];
+}
+
+TEST(FeatureTriangulator, WalkWithNoiseOutliersAndImageSideLabels) {
+  Noise n;
+  n.sigma_px = 1.0;
+  n.outlier = 0.05;
+  n.lost = 0.05;
+  n.predicted = 0.05;
+  const Figures f = run("walk", 6, 420, 2, n, 11);
+  EXPECT_EQ(f.confident_wrong, 0);
+  EXPECT_GT(f.triangulated, f.frames * 4);
+  EXPECT_GT(f.confident, f.triangulated / 2);
+  EXPECT_LT(percentile(f.err, 0.5), 0.015);
+  EXPECT_LT(percentile(f.err, 0.95), 0.04);
+  EXPECT_LT(f.named_wrong, f.triangulated / 100 + 1);
+}
+
+TEST(FeatureTriangulator, HandsCrossingKeepTheirNames) {
+  Noise n;
+  n.sigma_px = 1.0;
+  const Figures f = run("cross", 8, 300, 1, n, 12);
+  EXPECT_EQ(f.confident_wrong, 0);
+  EXPECT_EQ(f.named_wrong, 0);
+  EXPECT_LT(percentile(f.err, 0.5), 0.015);
+}
+
+TEST(FeatureTriangulator, LabelsSwappedAtRandomPerCameraDoNotMatter) {
+  Noise n;
+  n.sigma_px = 1.0;
+  n.outlier = 0.03;
+  n.swap = 0.3;
+  const Figures f = run("wave", 6, 480, 2, n, 21);
+  EXPECT_EQ(f.confident_wrong, 0);
+  EXPECT_LT(f.named_wrong, f.triangulated / 100 + 1);
+  EXPECT_LT(percentile(f.err, 0.5), 0.015);
+}
+
+TEST(FeatureTriangulator, TurningInPlaceKeepsLeftAndRight) {
+  Noise n;
+  n.sigma_px = 1.5;
+  n.outlier = 0.03;
+  const Figures f = run("turn", 4, 360, 2, n, 13);
+  EXPECT_EQ(f.confident_wrong, 0);
+  EXPECT_LT(f.named_wrong, f.triangulated / 100 + 1);
+}
+
+TEST(FeatureTriangulator, CmuClipsNeverConfidentlyWrong) {
+  const std::filesystem::path dir = std::filesystem::path(VOXCAP_SHARED_DIR) / "data/mocap/cmu";
+  if (!std::filesystem::is_directory(dir)) GTEST_SKIP() << "no CMU clips in " << dir;
+  Noise n;
+  n.sigma_px = 1.5;
+  n.outlier = 0.05;
+  n.lost = 0.05;
+  int clips = 0;
+  for (const char* clip : {"02_01.bvh", "05_02.bvh", "09_01.bvh"}) {
+    if (!std::filesystem::exists(dir / clip)) continue;
+    const Figures f = run((dir / clip).string(), 6, 600, 3, n, 14 + static_cast<uint64_t>(clips));
+    EXPECT_EQ(f.confident_wrong, 0) << clip;
+    EXPECT_LT(percentile(f.err, 0.5), 0.02) << clip;
+    ++clips;
+  }
+  EXPECT_GT(clips, 0);
+}
+
+}  // namespace
+}  // namespace vc::triangulate
