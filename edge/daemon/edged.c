@@ -155,8 +155,7 @@ static void handle_ctl(edged* d, ctl* c) {
                "configured: grid %ux%ux%u (id %u), %s carving, a SILHOUETTE every %u frames (0: none) at "
                "scale %u",
                c->cfg.grid.nx, c->cfg.grid.ny, c->cfg.grid.nz, c->cfg.grid_id,
-               vc_carve_rule_name(c->cfg.carve_rule), c->cfg.silhouette_every,
-               c->cfg.silhouette_scale);
+               vc_carve_rule_name(c->cfg.carve_rule), c->cfg.silhouette_every, c->cfg.silhouette_scale);
       }
       break;
     case VC_MSG_BACKGROUND:

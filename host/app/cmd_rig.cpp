@@ -201,7 +201,9 @@ void add_rig_commands(CLI::App& app) {
                   "emulated: the performer's appearance preset (default pale olive brown dark beige)")
       ->capture_default_str();
   cmd->add_option("--room", opt->room, "emulated: room preset (default camouflage)")->capture_default_str();
-  cmd->add_option("--carve", opt->carve, "emulated: the edges' carve rule, subpixel | footprint | centre (proto/SPEC.md \"Carve rules\")")
+  cmd->add_option(
+         "--carve", opt->carve,
+         "emulated: the edges' carve rule, subpixel | footprint | centre (proto/SPEC.md \"Carve rules\")")
       ->capture_default_str();
   cmd->add_option("--policy", opt->missing_policy, "emulated: missing-node policy, drop | degraded")
       ->capture_default_str();

@@ -67,8 +67,8 @@ int vc_check_config(const vc_config* m, vc_proto_diag* diag) {
     return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: cleanup_radius_px %u is not in [0, %d]",
                        m->cleanup_radius_px, VC_CLEANUP_RADIUS_MAX_PX);
   if (m->carve_rule >= VC_CARVE_RULE_COUNT)
-    return vc_diag_set(diag, VC_PROTO_EFIELD, "CONFIG: unknown carve_rule %u (0 centre, 1 footprint, 2 subpixel)",
-                       m->carve_rule);
+    return vc_diag_set(diag, VC_PROTO_EFIELD,
+                       "CONFIG: unknown carve_rule %u (0 centre, 1 footprint, 2 subpixel)", m->carve_rule);
   if (m->silhouette_scale > VC_PROTO_MAX_SILHOUETTE_SCALE || (m->silhouette_every && !m->silhouette_scale))
     return vc_diag_set(diag, VC_PROTO_EFIELD,
                        "CONFIG: silhouette_scale %u is not in [1, %d] (silhouette_every %u)",

@@ -595,9 +595,10 @@ std::vector<Vector> build_streams() {
     r.rejected(patched(config_msg(), [](Bytes& p) { st32(p.data() + 60, 9); }), VC_PROTO_EFIELD);
   }
   {
-    Vector& r = add("bad_carve_rule",
-                    "A CONFIG with carve_rule 3 (0 centre, 1 footprint, 2 subpixel): VC_PROTO_EFIELD; the HEARTBEAT "
-                    "after it decodes");
+    Vector& r =
+        add("bad_carve_rule",
+            "A CONFIG with carve_rule 3 (0 centre, 1 footprint, 2 subpixel): VC_PROTO_EFIELD; the HEARTBEAT "
+            "after it decodes");
     r.rejected(patched(config_msg(), [](Bytes& p) { st16(p.data() + 64, 3); }), VC_PROTO_EFIELD);
     r.message(heartbeat_msg());
   }

@@ -3,7 +3,8 @@
 //    times every stage per frame (medians), the other carve rules' (footprint, subpixel) carves on
 //    the same masks, runs the two references and checks that the plain LUT carve and the edge carver
 //    agree bit for bit (and that the other rules' hulls hold the centre rule's);
-//  - a child `voxcap-bench edge ... --child rss` (and `rss-footprint`, `rss-subpixel`) learns and runs the edge
+//  - a child `voxcap-bench edge ... --child rss` (and `rss-footprint`, `rss-subpixel`) learns and runs the
+//  edge
 //    pipeline alone from that file and reports its peak resident memory (VmHWM), so that the
 //    parent's renderer, references and other grid sizes do not count;
 //  - a child under `valgrind --tool=callgrind --instr-atstart=no --collect-atstart=no` runs each
@@ -375,7 +376,8 @@ json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
   });
   for (int c = 0; c < 2; c++) edge.cleanup(c);
   stage("carve", [&] { edge.carve(); });
-  for (OtherRule& r : edge.others) stage((std::string("carve_") + r.name).c_str(), [&] { edge.carve_other(r); });
+  for (OtherRule& r : edge.others)
+    stage((std::string("carve_") + r.name).c_str(), [&] { edge.carve_other(r); });
   stage("rle", [&] { edge.encode(); });
   stage("lut_carve", [&] { lut.run(edge.mask[0].data(), edge.mask[1].data(), lut_bits.data()); });
   stage("mog2", [&] {
@@ -457,8 +459,8 @@ json run_edge_bench(const EdgeBenchOptions& o) {
       edge.carve_other(other);
       double oc = ns_since(t0);
       t0 = Clock::now();
-      check(vc_rle_encode(other.bits.data(), vc_carver_voxels(other.cv.get()), edge.rle.data(), edge.rle.size(),
-                          &edge.rle_len),
+      check(vc_rle_encode(other.bits.data(), vc_carver_voxels(other.cv.get()), edge.rle.data(),
+                          edge.rle.size(), &edge.rle_len),
             "rle");
       double orle = ns_since(t0);
       OtherFigures& of = ofig[r];
@@ -572,7 +574,8 @@ json run_edge_bench(const EdgeBenchOptions& o) {
     if (status != 0) throw std::runtime_error("rss child failed: " + out);
     j["peak_rss_mb"] = json::parse(out).at("peak_rss_mb");
     for (size_t r = 0; r < edge.others.size(); r++) {
-      out = run_capture(child_command(o, std::string("rss-") + edge.others[r].name, frames_file) + " 2>&1", &status);
+      out = run_capture(child_command(o, std::string("rss-") + edge.others[r].name, frames_file) + " 2>&1",
+                        &status);
       if (status != 0) throw std::runtime_error("rss child failed: " + out);
       ojs[r]["peak_rss_mb"] = json::parse(out).at("peak_rss_mb");
     }
@@ -612,7 +615,8 @@ json run_edge_bench(const EdgeBenchOptions& o) {
       ir_px = {{"subtract", per("subtract", pixels)},
                {"cleanup", clean >= 0 ? json(clean / pixels) : json()},
                {"mog2", per("mog2", pixels)}};
-      ir_vox = {{"carve", per("carve", nvox)}, {"rle", per("rle", nvox)}, {"lut_carve", per("lut_carve", nvox)}};
+      ir_vox = {
+          {"carve", per("carve", nvox)}, {"rle", per("rle", nvox)}, {"lut_carve", per("lut_carve", nvox)}};
       for (const OtherRule& r : edge.others) {
         const std::string k = std::string("carve_") + r.name;
         ir_vox[k] = per(k.c_str(), nvox);

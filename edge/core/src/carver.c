@@ -421,7 +421,8 @@ static void footprint_leaf(const grid_i* g, const vc_camera* cam, int W, int H, 
 /* The subpixel rule's rectangle of voxel v (centre p) in camera `cam` (see carver.h): pixel x's square
  * [x - 1/2, x + 1/2] overlaps [u - 1/2, u + 1/2] iff u - 1 < x < u + 1, so x runs from
  * floor(u - 1) + 1 to ceil(u + 1) - 1 (one pixel when u is an integer, else two), clipped to the image. */
-static void subpixel_voxel(const vc_camera* cam, const double p[3], int W, int H, int v, int c, leaf_proj* lp) {
+static void subpixel_voxel(const vc_camera* cam, const double p[3], int W, int H, int v, int c,
+                           leaf_proj* lp) {
   double u, w;
   if (!project_uv(cam, p, &u, &w) || !(fabs(u) < 1e6 && fabs(w) < 1e6)) return; /* behind, or absurd */
   double x0 = dmax(floor(u - 1.0) + 1.0, 0.0), x1 = dmin(ceil(u + 1.0) - 1.0, (double)(W - 1));

@@ -649,7 +649,8 @@ TEST(Footprint, CentreRuleHasOneClassAndNoScratch) {
 // centred on the centre's cv::projectPoints projection (x in (u - 1, u + 1)), clipped; unseen (x1 < x0)
 // behind the camera or off the image. `near_edge[n]`: u or v lies within 1e-6 px of an integer, where
 // the carver's own float arithmetic may round the other way (skipped by the exact checks).
-std::vector<Rect> reference_subpixel(const vc_voxel_grid& g, const vc_camera& cam, std::vector<bool>* near_edge) {
+std::vector<Rect> reference_subpixel(const vc_voxel_grid& g, const vc_camera& cam,
+                                     std::vector<bool>* near_edge) {
   std::vector<cv::Point3d> pts;
   for (uint32_t k = 0; k < g.nz; k++)
     for (uint32_t j = 0; j < g.ny; j++)

@@ -269,9 +269,10 @@ std::string Aggregator::on_hello(session::ConnId conn, const vc_msg& m, const st
   // and gets zeros there; a 2.1 node rejects the 2.2 carve rule subpixel and carves with footprint.
   const uint8_t minor = std::min<uint8_t>(m.hdr.version_minor, VC_PROTO_VERSION_MINOR);
   if (minor == 1 && rig_.carving.rule == config::CarveRule::Subpixel)
-    log(log::Level::warn, fmt::format("node {} ({}) speaks protocol 2.1: it carves with the footprint rule (the "
-                                      "rig asks for subpixel carving); update its voxcap-edge",
-                                      n->id, n->cfg->id));
+    log(log::Level::warn,
+        fmt::format("node {} ({}) speaks protocol 2.1: it carves with the footprint rule (the "
+                    "rig asks for subpixel carving); update its voxcap-edge",
+                    n->id, n->cfg->id));
   if (minor >= 1) {
     send(*n, n->config_msg[minor]);
   } else {

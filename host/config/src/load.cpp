@@ -228,7 +228,8 @@ void read_subtraction(Reader& r, SubtractionOptions* o) {
 void read_carving(Reader& r, CarvingOptions* o) {
   std::string rule;
   if (r.get("rule", &rule) && !parse_carve_rule(rule, &o->rule))
-    r.ctx().fail(r.key("rule"), fmt::format("must be \"subpixel\", \"footprint\" or \"centre\", got \"{}\"", rule));
+    r.ctx().fail(r.key("rule"),
+                 fmt::format("must be \"subpixel\", \"footprint\" or \"centre\", got \"{}\"", rule));
   r.finish();
 }
 

@@ -95,9 +95,12 @@ bool SubtractionOptions::valid(std::string* why) const {
 
 std::string_view to_string(CarveRule rule) {
   switch (rule) {
-    case CarveRule::Centre: return "centre";
-    case CarveRule::Footprint: return "footprint";
-    case CarveRule::Subpixel: return "subpixel";
+    case CarveRule::Centre:
+      return "centre";
+    case CarveRule::Footprint:
+      return "footprint";
+    case CarveRule::Subpixel:
+      return "subpixel";
   }
   return "?";
 }
@@ -121,9 +124,12 @@ bool CarvingOptions::valid(std::string* why) const {
 
 uint16_t CarvingOptions::wire_value() const {
   switch (rule) {
-    case CarveRule::Centre: return VC_CARVE_CENTRE;
-    case CarveRule::Footprint: return VC_CARVE_FOOTPRINT;
-    case CarveRule::Subpixel: return VC_CARVE_SUBPIXEL;
+    case CarveRule::Centre:
+      return VC_CARVE_CENTRE;
+    case CarveRule::Footprint:
+      return VC_CARVE_FOOTPRINT;
+    case CarveRule::Subpixel:
+      return VC_CARVE_SUBPIXEL;
   }
   return VC_CARVE_SUBPIXEL;
 }

@@ -140,7 +140,8 @@ targets = ["127.0.0.1:7700"]
   EXPECT_EQ(parse(rig, head + "[carving]\nrule = \"footprint\"\n").carving.wire_value(), VC_CARVE_FOOTPRINT);
   EXPECT_EQ(parse(rig, head + "[carving]\nrule = \"subpixel\"\n").carving.rule, CarveRule::Subpixel);
   const std::pair<std::string, std::string> bad[] = {
-      {"[carving]\nrule = \"center\"\n", "carving.rule: must be \"subpixel\", \"footprint\" or \"centre\", got \"center\""},
+      {"[carving]\nrule = \"center\"\n",
+       "carving.rule: must be \"subpixel\", \"footprint\" or \"centre\", got \"center\""},
       {"[carving]\nrul = \"centre\"\n", "carving.rul"},
       {"[silhouettes]\nevery = 256\n", "silhouettes.every: must be in [0, 255] (0: never), got 256"},
       {"[silhouettes]\nevery = -1\n", "silhouettes.every"},

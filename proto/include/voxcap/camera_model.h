@@ -46,7 +46,11 @@ typedef struct vc_voxel_grid {
  *    projection touches a silhouette pixel in both cameras: the centre rule without its rounding to
  *    one pixel, so a voxel whose centre is inside the body is kept although the pixel its centre
  *    rounds to lies just outside a mask edge (1 to 4 pixels read instead of 1). */
-typedef enum vc_carve_rule { VC_CARVE_CENTRE = 0, VC_CARVE_FOOTPRINT = 1, VC_CARVE_SUBPIXEL = 2 } vc_carve_rule;
+typedef enum vc_carve_rule {
+  VC_CARVE_CENTRE = 0,
+  VC_CARVE_FOOTPRINT = 1,
+  VC_CARVE_SUBPIXEL = 2
+} vc_carve_rule;
 #define VC_CARVE_RULE_COUNT 3
 
 #ifdef __cplusplus

@@ -38,8 +38,9 @@ struct Options {
   uint64_t seed = 1;
   std::string appearance = "default";  // hw/sim appearance preset (skin and clothes)
   std::string room = "default";        // hw/sim room preset (default | camouflage)
-  std::string carve = "subpixel";      // the edges' carve rule (rig.toml [carving] rule): subpixel | footprint | centre
-  int silhouette_scale = 1;            // the edges' masks sent for scoring, downscaled by 1..16
+  std::string carve =
+      "subpixel";            // the edges' carve rule (rig.toml [carving] rule): subpixel | footprint | centre
+  int silhouette_scale = 1;  // the edges' masks sent for scoring, downscaled by 1..16
   std::string missing_policy = "degraded";  // drop | degraded
   double deadline_ms = 100;
   // Score the merged frames whose seq is a multiple of k against ground truth (0: never); the edges
