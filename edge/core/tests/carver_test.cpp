@@ -42,8 +42,13 @@ CarverPtr new_carver(const vc_voxel_grid& g, const vc_camera& cam0, const vc_cam
   return CarverPtr(c);
 }
 
-// Pixel of every voxel centre in one camera via cv::projectPoints, or -1 when unseen.
-std::vector<int> reference_pixels(const vc_voxel_grid& g, const vc_camera& cam) {
+// Every voxel centre (voxel order) projected into one camera with cv::projectPoints: uv, and whether
+// the centre is in front of the camera.
+struct CentreProjections {
+  std::vector<cv::Point2d> uv;
+  std::vector<bool> front;
+};
+CentreProjections project_centres(const vc_voxel_grid& g, const vc_camera& cam) {
   std::vector<cv::Point3d> pts;
   pts.reserve(static_cast<size_t>(g.nx) * g.ny * g.nz);
   for (uint32_t k = 0; k < g.nz; k++)
@@ -55,12 +60,21 @@ std::vector<int> reference_pixels(const vc_voxel_grid& g, const vc_camera& cam) 
   cv::Vec3d rvec, tvec(cam.t_cam_from_world[0], cam.t_cam_from_world[1], cam.t_cam_from_world[2]);
   cv::Rodrigues(R, rvec);
   std::vector<double> dist(cam.dist, cam.dist + 5);
-  std::vector<cv::Point2d> uv;
-  cv::projectPoints(pts, rvec, tvec, K, dist, uv);
-  std::vector<int> pix(pts.size(), -1);
-  for (size_t n = 0; n < pts.size(); n++) {
-    cv::Vec3d pc = R * cv::Vec3d(pts[n].x, pts[n].y, pts[n].z) + tvec;
-    if (!(pc[2] > 0)) continue;
+  CentreProjections out;
+  cv::projectPoints(pts, rvec, tvec, K, dist, out.uv);
+  out.front.resize(pts.size());
+  for (size_t n = 0; n < pts.size(); n++)
+    out.front[n] = (R * cv::Vec3d(pts[n].x, pts[n].y, pts[n].z) + tvec)[2] > 0;
+  return out;
+}
+
+// Pixel of every voxel centre in one camera via cv::projectPoints, or -1 when unseen.
+std::vector<int> reference_pixels(const vc_voxel_grid& g, const vc_camera& cam) {
+  const CentreProjections cp = project_centres(g, cam);
+  const std::vector<cv::Point2d>& uv = cp.uv;
+  std::vector<int> pix(uv.size(), -1);
+  for (size_t n = 0; n < uv.size(); n++) {
+    if (!cp.front[n]) continue;
     double x = std::floor(uv[n].x + 0.5), y = std::floor(uv[n].y + 0.5);
     if (x < 0 || y < 0 || x >= cam.width || y >= cam.height) continue;
     pix[n] = static_cast<int>(y) * cam.width + static_cast<int>(x);
@@ -651,22 +665,12 @@ TEST(Footprint, CentreRuleHasOneClassAndNoScratch) {
 // the carver's own float arithmetic may round the other way (skipped by the exact checks).
 std::vector<Rect> reference_subpixel(const vc_voxel_grid& g, const vc_camera& cam,
                                      std::vector<bool>* near_edge) {
-  std::vector<cv::Point3d> pts;
-  for (uint32_t k = 0; k < g.nz; k++)
-    for (uint32_t j = 0; j < g.ny; j++)
-      for (uint32_t i = 0; i < g.nx; i++)
-        pts.emplace_back(g.min_m[0] + (i + 0.5) * g.voxel_m, g.min_m[1] + (j + 0.5) * g.voxel_m,
-                         g.min_m[2] + (k + 0.5) * g.voxel_m);
-  cv::Matx33d R(cam.R_cam_from_world), K(cam.K);
-  cv::Vec3d rvec, tvec(cam.t_cam_from_world[0], cam.t_cam_from_world[1], cam.t_cam_from_world[2]);
-  cv::Rodrigues(R, rvec);
-  std::vector<double> dist(cam.dist, cam.dist + 5);
-  std::vector<cv::Point2d> uv;
-  cv::projectPoints(pts, rvec, tvec, K, dist, uv);
-  std::vector<Rect> out(pts.size(), Rect{0, 0, -1, -1});
-  near_edge->assign(pts.size(), false);
-  for (size_t n = 0; n < pts.size(); n++) {
-    if (!((R * cv::Vec3d(pts[n].x, pts[n].y, pts[n].z) + tvec)[2] > 0)) continue;
+  const CentreProjections cp = project_centres(g, cam);
+  const std::vector<cv::Point2d>& uv = cp.uv;
+  std::vector<Rect> out(uv.size(), Rect{0, 0, -1, -1});
+  near_edge->assign(uv.size(), false);
+  for (size_t n = 0; n < uv.size(); n++) {
+    if (!cp.front[n]) continue;
     const double u = uv[n].x, v = uv[n].y;
     (*near_edge)[n] = std::abs(u - std::round(u)) < 1e-6 || std::abs(v - std::round(v)) < 1e-6;
     double x0 = std::max(std::floor(u - 1) + 1, 0.0), x1 = std::min(std::ceil(u + 1) - 1, cam.width - 1.0);
@@ -755,6 +759,7 @@ TEST(Subpixel, KeepsEveryVoxelWhoseCentreIsInTheBody) {
   for (int rep = 0; rep < 3; rep++) {
     Rig rig = random_rig(rng, w, h);
     std::vector<cv::Vec4d> spheres;  // centre, radius: limbs of 3-12 cm, like hands to a torso
+    spheres.reserve(8);
     for (int s = 0; s < 8; s++)
       spheres.emplace_back(0.9 * (u(rng) - 0.5), 0.9 * (u(rng) - 0.5), 0.9 + 0.8 * (u(rng) - 0.5),
                            0.03 + 0.09 * u(rng));
@@ -764,6 +769,7 @@ TEST(Subpixel, KeepsEveryVoxelWhoseCentreIsInTheBody) {
       cv::Matx33d R(cam.R_cam_from_world), K(cam.K);
       cv::Vec3d t(cam.t_cam_from_world[0], cam.t_cam_from_world[1], cam.t_cam_from_world[2]);
       std::vector<cv::Point2d> px, norm;
+      px.reserve(static_cast<size_t>(w) * h);
       for (int y = 0; y < h; y++)
         for (int x = 0; x < w; x++) px.emplace_back(x, y);
       cv::undistortPoints(px, norm, K, std::vector<double>(cam.dist, cam.dist + 5));
