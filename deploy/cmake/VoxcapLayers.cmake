@@ -37,7 +37,7 @@ set(VC_LAYERS
   "host/session: vc_host_session"
   "host/pipeline: vc_host_pipeline"     # the stage lifecycle; the stages in the layers above link it
   "host/assemble: vc_host_assemble"
-  "host/triangulate: vc_host_triangulate"  # the tracked features in 3D, the "triangulate" stage
+  "host/triangulate: vc_host_triangulate vc_host_triangulate_testing"  # features in 3D, the "triangulate" stage
   "host/record: vc_host_record vc_host_record_testing"
   "host/aggregator: vc_host_aggregator"
   "host/emulated: vc_host_emulated"

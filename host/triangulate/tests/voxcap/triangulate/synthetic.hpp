@@ -1,8 +1,8 @@
-// Synthetic edge observations for the triangulation tests and benchmark (header-only; its user links
-// vc_sim): hw/sim's true 2D features (the projections
-// of the true head centre, wrists and ankles, with occlusion) turned into what an edge would send —
-// pixel noise, outliers at full confidence, lost features, and hands/feet labelled by image side (the
-// edge's "left" is the one further right in its image, as if each camera faced the performer).
+// Synthetic edge observations for the triangulation tests and benchmark (header-only, target
+// vc_host_triangulate_testing, which links vc_sim; not part of vc_host_triangulate): hw/sim's true 2D
+// features (the projections of the true head centre, wrists and ankles, with occlusion) turned into what an
+// edge would send — pixel noise, outliers at full confidence, lost features, and hands/feet labelled by image
+// side (the edge's "left" is the one further right in its image, as if each camera faced the performer).
 #pragma once
 
 #include <array>
