@@ -68,6 +68,72 @@ struct Feature3D {
   std::vector<uint16_t> views;             // rig camera indices (calibration order) used, ascending
 };
 
+// The fitted skeleton of one frame, from the fitting stage (host/fit/README.md has the model and the
+// rules). The 15 joints of the two-layer model, named like the standard joints of hw/body
+// (joints.hpp) so that they compare with the virtual rig's truth one to one: the model's root (the
+// head feature) is `head`, its pelvis centre `hips`.
+enum class PoseJoint : uint8_t {
+  hips,
+  neck,
+  head,
+  l_shoulder,
+  l_elbow,
+  l_wrist,
+  r_shoulder,
+  r_elbow,
+  r_wrist,
+  l_hip,
+  l_knee,
+  l_ankle,
+  r_hip,
+  r_knee,
+  r_ankle,
+};
+inline constexpr int kPoseJointCount = 15;
+// The joint names above, as text ("hips", "l_wrist", ...): hw/body's standard joint names.
+inline const char* pose_joint_name(int j) {
+  static constexpr const char* kNames[kPoseJointCount] = {
+      "hips",    "neck",  "head",   "l_shoulder", "l_elbow", "l_wrist", "r_shoulder", "r_elbow",
+      "r_wrist", "l_hip", "l_knee", "l_ankle",    "r_hip",   "r_knee",  "r_ankle"};
+  return j >= 0 && j < kPoseJointCount ? kNames[j] : "?";
+}
+
+enum class PoseState : uint8_t {
+  None = 0,       // no pose: the stage has not run, or the body model is not initialized yet
+  Fitted = 1,     // fitted to this frame's hull and features
+  Predicted = 2,  // some limb had no usable feature: predicted from earlier frames, then fitted to the hull
+  Reinitialized = 3,  // the fit had failed; the body model was initialized again on this frame
+};
+
+// "none", "fitted", "predicted", "reinitialized"; "?" for anything else.
+inline const char* pose_state_name(PoseState s) {
+  switch (s) {
+    case PoseState::None:
+      return "none";
+    case PoseState::Fitted:
+      return "fitted";
+    case PoseState::Predicted:
+      return "predicted";
+    case PoseState::Reinitialized:
+      return "reinitialized";
+  }
+  return "?";
+}
+
+struct Pose {
+  PoseState state = PoseState::None;
+  uint32_t body_version = 0;  // the body model in force (segment lengths); changes on re-initialization
+  float confidence = 0;       // 0..1 (host/fit/README.md)
+  // World frame (DESIGN.md), metres, by PoseJoint.
+  std::array<std::array<double, 3>, kPoseJointCount> p_world{};
+  // The torso's orientation in the world, row-major 3x3 whose columns are the performer's axes:
+  // x toward the performer's right, y the way the performer faces, z up the spine (hips to neck);
+  // right-handed. The limbs' orientation follows from the joint positions.
+  std::array<double, 9> torso_R_world{1, 0, 0, 0, 1, 0, 0, 0, 1};
+  uint64_t t_fitted_ns = 0;  // host CLOCK_MONOTONIC when the stage finished this frame
+  bool valid() const { return state != PoseState::None; }
+};
+
 struct Frame {
   uint64_t seq = 0;                              // the trigger pulse counter
   uint64_t t_trigger_ns = 0;                     // host CLOCK_MONOTONIC of the pulse
@@ -88,8 +154,8 @@ struct Frame {
   // once the stage ran, empty before it (or without it).
   std::vector<Feature3D> features3d;
   bool triangulated = false;  // the triangulation stage ran on this frame
-  // The fitting issue adds the skeleton's pose for this frame as a field of its own type; there is
-  // deliberately no placeholder type until then.
+  // The fitting stage's skeleton (host/fit): set once the stage ran on this frame.
+  Pose pose;
 
   const NodePart* node(uint16_t id) const {
     for (const NodePart& p : nodes)
