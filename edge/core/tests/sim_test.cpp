@@ -96,10 +96,11 @@ TEST(SimTruth, SubtractionMatchesTrueSilhouettesAndDropsShadows) {
 }
 
 // With the edge's defaults (the texture test on): the whole body is kept, hands and feet over the
-// wooden floor included, and the floor shadow still goes: per camera and frame, >= 96 % of the body
-// pixels in the cleaned mask, >= 97 % of the mask body, <= 2 % of the shadow pixels kept. Not yet
-// 99 %: the front cameras lose part of the waving forearm where its shaded blue sleeve crosses the
-// flat blue painting (1.7 degrees apart, no texture to test; the old kernel kept 91-92 % here).
+// wooden floor included, and the floor shadow still goes: per camera and frame, >= 99 % of the body
+// pixels in the cleaned mask, >= 98 % of the mask body, <= 2 % of the shadow pixels kept (measured
+// 99.5-99.97 %, 98.6 %, 0.7-0.9 %). Was >= 96 % and >= 97 % while the deepest shadow was 0.25 of
+// the light: the waving forearm's shaded blue sleeve over the flat blue painting (1.7 degrees apart,
+// no texture to test) passed for shadow; darkened by more than 55 % it is foreground now.
 TEST(SimTruth, DefaultsKeepTheBodyAndDropTheShadow) {
   vc::sim::SceneOptions o = options();
   o.motion.source = "wave";
@@ -139,8 +140,8 @@ TEST(SimTruth, DefaultsKeepTheBodyAndDropTheShadow) {
         }
       }
       ASSERT_GT(body, 1000u);
-      EXPECT_GE(static_cast<double>(kept) / body, 0.96) << "camera " << cam << " frame " << f;
-      EXPECT_GE(static_cast<double>(kept) / fg, 0.97) << "camera " << cam << " frame " << f;
+      EXPECT_GE(static_cast<double>(kept) / body, 0.99) << "camera " << cam << " frame " << f;
+      EXPECT_GE(static_cast<double>(kept) / fg, 0.98) << "camera " << cam << " frame " << f;
       if (sh > 200) EXPECT_LE(static_cast<double>(sh_kept) / sh, 0.02) << "camera " << cam << " frame " << f;
     }
   }
