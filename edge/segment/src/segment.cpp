@@ -59,6 +59,8 @@ bool Options::valid(std::string* why) const {
   if (!(head_band_ratio > 0 && head_band_ratio <= 0.6)) return bad("head_band_ratio must be in (0, 0.6]");
   if (!(head_top_ratio > 0 && head_top_ratio <= 0.3)) return bad("head_top_ratio must be in (0, 0.3]");
   if (!(head_disc_ratio >= 0 && head_disc_ratio <= 0.1)) return bad("head_disc_ratio must be 0..0.1");
+  if (!(max_head_ratio > head_disc_ratio && max_head_ratio <= 0.5))
+    return bad("max_head_ratio must be in (head_disc_ratio, 0.5]");
   if (!(wrist_shift >= 0 && wrist_shift <= 5)) return bad("wrist_shift must be 0..5");
   if (!(hand_ratio > 0 && hand_ratio <= 0.3)) return bad("hand_ratio must be in (0, 0.3]");
   if (!(ankle_ratio >= 0 && ankle_ratio <= 0.2)) return bad("ankle_ratio must be 0..0.2");
@@ -615,7 +617,10 @@ void Work::terminals(Segmentation* s) {
     s->point[kHead] = cv::Point2f(static_cast<float>(wx / n), static_cast<float>(wy / n)) + o;
     head_radius_ = best;
   }
-  if (!find_feet(s, static_cast<float>(axis_x - origin_.x))) return;
+  // A silhouette too short for its head lost the legs (a mask that missed the trousers): what is
+  // at its bottom is no foot, and the feet are not_visible (a head's radius is ~0.055 x the height).
+  const bool legs = head_radius_ <= opt_.max_head_ratio * height;
+  if (legs && !find_feet(s, static_cast<float>(axis_x - origin_.x))) return;
   // Hands and feet: the middle of the terminal's cut. Left is the image's right.
   // The cut of a hand's leaf is where the hand widens; the wrist joint lies a little inside the arm.
   auto cut_mid = [&](int id) {
@@ -680,12 +685,20 @@ void Work::terminals(Segmentation* s) {
       found.emplace_back(fg(wi.x, wi.y) ? labels_(wi) : id, w + o);
     }
   }
-  if (found.size() != 2) {
+  if (found.empty() || (found.size() == 1 && !legs)) {
     s->why = "5 terminals expected, found " + std::to_string(1 + found.size()) +
-             " above the feet (head 1, hands " + std::to_string(found.size()) + ")";
+             " above the feet (head 1, hands " + std::to_string(found.size()) + ")" +
+             (legs ? "" : " and no legs (the silhouette is too short for its head)");
+    s->terminal.fill(-1);
     return;
   }
-  {
+  if (found.size() == 1) {
+    // One hand seen (the other hidden behind the body by a camera looking along the arms): it is
+    // labelled by its side of the head, the other not_visible.
+    const bool left = found[0].second.x > s->point[kHead].x;
+    s->terminal[left ? kLeftHand : kRightHand] = found[0].first;
+    s->point[left ? kLeftHand : kRightHand] = found[0].second;
+  } else {
     const bool first_is_left = found[0].second.x > found[1].second.x;
     const auto& l = first_is_left ? found[0] : found[1];
     const auto& r = first_is_left ? found[1] : found[0];

@@ -30,7 +30,10 @@
 //      are not leaves (from the front an ankle is no narrower than its foot, and legs together
 //      touch): they are the pieces of the silhouette's lowest foot_band_ratio; one piece for both is
 //      split into its two runs at ankle height, or about the body's axis.
-//      Fewer found: ok = false and why ("5 terminals expected, found 3 ...").
+//      One hand found (the other hidden by a camera looking along the arms): it is labelled by its
+//      side of the head and the other is not_visible (terminal -1); a silhouette too short for its
+//      head (head disc above max_head_ratio x height: the mask lost the legs) has its feet
+//      not_visible. No hand, or one without legs: ok = false and why ("5 terminals expected, ...").
 //
 // Left and right are decided per image, by the image side, as if the camera faced the performer:
 // left_hand is the hand whose point is on the image's right (larger x), right_hand the one on the
@@ -77,6 +80,7 @@ struct Options {
   double head_band_ratio = 0.35;    // head: a leaf whose centre is in the highest fraction
   double head_top_ratio = 0.12;     // ... or, without such a leaf, the largest disc in this top fraction
   double head_disc_ratio = 0.03;    // ... either holding a disc of at least this x height (a head ~0.055)
+  double max_head_ratio = 0.085;    // a head's disc larger than this x height: the legs are lost
   double hand_ratio = 0.1;          // wrist to finger tips: this x height (when no cut is near)
   double ankle_ratio = 0.08;        // ankle: this x height above the foot's lowest pixel
 
@@ -112,8 +116,10 @@ struct Segmentation {
   std::vector<Cut> cuts;            // one per critical point that separates two regions
   cv::Mat1i labels;                 // region id per pixel, -1 background
   std::vector<Region> regions;      // regions[i].id == i, with the adjacency graph
-  std::array<int, kFeatures> terminal{{-1, -1, -1, -1, -1}};  // region id per feature, -1 none
-  std::array<cv::Point2f, kFeatures> point{};                 // the feature's 2D position (px)
+  // Region id per feature; -1: not labelled, i.e. not_visible in this view (a hand hidden behind the
+  // body, feet of legs the mask lost) while ok, and its point is meaningless.
+  std::array<int, kFeatures> terminal{{-1, -1, -1, -1, -1}};
+  std::array<cv::Point2f, kFeatures> point{};  // the feature's 2D position (px)
 };
 
 // Segments one camera's mask (0 = background, anything else = silhouette). Never throws for a bad
