@@ -19,7 +19,8 @@
 //
 // Limits: a part hidden inside the silhouette (an arm in front of the torso) has no terminal; two
 // parts that touch (feet of legs held together) make one, which is split by the image's column
-// through the middle of the cut; a camera looking along the arms sees no constriction at the wrist.
+// through the middle of the cut; a camera looking along the arms sees no constriction at the wrist
+// (the near hand is then the arm's extremity, the far one beside the head or hidden: not_visible).
 // Then segment() says what it found instead of guessing.
 #include "voxcap/edge/segment.hpp"
 
