@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <ctime>
+#include <initializer_list>
 #include <map>
 #include <sstream>
 #include <string>
@@ -125,8 +126,13 @@ int main(int argc, char** argv) {
                 const Segmentation s = segment(mask);
                 const double sec = static_cast<double>(std::clock() - t0) / CLOCKS_PER_SEC;
                 const testing::CameraScore c = testing::score(s, v, tolerance);
-                for (const std::string& key : {m, m + " room " + room, m + " " + appearance,
-                                               m + " " + std::to_string(cameras) + " cameras"}) {
+                auto key_of = [&m](std::initializer_list<std::string> parts) {
+                  std::string k = m;
+                  for (const std::string& p : parts) k.append(" ").append(p);
+                  return k;
+                };
+                for (const std::string& key : {m, key_of({"room", room}), key_of({appearance}),
+                                               key_of({std::to_string(cameras), "cameras"})}) {
                   by[key].add(c);
                   by[key].seconds += sec;
                 }
