@@ -43,6 +43,9 @@ struct HumanoidOptions {
   double toe_height_m = 0.022;  // the clip's lowest toe joint sits this high above the floor
   double scale = 0;             // metres per file unit; 0: from the naming convention or the height
   double frame_time_s = 0;      // 0: the file's (snapped, see above)
+  // The file is in the world frame already (z up, metres unless scale is given, facing and
+  // position as they are): no turn, no centring, no floor (voxcap sim's own truth/motion.bvh).
+  bool keep_placement = false;
 
   bool valid(std::string* why) const;
 };
