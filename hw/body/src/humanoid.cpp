@@ -176,28 +176,54 @@ struct Tree {
   }
 };
 
-// Shoulder, elbow and wrist (or hip, knee and ankle) on a limb's chain: the three joints whose two
-// segments best have the ratio of a human limb (forearm/upper arm 0.87, shank/thigh 1), cover most
-// of the chain (a clavicle, a hip joint or a hand come before or after them, not between) and leave
-// less than the length of a hand or a foot below the last. Bones are straight lines between joints,
-// so the rest pose may be any (T, A, arms down): only lengths count.
-std::array<int, 3> fit_limb(const Tree& t, int branch, const std::vector<int>& chain, double ratio) {
+// Shoulder, elbow and wrist (or hip, knee and ankle) on a limb's chain, by the lengths of the rest
+// pose only (bones are straight lines between joints, so the rest pose may be any: T, A, arms down).
+// A joint at the same place as its parent (CMU's LHipJoint, LeftShoulder and LeftFingerBase) stands
+// for neither, nor does one at the branch point. Where the chain branches into parts shorter than
+// the bone before them (fingers and thumb, heel and toes) is the wrist or ankle. Otherwise, and for
+// the joints above, the choice whose segments best have a human limb's proportions (forearm/upper
+// arm 0.87, hand 0.34 of the two; shank/thigh 1, foot 0.23) and cover most of the chain (a clavicle
+// or a hip joint comes before them, not between).
+std::array<int, 3> fit_limb(const Tree& t, int branch, const std::vector<int>& chain, double ratio,
+                            double end_ratio) {
+  const double eps = 1e-6 * t.size;
+  auto parent = [&](int j) { return t.sk.joints[static_cast<std::size_t>(j)].parent; };
   std::vector<int> js;
   for (int c : chain) {
-    if (!t.sk.joints[static_cast<std::size_t>(c)].end_site) js.push_back(c);
+    if (t.sk.joints[static_cast<std::size_t>(c)].end_site) continue;
+    if (t.seg(parent(c), c) < eps) continue;  // coincides with its parent
+    js.push_back(c);
   }
   const double total = t.len(branch, chain.front());
+  // The branching joint, lifted over joints at its place.
+  int fixed_w = -1;
+  for (std::size_t i = 2; i < chain.size() && fixed_w < 0; ++i) {
+    const int b = chain[i];
+    const auto& kids = t.kids[static_cast<std::size_t>(b)];
+    if (kids.size() < 2) continue;
+    int top = b;
+    while (t.seg(parent(top), top) < eps && parent(top) != branch) top = parent(top);
+    const double into = t.seg(parent(top), top);
+    bool short_parts = true;
+    for (int c : kids) short_parts = short_parts && t.len(b, c) < into;
+    if (short_parts && std::find(js.begin(), js.end(), top) != js.end()) fixed_w = top;
+  }
   std::array<int, 3> best{-1, -1, -1};
   double best_cost = HUGE_VAL;
   for (std::size_t a = 0; a < js.size(); ++a) {
     for (std::size_t b = a + 1; b < js.size(); ++b) {
       for (std::size_t c = b + 1; c < js.size(); ++c) {
+        if (fixed_w >= 0 && js[c] != fixed_w) continue;
         const double upper = t.seg(js[a], js[b]), lower = t.seg(js[b], js[c]);
-        if (!(upper > 1e-6 * t.size && lower > 1e-6 * t.size)) continue;
+        if (!(upper > eps && lower > eps)) continue;
         const double below = t.reach[static_cast<std::size_t>(js[c])];
-        const double cost = std::abs(std::log(lower / upper / ratio)) +
-                            4 * std::max(0.0, below / (upper + lower) - 0.5) +
-                            4 * std::max(0.0, 0.45 - (upper + lower) / total);
+        double cost =
+            std::abs(std::log(lower / upper / ratio)) + 4 * std::max(0.0, 0.45 - (upper + lower) / total);
+        // (A wrist or ankle with nothing below it at all, not even an End Site, says nothing.)
+        if (!t.kids[static_cast<std::size_t>(js[c])].empty()) {
+          const double hand = std::max(below, 0.05 * (upper + lower));
+          cost += 0.5 * std::abs(std::log(hand / (end_ratio * (upper + lower))));
+        }
         if (cost < best_cost) {
           best_cost = cost;
           best = {js[a], js[b], js[c]};
@@ -303,7 +329,17 @@ std::string map_by_hierarchy(const Tree& t, std::array<int, kJointCount>* anchor
   }
   std::sort(arms.begin(), arms.end(),
             [&](int a, int b) { return t.len(parent(a), a) > t.len(parent(b), b); });
-  // Head: on its chain, the joint (after the first, the neck) with the longest segment after it.
+  std::array<std::array<int, 3>, 2> arm{}, leg{};
+  for (int k = 0; k < 2; ++k) {
+    const int a = arms[static_cast<std::size_t>(k)], l = legs[static_cast<std::size_t>(k)];
+    arm[static_cast<std::size_t>(k)] = fit_limb(t, parent(a), t.chain(a), 0.87, 0.34);
+    leg[static_cast<std::size_t>(k)] = fit_limb(t, hips, t.chain(l), 1.0, 0.23);
+    if (arm[static_cast<std::size_t>(k)][0] < 0) return "no shoulder, elbow and wrist on an arm's chain";
+    if (leg[static_cast<std::size_t>(k)][0] < 0) return "no hip, knee and ankle on a leg's chain";
+  }
+  // Head: on its chain (after the first joint, the neck), the joint nearest a tenth of the body's
+  // height (twice the leg) above the neck's base, the skull's base; a chain of one joint is the head
+  // on the spine.
   std::vector<int> hc;
   for (int c : t.chain(head_branch)) {
     if (!t.sk.joints[static_cast<std::size_t>(c)].end_site) hc.push_back(c);
@@ -311,24 +347,15 @@ std::string map_by_hierarchy(const Tree& t, std::array<int, kJointCount>* anchor
   int head = hc.front(), neck = parent(hc.front());
   if (hc.size() >= 2) {
     neck = hc.front();
-    const std::vector<int> full = t.chain(head_branch);
-    double longest = -1;
-    for (std::size_t i = 1; i < full.size(); ++i) {
-      if (t.sk.joints[static_cast<std::size_t>(full[i])].end_site) continue;
-      const double s = i + 1 < full.size() ? t.seg(full[i], full[i + 1]) : 0.0;
-      if (s > longest) {
-        longest = s;
-        head = full[i];
+    const double body = 2 * (t.seg(leg[0][0], leg[0][1]) + t.seg(leg[0][1], leg[0][2]));
+    double nearest = HUGE_VAL;
+    for (std::size_t i = 1; i < hc.size(); ++i) {
+      const double d = std::abs(t.seg(neck, hc[i]) - 0.1 * body);
+      if (d < nearest) {
+        nearest = d;
+        head = hc[i];
       }
     }
-  }
-  std::array<std::array<int, 3>, 2> arm{}, leg{};
-  for (int k = 0; k < 2; ++k) {
-    const int a = arms[static_cast<std::size_t>(k)], l = legs[static_cast<std::size_t>(k)];
-    arm[static_cast<std::size_t>(k)] = fit_limb(t, parent(a), t.chain(a), 0.87);
-    leg[static_cast<std::size_t>(k)] = fit_limb(t, hips, t.chain(l), 1.0);
-    if (arm[static_cast<std::size_t>(k)][0] < 0) return "no shoulder, elbow and wrist on an arm's chain";
-    if (leg[static_cast<std::size_t>(k)][0] < 0) return "no hip, knee and ankle on a leg's chain";
   }
   // Left and right: forward from the feet (ankle -> the next joint on the leg's chain).
   const glm::dvec3 up = P(head) - P(hips);

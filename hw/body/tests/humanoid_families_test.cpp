@@ -18,6 +18,7 @@
 #include <glm/matrix.hpp>
 
 #include "voxcap/body/humanoid.hpp"
+#include "voxcap/body/testing/shared_clips.hpp"
 
 namespace vc::body {
 namespace {
@@ -489,6 +490,40 @@ TEST(BodyHumanoidFamilies, UnmappableClipsAreRefusedInOneLineNamingWhatIsMissing
     FAIL() << "expected an error";
   } catch (const std::runtime_error& e) {
     EXPECT_THAT(e.what(), AllOf(HasSubstr("blind.bvh"), HasSubstr("cannot tell left from right")));
+  }
+}
+
+// The real clips with every name replaced by Joint1..JointN: the hierarchy alone finds the joints
+// their names give (the fingers, thumbs, clavicles and hip joints of real skeletons included).
+TEST(BodyHumanoidFamilies, EveryRealClipWithoutItsNamesMapsByTheHierarchyAsByTheNames) {
+  const auto clips = testing::shared_bvh_clips();
+  ASSERT_FALSE(clips.empty()) << testing::no_clips_message();
+  for (const auto& path : clips) {
+    SCOPED_TRACE(path.string());
+    const BvhClip named = read_bvh(path.string());
+    BvhClip blind = named;
+    int k = 0;
+    for (auto& j : blind.skeleton.joints) {
+      if (!j.end_site) j.name = "Joint" + std::to_string(++k);
+    }
+    const HumanoidClip by_names = map_humanoid(named, path.string());
+    const HumanoidClip by_tree = map_humanoid(blind, path.string());
+    EXPECT_EQ(by_tree.map.convention, "hierarchy");
+    for (int j = 0; j < kJointCount; ++j) {
+      if (joint_is_end(j)) continue;
+      EXPECT_EQ(by_tree.map.anchor[static_cast<std::size_t>(j)],
+                by_names.map.anchor[static_cast<std::size_t>(j)])
+          << joint_name(j) << ": by the names "
+          << named.skeleton.joints[static_cast<std::size_t>(by_names.map.anchor[static_cast<std::size_t>(j)])]
+                 .name
+          << ", by the hierarchy "
+          << named.skeleton.joints[static_cast<std::size_t>(by_tree.map.anchor[static_cast<std::size_t>(j)])]
+                 .name;
+    }
+    // Placed the same way up and facing the same way (the units of cgspeed files come from their
+    // names: without them the clip is scaled to the body height instead).
+    for (int c = 0; c < 3; ++c)
+      EXPECT_LT(glm::length(by_tree.map.R_world_from_file[c] - by_names.map.R_world_from_file[c]), 1e-9);
   }
 }
 
