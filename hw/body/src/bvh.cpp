@@ -76,6 +76,10 @@ class Lexer {
     if (ec != std::errc() || ptr != last || !std::isfinite(v)) {
       fail("expected a number, got '" + std::string(t.substr(0, 40)) + "'");
     }
+    // Finite but absurd (1e308 overflows forward kinematics into inf and NaN): no motion file needs
+    // more than kBvhMaxMagnitude (10,000 km in millimetres).
+    if (std::abs(v) > kBvhMaxMagnitude)
+      fail("number out of range (|x| > 1e10): '" + std::string(t.substr(0, 40)) + "'");
     return v;
   }
 

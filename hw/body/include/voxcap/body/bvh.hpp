@@ -46,6 +46,7 @@ struct BvhClip {
 // Limits of the reader (a file beyond them is an error, never a huge allocation).
 inline constexpr int kBvhMaxJoints = 4096;
 inline constexpr long kBvhMaxFrames = 50'000'000;
+inline constexpr double kBvhMaxMagnitude = 1e10;  // largest |value| of an offset, position or angle
 
 // Parses BVH text. Throws std::runtime_error("<source_name>:<line>: <what>") on malformed input
 // (including NaN, inf and out-of-range numbers); never reads out of bounds, whatever the bytes.
