@@ -676,15 +676,13 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
   std::string units = "given";
   if (scale <= 0) {
     const double h = hi - lo;
-    if (opt.keep_placement) {
+    // (A file kept in the world frame is in metres.)
+    if (opt.keep_placement || (!cgspeed && h >= 1.0 && h <= 2.3)) {
       scale = 1;
       units = "m";
     } else if (cgspeed) {
       scale = kCmuMetresPerUnit;
       units = "cmu";
-    } else if (h >= 1.0 && h <= 2.3) {
-      scale = 1;
-      units = "m";
     } else if (h >= 100 && h <= 230) {
       scale = 0.01;
       units = "cm";

@@ -348,6 +348,7 @@ TEST(SimBuiltinMotion, JointsEqualTheForwardKinematicsOfTheExportedBvh) {
     const int frames = m.natural_frames();
     ASSERT_GT(frames, m.lead_in_frames());
     std::vector<Pose> poses;
+    poses.reserve(static_cast<std::size_t>(frames));
     for (int f = 0; f < frames; ++f) poses.push_back(m.skeleton_pose(f));
     const BvhClip clip = parse_bvh(format_bvh(m.skeleton(), poses, 1.0 / m.fps()), bm.name);
     ASSERT_EQ(clip.frames, frames);
@@ -386,6 +387,7 @@ TEST(SimBuiltinMotion, ExportsAsTheStandardHumanoidForBlender) {
     const Motion m = Motion::create(opt, BodyDescription{});
     ASSERT_TRUE(vc::body::is_standard(m.skeleton()));
     std::vector<Pose> poses;
+    poses.reserve(static_cast<std::size_t>(m.natural_frames()));
     for (int f = 0; f < m.natural_frames(); ++f) poses.push_back(m.skeleton_pose(f));
     const BvhClip clip = parse_bvh(format_bvh(m.skeleton(), poses, 1.0 / m.fps(), o), bm.name);
     ASSERT_EQ(clip.frames, m.natural_frames());
