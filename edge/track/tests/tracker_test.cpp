@@ -179,8 +179,8 @@ TEST(CameraTrackerAmbiguity, HandsPassingEachOtherKeepTheirIdentity) {
   int frame = 0;
   Seeder seeder = [&](const cv::Mat1b&, Seeds* s, std::string*) {
     *s = Seeds{};
-    (*s)[1] = {true, {float(hand_x(1, frame) + w / 2), 54}};
-    (*s)[2] = {true, {float(hand_x(2, frame) + w / 2), 54}};
+    (*s)[1] = {true, {float(hand_x(1, frame)) + 0.5f * float(w), 54}};
+    (*s)[2] = {true, {float(hand_x(2, frame)) + 0.5f * float(w), 54}};
     return true;
   };
   TrackerOptions o;
@@ -195,7 +195,7 @@ TEST(CameraTrackerAmbiguity, HandsPassingEachOtherKeepTheirIdentity) {
     const double gap = std::abs(hand_x(1, frame) - hand_x(2, frame));
     for (int f : {1, 2}) {
       const FeatureReport& r = rep[static_cast<std::size_t>(f)];
-      const cv::Point2f truth(float(hand_x(f, frame) + w / 2), 54);
+      const cv::Point2f truth(float(hand_x(f, frame)) + 0.5f * float(w), 54);
       if (r.state == FeatureState::predicted) {
         predicted++;
         EXPECT_LE(r.confidence, o.predicted_confidence);
@@ -214,7 +214,7 @@ TEST(CameraTrackerAmbiguity, HandsPassingEachOtherKeepTheirIdentity) {
   for (int f : {1, 2}) {
     const FeatureReport& r = rep[static_cast<std::size_t>(f)];
     EXPECT_EQ(r.state, FeatureState::tracking) << f;
-    EXPECT_LT(std::abs(r.uv.x - float(hand_x(f, 40) + w / 2)), 4.0f) << f;
+    EXPECT_LT(std::abs(r.uv.x - float(hand_x(f, 40)) + 0.5f * float(w)), 4.0f) << f;
   }
 }
 

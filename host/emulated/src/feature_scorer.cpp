@@ -65,6 +65,7 @@ FeatureScorer::FeatureScorer(const Options& opt, const std::string& calibration,
   so.calibration = rig::read_calibration(calibration);
   scene_ = std::make_unique<sim::Scene>(so);
   views_.resize(static_cast<size_t>(cameras_));
+  truth_.resize(static_cast<size_t>(cameras_));
 }
 
 void FeatureScorer::process(pipeline::Frame& f) {
@@ -73,11 +74,16 @@ void FeatureScorer::process(pipeline::Frame& f) {
   frame_ = static_cast<int>(std::min<uint64_t>(f.seq - origin, uint64_t(std::numeric_limits<int>::max())));
   const std::array<cv::Vec3d, sim::kJointCount> joints = scene_->joints(frame_);
   std::array<int, kTrackedFeatures> seen_by{};
-  for (int c = 0; c < cameras_; c++)
+  for (int c = 0; c < cameras_; c++) {
+    auto& truth = truth_[static_cast<size_t>(c)];
+    truth = {};
     for (const sim::FeatureTruth& t : scene_->features(frame_, c)) {
       const auto i = static_cast<size_t>(t.feature);
-      if (i < seen_by.size() && t.visible) seen_by[i]++;
+      if (i >= truth.size()) continue;
+      truth[i] = t;
+      if (t.visible) seen_by[i]++;
     }
+  }
 
   std::lock_guard<std::mutex> g(mu_);
   frames_++;
@@ -128,10 +134,8 @@ void FeatureScorer::score_2d(const pipeline::Frame& f) {
         v = {true, x.state == VC_FEATURE_TRACKING, double(x.u), double(x.v)};
       }
     }
-  std::array<sim::FeatureTruth, kTrackedFeatures> truth;
   for (int c = 0; c < cameras_; c++) {
-    for (const sim::FeatureTruth& t : scene_->features(frame_, c))
-      if (static_cast<size_t>(t.feature) < truth.size()) truth[static_cast<size_t>(t.feature)] = t;
+    const auto& truth = truth_[static_cast<size_t>(c)];
     const auto& view = views_[static_cast<size_t>(c)];
     auto dist = [&](size_t e, size_t t) {
       return std::hypot(view[e].u - truth[t].uv.x, view[e].v - truth[t].uv.y);

@@ -75,8 +75,9 @@ class FeatureScorer : public pipeline::Stage {
   std::atomic<uint64_t> origin_{0};
   std::atomic<bool> started_{false};
   int frame_ = 0;
-  std::vector<std::array<View, kTrackedFeatures>> views_;  // per rig camera, this frame
-  mutable std::mutex mu_;                                  // everything below
+  std::vector<std::array<View, kTrackedFeatures>> views_;               // per rig camera, this frame
+  std::vector<std::array<sim::FeatureTruth, kTrackedFeatures>> truth_;  // per rig camera, this frame
+  mutable std::mutex mu_;                                               // everything below
   uint64_t frames_ = 0;
   std::array<Sums, kTrackedFeatures> sums_;
 };
