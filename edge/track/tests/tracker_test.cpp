@@ -214,7 +214,7 @@ TEST(CameraTrackerAmbiguity, HandsPassingEachOtherKeepTheirIdentity) {
   for (int f : {1, 2}) {
     const FeatureReport& r = rep[static_cast<std::size_t>(f)];
     EXPECT_EQ(r.state, FeatureState::tracking) << f;
-    EXPECT_LT(std::abs(r.uv.x - float(hand_x(f, 40)) + 0.5f * float(w)), 4.0f) << f;
+    EXPECT_LT(std::abs(r.uv.x - (float(hand_x(f, 40)) + 0.5f * float(w))), 4.0f) << f;
   }
 }
 
