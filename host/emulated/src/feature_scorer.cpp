@@ -95,7 +95,7 @@ void FeatureScorer::process(pipeline::Frame& f) {
     const bool tri = f.triangulated && p && p->state == pipeline::Feature3DState::Triangulated;
     double err_mm = 0;
     if (tri) {
-      const cv::Vec3d truth = joints[static_cast<size_t>(sim::feature_joint(static_cast<sim::Feature>(i)))];
+      const cv::Vec3d& truth = joints[static_cast<size_t>(sim::feature_joint(static_cast<sim::Feature>(i)))];
       const cv::Vec3d d(p->p_world[0] - truth[0], p->p_world[1] - truth[1], p->p_world[2] - truth[2]);
       err_mm = 1000 * cv::norm(d);
       if (double(p->confidence) > confident_ && err_mm > 100) m.s.confident_wrong++;
