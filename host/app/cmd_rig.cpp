@@ -2,6 +2,7 @@
 // one voxcap-edge process per node with sim cameras and the udp trigger, on loopback) and prints
 // per-node and overall figures; without it, the host aggregator runs the rig described by rig.toml
 // until Ctrl-C or --seconds.
+#include <cmath>
 #include <csignal>
 #include <thread>
 
@@ -111,6 +112,34 @@ nlohmann::json silhouette_json(const emulated::SilhouetteScore& s) {
           {"shadow_frames", s.shadow_frames}};
 }
 
+// A figure that may be missing (no samples: NaN) as JSON: null then.
+nlohmann::json number(double x) {
+  return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr);
+}
+
+// accuracy.features.<name>: the feature scorer's figures (emulated::FeatureScore).
+nlohmann::json features_json(const emulated::FeatureAccuracy& a) {
+  nlohmann::json j = nlohmann::json::object();
+  for (size_t i = 0; i < a.features.size(); i++) {
+    const emulated::FeatureScore& s = a.features[i];
+    j[emulated::kTrackedFeatureNames[i]] = {{"err3d_p50_mm", number(s.err3d_p50_mm)},
+                                            {"err3d_p95_mm", number(s.err3d_p95_mm)},
+                                            {"frames_visible", s.frames_visible},
+                                            {"frames_triangulated", s.frames_triangulated},
+                                            {"frames_lost", s.frames_lost},
+                                            {"frames_to_acquire", s.frames_to_acquire},
+                                            {"losses", s.losses},
+                                            {"recover_max_frames", s.recover_max_frames},
+                                            {"recover_p95_frames", s.recover_p95_frames},
+                                            {"confident_wrong", s.confident_wrong},
+                                            {"views_visible", s.views_visible},
+                                            {"views_untracked", s.views_untracked},
+                                            {"err2d_p50_px", number(s.err2d_p50_px)},
+                                            {"err2d_p95_px", number(s.err2d_p95_px)}};
+  }
+  return j;
+}
+
 // The scorer's figures (emulated::Accuracy) under the keys --help names.
 nlohmann::json accuracy_json(const emulated::Accuracy& a) {
   nlohmann::json parts = nlohmann::json::object();
@@ -134,7 +163,35 @@ nlohmann::json accuracy_json(const emulated::Accuracy& a) {
           {"hull_precision", a.hull_precision},
           {"reference_carve", a.reference_carve},
           {"parts", parts},
-          {"silhouettes", sil}};
+          {"silhouettes", sil},
+          {"feature_frames", a.features.frames},
+          {"feature_confident", a.features.confident},
+          {"features", features_json(a.features)}};
+}
+
+void print_features(const emulated::FeatureAccuracy& a) {
+  fmt::print(
+      "tracked features ({} frames scored, every frame): 3D vs the true head centre, wrists, ankles over "
+      "the frames two or more cameras see the part; 2D: the edges' FEATURES while visible\n",
+      a.frames);
+  fmt::print("  {:<11}{:>8}{:>17}{:>7}{:>8}{:>8}{:>9}{:>11}{:>14}{:>15}\n", "feature", "visible",
+             "3d p50/p95", "lost", "losses", "rec max", "rec p95", "conf wrong", "2d p50/p95",
+             "2d untracked");
+  auto pair = [](double p50, double p95, const char* unit) {
+    return std::isfinite(p50) ? fmt::format("{:.1f}/{:.1f}{}", p50, p95, unit) : std::string("-");
+  };
+  for (size_t i = 0; i < a.features.size(); i++) {
+    const emulated::FeatureScore& s = a.features[i];
+    fmt::print("  {:<11}{:>8}{:>17}{:>7}{:>8}{:>8}{:>9.1f}{:>11}{:>14}{:>15}\n",
+               emulated::kTrackedFeatureNames[i], s.frames_visible,
+               pair(s.err3d_p50_mm, s.err3d_p95_mm, "mm"), s.frames_lost, s.losses, s.recover_max_frames,
+               s.recover_p95_frames, s.confident_wrong, pair(s.err2d_p50_px, s.err2d_p95_px, "px"),
+               fmt::format("{}/{}", s.views_untracked, s.views_visible));
+  }
+  fmt::print(
+      "  (lost: seen by two cameras but not triangulated, after the first triangulation; rec: frames a loss "
+      "lasted; conf wrong: confidence > {:.2f} and > 10 cm from the truth)\n",
+      a.confident);
 }
 
 void print_accuracy(const emulated::Accuracy& a) {
@@ -165,6 +222,7 @@ void print_accuracy(const emulated::Accuracy& a) {
   row("all", a.silhouettes);
   if (a.silhouettes.frames == 0 && a.frames > 0)
     fmt::print("  (no edge sent its masks: the figures above need edges that send SILHOUETTE)\n");
+  if (a.features.frames > 0) print_features(a.features);
 }
 
 }  // namespace
@@ -235,7 +293,11 @@ void add_rig_commands(CLI::App& app) {
       "parts {head, torso, l_upper_arm, r_upper_arm, l_forearm, r_forearm, l_hand, r_hand, l_thigh, r_thigh, "
       "l_shank, r_shank, l_foot, r_foot}, silhouettes {source, frames, missing, bad, recall, precision, "
       "shadow_kept, shadow_frames, cameras[] {camera, node, frames, missing, bad, recall, precision, "
-      "shadow_kept, shadow_frames}}} (emulated; silhouettes from the edges' real masks)");
+      "shadow_kept, shadow_frames}}, feature_frames, feature_confident, features {head, left_hand, "
+      "right_hand, left_foot, right_foot: {err3d_p50_mm, err3d_p95_mm, frames_visible, frames_triangulated, "
+      "frames_lost, frames_to_acquire, losses, recover_max_frames, recover_p95_frames, confident_wrong, "
+      "views_visible, views_untracked, err2d_p50_px, err2d_p95_px}}} (emulated; silhouettes from the edges' "
+      "real masks; features scored on every frame, null where nothing was measured)");
   cmd->callback([=] {
     std::signal(SIGINT, on_sigint);
     std::signal(SIGTERM, on_sigint);

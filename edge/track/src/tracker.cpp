@@ -36,8 +36,23 @@ constexpr float kHeadRowShare = 0.85f;
 // A window grows to at most this many times its reference area in one frame (CamShift alone would take
 // a whole neighbouring blob).
 constexpr double kMaxGrow = 2.0;
+// A prediction extrapolates the velocity over at most this many frames (limbs turn around).
+constexpr int kPredictCap = 10;
+// Two windows converge when they were apart at most kArrival frames ago and their distance shrinks by at
+// least kClosing of their size in a frame.
+constexpr double kClosing = 0.02;
+constexpr int kArrival = 15;
+// The confidence factor of a window whose centre is within ambiguous_near of another's.
+constexpr double kNearConfidence = 0.3;  // frames since the two were apart (farther than ambiguous_far)
 
 }  // namespace
+
+cv::Point2f CameraTracker::Track::predicted_uv(int frames) const {
+  return pred_uv + float(std::clamp(frames, 0, kPredictCap)) * pred_velocity;
+}
+cv::Point2f CameraTracker::Track::predicted_centre(int frames) const {
+  return pred_centre + float(std::clamp(frames, 0, kPredictCap)) * pred_velocity;
+}
 
 FeatureKind feature_kind(int feature) {
   return feature == 0 ? FeatureKind::head : feature <= 2 ? FeatureKind::hand : FeatureKind::foot;
@@ -61,6 +76,13 @@ bool TrackerOptions::valid(std::string* why) const {
   if (!(merge_iou > 0 && merge_iou <= 1)) return fail("merge_iou must be in (0, 1]");
   if (recover_frames < 1) return fail("recover_frames must be >= 1");
   if (!(reach_px >= 0 && reach_grow >= 0)) return fail("reach_px and reach_grow must be >= 0");
+  if (!(ambiguous_near > 0 && ambiguous_far > ambiguous_near))
+    return fail("ambiguous_near must be > 0 and ambiguous_far > ambiguous_near");
+  if (!(swap_ratio > 0 && swap_ratio <= 1)) return fail("swap_ratio must be in (0, 1]");
+  if (ambiguous_max_frames < 1) return fail("ambiguous_max_frames must be >= 1");
+  if (predict_frames < 0 || predict_frames > 100) return fail("predict_frames must be 0..100");
+  if (!(predicted_confidence >= 0 && predicted_confidence <= 1))
+    return fail("predicted_confidence must be in [0, 1]");
   return true;
 }
 
@@ -155,6 +177,7 @@ void CameraTracker::reset() {
   for (auto& m : models_) m.reset();
   pooled_.reset();
   tracks_ = {};
+  for (auto& row : since_apart_) row.fill(1000);
 }
 
 void CameraTracker::prepare(const cv::Mat3b& rgb, const cv::Mat1b& mask, const cv::Rect& roi,
@@ -194,6 +217,8 @@ void CameraTracker::adopt(int f, const cv::Rect& box, const cv::Mat1b& mask, boo
   t.ref_area = std::max(1, box.area());
   t.active = t.seen = true;
   t.lost_frames = 0;
+  t.partner = -1;
+  t.amb_frames = 0;
   t.since_recovery = recovered ? 0 : opt_.recover_frames;
   cv::Point2f uv;
   t.uv = estimate_point(f, box, mask, &uv) ? uv : t.centre;
@@ -263,6 +288,21 @@ void CameraTracker::start_tracking(const cv::Mat3b& rgb, const cv::Mat1b& mask, 
 void CameraTracker::lose(int f) {
   Track& t = tracks_[static_cast<std::size_t>(f)];
   if (!t.active) return;
+  // What the prediction starts from: before an ambiguity, where it began; else the last measurement.
+  if (t.partner >= 0) {
+    t.pred_uv = t.predicted_uv(t.amb_frames);
+    t.pred_centre = t.predicted_centre(t.amb_frames);
+    Track& o = tracks_[static_cast<std::size_t>(t.partner)];
+    o.partner = -1;
+    o.amb_frames = 0;
+    o.since_recovery = 0;  // which of the two it holds is not known: its confidence ramps up again
+  } else {
+    t.pred_uv = t.uv;
+    t.pred_centre = t.centre;
+    t.pred_velocity = t.velocity;
+  }
+  t.partner = -1;
+  t.amb_frames = 0;
   t.active = false;
   t.lost_frames = 0;
   t.confidence = 0;
@@ -324,6 +364,9 @@ bool CameraTracker::estimate_point(int f, const cv::Rect& window, const cv::Mat1
 
 void CameraTracker::track_one(int f, const cv::Mat3b& rgb, const cv::Mat1b& mask) {
   Track& t = tracks_[static_cast<std::size_t>(f)];
+  t.prev_uv = t.uv;
+  t.prev_centre = t.centre;
+  t.prev_velocity = t.velocity;
   const cv::Rect image(0, 0, rgb.cols, rgb.rows);
   const cv::Point2f pred = t.centre + t.velocity;
   const int w = std::max(2, t.window.width), h = std::max(2, t.window.height);
@@ -388,9 +431,88 @@ void CameraTracker::resolve_merges() {
     for (int b = a + 1; b < kFeatures; ++b) {
       Track& ta = tracks_[static_cast<std::size_t>(a)];
       Track& tb = tracks_[static_cast<std::size_t>(b)];
-      if (!ta.active || !tb.active || iou(ta.window, tb.window) <= opt_.merge_iou) continue;
+      if (!ta.active || !tb.active || ta.partner == b || iou(ta.window, tb.window) <= opt_.merge_iou)
+        continue;
       lose(ta.moved > tb.moved ? a : b);
     }
+}
+
+void CameraTracker::update_ambiguity() {
+  for (int a = 0; a < kFeatures; ++a)
+    for (int b = a + 1; b < kFeatures; ++b) {
+      Track& ta = tracks_[static_cast<std::size_t>(a)];
+      Track& tb = tracks_[static_cast<std::size_t>(b)];
+      if (!ta.active || !tb.active) continue;
+      const double size =
+          0.5 * (std::max(ta.window.width, ta.window.height) + std::max(tb.window.width, tb.window.height));
+      const double d = cv::norm(ta.centre - tb.centre);
+      int& apart = since_apart_[static_cast<std::size_t>(a)][static_cast<std::size_t>(b)];
+      apart = d > opt_.ambiguous_far * size ? 0 : std::min(apart + 1, 1000);
+      if (ta.partner == b) {
+        if (d > opt_.ambiguous_far * size) {
+          part(a, b);
+          continue;
+        }
+        ta.amb_frames++, tb.amb_frames++;
+        if (ta.amb_frames > opt_.ambiguous_max_frames) part(a, b);  // together for long: decide now
+        continue;
+      }
+      if (ta.partner >= 0 || tb.partner >= 0 || d >= opt_.ambiguous_near * size) continue;
+      // Only windows that arrive: apart a moment ago and closing in. Feet standing together or a hand
+      // resting by the face are near for long and stay who they are.
+      const double closing = cv::norm(ta.prev_centre - tb.prev_centre) - d;
+      if (apart > kArrival || closing < kClosing * size) continue;
+      // They meet: predict each from where it was before this frame.
+      for (auto [t, o] : {std::pair<Track*, int>{&ta, b}, std::pair<Track*, int>{&tb, a}}) {
+        t->partner = o;
+        t->amb_frames = 1;
+        t->pred_uv = t->prev_uv;
+        t->pred_centre = t->prev_centre;
+        t->pred_velocity = t->prev_velocity;
+      }
+    }
+}
+
+// How sure feature f's window is its own, from its nearest other window: two windows closer than
+// ambiguous_far of their mean size may hold each other's part (the tracker cannot tell two hands apart
+// by colour), so the confidence falls linearly to kNearConfidence at ambiguous_near and below.
+float CameraTracker::proximity(int f) const {
+  const Track& t = tracks_[static_cast<std::size_t>(f)];
+  double r = opt_.ambiguous_far;
+  for (int g = 0; g < kFeatures; ++g) {
+    const Track& o = tracks_[static_cast<std::size_t>(g)];
+    if (g == f || !o.active) continue;
+    const double size =
+        0.5 * (std::max(t.window.width, t.window.height) + std::max(o.window.width, o.window.height));
+    if (size > 0) r = std::min(r, cv::norm(t.centre - o.centre) / size);
+  }
+  const double k = (r - opt_.ambiguous_near) / (opt_.ambiguous_far - opt_.ambiguous_near);
+  return float(kNearConfidence + (1.0 - kNearConfidence) * std::clamp(k, 0.0, 1.0));
+}
+
+// Two ambiguous windows have parted: each feature takes the window nearer its prediction.
+void CameraTracker::part(int a, int b) {
+  Track& ta = tracks_[static_cast<std::size_t>(a)];
+  Track& tb = tracks_[static_cast<std::size_t>(b)];
+  const cv::Point2f pa = ta.predicted_centre(ta.amb_frames), pb = tb.predicted_centre(tb.amb_frames);
+  const double keep = cv::norm(ta.centre - pa) + cv::norm(tb.centre - pb);
+  const double swap = cv::norm(ta.centre - pb) + cv::norm(tb.centre - pa);
+  if (swap < opt_.swap_ratio * keep) {
+    std::swap(ta.window, tb.window);
+    std::swap(ta.centre, tb.centre);
+    std::swap(ta.uv, tb.uv);
+    std::swap(ta.ref_mass, tb.ref_mass);
+    std::swap(ta.ref_area, tb.ref_area);
+    std::swap(ta.confidence, tb.confidence);
+    swaps_++;
+  } else if (!(keep < opt_.swap_ratio * swap)) {
+    ta.since_recovery = tb.since_recovery = 0;  // neither fits clearly: weigh both low for a while
+  }
+  // Each moves on as it moved before they met.
+  ta.velocity = ta.pred_velocity;
+  tb.velocity = tb.pred_velocity;
+  ta.partner = tb.partner = -1;
+  ta.amb_frames = tb.amb_frames = 0;
 }
 
 void CameraTracker::reacquire(const cv::Mat3b& rgb, const cv::Mat1b& mask) {
@@ -421,7 +543,7 @@ void CameraTracker::reacquire(const cv::Mat3b& rgb, const cv::Mat1b& mask) {
       for (const Track& o : tracks_)
         if (o.active && ((o.window & b).area() > 0)) held = true;
       if (held) continue;
-      const double d = cv::norm(centre_of(b) - t.centre);
+      const double d = cv::norm(centre_of(b) - t.predicted_centre(t.lost_frames));
       if (d < best_d) best_d = d, best = k;
     }
     if (best < 0) continue;
@@ -459,6 +581,7 @@ void CameraTracker::process(const cv::Mat3b& rgb, const cv::Mat1b& mask, FrameRe
   } else {
     for (int f = 0; f < kFeatures; ++f)
       if (tracks_[static_cast<std::size_t>(f)].active) track_one(f, rgb, mask);
+    update_ambiguity();
     resolve_merges();
     bool any_lost = false;
     for (const Track& t : tracks_) any_lost |= t.seen && !t.active;
@@ -470,9 +593,26 @@ void CameraTracker::process(const cv::Mat3b& rgb, const cv::Mat1b& mask, FrameRe
     const Track& t = tracks_[static_cast<std::size_t>(f)];
     FeatureReport& r = (*out)[static_cast<std::size_t>(f)];
     if (!t.seen) continue;  // never seen in this camera: not_visible
-    r.uv = t.uv;
-    r.state = t.active ? FeatureState::tracking : FeatureState::lost;
-    r.confidence = t.active ? std::clamp(t.confidence, 0.0f, 1.0f) : 0.0f;
+    if (t.active && t.partner >= 0) {
+      r.state = FeatureState::predicted;
+      r.uv = t.predicted_uv(t.amb_frames);
+      r.confidence =
+          opt_.predicted_confidence * (1.0f - float(t.amb_frames) / float(opt_.ambiguous_max_frames + 1));
+    } else if (t.active) {
+      r.state = FeatureState::tracking;
+      r.uv = t.uv;
+      r.confidence = std::clamp(t.confidence, 0.0f, 1.0f) * proximity(f);
+    } else if (t.lost_frames <= opt_.predict_frames) {
+      r.state = FeatureState::predicted;
+      r.uv = t.predicted_uv(t.lost_frames);
+      r.confidence =
+          opt_.predicted_confidence * (1.0f - float(t.lost_frames) / float(opt_.predict_frames + 1));
+    } else {
+      r.state = FeatureState::lost;
+      r.uv = t.uv;
+      r.confidence = 0.0f;
+    }
+    r.confidence = std::clamp(r.confidence, 0.0f, 1.0f);
   }
 }
 

@@ -38,16 +38,21 @@ struct EvalOptions {
 };
 
 struct FeatureScore {
-  std::vector<double> errors;  // px, visible & tracking
-  int visible = 0;             // frames where the truth says visible
-  int visible_untracked = 0;   // ... and the tracker did not report tracking
-  int losses = 0;              // tracking -> not tracking while the part is visible
-  std::vector<int> recover;    // frames from the part being visible again (after a loss) to tracking
-  int unrecovered = 0;         // losses still open at the end while the part was visible for > 10 frames
-  int far_tracking = 0;        // tracking with an error > 25 px (a confident wrong answer in 2D)
-  double pct(double q) const {
-    if (errors.empty()) return NAN;
-    std::vector<double> e = errors;
+  std::vector<double> errors;     // px, visible & tracking
+  int visible = 0;                // frames where the truth says visible
+  int visible_untracked = 0;      // ... and the tracker did not report tracking
+  int losses = 0;                 // tracking -> not tracking while the part is visible
+  std::vector<int> recover;       // frames from the part being visible again (after a loss) to tracking
+  int unrecovered = 0;            // losses still open at the end while the part was visible for > 10 frames
+  int far_tracking = 0;           // tracking with an error > 25 px (a confident wrong answer in 2D)
+  int far_confident = 0;          // ... with confidence above 0.5 (the host's `confident`)
+  std::vector<double> predicted;  // px, visible & predicted (counted as untracked too)
+  cv::Point2d bias{0, 0};         // summed (reported - true) over tracking errors <= 25 px (mean: / near)
+  int near = 0;
+  double pct(double q) const { return pct_of(errors, q); }
+  static double pct_of(const std::vector<double>& v, double q) {
+    if (v.empty()) return NAN;
+    std::vector<double> e = v;
     const auto k = static_cast<std::size_t>(std::clamp(q * double(e.size() - 1), 0.0, double(e.size() - 1)));
     std::nth_element(e.begin(), e.begin() + long(k), e.end());
     return e[k];
@@ -156,9 +161,14 @@ inline EvalResult evaluate(const EvalOptions& o) {
           if (trk) {
             const double e = cv::norm(cv::Point2d(rep[fs].uv) - truth[fs].uv);
             s.errors.push_back(e);
-            if (e > 25) s.far_tracking++;
+            if (e > 25)
+              s.far_tracking++, s.far_confident += rep[fs].confidence > 0.5f;
+            else
+              s.bias += cv::Point2d(rep[fs].uv) - truth[fs].uv, s.near++;
           } else {
             s.visible_untracked++;
+            if (rep[fs].state == FeatureState::predicted)
+              s.predicted.push_back(cv::norm(cv::Point2d(rep[fs].uv) - truth[fs].uv));
           }
         }
         if (was_tracking[fs] && !trk && vis) s.losses++, pending[fs] = true, visible_since_loss[fs] = 0;

@@ -27,14 +27,18 @@ int main(int argc, char** argv) {
   static const char* names[] = {"head", "left_hand", "right_hand", "left_foot", "right_foot"};
   std::printf("%s: %d frames x %d cameras, %s masks, %s seeds\n", o.motion.c_str(), o.frames, o.cameras,
               o.masks == Masks::truth ? "true" : "edge", o.truth_seeds ? "true" : "own");
-  std::printf("%-11s %7s %7s %8s %9s %7s %9s %11s %6s\n", "feature", "p50_px", "p95_px", "visible",
-              "untracked", "losses", "rec_max", "unrecovered", ">25px");
+  std::printf("%-11s %7s %7s %8s %9s %7s %9s %11s %6s %5s %13s %17s\n", "feature", "p50_px", "p95_px",
+              "visible", "untracked", "losses", "rec_max", "unrecovered", ">25px", "conf", "bias_px",
+              "pred p50/p95");
   for (int f = 0; f < vc::track::kFeatures; ++f) {
     const FeatureScore& s = r.features[static_cast<std::size_t>(f)];
     int rmax = 0;
     for (int k : s.recover) rmax = std::max(rmax, k);
-    std::printf("%-11s %7.2f %7.2f %8d %9d %7d %9d %11d %6d\n", names[f], s.pct(0.5), s.pct(0.95), s.visible,
-                s.visible_untracked, s.losses, rmax, s.unrecovered, s.far_tracking);
+    const double n = std::max(1, s.near);
+    std::printf("%-11s %7.2f %7.2f %8d %9d %7d %9d %11d %6d %5d %6.1f,%6.1f %5zu %5.1f/%5.1f\n", names[f],
+                s.pct(0.5), s.pct(0.95), s.visible, s.visible_untracked, s.losses, rmax, s.unrecovered,
+                s.far_tracking, s.far_confident, s.bias.x / n, s.bias.y / n, s.predicted.size(),
+                FeatureScore::pct_of(s.predicted, 0.5), FeatureScore::pct_of(s.predicted, 0.95));
   }
   FeatureScore all;
   all.errors = r.all_errors();

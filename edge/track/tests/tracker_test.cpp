@@ -129,7 +129,16 @@ TEST_F(Hostile, AFeatureNeverSeenStaysNotVisibleAndAnEmptyMaskLosesTheRest) {
   EXPECT_NEAR(rep[0].uv.y, 20, 2);
   const cv::Point2f head = rep[0].uv;
   const cv::Mat1b empty(mask.size(), uchar(0));
+  // Freshly lost: predicted (constant velocity: standing still here) with a low confidence for
+  // predict_frames frames, then lost.
   t.process(rgb, empty, &rep);
+  for (int f = 0; f < 4; ++f) {
+    EXPECT_EQ(rep[static_cast<std::size_t>(f)].state, FeatureState::predicted) << f;
+    EXPECT_GT(rep[static_cast<std::size_t>(f)].confidence, 0.0f);
+    EXPECT_LE(rep[static_cast<std::size_t>(f)].confidence, o.predicted_confidence);
+  }
+  EXPECT_LT(cv::norm(rep[0].uv - head), 1.0);
+  for (int i = 0; i < o.predict_frames; ++i) t.process(rgb, empty, &rep);
   for (int f = 0; f < 4; ++f) {
     EXPECT_EQ(rep[static_cast<std::size_t>(f)].state, FeatureState::lost) << f;
     EXPECT_EQ(rep[static_cast<std::size_t>(f)].confidence, 0.0f);
@@ -145,6 +154,68 @@ TEST_F(Hostile, AFeatureNeverSeenStaysNotVisibleAndAnEmptyMaskLosesTheRest) {
   EXPECT_EQ(t.reacquisitions(), 4u);
   for (int i = 0; i < o.recover_frames + 1; ++i) t.process(rgb, mask, &rep);
   EXPECT_GT(rep[1].confidence, 0.9f);
+}
+
+// Two hands on one arm-bar move past each other at constant speed (forearms crossing, hands swinging
+// past each other in a side view): the same colour, one blob while they overlap. While the windows
+// converge the hands are reported predicted (low confidence, on their own paths), and once they part
+// each feature follows its own hand, not the other one.
+TEST(CameraTrackerAmbiguity, HandsPassingEachOtherKeepTheirIdentity) {
+  cv::Mat3b rgb(120, 200, cv::Vec3b(90, 90, 90));
+  cv::Mat1b mask(120, 200, uchar(0));
+  const int speed = 3, w = 10, h = 12;
+  auto hand_x = [&](int f, int i) { return f == 1 ? 30 + speed * i : 160 - speed * i; };
+  auto draw = [&](int i) {
+    rgb.setTo(cv::Vec3b(90, 90, 90));
+    mask.setTo(0);
+    rgb(cv::Rect(10, 50, 180, 8)).setTo(cv::Vec3b(40, 60, 170));  // the arms' cloth
+    mask(cv::Rect(10, 50, 180, 8)).setTo(255);
+    for (int f : {1, 2}) {
+      const cv::Rect r(hand_x(f, i), 48, w, h);
+      rgb(r).setTo(cv::Vec3b(215, 165, 135));
+      mask(r).setTo(255);
+    }
+  };
+  int frame = 0;
+  Seeder seeder = [&](const cv::Mat1b&, Seeds* s, std::string*) {
+    *s = Seeds{};
+    (*s)[1] = {true, {float(hand_x(1, frame)) + 0.5f * float(w), 54}};
+    (*s)[2] = {true, {float(hand_x(2, frame)) + 0.5f * float(w), 54}};
+    return true;
+  };
+  TrackerOptions o;
+  o.init_frames = 1;
+  CameraTracker t(o, seeder);
+  FrameReport rep;
+  int predicted = 0;
+  for (frame = 0; frame <= 40; ++frame) {
+    draw(frame);
+    t.process(rgb, mask, &rep);
+    ASSERT_TRUE(t.initialised());
+    const double gap = std::abs(hand_x(1, frame) - hand_x(2, frame));
+    for (int f : {1, 2}) {
+      const FeatureReport& r = rep[static_cast<std::size_t>(f)];
+      const cv::Point2f truth(float(hand_x(f, frame)) + 0.5f * float(w), 54);
+      if (r.state == FeatureState::predicted) {
+        predicted++;
+        EXPECT_LE(r.confidence, o.predicted_confidence);
+        EXPECT_LT(cv::norm(r.uv - truth), 6.0) << "frame " << frame << ": on its own path";
+      } else if (r.state == FeatureState::tracking && r.confidence > 0.5f) {
+        // Confident: on its own hand.
+        EXPECT_LT(cv::norm(r.uv - truth), 6.0) << "frame " << frame << " feature " << f;
+      }
+      if (gap < w) {
+        EXPECT_LE(r.confidence, 0.5f) << "frame " << frame << ": overlapping hands are never confident";
+      }
+    }
+  }
+  EXPECT_GT(predicted, 0);
+  // Parted for good: each feature tracks its own hand.
+  for (int f : {1, 2}) {
+    const FeatureReport& r = rep[static_cast<std::size_t>(f)];
+    EXPECT_EQ(r.state, FeatureState::tracking) << f;
+    EXPECT_LT(std::abs(r.uv.x - (float(hand_x(f, 40)) + 0.5f * float(w))), 4.0f) << f;
+  }
 }
 
 TEST_F(Hostile, ANewImageSizeOrAMismatchedMaskStartsAgainWithoutCrashing) {

@@ -27,6 +27,7 @@
 
 #include <toml++/toml.h>
 
+#include "feature_scorer.hpp"
 #include "voxcap/aggregator/record_stage.hpp"
 #include "voxcap/config/options.hpp"
 #include "voxcap/edge/carver.h"
@@ -601,6 +602,7 @@ struct EmulatedRig::Impl {
   std::vector<pid_t> pids;
   std::unique_ptr<aggregator::Aggregator> agg;
   TruthScorer* scorer = nullptr;  // stages of agg's pipeline (owned there)
+  FeatureScorer* feature_scorer = nullptr;
   aggregator::RecordStage* recorder = nullptr;
   Clock::time_point t_start;
   long rss_start = 0;
@@ -751,6 +753,10 @@ void EmulatedRig::start(double timeout_s) {
   if (o.truth_every > 0)
     m.scorer = &m.agg->pipeline().tap(std::make_unique<TruthScorer>(o, cal, grid, cal_path.string()),
                                       TruthScorer::queue(o));
+  if (o.truth_every > 0 && rig.features.enabled && rig.triangulation.enabled)
+    m.feature_scorer = &m.agg->pipeline().tap(
+        std::make_unique<FeatureScorer>(o, cal_path.string(), rig.triangulation.confident),
+        FeatureScorer::queue());
   if (o.stages) o.stages(m.agg->pipeline());
   m.agg->start();
   m.pids.assign(static_cast<size_t>(o.nodes), 0);
@@ -772,6 +778,7 @@ void EmulatedRig::start(double timeout_s) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   if (m.scorer) m.scorer->set_origin(m.agg->report().origin);
+  if (m.feature_scorer) m.feature_scorer->set_origin(m.agg->report().origin);
   m.t_start = Clock::now();
 }
 
@@ -829,6 +836,7 @@ Result EmulatedRig::stop() {
   m.agg->stop();  // every stage drains its queue; the recording is closed cleanly
   r.stages = m.agg->report().pipeline;
   if (m.scorer) r.accuracy = m.scorer->accuracy();
+  if (m.feature_scorer) r.accuracy.features = m.feature_scorer->figures();
   r.host_rss_start_kb = m.rss_start;
   r.host_rss_end_kb = rss_kb();
   r.workdir = m.dir;

@@ -8,8 +8,9 @@
 // silhouettes (the same carving rule as the edges, then the AND over nodes — what a perfect
 // subtraction would give) and the true body occupancy, per body part; and the edges' own masks (their
 // SILHOUETTE messages, which the rig asks for on every scored frame) against the true silhouettes and
-// floor shadows. Nodes can be killed and restarted (fault tests). Used by `voxcap rig --emulated`, the
-// integration tests and `voxcap bench host`.
+// floor shadows. A second consumer stage, the feature scorer, scores the tracked features (the edges'
+// 2D FEATURES and the host's 3D ones) on every frame. Nodes can be killed and restarted (fault tests). Used
+// by `voxcap rig --emulated`, the integration tests and `voxcap bench host`.
 #pragma once
 
 #include <sys/types.h>
@@ -45,7 +46,8 @@ struct Options {
   std::string missing_policy = "degraded";  // drop | degraded
   double deadline_ms = 100;
   // Score the merged frames whose seq is a multiple of k against ground truth (0: never); the edges
-  // send their masks for the same frames (rig.toml [silhouettes] every = k).
+  // send their masks for the same frames (rig.toml [silhouettes] every = k). With k > 0 the tracked
+  // features are scored too, on every frame.
   int truth_every = 10;
   std::filesystem::path workdir;      // rig.yaml, rig.toml, edge logs; empty: a fresh temp folder
   std::filesystem::path edge_binary;  // empty: voxcap-edge beside this executable
@@ -76,6 +78,42 @@ struct SilhouetteScore {
   uint64_t shadow_frames = 0;  // frames with floor shadow in view (shadow_kept's average)
 };
 
+// The tracked features (head, hands, feet: vc_feature_id order) against the virtual rig's truth,
+// scored on every merged frame of the run (the feature scorer, feature_scorer.cpp, has the rules).
+inline constexpr int kTrackedFeatures = 5;
+inline constexpr std::array<const char*, kTrackedFeatures> kTrackedFeatureNames = {
+    "head", "left_hand", "right_hand", "left_foot", "right_foot"};
+
+struct FeatureScore {
+  // 3D (Frame::features3d against hw/sim's joints: head centre, wrists, ankles), over the frames where
+  // at least two cameras see the part (Scene::features(...).visible): frames_visible of them.
+  uint64_t frames_visible = 0;
+  uint64_t frames_triangulated = 0;           // ... with a triangulated position: err3d's samples
+  uint64_t frames_lost = 0;                   // ... without one, once it had been triangulated
+  uint64_t frames_to_acquire = 0;             // ... without one, before its first triangulation (start-up)
+  double err3d_p50_mm = 0, err3d_p95_mm = 0;  // NaN without samples
+  // Losses: runs of consecutive lost-while-visible frames (frames where fewer than two cameras see the
+  // part pause a run); a run still open at the end counts with its length so far.
+  uint64_t losses = 0;
+  uint64_t recover_max_frames = 0;
+  double recover_p95_frames = 0;
+  // Triangulated with confidence above the documented threshold (FeatureAccuracy::confident) and more
+  // than 10 cm from the truth, in any frame.
+  uint64_t confident_wrong = 0;
+  // 2D: the edges' FEATURES in state tracking against the truth's 2D features while visible, per
+  // camera frame (the edges' left/right are image-side labels: each camera's pair is paired with the
+  // true pair the way that fits best).
+  uint64_t views_visible = 0;                 // camera frames where the part is visible
+  uint64_t views_untracked = 0;               // ... and the edge did not report it tracking
+  double err2d_p50_px = 0, err2d_p95_px = 0;  // NaN without samples
+};
+
+struct FeatureAccuracy {
+  uint64_t frames = 0;   // merged frames scored
+  double confident = 0;  // the triangulation's documented threshold ([triangulation] confident)
+  std::array<FeatureScore, kTrackedFeatures> features{};
+};
+
 struct Accuracy {
   uint64_t frames = 0;  // frames scored
   double agree = 0;     // mean fraction of all voxels equal to the true-silhouette hull
@@ -95,6 +133,8 @@ struct Accuracy {
   // and over all cameras (means over every scored frame and camera).
   std::vector<SilhouetteScore> cameras;
   SilhouetteScore silhouettes;
+  // The tracked features, scored on every frame (not only every truth_every-th).
+  FeatureAccuracy features;
 };
 
 struct Result {

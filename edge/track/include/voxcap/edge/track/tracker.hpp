@@ -17,6 +17,16 @@
 //               than the motion allows, or it merges with another feature's window (the one that moved
 //               less against its prediction keeps the blob). A lost feature reports `lost` with its last
 //               position and confidence 0.
+//   ambiguity — two windows converge (their centres closer than `ambiguous_near` of their mean size:
+//               hands crossing or swinging past each other, a hand passing the face, feet crossing in a
+//               side view): which window holds which part is no longer known. Both are reported
+//               `predicted` — a constant-velocity prediction from where they were when they met, with a
+//               low confidence — and the windows may share a blob (no merge loss) while they are. When
+//               they part (farther than `ambiguous_far`), each is given to the window nearer its
+//               prediction (the pair swapped when that fits clearly better); when neither assignment
+//               fits clearly better, both restart their confidence ramp. Together for longer than
+//               `ambiguous_max_frames`: decided as if they had parted. Windows that are near but do not
+//               close in on each other (feet standing together) are not ambiguous.
 //   re-acquire — every frame while lost: the skin blobs of the current silhouette that no tracked window
 //               holds (colour: the pooled model of all features; the silhouette's extremities, where
 //               hands and feet are, come first) are candidates; the nearest to the last known position
@@ -24,7 +34,9 @@
 //               reported `tracking` with its confidence ramping up over `recover_frames` frames, so the
 //               host can weigh it low at first.
 // Identity is kept over time (a tracker never re-decides which hand it follows from the image side);
-// left and right are the seeder's, by image side as if the camera faced the performer.
+// left and right are the seeder's, by image side as if the camera faced the performer. A freshly lost
+// feature is reported `predicted` (constant velocity, low confidence) for `predict_frames` frames, then
+// `lost`; re-acquisition searches around the predicted position.
 //
 // Limits: one colour per feature; a hand over the face or two hands clasped are one blob, so one of the
 // two is lost until they part; a sleeve or trouser of skin colour makes the blob longer than the hand.
@@ -49,7 +61,7 @@ enum class FeatureKind { head, hand, foot };
 FeatureKind feature_kind(int feature);
 
 // What a tracker says about one feature in one frame; states as on the wire (proto vc_feature_state).
-enum class FeatureState { tracking = 0, lost = 2, not_visible = 3 };
+enum class FeatureState { tracking = 0, predicted = 1, lost = 2, not_visible = 3 };
 struct FeatureReport {
   FeatureState state = FeatureState::not_visible;
   cv::Point2f uv{0, 0};  // pixel column/row in the (distorted) image
@@ -91,6 +103,12 @@ struct TrackerOptions {
   int recover_frames = 5;        // confidence ramps up over this many frames after re-acquisition
   double reach_px = 24;          // re-acquisition reach around the last position, + reach_grow per lost frame
   double reach_grow = 6;
+  double ambiguous_near = 0.75;  // windows whose centres are closer than this x their mean size: ambiguous
+  double ambiguous_far = 1.25;   // ... until farther than this x their mean size
+  double swap_ratio = 0.6;  // on parting, the other assignment is taken when its cost is below this share
+  int ambiguous_max_frames = 20;       // ambiguous longer than this: decided as on parting
+  int predict_frames = 5;              // a lost feature is reported predicted this many frames
+  float predicted_confidence = 0.35f;  // confidence of a predicted report (decays over the prediction)
 
   bool valid(std::string* why) const;
 };
@@ -114,6 +132,7 @@ class CameraTracker {
   // Re-acquisitions and losses so far (diagnostics, the bench).
   std::uint64_t losses() const { return losses_; }
   std::uint64_t reacquisitions() const { return reacquired_; }
+  std::uint64_t swaps() const { return swaps_; }  // ambiguities resolved by exchanging the two windows
 
  private:
   enum class Phase { init, tracking };
@@ -127,12 +146,23 @@ class CameraTracker {
     int lost_frames = 0, since_recovery = 1000;
     float confidence = 0;
     float moved = 0;  // distance from prediction this frame (merge arbitration)
+    // Ambiguity (two windows converging) and prediction: where the feature was and how it moved when
+    // the ambiguity began or the window was lost; frames since.
+    int partner = -1;
+    int amb_frames = 0;
+    cv::Point2f pred_uv{0, 0}, pred_centre{0, 0}, pred_velocity{0, 0};
+    cv::Point2f prev_uv{0, 0}, prev_centre{0, 0}, prev_velocity{0, 0};  // before this frame's update
+    cv::Point2f predicted_uv(int frames) const;
+    cv::Point2f predicted_centre(int frames) const;
   };
 
   void learn_frame(const cv::Mat3b& rgb, const cv::Mat1b& mask, const Seeds& seeds);
   void start_tracking(const cv::Mat3b& rgb, const cv::Mat1b& mask, const Seeds& seeds);
   void track_one(int f, const cv::Mat3b& rgb, const cv::Mat1b& mask);
   void resolve_merges();
+  void update_ambiguity();
+  void part(int a, int b);
+  float proximity(int f) const;
   void reacquire(const cv::Mat3b& rgb, const cv::Mat1b& mask);
   void lose(int f);
   // HSV and the back-projection of `model` over roi (into hsv_ and prob_ at the same pixels).
@@ -151,12 +181,13 @@ class CameraTracker {
   std::array<ColourModel, kFeatures> models_;
   ColourModel pooled_;
   std::array<Track, kFeatures> tracks_{};
+  std::array<std::array<int, kFeatures>, kFeatures> since_apart_{};  // per pair a < b: frames since apart
   cv::Size size_{0, 0};
   cv::Mat3b hsv_;
   cv::Mat1b prob_, region_, blobs_;
   cv::Mat1i labels_, stats_;
   cv::Mat1d centroids_;
-  std::uint64_t losses_ = 0, reacquired_ = 0;
+  std::uint64_t losses_ = 0, reacquired_ = 0, swaps_ = 0;
 };
 
 }  // namespace vc::track
