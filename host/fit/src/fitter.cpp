@@ -397,7 +397,7 @@ struct Fitter::State {
       }
     } else {
       const double reach = 0.98 * (body.upper_m(limb) + body.lower_m(limb));
-      local = is_arm(limb) ? Vec3(0, 0, -reach) : Vec3(0, 0, -reach);
+      local = Vec3(0, 0, -reach);  // never seen: arms hanging, legs standing
     }
     const double len = glm::length(local);
     const Vec3 u0 = F * (local / std::max(len, 1e-9));
@@ -674,12 +674,13 @@ pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
     for (int c = 0; c < 3; ++c) {
       double v = joints[static_cast<size_t>(j)][c];
       if (s.opt.smoothing == config::Smoothing::OneEuro)
-        v = s.euro[static_cast<size_t>(3 * j + c)].filter(v, dt, s.opt.one_euro_min_cutoff,
-                                                          s.opt.one_euro_beta);
+        v = s.euro[3 * static_cast<size_t>(j) + static_cast<size_t>(c)].filter(
+            v, dt, s.opt.one_euro_min_cutoff, s.opt.one_euro_beta);
       pose.p_world[static_cast<size_t>(j)][static_cast<size_t>(c)] = v;
     }
   for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) pose.torso_R_world[static_cast<size_t>(3 * r + c)] = R[c][r];
+    for (int c = 0; c < 3; ++c)
+      pose.torso_R_world[3 * static_cast<size_t>(r) + static_cast<size_t>(c)] = R[c][r];
   pose.state = state;
   pose.body_version = s.body_version;
   pose.confidence = static_cast<float>(std::clamp(confidence, 0.0, 1.0));

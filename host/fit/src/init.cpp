@@ -265,6 +265,7 @@ InitMeasurement combine_measurements(const std::vector<InitMeasurement>& ms) {
   InitMeasurement out = ms.back();
   auto med = [&ms](double BodyModel::*f) {
     std::vector<double> v;
+    v.reserve(ms.size());
     for (const InitMeasurement& m : ms) v.push_back(m.body.*f);
     return median(v);
   };
@@ -277,6 +278,7 @@ InitMeasurement combine_measurements(const std::vector<InitMeasurement>& ms) {
         &BodyModel::head_to_top_m})
     out.body.*f = med(f);
   std::vector<double> st;
+  st.reserve(ms.size());
   for (const InitMeasurement& m : ms) st.push_back(m.stature_m);
   out.stature_m = median(st);
   return out;
