@@ -38,7 +38,7 @@ struct MotionResult {
 
 // Fits `frames` frames of the motion (all of them from 0) and scores every fitted frame.
 MotionResult run_motion(const std::string& motion, int frames, const testing::FeatureNoise& noise,
-                        config::FittingOptions opt = {}, int score_from = 0, int score_to = 1 << 30) {
+                        const config::FittingOptions& opt = {}, int score_from = 0, int score_to = 1 << 30) {
   sim::SceneOptions so;
   so.motion.source = motion;
   const sim::Scene scene(so);

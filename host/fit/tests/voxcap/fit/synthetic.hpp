@@ -47,7 +47,7 @@ inline pipeline::Frame synthetic_frame(const sim::Scene& scene, const rig::Voxel
   for (int i = 0; i < body::kFeatureCount; ++i) {
     pipeline::Feature3D ft;
     ft.feature_id = static_cast<uint16_t>(i);
-    const cv::Vec3d p = joints[static_cast<size_t>(body::feature_joint(static_cast<body::Feature>(i)))];
+    const cv::Vec3d& p = joints[static_cast<size_t>(body::feature_joint(static_cast<body::Feature>(i)))];
     for (int c = 0; c < 3; ++c) ft.p_world[static_cast<size_t>(c)] = p[c] + noise.sigma_m * n01(rng);
     ft.state = pipeline::Feature3DState::Triangulated;
     ft.confidence = noise.confidence;
