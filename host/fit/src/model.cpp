@@ -159,8 +159,13 @@ void eigen_sym3(double A[3][3], double vals[3], Vec3 vecs[3]) {
       }
     }
   }
-  int order[3] = {0, 1, 2};
-  std::sort(order, order + 3, [&A](int a, int b) { return A[a][a] > A[b][b]; });
+  int order[3] = {0, 1, 2};  // by eigenvalue, descending (three compare-and-swaps)
+  auto swap_if = [&A, &order](int i, int j) {
+    if (A[order[j]][order[j]] > A[order[i]][order[i]]) std::swap(order[i], order[j]);
+  };
+  swap_if(0, 1);
+  swap_if(1, 2);
+  swap_if(0, 1);
   for (int r = 0; r < 3; ++r) {
     const int c = order[r];
     vals[r] = A[c][c];
