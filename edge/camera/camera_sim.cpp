@@ -5,6 +5,7 @@
 // its reference renders) or built from the device string, a spec of key=value pairs separated by ',' or ';':
 //   motion=walk  seed=1  noise=2  flicker=0  appearance=default  room=default  fps=60  cameras=6 size=640x480
 //   distortion=0  calibration=/path/rig.yaml  (a calibration replaces cameras/size/distortion)
+//   bvh_scale=0  (metres per unit of a BVH motion; 0: detected, hw/body/README.md)
 // Scenes built from the same spec are shared process-wide (one per spec, kept until the process
 // ends), so a node's two cameras render one performer, and a camera reopened finds its per-camera
 // render caches built (~0.3 s each at 640x480; sim_open builds them). cfg->index picks the scene
@@ -73,7 +74,7 @@ std::string parse_spec(const std::string& spec, const vc_camera_config& cfg, sim
     } else if (!number(&v)) {
       return "unknown key or bad value '" + item +
              "' (keys: motion, seed, noise, flicker, appearance, room, fps, cameras, size, "
-             "distortion, calibration)";
+             "distortion, calibration, bvh_scale)";
     } else if (key == "seed") {
       o->seed = (uint64_t)v;
     } else if (key == "noise") {
@@ -86,10 +87,12 @@ std::string parse_spec(const std::string& spec, const vc_camera_config& cfg, sim
       o->rig.cameras = (int)v;
     } else if (key == "distortion") {
       o->rig.distortion = v != 0;
+    } else if (key == "bvh_scale") {
+      o->motion.bvh_scale = v;
     } else {
       return "unknown key '" + key +
              "' (keys: motion, seed, noise, flicker, appearance, room, fps, cameras, size, "
-             "distortion, calibration)";
+             "distortion, calibration, bvh_scale)";
     }
   }
   // the scene's cameras must match a size the caller asked for (the calibration's, if one is given)

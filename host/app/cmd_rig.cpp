@@ -188,6 +188,11 @@ void add_rig_commands(CLI::App& app) {
   cmd->add_option("--motion", opt->motion,
                   "emulated: built-in motion (tpose wave walk squat turn arms-close cross) or a BVH file")
       ->capture_default_str();
+  cmd->add_option("--bvh-scale", opt->bvh_scale,
+                  "emulated: metres per unit of a BVH motion (0: detected: m, cm, mm, inches, CMU, else the "
+                  "body height)")
+      ->check(CLI::Range(0.0, 100.0))
+      ->capture_default_str();
   cmd->add_option("--frames", *frames, "emulated: merged frames to run for")->capture_default_str();
   cmd->add_option("--seconds", *seconds, "run this long instead (0: --frames; a real rig: until Ctrl-C)");
   cmd->add_option("--size", *size, "emulated: camera size WxH")->capture_default_str();

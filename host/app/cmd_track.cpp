@@ -248,8 +248,9 @@ void run_debug(const TrackDebugArgs& a) {
     std::string line = fmt::format("cam{:02d}: {}", c.camera, s.ok ? "ok" : "not ok: " + s.why);
     for (int f = 0; f < segment::kFeatures; f++) {
       const size_t fi = static_cast<size_t>(f);
-      json t = {{"region", s.terminal[fi]}};
-      if (s.ok) t["u"] = s.point[fi].x, t["v"] = s.point[fi].y;
+      const bool labelled = s.ok && s.terminal[fi] >= 0;  // else not_visible (or the view refused)
+      json t = {{"region", s.terminal[fi]}, {"state", labelled ? "labelled" : "not_visible"}};
+      if (labelled) t["u"] = s.point[fi].x, t["v"] = s.point[fi].y;
       if (!c.truth.empty()) {
         // hw/sim's order is proto's (head, l/r hand, l/r foot); left/right by image side, like segment().
         const sim::FeatureTruth& tr = c.truth[by_side[fi]];
@@ -257,7 +258,9 @@ void run_debug(const TrackDebugArgs& a) {
                       {"u", tr.uv.x},
                       {"v", tr.uv.y},
                       {"visible", tr.visible}};
-        if (s.ok) {
+        if (!labelled && s.ok) {
+          line += fmt::format(" {} not_visible", segment::feature_name(f));
+        } else if (labelled) {
           const double e = std::hypot(s.point[fi].x - tr.uv.x, s.point[fi].y - tr.uv.y);
           t["error_px"] = e;
           if (tr.visible) errors.push_back(e);
@@ -309,7 +312,8 @@ void add_track_commands(CLI::App& app) {
       "debug",
       "Segment the initialization frame of every camera (GVD: regions, cuts, head/hands/feet) and write "
       "DIR/camNN.png (image, regions, GVD, critical points, cuts, labels) and DIR/segmentation.json (per "
-      "camera: ok/why, terminals with u, v; with --sim the truth and the 2D error). Left/right are per "
+      "camera: ok/why, terminals with state and u, v, or not_visible; with --sim the truth and the 2D "
+      "error). Left/right are per "
       "image: left = the terminal on the image's right.");
   dbg->add_option("--sim", a->sim,
                   "Render the virtual rig's initialization frame of this motion (built-in or .bvh)");

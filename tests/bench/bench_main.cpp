@@ -283,6 +283,8 @@ void add_silhouettes_command(CLI::App& app) {
       ->capture_default_str();
   sil->add_option("--appearance", opt->appearance, "Appearance preset of the performer")
       ->capture_default_str();
+  sil->add_option("--room", opt->room, "Room preset (floor and wall textures; voxcap sim --list)")
+      ->capture_default_str();
   sil->add_option("--frames", opt->frames, "Frames evaluated per camera")
       ->check(CLI::Range(1, 10000))
       ->capture_default_str();
@@ -314,7 +316,7 @@ void add_silhouettes_command(CLI::App& app) {
     try {
       j = vc::bench::run_silhouette_bench(o);
     } catch (const std::invalid_argument& e) {
-      throw UsageError(e.what());  // an unknown motion or appearance
+      throw UsageError(e.what());  // an unknown motion, appearance or room
     }
     if (*json)
       fmt::print("{}\n", j.dump(2));

@@ -167,6 +167,7 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
   vc::sim::SceneOptions so;
   so.motion.source = opt.motion;
   so.appearance = opt.appearance;
+  so.room = opt.room;
   so.rig.cameras = opt.rig_cameras;
   so.rig.width = opt.width;
   so.rig.height = opt.height;
@@ -247,8 +248,8 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
     nlohmann::json j = to_json(cc);
     j["camera"] = cam;
     if (worst_frame >= 0) {
-      const std::string path =
-          fmt::format("{}/{}-{}-cam{}-f{}.png", opt.png_dir, opt.motion, opt.appearance, cam, worst_frame);
+      const std::string path = fmt::format("{}/{}-{}-{}-cam{}-f{}.png", opt.png_dir, opt.motion,
+                                           opt.appearance, opt.room, cam, worst_frame);
       cv::imwrite(path, worst_png);
       j["png"] = path;
     }
@@ -258,6 +259,7 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
   nlohmann::json out;
   out["motion"] = opt.motion;
   out["appearance"] = opt.appearance;
+  out["room"] = opt.room;
   out["width"] = opt.width;
   out["height"] = opt.height;
   out["frames"] = frames;
@@ -275,9 +277,10 @@ void print_silhouette_table(const nlohmann::json& j) {
   auto pct = [](const nlohmann::json& v) {
     return v.is_null() ? std::string("   n/a") : fmt::format("{:6.2f}", 100.0 * v.get<double>());
   };
-  fmt::print("silhouettes: {} / {}, {}x{}, {} frames, kernel {} (edge masks vs hw/sim truth, %)\n",
-             j["motion"].get<std::string>(), j["appearance"].get<std::string>(), j["width"].get<int>(),
-             j["height"].get<int>(), j["frames"].size(), j["kernel"].get<std::string>());
+  fmt::print("silhouettes: {} / {} / room {}, {}x{}, {} frames, kernel {} (edge masks vs hw/sim truth, %)\n",
+             j["motion"].get<std::string>(), j["appearance"].get<std::string>(), j["room"].get<std::string>(),
+             j["width"].get<int>(), j["height"].get<int>(), j["frames"].size(),
+             j["kernel"].get<std::string>());
   fmt::print("{:>7} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6} {:>6}\n", "camera", "recall",
              "hnd/ft", "l_hand", "r_hand", "l_foot", "r_foot", "l_farm", "r_farm", "prec", "shadow", "band");
   auto row = [&](const std::string& name, const nlohmann::json& c) {

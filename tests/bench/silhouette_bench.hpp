@@ -1,5 +1,5 @@
 // `voxcap-bench silhouettes`: the edge's silhouettes (vc_subtract + the clean-up, as the edge runs
-// them) against hw/sim's truth, offline. For a motion and an appearance preset it renders the empty
+// them) against hw/sim's truth, offline. For a motion, an appearance and a room preset it renders the empty
 // room and a series of frames for each chosen camera of a sim rig, learns the background model, runs
 // the subtraction and clean-up with the defaults of voxcap/subtraction.h and counts, per camera and
 // overall: body-pixel recall, recall per body part (each truth-silhouette pixel is labelled with the
@@ -18,6 +18,7 @@ namespace vc::bench {
 struct SilhouetteBenchOptions {
   std::string motion = "wave";         // a built-in motion (voxcap sim --list) or a .bvh path
   std::string appearance = "default";  // an appearance preset
+  std::string room = "default";        // a room preset (vc::sim::room_presets(): floor and wall textures)
   int frames = 6;                      // frames evaluated per camera ...
   int every = 9;                       // ... this many frames apart, from the end of the lead-in
   int rig_cameras = 6;                 // cameras of the sim rig layout

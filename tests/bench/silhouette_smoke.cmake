@@ -1,7 +1,8 @@
 # Smoke test of `voxcap-bench silhouettes` (voxcap bench forwards only edge and host): one small camera frame of hw/sim's tpose; checks the
 # documented keys (README.md) and that the figures are shares in [0, 1] with the body mostly kept.
 execute_process(
-  COMMAND ${VOXCAP_BENCH} silhouettes --motion tpose --frames 1 --cameras 0 --size 320x240 --bg-frames 8 --json
+  COMMAND ${VOXCAP_BENCH} silhouettes --motion tpose --room camouflage --frames 1 --cameras 0 --size 320x240
+          --bg-frames 8 --json
   OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc)
 if(NOT rc EQUAL 0)
   message(FATAL_ERROR "voxcap-bench silhouettes failed (${rc}): ${err}\n${out}")
@@ -12,6 +13,10 @@ foreach(key width height bg_frames cleanup_radius_px shadow_texture_k)
     message(FATAL_ERROR "key '${key}' missing or not a number (${type} ${jerr}):\n${out}")
   endif()
 endforeach()
+string(JSON room ERROR_VARIABLE jerr GET "${out}" room)
+if(jerr OR NOT room STREQUAL "camouflage")
+  message(FATAL_ERROR "key 'room' is '${room}', not the camouflage room asked for (${jerr}):\n${out}")
+endif()
 foreach(where "overall" "cameras;0")
   foreach(key recall precision shadow_kept band_share shadow_share hands_feet_recall)
     string(JSON v ERROR_VARIABLE jerr GET "${out}" ${where} ${key})
@@ -36,5 +41,10 @@ execute_process(COMMAND ${VOXCAP_BENCH} silhouettes --appearance nosuch --frames
   OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc)
 if(NOT rc EQUAL 2 OR NOT err MATCHES "nosuch")
   message(FATAL_ERROR "an unknown appearance gave exit ${rc}: ${err}")
+endif()
+execute_process(COMMAND ${VOXCAP_BENCH} silhouettes --room nosuchroom --frames 1
+  OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc)
+if(NOT rc EQUAL 2 OR NOT err MATCHES "nosuchroom")
+  message(FATAL_ERROR "an unknown room gave exit ${rc}: ${err}")
 endif()
 message(STATUS "voxcap-bench silhouettes: JSON complete, recall ${recall}")

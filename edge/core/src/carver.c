@@ -8,7 +8,8 @@
  * distortion). Each block keeps, per camera, the range of 8x8-pixel image tiles covering the pixels
  * of its voxel centres (an exact bound: it is built from the centres' own pixels), and whether all of
  * its voxels are seen. Each leaf seen by both cameras keeps, per voxel and camera, the pixel as a
- * 2-byte offset (du, dv) from the leaf's pixel rectangle, plus a 64-bit mask of voxels seen by both.
+ * 2-byte linear offset dv * W + du from the top-left corner of the leaf's pixel rectangle (so a
+ * voxel's test is two loads and no address arithmetic), plus a 64-bit mask of voxels seen by both.
  * That is 4.25 bytes per voxel, and only for leaves both cameras see.
  *
  * Per frame: each mask is summarised per 8x8 tile as "any foreground" and "all foreground" (eight
@@ -31,8 +32,8 @@
  * the few tiles near the silhouette) and more leaves tested, as the footprint hull is thicker;
  * memory: W*H bytes per class and camera, the tables as for the centre rule.
  *
- * A leaf whose pixel rectangle exceeds 256 pixels (voxels close to a camera) keeps 4-byte pixel
- * indices instead; that is rare in a sensible rig and costs only memory.
+ * A leaf whose rectangle's linear offsets exceed 16 bits (about 100 rows at 640 wide: voxels close
+ * to a camera) keeps 4-byte pixel indices instead; that is rare in a sensible rig and costs only memory.
  * Limits: grids up to 4096 per axis and 2^31 voxels; images up to 16384 pixels a side.
  */
 #include "voxcap/edge/carver.h"
@@ -71,7 +72,7 @@ typedef struct leaf_tab {
   uint64_t valid;   /* bit v: voxel v (x + 4y + 16z) is in the grid and seen by both cameras */
   uint32_t base[2]; /* per camera: pixel index of the leaf rectangle's top-left corner */
   uint32_t wide;    /* NO_TAB, or index into `wide`: the leaf's rectangle is too large for 2-byte
-                     * offsets (voxels close to a camera), so it keeps full pixel indices */
+                     * linear offsets (voxels close to a camera), so it keeps full pixel indices */
   uint8_t cls[2];   /* per camera: footprint class (index into vc_carver.cls; 0, 1x1, for the centre rule) */
 } leaf_tab;
 
@@ -111,7 +112,7 @@ struct vc_carver {
   node *top, *mid, *leaf; /* [ntop], [8*ntop], [64*ntop] */
   uint32_t* leaf_tab_idx; /* [64*ntop]: index into tabs or NO_TAB */
   leaf_tab* tabs;         /* [ntabs] */
-  uint16_t* entries;      /* [ntabs * 2 * 64]: (du | dv << 8) per camera and voxel */
+  uint16_t* entries;      /* [ntabs * 2 * 64]: dv * W + du per camera and voxel */
   uint32_t* wide;         /* [nwide * 2 * 64]: pixel index per camera and voxel (wide leaves) */
   size_t ntabs, nwide, wide_cap;
   uint64_t nvox;
@@ -493,7 +494,7 @@ static int build_leaf(vc_carver* cv, const vc_camera* cam[2], int i0, int j0, in
 
   bool wide = false;
   for (int c = 0; c < 2; c++)
-    if (r[c].x1 - r[c].x0 > 255 || r[c].y1 - r[c].y0 > 255) wide = true;
+    if ((r[c].y1 - r[c].y0) * cv->W[c] + (r[c].x1 - r[c].x0) > UINT16_MAX) wide = true;
   if (cv->ntabs == *tab_cap) {
     size_t cap = *tab_cap ? *tab_cap * 2 : 1024;
     leaf_tab* t = realloc(cv->tabs, cap * sizeof(*t));
@@ -546,7 +547,7 @@ static int build_leaf(vc_carver* cv, const vc_camera* cam[2], int i0, int j0, in
     t->base[c] = (uint32_t)r[c].y0 * (uint32_t)cv->W[c] + (uint32_t)r[c].x0;
     for (int v = 0; v < 64; v++) {
       uint16_t q = 0; /* unseen voxels point at the rectangle's corner; `valid` masks them */
-      if (lp.seen[c] >> v & 1) q = (uint16_t)((lp.px[c][v] - r[c].x0) | (lp.py[c][v] - r[c].y0) << 8);
+      if (lp.seen[c] >> v & 1) q = (uint16_t)((lp.py[c][v] - r[c].y0) * cv->W[c] + (lp.px[c][v] - r[c].x0));
       e[c * 64 + v] = q;
     }
   }
@@ -872,7 +873,7 @@ int vc_carver_footprint(const vc_carver* cv, uint32_t i, uint32_t j, uint32_t k,
       p = cv->wide[(size_t)t->wide * 2 * 64 + (size_t)c * 64 + v];
     } else {
       uint16_t q = cv->entries[(size_t)tab * 2 * 64 + (size_t)c * 64 + v];
-      p = t->base[c] + (uint32_t)(q >> 8) * W + (q & 0xFFu);
+      p = t->base[c] + q;
     }
     const fp_class* f = &cv->cls[c][t->cls[c]];
     rect[c][0] = p % W;
@@ -1066,13 +1067,10 @@ static uint64_t fill_block(const grid_i* g, uint8_t* bits, int i0, int j0, int k
 }
 
 /* Bit v of the result: the mask pixel of voxel v is foreground. */
-static inline uint64_t leaf_lookup(const uint8_t* mask, uint32_t base, size_t W, const uint16_t* e) {
+static inline uint64_t leaf_lookup(const uint8_t* mask, uint32_t base, const uint16_t* e) {
   const uint8_t* b = mask + base;
   uint64_t bits = 0;
-  for (int v = 0; v < 64; v++) {
-    size_t q = e[v];
-    bits |= (uint64_t)(b[(q >> 8) * W + (q & 0xFFu)] != 0) << v;
-  }
+  for (int v = 0; v < 64; v++) bits |= (uint64_t)(b[e[v]] != 0) << v;
   return bits;
 }
 
@@ -1119,7 +1117,6 @@ int vc_carver_run(vc_carver* cv, const uint8_t* mask0, const uint8_t* mask1, uin
   }
   memset(bitset, 0, vc_carver_bitset_bytes(cv));
   const grid_i* g = &cv->grid;
-  const size_t W0 = (size_t)cv->W[0], W1 = (size_t)cv->W[1];
   uint64_t occupied = 0;
   uint32_t skipped = 0, filled = 0, tested = 0;
 
@@ -1181,8 +1178,8 @@ int vc_carver_run(vc_carver* cv, const uint8_t* mask0, const uint8_t* mask1, uin
                 if (l1 == S_PART && b != 0) b &= leaf_lookup_wide(cm[1][t->cls[1]], we + 64);
               } else {
                 const uint16_t* e = cv->entries + (size_t)cv->leaf_tab_idx[li] * 2 * 64;
-                if (l0 == S_PART) b &= leaf_lookup(cm[0][t->cls[0]], t->base[0], W0, e);
-                if (l1 == S_PART && b != 0) b &= leaf_lookup(cm[1][t->cls[1]], t->base[1], W1, e + 64);
+                if (l0 == S_PART) b &= leaf_lookup(cm[0][t->cls[0]], t->base[0], e);
+                if (l1 == S_PART && b != 0) b &= leaf_lookup(cm[1][t->cls[1]], t->base[1], e + 64);
               }
               tested++;
             }

@@ -818,6 +818,75 @@ TEST(Subpixel, KeepsEveryVoxelWhoseCentreIsInTheBody) {
   EXPECT_GT(centre_missing_total, 0u) << "the centre rule was expected to lose some edge voxels";
 }
 
+// Leaves close to a camera span more pixel rows than 2-byte linear offsets reach (dv * W + du >
+// 65535: over 102 rows at 640 wide) and keep full pixel indices; the others keep the offsets. Both
+// kinds side by side in one grid carve exactly as each voxel's own pixels say, under every rule.
+TEST(Carver, LeavesNearACameraCarveExactlyWithFullPixelIndices) {
+  std::mt19937 rng(57);
+  const int w = 640, h = 480;
+  const double dist[5] = {-0.2, 0.05, 0, 0, 0};
+  double eye0[3] = {2.2, 0.3, 1.2}, eye1[3] = {0.4, 3.5, 1.6}, target[3] = {0, 0, 0.9};
+  const vc_camera cam0 = look_at(eye0, target, w, h, 0.9 * w, dist),
+                  cam1 = look_at(eye1, target, w, h, 0.9 * w, dist);
+  const vc_voxel_grid g{24, 24, 24, {-0.9, -0.9, 0.0}, 0.075};  // leaves of 0.3 m, 1.3-3.4 m from cam0
+  const size_t npx = static_cast<size_t>(w) * h;
+  const std::vector<uint8_t> masks[][2] = {
+      {random_mask(rng, w, h, 4, 0.0), random_mask(rng, w, h, 4, 0.0)},
+      {random_mask(rng, w, h, 6, 0.05), random_mask(rng, w, h, 3, 0.3)},
+      {std::vector<uint8_t>(npx, 255), random_mask(rng, w, h, 5, 0.01)},
+  };
+  for (vc_carve_rule rule : {VC_CARVE_CENTRE, VC_CARVE_SUBPIXEL, VC_CARVE_FOOTPRINT}) {
+    SCOPED_TRACE(::testing::Message() << "rule " << static_cast<int>(rule));
+    CarverPtr cv = new_carver(g, cam0, cam1, rule);
+    ASSERT_NE(cv, nullptr);
+    const uint64_t nvox = vc_carver_voxels(cv.get());
+    std::vector<std::array<Rect, 2>> rects(nvox);
+    std::vector<bool> seen(nvox, false);
+    // Per leaf and camera, the span of its voxels' anchors as a linear pixel offset.
+    const uint32_t lx = (g.nx + 3) / 4, ly = (g.ny + 3) / 4, lz = (g.nz + 3) / 4;
+    std::vector<std::array<int, 8>> box(static_cast<size_t>(lx) * ly * lz,
+                                        {w, h, -1, -1, w, h, -1, -1});  // x0 y0 x1 y1 per camera
+    uint64_t n = 0;
+    for (uint32_t k = 0; k < g.nz; k++)
+      for (uint32_t j = 0; j < g.ny; j++)
+        for (uint32_t i = 0; i < g.nx; i++, n++) {
+          uint32_t r[2][4];
+          seen[n] = vc_carver_footprint(cv.get(), i, j, k, r) == 1;
+          if (!seen[n]) continue;
+          auto& b = box[i / 4 + lx * (j / 4 + ly * (k / 4))];
+          for (int c = 0; c < 2; c++) {
+            rects[n][c] = {static_cast<int>(r[c][0]), static_cast<int>(r[c][1]), static_cast<int>(r[c][2]),
+                           static_cast<int>(r[c][3])};
+            b[4 * c] = std::min(b[4 * c], rects[n][c].x0);
+            b[4 * c + 1] = std::min(b[4 * c + 1], rects[n][c].y0);
+            b[4 * c + 2] = std::max(b[4 * c + 2], rects[n][c].x0);
+            b[4 * c + 3] = std::max(b[4 * c + 3], rects[n][c].y0);
+          }
+        }
+    int wide = 0, narrow = 0;
+    for (const auto& b : box) {
+      if (b[2] < 0) continue;
+      const int span = std::max((b[3] - b[1]) * w + b[2] - b[0], (b[7] - b[5]) * w + b[6] - b[4]);
+      (span > 65535 ? wide : narrow)++;
+    }
+    EXPECT_GT(wide, 0) << "leaves that need full pixel indices";
+    EXPECT_GT(narrow, 0) << "leaves with 2-byte offsets";
+    const std::vector<int> pix[2] = {reference_pixels(g, cam0), reference_pixels(g, cam1)};
+    for (const auto& m : masks) {
+      std::vector<uint8_t> bits(vc_carver_bitset_bytes(cv.get()), 0xCD);
+      ASSERT_EQ(vc_carver_run(cv.get(), m[0].data(), m[1].data(), bits.data(), nullptr), 0);
+      PixelSat s0(m[0], w, h), s1(m[1], w, h);
+      std::vector<uint8_t> want(bits.size(), 0);
+      for (uint64_t v = 0; v < nvox; v++)
+        if (seen[v] && s0.any(rects[v][0].x0, rects[v][0].y0, rects[v][0].x1, rects[v][0].y1) &&
+            s1.any(rects[v][1].x0, rects[v][1].y0, rects[v][1].x1, rects[v][1].y1))
+          want[v / 8] |= static_cast<uint8_t>(1u << (v % 8));
+      expect_same_bits(bits, want, nvox);
+      if (rule == VC_CARVE_CENTRE) expect_same_bits(bits, reference_carve(pix[0], pix[1], m[0], m[1]), nvox);
+    }
+  }
+}
+
 TEST(Carver, CamerasBehindAndBesideTheGridSeeNothing) {
   std::mt19937 rng(9);
   Rig rig = random_rig(rng, 320, 240);

@@ -11,6 +11,7 @@
 
 #include <cmath>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
@@ -18,6 +19,7 @@
 #include "voxcap/edge/carver.h"
 #include "voxcap/edge/cleanup.h"
 #include "voxcap/rig/c_models.hpp"
+#include "voxcap/sim/body.hpp"
 #include "voxcap/sim/scene.hpp"
 #include "voxcap/subtraction.h"
 
@@ -94,10 +96,11 @@ TEST(SimTruth, SubtractionMatchesTrueSilhouettesAndDropsShadows) {
 }
 
 // With the edge's defaults (the texture test on): the whole body is kept, hands and feet over the
-// wooden floor included, and the floor shadow still goes: per camera and frame, >= 96 % of the body
-// pixels in the cleaned mask, >= 97 % of the mask body, <= 2 % of the shadow pixels kept. Not yet
-// 99 %: the front cameras lose part of the waving forearm where its shaded blue sleeve crosses the
-// flat blue painting (1.7 degrees apart, no texture to test; the old kernel kept 91-92 % here).
+// wooden floor included, and the floor shadow still goes: per camera and frame, >= 99 % of the body
+// pixels in the cleaned mask, >= 98 % of the mask body, <= 2 % of the shadow pixels kept (measured
+// 99.5-99.97 %, 98.6 %, 0.7-0.9 %). Was >= 96 % and >= 97 % while the deepest shadow was 0.25 of
+// the light: the waving forearm's shaded blue sleeve over the flat blue painting (1.7 degrees apart,
+// no texture to test) passed for shadow; darkened by more than 55 % it is foreground now.
 TEST(SimTruth, DefaultsKeepTheBodyAndDropTheShadow) {
   vc::sim::SceneOptions o = options();
   o.motion.source = "wave";
@@ -137,11 +140,73 @@ TEST(SimTruth, DefaultsKeepTheBodyAndDropTheShadow) {
         }
       }
       ASSERT_GT(body, 1000u);
-      EXPECT_GE(static_cast<double>(kept) / body, 0.96) << "camera " << cam << " frame " << f;
-      EXPECT_GE(static_cast<double>(kept) / fg, 0.97) << "camera " << cam << " frame " << f;
+      EXPECT_GE(static_cast<double>(kept) / body, 0.99) << "camera " << cam << " frame " << f;
+      EXPECT_GE(static_cast<double>(kept) / fg, 0.98) << "camera " << cam << " frame " << f;
       if (sh > 200) EXPECT_LE(static_cast<double>(sh_kept) / sh, 0.02) << "camera " << cam << " frame " << f;
     }
   }
+}
+
+// The defaults on every appearance preset in both rooms (the camouflage room's floor is close to
+// skin, its walls to the shirts), 4 cameras at 320x240, wave frames with the arms out and down: per
+// preset and room, >= 98.5 % of the body pixels in the cleaned masks, >= 96 % of the masks body, and
+// <= 2.5 % of the floor-shadow pixels kept (the fringe at the feet weighs more at this size than the
+// issue's 2 % at 640x480). Measured: 99.0-99.8 % recall; with the old deepest shadow (min gain 0.25)
+// dark skin over the dark floor, and the default preset in the camouflage room, fell to 94.6-97.8 %.
+TEST(SimTruth, DefaultsKeepTheBodyOnEveryPresetAndRoom) {
+  vc_subtract_params p;
+  vc_subtract_params_default(&p);
+  for (const vc::sim::Appearance& look : vc::sim::appearance_presets())
+    for (const vc::sim::RoomPreset& room : vc::sim::room_presets()) {
+      SCOPED_TRACE(look.name + " in the " + room.name + " room");
+      vc::sim::SceneOptions o;
+      o.rig.cameras = 4;
+      o.rig.width = 320;
+      o.rig.height = 240;
+      o.motion.source = "wave";
+      o.appearance = look.name;
+      o.room = room.name;
+      vc::sim::Scene scene(o);
+      size_t body = 0, kept = 0, fg = 0, sh = 0, sh_kept = 0;
+      for (int cam = 0; cam < scene.camera_count(); cam++) {
+        const auto& c = scene.calibration().cameras[static_cast<size_t>(cam)];
+        vc_bgmodel* made = nullptr;
+        char why[128];
+        ASSERT_EQ(vc_bgmodel_new(c.width, c.height, &made, why, sizeof why), 0) << why;
+        std::unique_ptr<vc_bgmodel, void (*)(vc_bgmodel*)> m(made, vc_bgmodel_free);
+        cv::Mat rgb, sil, shadow;
+        for (int i = 0; i < VC_BACKGROUND_FRAMES; i++) {
+          scene.render_background(cam, i, rgb);
+          ASSERT_EQ(vc_bgmodel_learn(m.get(), rgb.data, rgb.step), 0);
+        }
+        ASSERT_EQ(vc_bgmodel_finish(m.get()), 0);
+        ASSERT_EQ(vc_bgmodel_set_params(m.get(), &p), 0);
+        std::vector<uint8_t> mask(static_cast<size_t>(c.width) * c.height),
+            scratch(vc_cleanup_radius_scratch_size(c.width, VC_CLEANUP_RADIUS_PX));
+        for (int i = 0; i < 3; i++) {
+          scene.render(scene.motion().lead_in_frames() + 20 * i, cam, rgb, &sil, &shadow);
+          ASSERT_EQ(vc_subtract(m.get(), rgb.data, rgb.step, mask.data(), nullptr), 0);
+          ASSERT_EQ(vc_cleanup_radius(mask.data(), c.width, c.height, VC_CLEANUP_RADIUS_PX, scratch.data(),
+                                      scratch.size()),
+                    0);
+          for (size_t n = 0; n < mask.size(); n++) {
+            const bool t = sil.data[n] != 0, e = mask[n] != 0;
+            body += t;
+            kept += t && e;
+            fg += e;
+            if (shadow.data[n]) {
+              sh++;
+              sh_kept += e;
+            }
+          }
+        }
+      }
+      ASSERT_GT(body, 10000u);
+      ASSERT_GT(sh, 1000u);
+      EXPECT_GE(static_cast<double>(kept) / body, 0.985);
+      EXPECT_GE(static_cast<double>(kept) / fg, 0.96);
+      EXPECT_LE(static_cast<double>(sh_kept) / sh, 0.025);
+    }
 }
 
 TEST(SimTruth, PartialHullContainsTheBodySeenByBothCameras) {

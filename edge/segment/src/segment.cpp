@@ -19,7 +19,8 @@
 //
 // Limits: a part hidden inside the silhouette (an arm in front of the torso) has no terminal; two
 // parts that touch (feet of legs held together) make one, which is split by the image's column
-// through the middle of the cut; a camera looking along the arms sees no constriction at the wrist.
+// through the middle of the cut; a camera looking along the arms sees no constriction at the wrist
+// (the near hand is then the arm's extremity, the far one beside the head or hidden: not_visible).
 // Then segment() says what it found instead of guessing.
 #include "voxcap/edge/segment.hpp"
 
@@ -57,6 +58,10 @@ bool Options::valid(std::string* why) const {
   if (!(min_region_ratio >= 0 && min_region_ratio <= 0.1)) return bad("min_region_ratio must be 0..0.1");
   if (!(foot_band_ratio > 0 && foot_band_ratio <= 0.5)) return bad("foot_band_ratio must be in (0, 0.5]");
   if (!(head_band_ratio > 0 && head_band_ratio <= 0.6)) return bad("head_band_ratio must be in (0, 0.6]");
+  if (!(head_top_ratio > 0 && head_top_ratio <= 0.3)) return bad("head_top_ratio must be in (0, 0.3]");
+  if (!(head_disc_ratio >= 0 && head_disc_ratio <= 0.1)) return bad("head_disc_ratio must be 0..0.1");
+  if (!(max_head_ratio > head_disc_ratio && max_head_ratio <= 0.5))
+    return bad("max_head_ratio must be in (head_disc_ratio, 0.5]");
   if (!(wrist_shift >= 0 && wrist_shift <= 5)) return bad("wrist_shift must be 0..5");
   if (!(hand_ratio > 0 && hand_ratio <= 0.3)) return bad("hand_ratio must be in (0, 0.3]");
   if (!(ankle_ratio >= 0 && ankle_ratio <= 0.2)) return bad("ankle_ratio must be 0..0.2");
@@ -129,11 +134,12 @@ class Work {
   void cut(cv::Point c, Cut* out, cv::Point* far_pixel) const;
   void regions(Segmentation* s);
   void terminals(Segmentation* s);
-  bool find_feet(Segmentation* s);
+  bool find_feet(Segmentation* s, float axis_x);  // axis_x: local column
   void geodesic(cv::Point from);
   cv::Point region_tip(int id) const;
   std::vector<cv::Point> extremities(double height) const;
-  cv::Point2f wrist_from_tip(cv::Point tip, double len) const;
+  cv::Point2f wrist_from_tip(cv::Point tip, double len, float max_arm) const;
+  double protrusion(cv::Point tip, float max_arm, float* thickest) const;
   void export_images(Segmentation* s) const;
 
   const Options& opt_;
@@ -149,6 +155,7 @@ class Work {
   std::vector<Cut> cuts_;  // local coordinates until exported
   cv::Mat1i labels_;       // region id, -1 background
   cv::Mat1f geo_;          // geodesic distance from the head's centre, -1 outside
+  float head_radius_ = 0;  // the head's clearance at its centre
   std::vector<Region> regions_;
   std::vector<std::pair<int, int>> cut_sides_;  // per cut: the two regions
   std::vector<std::pair<int, int>> queue_;      // is_critical's scratch
@@ -553,6 +560,12 @@ void Work::terminals(Segmentation* s) {
     if (r.centroid.y > top + opt_.head_band_ratio * height) continue;
     if (std::abs(r.centroid.x - axis_x) > 0.15 * height) continue;  // a raised hand, not the head
     if (r.box.y > top + 0.08 * height) continue;  // the head is the top (a notch below is not it)
+    float disc = 0;  // ... and round (a sliver cut off the top of a ragged head is not it)
+    for (int y = r.box.y; y < r.box.y + r.box.height; y++)
+      for (int x = r.box.x; x < r.box.x + r.box.width; x++)
+        if (labels_(y - origin_.y, x - origin_.x) == id)
+          disc = std::max(disc, dist_(y - origin_.y, x - origin_.x));
+    if (disc < opt_.head_disc_ratio * height) continue;
     if (head < 0 ||
         std::abs(r.centroid.x - axis_x) < std::abs(regions_[static_cast<size_t>(head)].centroid.x - axis_x))
       head = id;
@@ -566,25 +579,49 @@ void Work::terminals(Segmentation* s) {
     return std::abs(regions_[static_cast<size_t>(a)].centroid.x - axis_x) >
            std::abs(regions_[static_cast<size_t>(b)].centroid.x - axis_x);
   });
-  if (hands.size() > 2) hands.resize(2);
-  if (head < 0) {
-    s->why = "5 terminals expected, found no head (no leaf of the graph near the top, near the body's axis)";
-    return;
-  }
-  if (!find_feet(s)) return;
-  // Head: the centre of the largest disc inside the head region.
+  // Head: the centre of the largest disc inside the head region. Without a head leaf (no neck cut:
+  // the head joined to an arm seen above the shoulder, or a mask that lost the chest so that the
+  // shoulders are a bridge with the head on it) the largest disc in the silhouette's top
+  // head_top_ratio near the axis, if the silhouette is head-wide there (not shoulders).
   {
+    const bool leaf = head >= 0;
+    const int ytop = static_cast<int>(top) - origin_.y;
+    const int yend = leaf ? sil_.rows - 1 : ytop + static_cast<int>(opt_.head_top_ratio * height);
+    const int xlo = leaf ? 0 : static_cast<int>(axis_x - 0.12 * height) - origin_.x;
+    const int xhi = leaf ? sil_.cols - 1 : static_cast<int>(axis_x + 0.12 * height) - origin_.x;
+    auto in = [&](int x, int y) { return leaf ? labels_(y, x) == head : sil_(y, x) != 0; };
     float best = 0;
-    for (int y = 0; y < sil_.rows; y++)
-      for (int x = 0; x < sil_.cols; x++)
-        if (labels_(y, x) == head) best = std::max(best, dist_(y, x));
+    cv::Point at(-1, -1);
+    for (int y = std::max(0, ytop); y <= std::min(sil_.rows - 1, yend); y++)
+      for (int x = std::max(0, xlo); x <= std::min(sil_.cols - 1, xhi); x++)
+        if (in(x, y) && dist_(y, x) > best) best = dist_(y, x), at = {x, y};
+    if (!leaf && at.x >= 0) {
+      // A head is at most ~0.17 x the height wide (shoulders are wider, arms spread much wider)...
+      int x0 = at.x, x1 = at.x;
+      while (fg(x0 - 1, at.y)) x0--;
+      while (fg(x1 + 1, at.y)) x1++;
+      // ... and round: its disc is at least 0.03 x the height (a neck or a forearm is thinner).
+      if (x1 - x0 + 1 <= 0.17 * height && best >= opt_.head_disc_ratio * height) head = labels_(at);
+    }
+    if (head < 0) {
+      s->why =
+          "5 terminals expected, found no head (no leaf of the graph or round blob near the top, near the "
+          "body's axis)";
+      return;
+    }
     double wx = 0, wy = 0, n = 0;
-    for (int y = 0; y < sil_.rows; y++)
-      for (int x = 0; x < sil_.cols; x++)
-        if (labels_(y, x) == head && dist_(y, x) >= best - 0.75F) wx += x, wy += y, n++;
+    for (int y = std::max(0, ytop); y <= std::min(sil_.rows - 1, yend); y++)
+      for (int x = std::max(0, xlo); x <= std::min(sil_.cols - 1, xhi); x++)
+        if (in(x, y) && dist_(y, x) >= best - 0.75F && std::hypot(x - at.x, y - at.y) <= best)
+          wx += x, wy += y, n++;
     s->terminal[kHead] = head;
     s->point[kHead] = cv::Point2f(static_cast<float>(wx / n), static_cast<float>(wy / n)) + o;
+    head_radius_ = best;
   }
+  // A silhouette too short for its head lost the legs (a mask that missed the trousers): what is
+  // at its bottom is no foot, and the feet are not_visible (a head's radius is ~0.055 x the height).
+  const bool legs = head_radius_ <= opt_.max_head_ratio * height;
+  if (legs && !find_feet(s, static_cast<float>(axis_x - origin_.x))) return;
   // Hands and feet: the middle of the terminal's cut. Left is the image's right.
   // The cut of a hand's leaf is where the hand widens; the wrist joint lies a little inside the arm.
   auto cut_mid = [&](int id) {
@@ -600,16 +637,32 @@ void Work::terminals(Segmentation* s) {
   // shoulder): its wrist is found from the tip, like that of a hand without a leaf.
   geodesic(s->point[kHead] - o);
   const double hand_len = opt_.hand_ratio * height;
+  // An upper arm's radius is ~0.03 x the height, a head's or a torso's 0.05 or more.
+  const float max_arm = static_cast<float>(0.04 * height);
   std::vector<std::pair<int, cv::Point2f>> found;  // (region, wrist)
+  // A spur of a ragged head or a sliver of a broken mask is no hand: arms spread, a hand's tip lies
+  // beside the head (even a hand seen above the shoulder), beyond its outline, at the end of an
+  // arm-thin part at least half a hand long that is somewhere as thick as a forearm (~0.023 x the
+  // height; a hand seen edge-on is thinner, a sliver much thinner).
+  const cv::Point2f head_local = s->point[kHead] - o;
+  auto hand_like = [&](cv::Point tip) {
+    if (std::abs(static_cast<float>(tip.x) - head_local.x) < 1.5F * head_radius_ ||
+        geo_(tip) <= 1.6F * head_radius_)
+      return false;
+    float thickest = 0;
+    return protrusion(tip, max_arm, &thickest) >= 0.5 * hand_len && thickest >= 0.015 * height;
+  };
   for (int id : hands) {
+    if (found.size() == 2) break;
     const cv::Point tip = region_tip(id);
+    if (!hand_like(tip)) continue;
     const Cut* k = leaf_cut(id);
     const cv::Point2f mid = k ? (k->a + k->b) * 0.5F : cv::Point2f(-1e6F, -1e6F);
     if (k &&
         std::hypot(mid.x - static_cast<float>(tip.x), mid.y - static_cast<float>(tip.y)) < 1.3 * hand_len)
       found.emplace_back(id, cut_mid(id));
     else
-      found.emplace_back(id, wrist_from_tip(tip, hand_len) + o);
+      found.emplace_back(id, wrist_from_tip(tip, hand_len, max_arm) + o);
   }
   if (found.size() < 2) {
     // Hands without a leaf (an arm of even width, a hand seen edge-on): the silhouette's
@@ -622,21 +675,31 @@ void Work::terminals(Segmentation* s) {
       const int id = labels_(t);
       // Arms spread horizontally: hands are in the upper half (notches of a ragged mask elsewhere
       // make extremities too).
-      if (ti.y >= foot_top || ti.y > top + 0.5 * height || id == head) continue;
+      // The head's own top is no hand, but a hand seen above the shoulder may lie in the head's
+      // region (no neck between them): what is farther from the head's centre than its radius is.
+      if (ti.y >= foot_top || ti.y > top + 0.5 * height || !hand_like(t)) continue;
       bool taken = false;
       for (const auto& f : found) taken = taken || f.first == id;
       if (taken) continue;
-      const cv::Point2f w = wrist_from_tip(t, hand_len);
+      const cv::Point2f w = wrist_from_tip(t, hand_len, max_arm);
       const cv::Point wi(cvRound(w.x), cvRound(w.y));
       found.emplace_back(fg(wi.x, wi.y) ? labels_(wi) : id, w + o);
     }
   }
-  if (found.size() != 2) {
+  if (found.empty() || (found.size() == 1 && !legs)) {
     s->why = "5 terminals expected, found " + std::to_string(1 + found.size()) +
-             " above the feet (head 1, hands " + std::to_string(found.size()) + ")";
+             " above the feet (head 1, hands " + std::to_string(found.size()) + ")" +
+             (legs ? "" : " and no legs (the silhouette is too short for its head)");
+    s->terminal.fill(-1);
     return;
   }
-  {
+  if (found.size() == 1) {
+    // One hand seen (the other hidden behind the body by a camera looking along the arms): it is
+    // labelled by its side of the head, the other not_visible.
+    const bool left = found[0].second.x > s->point[kHead].x;
+    s->terminal[left ? kLeftHand : kRightHand] = found[0].first;
+    s->point[left ? kLeftHand : kRightHand] = found[0].second;
+  } else {
     const bool first_is_left = found[0].second.x > found[1].second.x;
     const auto& l = first_is_left ? found[0] : found[1];
     const auto& r = first_is_left ? found[1] : found[0];
@@ -655,7 +718,7 @@ void Work::terminals(Segmentation* s) {
 // ankle_ratio x height above the piece's lowest pixel, in the middle of the piece's row there; one
 // piece for both feet is split into the row's two widest runs, or its two halves when the row is
 // one run (shanks touching). Left is the image's right.
-bool Work::find_feet(Segmentation* s) {
+bool Work::find_feet(Segmentation* s, float axis_x) {
   const cv::Rect box = cv::boundingRect(sil_);
   const int bottom = box.y + box.height - 1;
   const int band_top = std::max(box.y, bottom - static_cast<int>(opt_.foot_band_ratio * box.height));
@@ -705,9 +768,12 @@ bool Work::find_feet(Segmentation* s) {
             static_cast<float>(r[static_cast<size_t>(k)].first + r[static_cast<size_t>(k)].second) / 2.0F,
             static_cast<float>(y));
     } else if (pieces.size() == 1) {
+      // Legs together: the ankles a quarter of the run's width either side of the body's axis
+      // (a mask that grew on one side of the feet does not move both).
       const float x0 = static_cast<float>(r[0].first), w = static_cast<float>(r[0].second - r[0].first + 1);
-      ankles.emplace_back(x0 + 0.25F * w - 0.5F, static_cast<float>(y));
-      ankles.emplace_back(x0 + 0.75F * w - 0.5F, static_cast<float>(y));
+      const float mid = std::clamp(axis_x, x0 + 0.25F * w - 0.5F, x0 + 0.75F * w - 0.5F);
+      ankles.emplace_back(mid - 0.25F * w, static_cast<float>(y));
+      ankles.emplace_back(mid + 0.25F * w, static_cast<float>(y));
     } else {
       ankles.emplace_back(static_cast<float>(r[0].first + r[0].second) / 2.0F, static_cast<float>(y));
     }
@@ -784,7 +850,7 @@ std::vector<cv::Point> Work::extremities(double height) const {
   const float slack = static_cast<float>(0.06 * height);
   std::vector<cv::Point> tips;
   for (const auto& [g, p] : px) {
-    if (tips.size() >= 8) break;
+    if (tips.size() >= 16) break;
     bool on_way = false;
     for (const cv::Point& t : tips) {
       const float d = std::hypot(static_cast<float>(p.x - t.x), static_cast<float>(p.y - t.y));
@@ -795,11 +861,35 @@ std::vector<cv::Point> Work::extremities(double height) const {
   return tips;
 }
 
-// The wrist from a hand's tip: `len` along the geodesic path back towards the head, then onto the
-// nearest GVD pixel (the middle of the arm). Local coordinates.
-cv::Point2f Work::wrist_from_tip(cv::Point tip, double len) const {
+// How far the geodesic path from `tip` back towards the head runs through a part no thicker than
+// max_arm (an arm, a hand) before it enters the head or the torso; *thickest: the largest clearance
+// on the way. Local coordinates.
+double Work::protrusion(cv::Point tip, float max_arm, float* thickest) const {
   cv::Point p = tip;
   double walked = 0;
+  *thickest = dist_(p);
+  for (;;) {
+    cv::Point next = p;
+    float best = geo_(p);
+    for (const cv::Point& o : kN8) {
+      const cv::Point q = p + o;
+      if (fg(q.x, q.y) && geo_(q) >= 0 && geo_(q) < best) best = geo_(q), next = q;
+    }
+    if (next == p || dist_(next) > max_arm) return walked;
+    walked += (next.x != p.x && next.y != p.y) ? 1.41421356 : 1.0;
+    p = next;
+    *thickest = std::max(*thickest, dist_(p));
+  }
+}
+
+// The wrist from a hand's tip: `len` along the geodesic path back towards the head, then onto the
+// nearest GVD pixel (the middle of the arm). Local coordinates.
+cv::Point2f Work::wrist_from_tip(cv::Point tip, double len, float max_arm) const {
+  cv::Point p = tip;
+  double walked = 0;
+  // A hand near the head (seen above the shoulder, the arm foreshortened): the wrist is at most
+  // half way from the tip to the head's outline, never in the head.
+  len = std::min(len, 0.5 * std::max(0.0, static_cast<double>(geo_(tip) - head_radius_)));
   while (walked < len) {
     cv::Point next = p;
     float best = geo_(p);
@@ -807,7 +897,9 @@ cv::Point2f Work::wrist_from_tip(cv::Point tip, double len) const {
       const cv::Point q = p + o;
       if (fg(q.x, q.y) && geo_(q) >= 0 && geo_(q) < best) best = geo_(q), next = q;
     }
-    if (next == p) break;
+    // Into the head or the torso (wider than any arm: a hand seen above the shoulder, an arm
+    // foreshortened by the view): the wrist is no farther.
+    if (next == p || dist_(next) > max_arm) break;
     walked += (next.x != p.x && next.y != p.y) ? 1.41421356 : 1.0;
     p = next;
   }
@@ -817,7 +909,8 @@ cv::Point2f Work::wrist_from_tip(cv::Point tip, double len) const {
   for (int dy = -r; dy <= r; dy++)
     for (int dx = -r; dx <= r; dx++) {
       const cv::Point q = p + cv::Point(dx, dy);
-      if (q.x < 0 || q.y < 0 || q.x >= sil_.cols || q.y >= sil_.rows || !gvd_(q)) continue;
+      if (q.x < 0 || q.y < 0 || q.x >= sil_.cols || q.y >= sil_.rows || !gvd_(q) || dist_(q) > max_arm)
+        continue;
       const double d = std::hypot(dx, dy);
       if (best < 0 || d < best) best = d, axis = q;
     }

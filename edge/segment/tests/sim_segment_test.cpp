@@ -1,124 +1,33 @@
-// edge/segment against the virtual rig's truth (hw/sim): the initialization frame of `wave` seen by
-// every camera of rigs of 4, 6 and 8 cameras (true silhouettes), and the edge's own masks
-// (edge/core's subtraction and clean-up, as tests/bench/silhouette_bench.cpp runs them) for the
-// appearance presets. Left/right are per image (left = the image's right), so the truth's pairs are
-// ordered by image side before comparing.
+// edge/segment against the virtual rig's truth (hw/sim): the initialization frame seen by every
+// camera of rigs of 4, 6 and 8 cameras, for every appearance preset, in the default and the
+// camouflage room, with the true silhouettes and with the edge's own masks (edge/core's subtraction
+// and clean-up; sim_views.hpp). The rule of a correct label is sim_views.hpp's score(): within 8 % of
+// the body's height of the true 2D feature and nearer it than any other feature, a hidden one
+// not_visible or where it is; left/right by image side (the host agrees them by triangulating).
+// bin/edge_segment_survey prints the same per camera (README's figures).
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <memory>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "voxcap/edge/bgmodel.h"
-#include "voxcap/edge/cleanup.h"
+#include "sim_views.hpp"
 #include "voxcap/edge/segment.hpp"
+#include "voxcap/sim/body.hpp"
 #include "voxcap/sim/scene.hpp"
-#include "voxcap/subtraction.h"
 
 namespace vc::segment {
 namespace {
 
-struct View {
-  cv::Mat1b mask;
-  std::array<cv::Point2d, kFeatures> truth;  // ordered by image side
-  std::array<bool, kFeatures> visible{};
-};
-
-struct ModelFree {
-  void operator()(vc_bgmodel* m) const { vc_bgmodel_free(m); }
-};
-
-// The edge's mask of a frame: background model from empty frames, vc_subtract, vc_cleanup_radius.
-cv::Mat1b edge_mask(const sim::Scene& scene, int cam, const cv::Mat& rgb) {
-  vc_bgmodel* made = nullptr;
-  char why[160];
-  if (vc_bgmodel_new(rgb.cols, rgb.rows, &made, why, sizeof why) != 0) throw std::runtime_error(why);
-  std::unique_ptr<vc_bgmodel, ModelFree> m(made);
-  cv::Mat bg;
-  for (int i = 0; i < 12; i++) {
-    scene.render_background(cam, i, bg);
-    if (vc_bgmodel_learn(m.get(), bg.data, bg.step) != 0) throw std::runtime_error("learn");
-  }
-  vc_subtract_params p;
-  vc_subtract_params_default(&p);
-  if (vc_bgmodel_finish(m.get()) != 0 || vc_bgmodel_set_params(m.get(), &p) != 0)
-    throw std::runtime_error("finish");
-  cv::Mat1b mask(rgb.rows, rgb.cols);
-  std::vector<uint8_t> scratch(vc_cleanup_radius_scratch_size(rgb.cols, VC_CLEANUP_RADIUS_PX));
-  vc_subtract_stats st{};
-  if (vc_subtract(m.get(), rgb.data, rgb.step, mask.data, &st) != 0 ||
-      vc_cleanup_radius(mask.data, rgb.cols, rgb.rows, VC_CLEANUP_RADIUS_PX, scratch.data(),
-                        scratch.size()) != 0)
-    throw std::runtime_error("subtract");
-  return mask;
-}
-
-std::vector<View> init_views(int cameras, const std::string& appearance, bool edge, int width = 640,
-                             int height = 480, const std::string& room = "default") {
-  sim::SceneOptions o;
-  o.motion.source = "wave";
-  o.appearance = appearance;
-  o.room = room;
-  o.rig.cameras = cameras;
-  o.rig.width = width;
-  o.rig.height = height;
-  const sim::Scene scene(o);
-  std::vector<View> views;
-  for (int cam = 0; cam < scene.camera_count(); cam++) {
-    View v;
-    cv::Mat rgb, sil;
-    scene.render(0, cam, rgb, &sil);
-    v.mask = edge ? edge_mask(scene, cam, rgb) : cv::Mat1b(sil);
-    const std::vector<sim::FeatureTruth> t = scene.features(0, cam);
-    for (size_t f = 0; f < kFeatures; f++) v.truth[f] = t[f].uv, v.visible[f] = t[f].visible;
-    for (size_t l : {size_t{1}, size_t{3}})
-      if (v.truth[l].x < v.truth[l + 1].x)
-        std::swap(v.truth[l], v.truth[l + 1]), std::swap(v.visible[l], v.visible[l + 1]);
-    views.push_back(v);
-  }
-  return views;
-}
-
 struct Score {
-  int ok = 0;
+  int ok = 0, all_correct = 0, cameras = 0, wrong = 0;
   std::vector<double> errors;  // visible features of the cameras that segmented
 };
-
-// Checks the labels of every camera that segmented: head and hands nearer their own truth than any
-// other feature's; every visible feature within max_err_ratio x the silhouette's height.
-Score check(const std::vector<View>& views, double max_err_ratio, const std::string& what) {
-  Score sc;
-  for (size_t c = 0; c < views.size(); c++) {
-    const View& v = views[c];
-    const Segmentation s = segment(v.mask);
-    if (!s.ok) {
-      EXPECT_FALSE(s.why.empty());
-      continue;
-    }
-    sc.ok++;
-    const double h = cv::boundingRect(v.mask).height;
-    for (size_t f = 0; f < kFeatures; f++) {
-      const cv::Point2d p(s.point[f].x, s.point[f].y);
-      const double e = cv::norm(p - v.truth[f]);
-      if (f <= kRightHand) {
-        for (size_t g = 0; g < kFeatures; g++)
-          if (g != f)
-            EXPECT_LT(e, cv::norm(p - v.truth[g]))
-                << what << " cam " << c << ": " << feature_name(static_cast<int>(f)) << " is nearer "
-                << feature_name(static_cast<int>(g));
-      }
-      if (!v.visible[f]) continue;
-      EXPECT_LT(e, max_err_ratio * h) << what << " cam " << c << " " << feature_name(static_cast<int>(f));
-      sc.errors.push_back(e);
-    }
-  }
-  return sc;
-}
 
 double median(std::vector<double> v) {
   if (v.empty()) return 0;
@@ -126,43 +35,109 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-// Rigs of 4, 6 and 8 cameras, true silhouettes. With 8 cameras two look along the arms (one hides
-// behind the torso): those refuse with a reason (measured: 6 of 8 segment).
+// Scores every camera's mask (edge or true). `all_right`: every terminal of every camera labelled
+// correctly; otherwise the cameras with a wrong label are counted (Score::wrong), and one that
+// refuses must say why.
+Score check(const std::vector<testing::View>& views, bool edge, bool all_right, const std::string& what) {
+  Score sc;
+  for (const testing::View& v : views) {
+    const Segmentation s = segment(edge ? v.edge_mask : v.truth_mask);
+    const testing::CameraScore c = testing::score(s, v);
+    sc.cameras++;
+    sc.ok += s.ok;
+    sc.all_correct += c.all_correct();
+    if (!s.ok) EXPECT_FALSE(s.why.empty()) << what << " cam " << v.camera;
+    if (all_right) EXPECT_TRUE(s.ok) << what << " cam " << v.camera << ": " << s.why;
+    bool wrong = false;
+    for (size_t f = 0; f < kFeatures; f++) {
+      const testing::TerminalScore& t = c.t[f];
+      if (all_right)
+        EXPECT_TRUE(t.correct) << what << " cam " << v.camera << " " << feature_name(static_cast<int>(f))
+                               << (t.labelled
+                                       ? " labelled " + std::to_string(t.error_px) + " px from its truth"
+                                       : std::string(" not labelled"));
+      wrong = wrong || (t.labelled && !t.correct);
+      if (t.labelled && t.visible) sc.errors.push_back(t.error_px);
+    }
+    sc.wrong += wrong;
+  }
+  return sc;
+}
+
+// (cameras, appearance, room)
+class Presets : public ::testing::TestWithParam<std::tuple<int, std::string, std::string>> {};
+
+// Every camera of every rig size, every preset, both rooms: with the true silhouettes all five
+// terminals right everywhere (incl. the two cameras of the 8-camera rig that look along the arms:
+// a foreshortened arm's hand is its extremity; the far hand seen above the shoulder is found in the
+// head's blob). With the edge's masks all five right on every camera but at most one per rig,
+// preset and room, no wrong label with 4 and 6 cameras, at most one with 8 (measured over the 36 cases:
+// refusals where the mask lost a part, dark's legs in a side view of 6 cameras and an arm in a side
+// view of 8 in beige; one wrong hand, a sliver of the broken neck of olive in the camouflage room
+// seen by a side camera of 8; README.md).
+TEST_P(Presets, InitFrameEveryCamera) {
+  const auto& [cameras, appearance, room] = GetParam();
+  const std::string what = std::to_string(cameras) + " cameras, " + appearance + ", " + room;
+  const sim::Scene scene(testing::init_scene(cameras, appearance, room));
+  const testing::EdgeMasks edge(scene);
+  const std::vector<testing::View> views = testing::views(scene, 0, &edge);
+  const Score truth = check(views, false, true, what + ", true masks");
+  EXPECT_EQ(truth.all_correct, truth.cameras) << what;
+  EXPECT_LT(median(truth.errors), 3.5) << what;  // measured 1.8 .. 2.8 px at 640x480
+  const Score mine = check(views, true, false, what + ", edge masks");
+  EXPECT_GE(mine.all_correct, mine.cameras - 1) << what;
+  // 4 and 6 cameras (what this test held before, every camera that segmented right): no wrong label.
+  EXPECT_LE(mine.wrong, cameras == 8 ? 1 : 0) << what;
+  EXPECT_LT(median(mine.errors), 4.5) << what;  // measured 2.4 .. 3.5 px
+}
+
+std::vector<std::tuple<int, std::string, std::string>> presets() {
+  std::vector<std::tuple<int, std::string, std::string>> p;
+  for (int cameras : {4, 6, 8})
+    for (const std::string room : {"default", "camouflage"})
+      for (const sim::Appearance& a : sim::appearance_presets()) p.emplace_back(cameras, a.name, room);
+  return p;
+}
+
+INSTANTIATE_TEST_SUITE_P(SimSegment, Presets, ::testing::ValuesIn(presets()), [](const auto& info) {
+  return std::to_string(std::get<0>(info.param)) + "cams_" + std::get<1>(info.param) + "_" +
+         std::get<2>(info.param);
+});
+
+// Rigs of 4, 6 and 8 cameras, true silhouettes of the default performer: every camera segments
+// (before: 6 of 8 with 8 cameras) and every visible feature is within 8 % of the height.
 TEST(SimSegment, RigsOf4_6_8Cameras) {
-  const std::array<std::pair<int, int>, 3> rigs{{{4, 4}, {6, 6}, {8, 6}}};
-  for (const auto& [cameras, want_ok] : rigs) {
+  for (int cameras : {4, 6, 8}) {
     const std::string what = std::to_string(cameras) + " cameras";
-    const Score sc = check(init_views(cameras, "default", false), 0.1, what);
-    EXPECT_GE(sc.ok, want_ok) << what;
-    EXPECT_LT(median(sc.errors), 3.0) << what;  // measured 1.8 .. 2.4 px at 640x480
+    const sim::Scene scene(testing::init_scene(cameras, "default", "default"));
+    const Score sc = check(testing::views(scene, 0, nullptr), false, true, what);
+    EXPECT_EQ(sc.ok, cameras) << what;
+    EXPECT_LT(median(sc.errors), 3.0) << what;  // measured 1.9 .. 2.5 px at 640x480
   }
 }
 
-// The edge's real masks, default room, every appearance preset. `dark`'s masks lose the head in
-// front of the blue painting (cam 1) and parts of an arm (cam 5) today (edge/core's issue #10):
-// those cameras must refuse, not label wrongly; the others are checked like the rest.
-TEST(SimSegment, EdgeMasksOfTheAppearancePresets) {
-  const std::array<std::pair<const char*, int>, 6> presets{
-      {{"default", 6}, {"pale", 6}, {"olive", 6}, {"brown", 6}, {"beige", 6}, {"dark", 4}}};
-  for (const auto& [a, want_ok] : presets) {
-    const Score sc = check(init_views(6, a, true), 0.1, a);
-    EXPECT_GE(sc.ok, want_ok) << a;
-    EXPECT_LT(median(sc.errors), 4.0) << a;  // measured 2.0 .. 3.5 px
-  }
-}
-
-// The camouflage room (beige tiled floor, walls close to the shirts): the edge's masks lose the head
-// of the front pair against the blue wall; those refuse, the others segment (measured 4 of 6).
-TEST(SimSegment, EdgeMasksInTheCamouflageRoom) {
-  const Score sc = check(init_views(6, "default", true, 640, 480, "camouflage"), 0.1, "camouflage");
-  EXPECT_GE(sc.ok, 4);
-  EXPECT_LT(median(sc.errors), 6.0);  // measured 5.0 px
+// A later initialization frame (other sensor noise) on the edge's masks: the same labels.
+TEST(SimSegment, EdgeMasksOfALaterInitFrame) {
+  const sim::Scene scene(testing::init_scene(6, "beige", "default"));
+  const testing::EdgeMasks edge(scene);
+  const Score sc = check(testing::views(scene, 30, &edge), true, true, "beige frame 30");
+  EXPECT_EQ(sc.all_correct, 6);
 }
 
 // 320x240: the body is ~110 px high, arms ~4 px wide.
 TEST(SimSegment, SmallImages) {
-  const Score sc = check(init_views(6, "default", false, 320, 240), 0.12, "320x240");
-  EXPECT_GE(sc.ok, 4);
+  const sim::Scene scene(testing::init_scene(6, "default", "default", 320, 240));
+  const std::vector<testing::View> views = testing::views(scene, 0, nullptr);
+  int ok = 0;
+  for (const testing::View& v : views) {
+    const Segmentation s = segment(v.truth_mask);
+    if (!s.ok) continue;
+    ok++;
+    const testing::CameraScore c = testing::score(s, v, 0.12);
+    for (size_t f = 0; f < kFeatures; f++)
+      EXPECT_TRUE(c.t[f].correct) << "320x240 cam " << v.camera << " " << feature_name(static_cast<int>(f));
+  }
+  EXPECT_GE(ok, 4);
 }
 
 }  // namespace

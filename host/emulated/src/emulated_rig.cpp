@@ -55,6 +55,7 @@ bool Options::valid(std::string* why) const {
   if (deadline_ms <= 0) return fail("deadline: must be > 0");
   if (truth_every < 0) return fail("truth_every: must be >= 0");
   if (motion.empty()) return fail("motion: must be set");
+  if (!(bvh_scale >= 0 && bvh_scale <= 100)) return fail("bvh scale: must be in [0, 100] metres per unit");
   config::CarveRule rule{};
   if (!config::parse_carve_rule(carve, &rule))
     return fail("carve: subpixel, footprint or centre, got '" + carve + "'");
@@ -158,6 +159,7 @@ class TruthScorer : public pipeline::Stage {
     sim::SceneOptions so;
     so.motion.source = opt.motion;
     so.motion.fps = opt.rate_hz;
+    so.motion.bvh_scale = opt.bvh_scale;
     so.seed = opt.seed;
     so.noise_sigma = opt.noise;
     so.appearance = opt.appearance;
@@ -735,6 +737,7 @@ void EmulatedRig::start(double timeout_s) {
   // What the edges' sim cameras render: the scorer's scene, to the last option.
   m.sim_spec = fmt::format("motion={},fps={},seed={},noise={},appearance={},room={},calibration={}", o.motion,
                            o.rate_hz, o.seed, o.noise, o.appearance, o.room, cal_path.string());
+  if (o.bvh_scale > 0) m.sim_spec += fmt::format(",bvh_scale={}", o.bvh_scale);
   aggregator::Options ao;
   if (o.quiet)
     ao.log = [out = log::to_spdlog("voxcap-host")](log::Level level, const std::string& line) {

@@ -76,6 +76,10 @@ class Lexer {
     if (ec != std::errc() || ptr != last || !std::isfinite(v)) {
       fail("expected a number, got '" + std::string(t.substr(0, 40)) + "'");
     }
+    // Finite but absurd (1e308 overflows forward kinematics into inf and NaN): no motion file needs
+    // more than kBvhMaxMagnitude (10,000 km in millimetres).
+    if (std::abs(v) > kBvhMaxMagnitude)
+      fail("number out of range (|x| > 1e10): '" + std::string(t.substr(0, 40)) + "'");
     return v;
   }
 
@@ -213,6 +217,24 @@ BvhClip parse_bvh(std::string_view text, const std::string& source_name) {
   clip.values.reserve(count);
   for (std::size_t i = 0; i < count; ++i) clip.values.push_back(lx.number());
   if (!lx.at_end()) lx.fail("more values than Frames x channels");
+  // Position channels that repeat the OFFSET (absolute) or move away from it (added).
+  clip.positions_absolute.assign(clip.skeleton.joints.size(), 0);
+  for (std::size_t j = 0; j < clip.skeleton.joints.size(); ++j) {
+    double from_offset = 0, from_zero = 0;
+    bool any = false;
+    for (std::size_t c = 0; c < clip.channels[j].size(); ++c) {
+      const int axis = static_cast<int>(clip.channels[j][c]);
+      if (axis > 2) continue;
+      any = true;
+      const double off = clip.skeleton.joints[j].offset[axis];
+      for (long f = 0; f < frames; ++f) {
+        const double v = clip.frame_values(static_cast<int>(f))[clip.first_channel[j] + static_cast<int>(c)];
+        from_offset += std::abs(v - off);
+        from_zero += std::abs(v);
+      }
+    }
+    clip.positions_absolute[j] = any && from_offset < from_zero ? 1 : 0;
+  }
   std::string why;
   if (!clip.skeleton.valid(&why)) lx.fail(why);
   return clip;
@@ -239,16 +261,19 @@ Pose BvhClip::pose(int frame, double scale) const {
     const double* jv = v + first_channel[j];
     glm::dmat3 R(1.0);
     glm::dvec3 t(0, 0, 0);
+    // Absolute positions: the offset is added back in forward kinematics.
+    const glm::dvec3 base =
+        j < positions_absolute.size() && positions_absolute[j] ? skeleton.joints[j].offset : glm::dvec3(0);
     for (std::size_t c = 0; c < channels[j].size(); ++c) {
       switch (channels[j][c]) {
         case BvhChannel::Xposition:
-          t[0] = jv[c] * scale;
+          t[0] = (jv[c] - base[0]) * scale;
           break;
         case BvhChannel::Yposition:
-          t[1] = jv[c] * scale;
+          t[1] = (jv[c] - base[1]) * scale;
           break;
         case BvhChannel::Zposition:
-          t[2] = jv[c] * scale;
+          t[2] = (jv[c] - base[2]) * scale;
           break;
         default:
           R = R * axis_rotation(channels[j][c], jv[c]);

@@ -110,6 +110,12 @@ TEST(BodyBvh, RejectsNonFiniteAndOutOfRangeNumbers) {
     text.replace(at, 1, bad);
     EXPECT_THAT(error_of(text), AllOf(HasSubstr("t.bvh:19:"), HasSubstr("expected a number"))) << bad;
   }
+  // Finite but absurd values (issue #13: 1e308 gave NaN ground truth): refused with the line.
+  for (const char* huge : {"1e308", "-1e11", "12345678901"}) {
+    std::string text = t;
+    text.replace(at, 1, huge);
+    EXPECT_THAT(error_of(text), AllOf(HasSubstr("t.bvh:19:"), HasSubstr("out of range"))) << huge;
+  }
   std::string text = t;
   text.replace(text.find("OFFSET 0 1 0"), 12, "OFFSET 0 nan 0");
   EXPECT_THAT(error_of(text), HasSubstr("expected a number"));

@@ -163,8 +163,9 @@ TEST(BodyHumanoid, EveryNamingConventionUnitAndAxisMaps) {
       {"z-up facing +x", rot_z(deg(90))},
       {"y-up facing -x", from_rows(1, 0, 0, 0, 0, 1, 0, -1, 0) * rot_z(deg(-90))},
   };
+  // Inches are detected (a rest pose 50-85 tall); 25 units per metre is no known unit (height).
   const std::vector<std::pair<double, std::string>> units = {
-      {1.0, "m"}, {100.0, "cm"}, {1000.0, "mm"}, {39.37, "height"}};
+      {1.0, "m"}, {100.0, "cm"}, {1000.0, "mm"}, {1 / 0.0254, "in"}, {25.0, "height"}};
   for (const Convention& c : conventions()) {
     std::array<int, kJointCount> index{};
     const Skeleton sk = named_skeleton(c, &index);
@@ -246,19 +247,40 @@ TEST(BodyHumanoid, RefusesNonHumanoidsNamingTheMissingJoint) {
     EXPECT_THAT(e.what(),
                 AllOf(HasSubstr("tail.bvh"), HasSubstr("not a humanoid hierarchy"), HasSubstr("head")));
   }
-  // A one-armed figure: the right wrist is missing.
+  // A right hand under an unknown name: the names do not decide, the hierarchy does.
   std::array<int, kJointCount> index{};
   Convention c = conventions()[0];
   Skeleton sk = named_skeleton(c, &index);
   for (auto& j : sk.joints) {
     if (j.name == "mixamorig:RightHand") j.name = "mixamorig:RightPaw";
   }
-  const std::string text = format_bvh(sk, {rest_pose(sk)}, 0.1);
+  std::string text = format_bvh(sk, {rest_pose(sk)}, 0.1);
+  const HumanoidClip paw = map_humanoid(parse_bvh(text), "paw.bvh");
+  EXPECT_EQ(paw.map.convention, "hierarchy");
+  EXPECT_EQ(paw.map.file_joint_name[static_cast<std::size_t>(Joint::r_wrist)], "mixamorig:RightPaw");
+  EXPECT_EQ(paw.map.file_joint_name[static_cast<std::size_t>(Joint::l_wrist)], "mixamorig:LeftHand");
+  // A one-armed figure (the right arm cut off at the clavicle): the right wrist is missing, by
+  // the names and by the hierarchy.
+  Skeleton one_arm;
+  std::vector<int> new_index(sk.joints.size(), -1);
+  for (std::size_t j = 0; j < sk.joints.size(); ++j) {
+    const int par = sk.joints[j].parent;
+    if (sk.joints[j].name == "mixamorig:RightShoulder" ||
+        (par >= 0 && new_index[static_cast<std::size_t>(par)] < 0))
+      continue;
+    SkeletonJoint jt = sk.joints[j];
+    jt.parent = par < 0 ? -1 : new_index[static_cast<std::size_t>(par)];
+    new_index[j] = static_cast<int>(one_arm.joints.size());
+    one_arm.joints.push_back(jt);
+  }
+  ASSERT_LT(one_arm.joints.size(), sk.joints.size() - 3);
+  text = format_bvh(one_arm, {rest_pose(one_arm)}, 0.1);
   try {
     (void)map_humanoid(parse_bvh(text), "paw.bvh");
     FAIL() << "expected an error";
   } catch (const std::runtime_error& e) {
-    EXPECT_THAT(e.what(), AllOf(HasSubstr("paw.bvh"), HasSubstr("r_wrist"), HasSubstr("right hand")));
+    EXPECT_THAT(e.what(), AllOf(HasSubstr("paw.bvh"), HasSubstr("r_wrist"), HasSubstr("right hand"),
+                                HasSubstr("by the hierarchy: no spine with two arms and a head")));
   }
   HumanoidOptions bad;
   bad.height_m = 0;

@@ -8,6 +8,7 @@
 #include <cctype>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
 #include <stdexcept>
 
@@ -90,12 +91,25 @@ BodyPose body_pose_from(const MotionData& m, const Pose& pose) {
   return out;
 }
 
+// A dataset's own truth/motion.bvh (voxcap sim wrote it, with the scene.yaml beside it): its
+// joints are already where the performer stood, in the world frame.
+bool is_own_truth(const std::string& path) {
+  const std::filesystem::path p(path);
+  if (p.filename() != "motion.bvh") return false;
+  std::ifstream f(p.parent_path() / "scene.yaml");
+  std::string head(512, '\0');
+  f.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<std::size_t>(std::max<std::streamsize>(0, f.gcount())));
+  return head.find("voxcap's virtual rig") != std::string::npos;
+}
+
 void make_bvh(const std::string& path, const MotionOptions& opt, const BodyDescription& body, MotionData* m) {
   vc::body::HumanoidOptions ho;
   ho.height_m = body.height_m;
   ho.toe_height_m = body.toes_half_height_m;
   ho.scale = opt.bvh_scale;
   ho.frame_time_s = opt.bvh_frame_time_s;
+  ho.keep_placement = is_own_truth(path);
   auto clip = std::make_shared<const vc::body::HumanoidClip>(vc::body::read_humanoid(path, ho));
   const BvhMapping& map = clip->map;
   const Skeleton& sk = clip->skeleton;
@@ -115,10 +129,17 @@ void make_bvh(const std::string& path, const MotionOptions& opt, const BodyDescr
     s.a = map.anchor[static_cast<std::size_t>(j)];
     s.frame_joint = s.a;
   }
+  // voxcap's own skeleton (convention "voxcap": a built-in motion's truth/motion.bvh) has every
+  // standard joint as a file joint, the head centre and the end points included: taken as they are.
+  const bool own = map.convention == "voxcap";
   const int head = J(Joint::head);
   JointSource& hs = m->sources[static_cast<std::size_t>(Joint::head)];
-  hs = {head, map.head_end, map.head_end >= 0 ? 0.5 : 0.0, head,
-        map.head_end >= 0 ? glm::dvec3(0, 0, 0) : glm::dvec3(0, 0, 0.5 * body.head_radii_m[2])};
+  if (own) {
+    hs = {head, -1, 0.0, head, glm::dvec3(0, 0, 0)};
+  } else {
+    hs = {head, map.head_end, map.head_end >= 0 ? 0.5 : 0.0, head,
+          map.head_end >= 0 ? glm::dvec3(0, 0, 0) : glm::dvec3(0, 0, 0.5 * body.head_radii_m[2])};
+  }
   JointSource& ts = m->sources[static_cast<std::size_t>(Joint::head_top)];
   ts = hs;
   ts.canon_offset += glm::dvec3(0, 0, body.head_radii_m[2]);
@@ -126,6 +147,13 @@ void make_bvh(const std::string& path, const MotionOptions& opt, const BodyDescr
                                          std::tuple{Joint::r_hand_tip, Joint::r_wrist, -1.0}}) {
     const int w = J(wrist);
     m->sources[static_cast<std::size_t>(tip)] = {w, -1, 0, w, glm::dvec3(sign * body.hand_m, 0, 0)};
+  }
+  for (Joint tip : {Joint::head_top, Joint::l_hand_tip, Joint::r_hand_tip}) {
+    const int fj = map.file_joint[static_cast<std::size_t>(tip)];
+    if (own && fj >= 0) {
+      m->sources[static_cast<std::size_t>(tip)] = {fj, -1, 0.0, J(Joint::head), glm::dvec3(0, 0, 0)};
+      m->sources[static_cast<std::size_t>(tip)].frame_joint = sk.joints[static_cast<std::size_t>(fj)].parent;
+    }
   }
 
   // The initialization pose on this skeleton: rest frame turned to face -y, legs straight down,

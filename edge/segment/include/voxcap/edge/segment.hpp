@@ -18,13 +18,22 @@
 //      minus the cuts gives the regions, the cuts their adjacency graph; tiny regions are merged.
 //   6. Terminals (the initialization pose: arms spread, legs together). The head is the leaf of the
 //      graph in the top head_band_ratio of the silhouette nearest the body's axis (the median column
-//      over the hips), within 15 % of the height of it and reaching the top 8 %; the hands the two leaves of
-//      the upper half farthest from the axis, or, for an arm without a constriction (even width, a hand seen
-//      edge-on), the silhouette's extremities (local maxima of the geodesic distance from the head)
-//      in the upper half. The feet are not leaves (from the front an ankle is no narrower than its
-//      foot, and legs together touch): they are the pieces of the silhouette's lowest
-//      foot_band_ratio; one piece for both is split into its two runs, or halves, at ankle height.
-//      Fewer found: ok = false and why ("5 terminals expected, found 3 ...").
+//      over the hips), within 15 % of the height of it, reaching the top 8 % and holding a disc of
+//      head_disc_ratio x height; without such a leaf (a hand seen above the shoulder joins the head, a
+//      mask that lost the chest leaves no neck) the largest disc in the top head_top_ratio near the
+//      axis where the silhouette is head-wide. The hands are the two leaves of the upper half farthest
+//      from the axis, or, for an arm without a constriction (even width, a hand seen edge-on, an arm
+//      foreshortened by a camera looking along it), the silhouette's extremities (local maxima of the
+//      geodesic distance from the head) in the upper half; either only if hand-like: beside the head
+//      and beyond its outline, at the end of an arm-thin part at least half a hand long and somewhere
+//      as thick as a forearm (not a spur of a ragged head, not a sliver of a broken mask). The feet
+//      are not leaves (from the front an ankle is no narrower than its foot, and legs together
+//      touch): they are the pieces of the silhouette's lowest foot_band_ratio; one piece for both is
+//      split into its two runs at ankle height, or about the body's axis.
+//      One hand found (the other hidden by a camera looking along the arms): it is labelled by its
+//      side of the head and the other is not_visible (terminal -1); a silhouette too short for its
+//      head (head disc above max_head_ratio x height: the mask lost the legs) has its feet
+//      not_visible. No hand, or one without legs: ok = false and why ("5 terminals expected, ...").
 //
 // Left and right are decided per image, by the image side, as if the camera faced the performer:
 // left_hand is the hand whose point is on the image's right (larger x), right_hand the one on the
@@ -36,9 +45,10 @@
 // hand's cut into the arm, or, when the hand's leaf reaches far beyond a hand (a cut at the elbow)
 // or there is none, hand_ratio x height back from the hand's extremity along the silhouette, on the
 // GVD; the ankle ankle_ratio x height above the foot's lowest pixel, in the middle of its run.
-// Measured on hw/sim (wave's initialization frame, 640x480, 6 cameras, true silhouettes): median
-// 1.8 px, p95 11 px; head 0.1-0.9 px; hands and feet of the front pair 2-4 px, of side views up to
-// ~15 px (a foreshortened arm, one foot behind the other).
+// Measured on hw/sim (bin/edge_segment_survey; README.md): on the initialization frames of every
+// appearance preset, both rooms, rigs of 4, 6 and 8 cameras, every terminal of every camera is
+// labelled right on the true silhouettes (2D error median 2.3 px, p95 14 px: foreshortened arms,
+// one foot behind the other) and on 426 of 432 camera frames of the edge's masks.
 //
 // Not thread-hostile: segment() and draw() keep no state; call them from any thread.
 #pragma once
@@ -68,6 +78,9 @@ struct Options {
   double min_region_ratio = 0.002;  // regions smaller than this x the silhouette's area are merged
   double foot_band_ratio = 0.15;    // feet: leaves reaching into the lowest fraction of the height
   double head_band_ratio = 0.35;    // head: a leaf whose centre is in the highest fraction
+  double head_top_ratio = 0.12;     // ... or, without such a leaf, the largest disc in this top fraction
+  double head_disc_ratio = 0.03;    // ... either holding a disc of at least this x height (a head ~0.055)
+  double max_head_ratio = 0.085;    // a head's disc larger than this x height: the legs are lost
   double hand_ratio = 0.1;          // wrist to finger tips: this x height (when no cut is near)
   double ankle_ratio = 0.08;        // ankle: this x height above the foot's lowest pixel
 
@@ -103,8 +116,10 @@ struct Segmentation {
   std::vector<Cut> cuts;            // one per critical point that separates two regions
   cv::Mat1i labels;                 // region id per pixel, -1 background
   std::vector<Region> regions;      // regions[i].id == i, with the adjacency graph
-  std::array<int, kFeatures> terminal{{-1, -1, -1, -1, -1}};  // region id per feature, -1 none
-  std::array<cv::Point2f, kFeatures> point{};                 // the feature's 2D position (px)
+  // Region id per feature; -1: not labelled, i.e. not_visible in this view (a hand hidden behind the
+  // body, feet of legs the mask lost) while ok, and its point is meaningless.
+  std::array<int, kFeatures> terminal{{-1, -1, -1, -1, -1}};
+  std::array<cv::Point2f, kFeatures> point{};  // the feature's 2D position (px)
 };
 
 // Segments one camera's mask (0 = background, anything else = silhouette). Never throws for a bad

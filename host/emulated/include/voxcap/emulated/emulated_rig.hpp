@@ -31,6 +31,7 @@ namespace vc::emulated {
 struct Options {
   int nodes = 3;                // edge processes (2 cameras each)
   std::string motion = "wave";  // built-in motion name or a BVH file
+  double bvh_scale = 0;         // metres per unit of a BVH motion; 0: detected (hw/body/README.md)
   int width = 640, height = 480;
   double rate_hz = 60;
   int grid = 64;  // voxels per axis over the 2.24 m cube of the volume

@@ -23,13 +23,21 @@ struct BvhClip {
   double frame_time_s = 0;       // as written in the file
   int frame_time_decimals = -1;  // digits after the point as written, -1 if none
   std::vector<double> values;    // frames * channel_count, row-major
+  // Per joint: its position channels give the joint's position in the parent's frame, replacing
+  // OFFSET on the axes they cover (as many exporters write six channels on every joint, each
+  // frame repeating the bone), rather than adding to it. parse_bvh decides it per joint from the
+  // values: absolute when they lie nearer the OFFSET than zero (summed over frames and position
+  // channels); a joint without position channels, or a tie (OFFSET zero), adds.
+  std::vector<char> positions_absolute;
 
   const double* frame_values(int frame) const {
     return values.data() + static_cast<std::size_t>(frame) * static_cast<std::size_t>(channel_count);
   }
   // Local rotations R = R_c1 * R_c2 * R_c3 (channels in the order written, degrees); the root's
-  // position channels go to root_position and other joints' to translation, all multiplied by
-  // `scale` (file units -> metres). Axes stay the file's. Throws std::out_of_range for a bad frame.
+  // position channels go to root_position and other joints' to translation (both added to the
+  // OFFSET in forward kinematics; for positions_absolute joints the OFFSET is taken off first), all
+  // multiplied by `scale` (file units -> metres). Axes stay the file's. Throws std::out_of_range
+  // for a bad frame.
   Pose pose(int frame, double scale = 1.0) const;
   // The skeleton with offsets multiplied by scale.
   Skeleton scaled_skeleton(double scale) const;
@@ -38,6 +46,7 @@ struct BvhClip {
 // Limits of the reader (a file beyond them is an error, never a huge allocation).
 inline constexpr int kBvhMaxJoints = 4096;
 inline constexpr long kBvhMaxFrames = 50'000'000;
+inline constexpr double kBvhMaxMagnitude = 1e10;  // largest |value| of an offset, position or angle
 
 // Parses BVH text. Throws std::runtime_error("<source_name>:<line>: <what>") on malformed input
 // (including NaN, inf and out-of-range numbers); never reads out of bounds, whatever the bytes.
