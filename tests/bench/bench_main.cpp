@@ -110,6 +110,26 @@ void print_host_text(const nlohmann::json& j) {
     fmt::print("triangulate {} cameras: {:.1f} us per frame (p99 {:.1f} us), 3D error p50 {:.1f} mm\n",
                t["cameras"].get<int>(), t["ns_per_frame"].get<double>() / 1e3,
                t["ns_p99"].get<double>() / 1e3, t["err3d_mm_p50"].get<double>());
+  if (j.contains("fit")) {
+    const auto& f = j["fit"];
+    const auto& p = f["paper_table1_ms"];
+    auto us = [&f](const char* k) { return f[k]["us"].get<double>(); };
+    fmt::print(
+        "fit {} at {}^3 ({} samples, {} steps), {} of {} frames fitted, MPJPE {:.1f} mm; median per frame "
+        "(the method's Table 1, 1 GHz):\n",
+        f["motion"].get<std::string>(), f["grid"][0].get<int>(), f["samples"].get<int>(),
+        f["steps"].get<int>(), f["fitted_frames"].get<int>(), f["frames"].get<int>(),
+        f["mpjpe_mm"].get<double>());
+    fmt::print("  decode hull        {:8.1f} us\n", us("decode"));
+    fmt::print("  torso segmentation {:8.1f} us  ({} ms)\n", us("torso_segmentation"),
+               p["torso_segmentation"].get<double>());
+    fmt::print("  PCA                {:8.1f} us  ({} ms)\n", us("pca"), p["pca"].get<double>());
+    fmt::print("  layer 1            {:8.1f} us  ({} ms)\n", us("layer1"), p["layer1"].get<double>());
+    fmt::print("  one layer-2 limb   {:8.1f} us  ({} ms)\n", us("layer2_segment"),
+               p["layer2_segment"].get<double>());
+    fmt::print("  all stages         {:8.1f} us  (p99 {:.1f} us; goal < 1000 us)\n", us("total"),
+               f["total"]["us_p99"].get<double>());
+  }
   for (const auto& m : j["merge"])
     fmt::print("merge {} nodes at {}^3: {:.1f} us per frame (p99 {:.1f} us), {} B RLE per node\n",
                m["nodes"].get<int>(), m["grid"].get<int>(), m["merge_ns_per_frame"].get<double>() / 1e3,
@@ -196,13 +216,18 @@ void add_host_command(CLI::App& app) {
   auto hsize = std::make_shared<std::string>("640x480");
   auto grids = std::make_shared<std::vector<int>>();
   auto nodes = std::make_shared<std::vector<int>>();
-  auto* host = app.add_subcommand("host",
-                                  "Host: merge cost per frame (3/4/8 nodes, 64^3..256^3), triangulation cost "
-                                  "per frame (6/8 cameras), the emulated rig's fps, latency and memory");
+  auto* host =
+      app.add_subcommand("host",
+                         "Host: merge cost per frame (3/4/8 nodes, 64^3..256^3), triangulation cost "
+                         "per frame (6/8 cameras), the fitting's cost per stage, the emulated rig's fps, "
+                         "latency and memory");
   host->footer(
       "JSON keys: merge[] {nodes, grid, voxels, rle_bytes_per_node, merged_occupied, merge_ns_per_frame "
       "(median), "
-      "merge_ns_p99}; triangulate[] {cameras, frames, ns_per_frame, ns_p99, err3d_mm_p50}; rig {nodes, size, "
+      "merge_ns_p99}; triangulate[] {cameras, frames, ns_per_frame, ns_p99, err3d_mm_p50}; fit {motion, "
+      "grid, "
+      "voxel_m, samples, steps, frames, fitted_frames, decode|torso_segmentation|pca|layer1|layer2_segment|"
+      "layer2_all|total {us, us_p99}, mpjpe_mm, paper_table1_ms}; rig {nodes, size, "
       "grid, seconds, pulses, frames, complete, degraded, fps, "
       "trigger_to_merged_ms {p50, p99}, host_rss_kb {start, end}}. Keys also in tests/bench/README.md.");
   host->add_option("--grid", *grids, "merge: voxels per axis; repeat for several (default 64 128 256)");
@@ -211,6 +236,13 @@ void add_host_command(CLI::App& app) {
       ->capture_default_str();
   host->add_option("--tri-frames", hopt->tri_frames, "triangulate: frames timed per camera count")
       ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  host->add_option("--fit-frames", hopt->fit_frames, "fit: frames fitted (0: the whole motion)")
+      ->check(CLI::Range(0, 100000))
+      ->capture_default_str();
+  host->add_option("--fit-motion", hopt->fit_motion, "fit: the hw/sim motion fitted")->capture_default_str();
+  host->add_option("--fit-grid", hopt->fit_grid, "fit: voxels across the default volume")
+      ->check(CLI::Range(16, 512))
       ->capture_default_str();
   host->add_option("--minutes", hopt->rig_minutes,
                    "rig: how long the emulated rig runs (memory at start and end)")

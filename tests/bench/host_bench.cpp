@@ -11,7 +11,10 @@
 
 #include "voxcap/assemble/assembler.hpp"
 #include "voxcap/emulated/emulated_rig.hpp"
+#include "voxcap/fit/fitter.hpp"
+#include "voxcap/fit/synthetic.hpp"
 #include "voxcap/rle.h"
+#include "voxcap/sim/motion.hpp"
 #include "voxcap/sim/scene.hpp"
 #include "voxcap/triangulate/synthetic.hpp"
 #include "voxcap/triangulate/triangulate.hpp"
@@ -71,6 +74,74 @@ std::vector<uint8_t> encode(const std::vector<uint8_t>& bits, size_t nbits) {
   vc_rle_encode(bits.data(), nbits, out.data(), out.size(), &len);
   out.resize(len);
   return out;
+}
+
+// Median and 99th percentile of a sample (sorted in place).
+std::pair<double, double> median_p99(std::vector<double>& v) {
+  if (v.empty()) return {0, 0};
+  std::sort(v.begin(), v.end());
+  return {v[v.size() / 2], v[std::min(v.size() - 1, v.size() * 99 / 100)]};
+}
+
+nlohmann::json fit_bench(const HostBenchOptions& o) {
+  sim::SceneOptions so;
+  so.motion.source = o.fit_motion;
+  so.rig.cameras = 4;
+  so.rig.width = 64;
+  so.rig.height = 48;
+  so.rig.voxel_m = (so.rig.volume_max_m[0] - so.rig.volume_min_m[0]) / o.fit_grid;
+  const sim::Scene scene(so);
+  const rig::VoxelGrid grid = *scene.calibration().grid;
+  const int frames = o.fit_frames > 0 ? o.fit_frames : scene.motion().natural_frames();
+  // The frames first (true occupancy, RLE), so that only the fitting is timed.
+  std::mt19937_64 rng(5);
+  std::vector<pipeline::Frame> in;
+  in.reserve(static_cast<size_t>(frames));
+  for (int f = 0; f < frames; ++f) in.push_back(fit::testing::synthetic_frame(scene, grid, f, {}, rng));
+  config::FittingOptions opt;  // the method's settings: 256 samples, 15 steps
+  fit::Fitter fitter(grid, opt, 60);
+  std::vector<double> decode, segment, pca, layer1, layer2, limb, total, err;
+  for (int f = 0; f < frames; ++f) {
+    const pipeline::Pose pose = fitter.fit(in[static_cast<size_t>(f)]);
+    if (!pose.valid()) continue;
+    const fit::StageTimes& t = fitter.times();
+    decode.push_back(static_cast<double>(t.decode_ns) / 1e3);
+    segment.push_back(static_cast<double>(t.segment_ns) / 1e3);
+    pca.push_back(static_cast<double>(t.pca_ns) / 1e3);
+    layer1.push_back(static_cast<double>(t.layer1_ns) / 1e3);
+    double l2 = 0;
+    for (size_t k = 0; k < t.layer2_ns.size(); ++k) {
+      l2 += static_cast<double>(t.layer2_ns[k]) / 1e3;
+      if (t.layer2_searched[k]) limb.push_back(static_cast<double>(t.layer2_ns[k]) / 1e3);
+    }
+    layer2.push_back(l2);
+    total.push_back(static_cast<double>(t.total_ns) / 1e3);
+    err.push_back(fit::testing::mpjpe(pose, fit::testing::true_pose(scene, f)));
+  }
+  const size_t fitted = total.size();
+  double err_mean = 0;
+  for (double e : err) err_mean += e / std::max<size_t>(1, err.size());
+  auto stage = [](std::vector<double>& v) {
+    const auto [m, p] = median_p99(v);
+    return nlohmann::json{{"us", m}, {"us_p99", p}};
+  };
+  return {{"motion", o.fit_motion},
+          {"grid", {grid.nx, grid.ny, grid.nz}},
+          {"voxel_m", grid.voxel_m},
+          {"samples", opt.samples},
+          {"steps", opt.steps},
+          {"frames", frames},
+          {"fitted_frames", fitted},
+          {"decode", stage(decode)},
+          {"torso_segmentation", stage(segment)},
+          {"pca", stage(pca)},
+          {"layer1", stage(layer1)},
+          {"layer2_segment", stage(limb)},
+          {"layer2_all", stage(layer2)},
+          {"total", stage(total)},
+          {"mpjpe_mm", 1000 * err_mean},
+          {"paper_table1_ms",
+           {{"pca", 4.0}, {"torso_segmentation", 5.5}, {"layer1", 16.0}, {"layer2_segment", 211.0}}}};
 }
 
 }  // namespace
@@ -146,6 +217,7 @@ nlohmann::json run_host_bench(const HostBenchOptions& o) {
                                 {"ns_p99", ns[std::min(ns.size() - 1, ns.size() * 99 / 100)]},
                                 {"err3d_mm_p50", err.empty() ? 0.0 : 1000 * err[err.size() / 2]}});
   }
+  j["fit"] = fit_bench(o);
   if (o.rig) {
     emulated::Options eo;
     eo.nodes = o.rig_nodes;

@@ -7,7 +7,6 @@
 
 #include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
-#include <opencv2/core.hpp>
 
 #include "voxcap/base/clock.hpp"
 
@@ -19,6 +18,7 @@ constexpr double kSampleRadius = 0.8;           // cylinder samples fill this fr
 constexpr double kTorsoExclusion = 0.85;        // limb samples inside this much of the torso do not count
 constexpr double kMaxTurnPerFrameDeg = 25;      // a larger jump of the torso's axes is not believed
 constexpr double kSlack = 0.03;                 // m: goals near full reach may be this much short
+constexpr int kStraightForgetFrames = 30;       // straight this long: rho(t-1) is no guide any more
 
 struct OneEuro {
   bool init = false;
@@ -42,11 +42,11 @@ struct OneEuro {
 };
 
 struct LimbTrack {
-  bool have = false;     // a last good end
-  Vec3 last_local{0.0};  // end - root in the root's frame, last good
-  Vec3 vel_local{0.0};   // per frame
-  int lost = 0;          // frames since the last good end
-  bool straight = true;  // straight at the previous frame (rho unknown or kept)
+  bool have = false;              // a last good end
+  Vec3 last_local{0.0};           // end - root in the root's frame, last good
+  Vec3 vel_local{0.0};            // per frame
+  int lost = 0;                   // frames since the last good end
+  int straight_frames = 1 << 20;  // frames in a row it has been straight (never bent: rho unknown)
 };
 
 struct Moments {
@@ -70,6 +70,10 @@ struct Fitter::State {
   double rate_hz;
   HullBits hull;
   SamplePattern pattern;
+  struct Sample {
+    double t, rc, rs;  // along the segment, and r cos a, r sin a in units of the sampled radius
+  };
+  std::vector<Sample> samples;
   BodyModel body;
   bool initialized = false;
   uint32_t body_version = 0;
@@ -95,6 +99,8 @@ struct Fitter::State {
       : opt(o), rate_hz(rate > 0 ? rate : 60), hull(grid), pattern(cylinder_sample_pattern(o.samples)) {
     std::string why;
     if (!opt.valid(&why)) throw std::invalid_argument("fit: " + why);
+    for (const SamplePattern::S& p : pattern.samples)
+      samples.push_back({p.t, static_cast<double>(p.r) * p.c, static_cast<double>(p.r) * p.s});
     if (!opt.body.empty()) apply_body_toml(opt.body.string(), &body);  // fail early on a bad file
   }
 
@@ -165,13 +171,12 @@ struct Fitter::State {
   // ---- PCA: the torso frame from the moments (in the cylinder's frame R), with the components
   // ordered and signed by continuity with R (the previous torso frame). ----
   Mat3 pca(const Moments& m, const Mat3& R, bool free = false) const {
-    const cv::Matx33d C(m.cov[0][0], m.cov[0][1], m.cov[0][2], m.cov[1][0], m.cov[1][1], m.cov[1][2],
-                        m.cov[2][0], m.cov[2][1], m.cov[2][2]);
-    cv::Matx31d vals;
-    cv::Matx33d vecs;
-    cv::eigen(C, vals, vecs);  // descending; eigenvectors as rows
+    double C[3][3];
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c) C[r][c] = m.cov[r][c];
+    double vals[3];
     Vec3 v[3];
-    for (int r = 0; r < 3; ++r) v[r] = Vec3(vecs(r, 0), vecs(r, 1), vecs(r, 2));
+    eigen_sym3(C, vals, v);
     // The spine: the component nearest the previous z; the shoulder line: the one of the other two
     // nearest the previous x. Signs: toward the previous axes.
     int zi = 0;
@@ -181,7 +186,7 @@ struct Fitter::State {
     if (std::abs(v[yi].x) > std::abs(v[xi].x)) std::swap(xi, yi);
     Vec3 z = v[zi].z < 0 ? -v[zi] : v[zi];
     Vec3 x = v[xi].x < 0 ? -v[xi] : v[xi];
-    const double lx = vals(xi), ly = vals(yi);
+    const double lx = vals[xi], ly = vals[yi];
     if (free) {  // re-acquiring: R is only a hint; the shoulder line is the wider component
       if (lx < ly) x = v[yi].x < 0 ? -v[yi] : v[yi];
       x = glm::normalize(x - glm::dot(x, z) * z);
@@ -197,13 +202,24 @@ struct Fitter::State {
   }
 
   // ---- Cylinder samples of one limb in the hull: occupied ones outside the torso. ----
+  // The hot loop (every angle of every limb): each segment's frame is set up once, in world and in
+  // the torso's scaled frame, so a sample costs three multiply-adds per frame and a bit lookup.
   int count_limb(int limb, const Vec3& root, const Vec3& hinge, const Vec3& end) const {
     const Mat3 Rt = glm::transpose(l1.R_torso_world);
-    const double ta = 1 / (kTorsoExclusion * body.torso_half_width_m);
-    const double tb = 1 / (kTorsoExclusion * body.torso_half_depth_m);
+    // Torso frame scaled so that the exclusion ellipse is the unit circle.
+    const Vec3 sc(1 / (kTorsoExclusion * body.torso_half_width_m),
+                  1 / (kTorsoExclusion * body.torso_half_depth_m), 1);
+    const double zlo = -body.spine_m;
     int n = 0;
-    const int total = static_cast<int>(pattern.samples.size());
     const int other = limb ^ 1;  // the limb of the same pair (the other arm, the other leg)
+    // The other limb's box, to skip its exact test for most samples.
+    Vec3 olo(1e9), ohi(-1e9);
+    if (have_last) {
+      const LimbPose& o = last[static_cast<size_t>(other)];
+      const double r = std::max(body.upper_radius_m(other), body.lower_radius_m(other));
+      olo = glm::min(glm::min(o.root, o.hinge), o.end) - Vec3(r);
+      ohi = glm::max(glm::max(o.root, o.hinge), o.end) + Vec3(r);
+    }
     for (int seg = 0; seg < 2; ++seg) {
       const Vec3 A = seg == 0 ? root : hinge, B = seg == 0 ? hinge : end;
       const Vec3 ax = B - A;
@@ -211,17 +227,21 @@ struct Fitter::State {
       if (len < 1e-6) continue;
       const Vec3 u = ax / len;
       const Vec3 any = std::abs(u.z) < 0.9 ? Vec3(0, 0, 1) : Vec3(1, 0, 0);
-      const Vec3 p1 = glm::normalize(glm::cross(u, any)), p2 = glm::cross(u, p1);
       const double r = kSampleRadius * (seg == 0 ? body.upper_radius_m(limb) : body.lower_radius_m(limb));
-      const int from = seg == 0 ? 0 : pattern.upper, to = seg == 0 ? pattern.upper : total;
-      for (int i = from; i < to; ++i) {
-        const SamplePattern::S& s = pattern.samples[static_cast<size_t>(i)];
-        const double rr = r * s.r;
-        const Vec3 p = A + static_cast<double>(s.t) * ax + (rr * s.c) * p1 + (rr * s.s) * p2;
+      const Vec3 p1 = r * glm::normalize(glm::cross(u, any)), p2 = r * glm::normalize(glm::cross(u, p1));
+      const Vec3 qA = sc * (Rt * (A - l1.neck_world)), qax = sc * (Rt * ax);
+      const Vec3 q1 = sc * (Rt * p1), q2 = sc * (Rt * p2);
+      const size_t from = seg == 0 ? 0 : static_cast<size_t>(pattern.upper);
+      const size_t to = seg == 0 ? static_cast<size_t>(pattern.upper) : samples.size();
+      for (size_t i = from; i < to; ++i) {
+        const Sample& s = samples[i];
+        const Vec3 p = A + s.t * ax + s.rc * p1 + s.rs * p2;
         if (!hull.at(p)) continue;
-        const Vec3 q = Rt * (p - l1.neck_world);
-        if (q.z < 0 && q.z > -body.spine_m && (q.x * ta) * (q.x * ta) + (q.y * tb) * (q.y * tb) < 1) continue;
-        if (have_last && in_other(other, p)) continue;
+        const Vec3 q = qA + s.t * qax + s.rc * q1 + s.rs * q2;
+        if (q.z < 0 && q.z > zlo && q.x * q.x + q.y * q.y < 1) continue;
+        if (p.x > olo.x && p.y > olo.y && p.z > olo.z && p.x < ohi.x && p.y < ohi.y && p.z < ohi.z &&
+            in_other(other, p))
+          continue;
         ++n;
       }
     }
@@ -256,7 +276,8 @@ struct Fitter::State {
 
   // ---- Layer 2: the method's search for rho (eq. 3) about the previous bend direction, at three
   // stretches of the segment (0, kSlack/2, kSlack: goals near full reach are noisy). ----
-  void fit_layer2(int limb) {
+  // Returns whether the limb was searched (bent), not kept.
+  bool fit_layer2(int limb) {
     const size_t li = static_cast<size_t>(limb);
     const Mat3& F = limb_frame(l1, limb);
     const Vec3 root = limb_root(body, l1, limb), end = l1.end_world[li];
@@ -266,62 +287,72 @@ struct Fitter::State {
     const double straight_rad = opt.straight_deg * M_PI / 180;
     l2.slack_m[li] = 0;
     if (now.bend_rad < straight_rad) {  // the method: keep rho(t-1)
-      limbs[li].straight = true;
+      ++limbs[li].straight_frames;
       last[li] = now;
-      return;
+      return false;
     }
     const Vec3 seg = end - root;
     const double d = glm::length(seg);
     const Vec3 u = seg / d;
-    const Vec3 e1_0 = glm::normalize(now.hinge - (root + glm::dot(now.hinge - root, u) * u));
-    double best_n = -1, best_rho = 0, best_slack = 0;
-    Vec3 best_e1 = e1_0;
-    for (int c = 0; c < 3; ++c) {
+    Vec3 e1 = glm::normalize(now.hinge - (root + glm::dot(now.hinge - root, u) * u));
+    Vec3 e2 = glm::cross(u, e1);
+    auto hinge_of = [&](double dd, double* a, double* h) {
+      *a = (L1 * L1 - L2 * L2 + dd * dd) / (2 * dd);
+      *h = std::sqrt(std::max(0.0, L1 * L1 - *a * *a));
+    };
+    auto eval = [&](double a, double h, double dd, double xi) {
+      const Vec3 hinge = root + a * u + h * (std::cos(xi) * e1 + std::sin(xi) * e2);
+      return count_limb(limb, root, hinge, root + dd * u);
+    };
+    double a0, h0;
+    hinge_of(d, &a0, &h0);
+    LimbTrack& track = limbs[li];
+    if (track.straight_frames > kStraightForgetFrames) {
+      // Bending out of a limb straight for long: rho(t-1) means nothing; the best of the whole circle.
+      const int n = 2 * std::max(opt.steps, 12);
+      double best_xi = 0;
+      int best = -1;
+      for (int l = 0; l < n; ++l) {
+        const double xi = -M_PI + 2 * M_PI * l / n;
+        const int k = eval(a0, h0, d, xi);
+        if (k > best || (k == best && std::abs(xi) < std::abs(best_xi))) best = k, best_xi = xi;
+      }
+      const Vec3 e1n = std::cos(best_xi) * e1 + std::sin(best_xi) * e2;
+      e2 = glm::cross(u, e1n);
+      e1 = e1n;
+    }
+    // The method's search (eq. 3) at the goal's distance.
+    const double s = opt.span_deg * M_PI / 180;
+    const int nu = opt.steps;
+    const double step = nu > 1 ? 2 * s / (nu - 1) : s;
+    double sum_w = 0, sum_xi = 0, best_xi = 0;
+    int best_n = -1;
+    for (int l = 0; l < nu; ++l) {
+      const double xi = nu == 1 ? 0 : -s + step * l;
+      const int k = eval(a0, h0, d, xi);
+      if (k > best_n) best_n = k, best_xi = xi;
+      const double match = std::pow(static_cast<double>(k), opt.k);
+      sum_w += match;
+      sum_xi += xi * match;
+    }
+    double best_rho = sum_w > 0 ? sum_xi / sum_w : 0;
+    // The stretches: at that angle and a step either side; one that holds more samples wins.
+    double best_slack = 0, prev_a = a0, prev_h = h0;
+    for (int c = 1; c <= 2; ++c) {
       const double slack = c * 0.5 * kSlack;
       const double dd = std::min(d + slack, L1 + L2);
-      const double a = (L1 * L1 - L2 * L2 + dd * dd) / (2 * dd);
-      const double h = std::sqrt(std::max(0.0, L1 * L1 - a * a));
-      const Vec3 tip = root + dd * u;
-      auto eval = [&](const Vec3& e1, const Vec3& e2, double xi) {
-        const Vec3 hinge = root + a * u + h * (std::cos(xi) * e1 + std::sin(xi) * e2);
-        return count_limb(limb, root, hinge, tip);
-      };
-      Vec3 e1 = e1_0, e2 = glm::cross(u, e1_0);
-      if (limbs[li].straight) {
-        // Bending out of a straight limb: rho(t-1) means nothing; the best of the whole circle.
-        const int n = 2 * std::max(opt.steps, 12);
-        double best_xi = 0;
-        int best = -1;
-        for (int l = 0; l < n; ++l) {
-          const double xi = -M_PI + 2 * M_PI * l / n;
-          const int k = eval(e1, e2, xi);
-          if (k > best || (k == best && std::abs(xi) < std::abs(best_xi))) best = k, best_xi = xi;
-        }
-        const Vec3 e1n = std::cos(best_xi) * e1 + std::sin(best_xi) * e2;
-        e2 = glm::cross(u, e1n);
-        e1 = e1n;
-      }
-      const double s = opt.span_deg * M_PI / 180;
-      const int nu = opt.steps;
-      double sum_w = 0, sum_xi = 0;
-      int n_max = 0;
-      for (int l = 0; l < nu; ++l) {
-        const double xi = nu == 1 ? 0 : -s + 2 * s * l / (nu - 1);
-        const int k = eval(e1, e2, xi);
-        n_max = std::max(n_max, k);
-        const double match = std::pow(static_cast<double>(k), opt.k);
-        sum_w += match;
-        sum_xi += xi * match;
-      }
-      if (n_max > best_n) {
-        best_n = n_max;
-        best_rho = sum_w > 0 ? sum_xi / sum_w : 0;
-        best_slack = slack;
-        best_e1 = e1;
+      double a, h;
+      hinge_of(dd, &a, &h);
+      // A bent limb: the stretch moves the hinge by less than half a voxel; nothing to choose.
+      if (std::abs(h - prev_h) + std::abs(a - prev_a) < 0.5 * hull.grid().voxel_m) break;
+      prev_a = a, prev_h = h;
+      for (double xi : {best_rho, best_xi - step, best_xi + step}) {
+        const int k = eval(a, h, dd, xi);
+        if (k > best_n) best_n = k, best_slack = slack, best_rho = xi;
       }
       if (dd >= L1 + L2) break;  // straight already: more slack changes nothing
     }
-    const Vec3 e2 = glm::cross(u, best_e1);
+    const Vec3 best_e1 = e1;
     Vec3 dir = std::cos(best_rho) * best_e1 + std::sin(best_rho) * e2;
     if (is_arm(limb)) {
       // An elbow inside the torso is never right (arms against the body): the nearest rho that
@@ -333,8 +364,8 @@ struct Fitter::State {
         return root + a * u + h * (std::cos(best_rho + xi) * best_e1 + std::sin(best_rho + xi) * e2);
       };
       if (inside_torso(hinge_at(0))) {
-        for (int step = 1; step <= 36; ++step) {
-          const double xi = step * 5 * M_PI / 180;
+        for (int turn = 1; turn <= 36; ++turn) {
+          const double xi = turn * 5 * M_PI / 180;
           const double pick = !inside_torso(hinge_at(xi)) ? xi : !inside_torso(hinge_at(-xi)) ? -xi : 0;
           if (pick != 0) {
             dir = std::cos(best_rho + pick) * best_e1 + std::sin(best_rho + pick) * e2;
@@ -346,7 +377,8 @@ struct Fitter::State {
     l2.bend_local[li] = glm::transpose(F) * dir;
     l2.slack_m[li] = best_slack;
     last[li] = solve_limb(root, end, L1, L2, dir, best_slack);
-    limbs[li].straight = last[li].bend_rad < straight_rad;
+    track.straight_frames = last[li].bend_rad < straight_rad ? track.straight_frames + 1 : 0;
+    return true;
   }
 
   // ---- A limb without a usable feature: predicted in its root's frame, then fitted to the hull
@@ -365,7 +397,7 @@ struct Fitter::State {
       }
     } else {
       const double reach = 0.98 * (body.upper_m(limb) + body.lower_m(limb));
-      local = is_arm(limb) ? Vec3(0, 0, -reach) : Vec3(0, 0, -reach);
+      local = Vec3(0, 0, -reach);  // never seen: arms hanging, legs standing
     }
     const double len = glm::length(local);
     const Vec3 u0 = F * (local / std::max(len, 1e-9));
@@ -600,7 +632,7 @@ pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
   // ---- Layer 2 (8.4). ----
   uint64_t tl = t4;
   for (int limb = 0; limb < kLimbCount; ++limb) {
-    s.fit_layer2(limb);
+    s.times.layer2_searched[static_cast<size_t>(limb)] = s.fit_layer2(limb);
     const uint64_t t = monotonic_ns();
     s.times.layer2_ns[static_cast<size_t>(limb)] = t - tl;
     tl = t;
@@ -642,12 +674,13 @@ pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
     for (int c = 0; c < 3; ++c) {
       double v = joints[static_cast<size_t>(j)][c];
       if (s.opt.smoothing == config::Smoothing::OneEuro)
-        v = s.euro[static_cast<size_t>(3 * j + c)].filter(v, dt, s.opt.one_euro_min_cutoff,
-                                                          s.opt.one_euro_beta);
+        v = s.euro[3 * static_cast<size_t>(j) + static_cast<size_t>(c)].filter(
+            v, dt, s.opt.one_euro_min_cutoff, s.opt.one_euro_beta);
       pose.p_world[static_cast<size_t>(j)][static_cast<size_t>(c)] = v;
     }
   for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) pose.torso_R_world[static_cast<size_t>(3 * r + c)] = R[c][r];
+    for (int c = 0; c < 3; ++c)
+      pose.torso_R_world[3 * static_cast<size_t>(r) + static_cast<size_t>(c)] = R[c][r];
   pose.state = state;
   pose.body_version = s.body_version;
   pose.confidence = static_cast<float>(std::clamp(confidence, 0.0, 1.0));

@@ -202,9 +202,9 @@ std::optional<InitMeasurement> measure_init_frame(const HullBits& hull, const Fe
     arm_len[s] = glm::length(wrist - shoulder);
     // The profile ran from `guess`; its hinge fraction is of that length.
     const double hinge_from_guess = p.hinge_fraction * glm::length(wrist - guess);
-    hinge_frac[s] =
-        p.stepped ? std::clamp((hinge_from_guess + glm::length(shoulder - guess)) / arm_len[s], 0.3, 0.8)
-                  : 0.56;
+    const double frac = (hinge_from_guess + glm::length(shoulder - guess)) / arm_len[s];
+    // A step far from the usual split (0.56 +- 0.06) is a hull artefact (phantom volume), not the elbow.
+    hinge_frac[s] = p.stepped && std::abs(frac - 0.56) <= 0.06 ? frac : 0.56;
   }
   b.shoulder_half_width_m = half_w + 0.3 * 0.5 * (r_up[0] + r_up[1]);
   const double arm = 0.5 * (arm_len[0] + arm_len[1]);
@@ -247,7 +247,10 @@ std::optional<InitMeasurement> measure_init_frame(const HullBits& hull, const Fe
   const double hip_z = crotch_z + b.thigh_radius_m;
   const double leg = hip_z - ankle_z;
   // The knee's fraction is of the crotch -> ankle profile.
-  const double knee_z = crotch_z - 0.5 * (leg_frac[0] + leg_frac[1]) * (crotch_z - ankle_z);
+  double knee_frac = 0.5 * (leg_frac[0] + leg_frac[1]);
+  // The knee's split of the crotch -> ankle profile: about 0.45 of it; far from that, an artefact.
+  if (std::abs(knee_frac - 0.45) > 0.08) knee_frac = 0.45;
+  const double knee_z = crotch_z - knee_frac * (crotch_z - ankle_z);
   b.thigh_m = hip_z - knee_z;
   b.shank_m = leg - b.thigh_m;
   b.pelvis_drop_m = 0.04 * m.stature_m;
@@ -262,6 +265,7 @@ InitMeasurement combine_measurements(const std::vector<InitMeasurement>& ms) {
   InitMeasurement out = ms.back();
   auto med = [&ms](double BodyModel::*f) {
     std::vector<double> v;
+    v.reserve(ms.size());
     for (const InitMeasurement& m : ms) v.push_back(m.body.*f);
     return median(v);
   };
@@ -274,6 +278,7 @@ InitMeasurement combine_measurements(const std::vector<InitMeasurement>& ms) {
         &BodyModel::head_to_top_m})
     out.body.*f = med(f);
   std::vector<double> st;
+  st.reserve(ms.size());
   for (const InitMeasurement& m : ms) st.push_back(m.stature_m);
   out.stature_m = median(st);
   return out;

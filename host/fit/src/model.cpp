@@ -129,6 +129,50 @@ Mat3 level_heading(const Mat3& R) {
   return Mat3(x, glm::cross(z, x), z);
 }
 
+void eigen_sym3(double A[3][3], double vals[3], Vec3 vecs[3]) {
+  double V[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  static constexpr int kPairs[3][2] = {{0, 1}, {0, 2}, {1, 2}};
+  for (int sweep = 0; sweep < 32; ++sweep) {
+    const double off = A[0][1] * A[0][1] + A[0][2] * A[0][2] + A[1][2] * A[1][2];
+    const double diag = A[0][0] * A[0][0] + A[1][1] * A[1][1] + A[2][2] * A[2][2];
+    if (off <= 1e-30 * diag || off == 0) break;
+    for (const auto& pq : kPairs) {
+      const int p = pq[0], q = pq[1];
+      if (A[p][q] == 0) continue;
+      const double theta = (A[q][q] - A[p][p]) / (2 * A[p][q]);
+      const double t = (theta >= 0 ? 1.0 : -1.0) / (std::abs(theta) + std::sqrt(theta * theta + 1));
+      const double c = 1 / std::sqrt(t * t + 1), sn = t * c;
+      for (int k = 0; k < 3; ++k) {  // A J
+        const double akp = A[k][p], akq = A[k][q];
+        A[k][p] = c * akp - sn * akq;
+        A[k][q] = sn * akp + c * akq;
+      }
+      for (int k = 0; k < 3; ++k) {  // J^T (A J)
+        const double apk = A[p][k], aqk = A[q][k];
+        A[p][k] = c * apk - sn * aqk;
+        A[q][k] = sn * apk + c * aqk;
+      }
+      for (int k = 0; k < 3; ++k) {
+        const double vkp = V[k][p], vkq = V[k][q];
+        V[k][p] = c * vkp - sn * vkq;
+        V[k][q] = sn * vkp + c * vkq;
+      }
+    }
+  }
+  int order[3] = {0, 1, 2};  // by eigenvalue, descending (three compare-and-swaps)
+  auto swap_if = [&A, &order](int i, int j) {
+    if (A[order[j]][order[j]] > A[order[i]][order[i]]) std::swap(order[i], order[j]);
+  };
+  swap_if(0, 1);
+  swap_if(1, 2);
+  swap_if(0, 1);
+  for (int r = 0; r < 3; ++r) {
+    const int c = order[r];
+    vals[r] = A[c][c];
+    vecs[r] = glm::normalize(Vec3(V[0][c], V[1][c], V[2][c]));
+  }
+}
+
 SamplePattern cylinder_sample_pattern(int samples) {
   SamplePattern sp;
   const int n_up = samples / 2, n_lo = samples - n_up;

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <map>
 #include <random>
 
@@ -37,7 +38,7 @@ struct MotionResult {
 
 // Fits `frames` frames of the motion (all of them from 0) and scores every fitted frame.
 MotionResult run_motion(const std::string& motion, int frames, const testing::FeatureNoise& noise,
-                        config::FittingOptions opt = {}, int score_from = 0, int score_to = 1 << 30) {
+                        const config::FittingOptions& opt = {}, int score_from = 0, int score_to = 1 << 30) {
   sim::SceneOptions so;
   so.motion.source = motion;
   const sim::Scene scene(so);
@@ -96,7 +97,7 @@ int motion_frames(const std::string& name) {
 
 TEST(Fitter, BuiltinMotionsOnTrueHullsAndNoisyFeatures) {
   // Measured (2 cm voxels, 1 cm feature noise), see host/fit/README.md; bounds with margin.
-  // Measured 15.6 (arms-close) .. 18.0 (walk) mm; wrists and ankles are the features' own 16 mm.
+  // Measured 15.7 (arms-close) .. 18.0 (walk) mm; wrists and ankles are the features' own 16 mm.
   const std::map<std::string, double> bound_mm = {{"wave", 24}, {"walk", 24},       {"squat", 24},
                                                   {"turn", 24}, {"arms-close", 24}, {"cross", 24}};
   for (const auto& [motion, bound] : bound_mm) {
@@ -106,6 +107,64 @@ TEST(Fitter, BuiltinMotionsOnTrueHullsAndNoisyFeatures) {
     EXPECT_LE(1000 * r.mpjpe_m, bound);
     EXPECT_EQ(r.swaps, 0);
     if (motion == "arms-close") EXPECT_EQ(r.in_torso, 0);
+  }
+}
+
+// The rig's kind of hull: carved from the true silhouettes of the default six cameras (640x480), so
+// with phantom volumes around the limbs; features 1.5 cm noisy.
+TEST(Fitter, CarvedHullsOfSixCameras) {
+  // By default the lead-in and 1.5 s of three motions (rendering six views is slow under the
+  // sanitizers); VOXCAP_FIT_LONG=1: every built-in motion whole.
+  const bool long_run = std::getenv("VOXCAP_FIT_LONG") != nullptr;
+  const int frames = long_run ? 100000 : 180;
+  const char* only = std::getenv("VOXCAP_FIT_MOTION");
+  for (const char* motion : {"arms-close", "turn", "walk", "wave", "cross", "squat"}) {
+    if (only && std::string(only) != motion) continue;
+    if (!only && !long_run && std::string(motion) == "wave") break;  // the first three only
+    SCOPED_TRACE(motion);
+    sim::SceneOptions so;
+    so.motion.source = motion;
+    const sim::Scene scene(so);
+    const rig::VoxelGrid grid = *scene.calibration().grid;
+    Fitter fitter(grid, {}, 60);
+    std::mt19937_64 rng(21);
+    testing::FeatureNoise noise;
+    noise.sigma_m = 0.015;
+    std::vector<cv::Mat> masks;
+    double sum = 0;
+    int fitted = 0, swaps = 0;
+    std::array<double, pipeline::kPoseJointCount> per{};
+    const int n = std::min(frames, scene.motion().natural_frames());
+    for (int frame = 0; frame < n; ++frame) {
+      const pipeline::Pose pose = fitter.fit(testing::carved_frame(scene, grid, frame, noise, rng, &masks));
+      if (!pose.valid()) continue;
+      const auto truth = testing::true_pose(scene, frame);
+      sum += testing::mpjpe(pose, truth);
+      for (int j = 0; j < pipeline::kPoseJointCount; ++j)
+        per[static_cast<size_t>(j)] += cv::norm(at(pose, static_cast<J>(j)) - truth[static_cast<size_t>(j)]);
+      if (std::getenv("VOXCAP_FIT_DEBUG") && frame % 10 == 0) {
+        std::printf("  f%d", frame);
+        for (J j : {J::neck, J::hips, J::l_shoulder, J::l_elbow, J::r_elbow}) {
+          const cv::Vec3d d = at(pose, j) - at(truth, j);
+          std::printf("  %s %+.0f %+.0f %+.0f", pipeline::pose_joint_name(static_cast<int>(j)), 1000 * d[0],
+                      1000 * d[1], 1000 * d[2]);
+        }
+        std::printf(" slack %.3f %.3f\n", fitter.layer2().slack_m[0], fitter.layer2().slack_m[1]);
+      }
+      if (cv::norm(at(pose, J::l_shoulder) - at(truth, J::l_shoulder)) >
+          cv::norm(at(pose, J::l_shoulder) - at(truth, J::r_shoulder)))
+        ++swaps;
+      ++fitted;
+    }
+    std::printf("carved %-10s %d frames: MPJPE %.1f mm, swaps %d\n   ", motion, fitted, 1000 * sum / fitted,
+                swaps);
+    for (int j = 0; j < pipeline::kPoseJointCount; ++j)
+      std::printf(" %s %.0f", pipeline::pose_joint_name(j), 1000 * per[static_cast<size_t>(j)] / fitted);
+    std::printf("\n");
+    // Measured on the default run (lead-in + 1.5 s): arms-close 23.9, turn 28.4, walk 27.5 mm.
+    const double bound_mm = std::string(motion) == "arms-close" ? 28 : 33;
+    if (!long_run) EXPECT_LE(1000 * sum / fitted, bound_mm);
+    EXPECT_EQ(swaps, 0);
   }
 }
 
@@ -133,7 +192,7 @@ TEST(Fitter, AHandLostForTenFramesIsPredictedAndStaysClose) {
   }
   std::printf("right hand lost 10 frames: worst wrist error %.1f mm, MPJPE %.1f mm\n", 1000 * worst_wrist,
               100 * sum);
-  // Measured 80 mm worst (the hand waving at ~1 m/s) and 17.6 mm MPJPE.
+  // Measured 83 mm worst (the hand waving at ~1 m/s) and 17.9 mm MPJPE.
   EXPECT_LE(1000 * worst_wrist, 100);
   EXPECT_LE(100 * sum, 30);
 }

@@ -8,6 +8,7 @@
 #include <random>
 
 #include <glm/geometric.hpp>
+#include <opencv2/core.hpp>
 
 #include "voxcap/fit/init.hpp"
 
@@ -89,6 +90,32 @@ TEST(FitModel, LevelHeadingKeepsTheHeadingAndLevelsTheHips) {
   expect_near(P[0], x, 1e-12, "x");
   expect_near(P[2], Vec3(0, 0, 1), 1e-12, "z");
   expect_near(P[1], y0, 1e-12, "y");
+}
+
+TEST(FitModel, SymmetricEigenAgreesWithOpenCv) {
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int i = 0; i < 500; ++i) {
+    double A[3][3];
+    for (int r = 0; r < 3; ++r)
+      for (int c = r; c < 3; ++c) A[r][c] = A[c][r] = u(rng) * (i % 3 == 0 ? 1e-4 : 1.0);
+    if (i % 7 == 0) A[0][1] = A[1][0] = A[0][2] = A[2][0] = 0;  // already partly diagonal
+    const cv::Matx33d M(A[0][0], A[0][1], A[0][2], A[1][0], A[1][1], A[1][2], A[2][0], A[2][1], A[2][2]);
+    cv::Matx31d cv_vals;
+    cv::Matx33d cv_vecs;
+    cv::eigen(M, cv_vals, cv_vecs);
+    double vals[3];
+    Vec3 vecs[3];
+    eigen_sym3(A, vals, vecs);
+    const double scale = i % 3 == 0 ? 1e-4 : 1.0;
+    for (int r = 0; r < 3; ++r) {
+      EXPECT_NEAR(vals[r], cv_vals(r), 1e-12 * scale + 1e-15);
+      EXPECT_NEAR(glm::length(vecs[r]), 1, 1e-12);
+      // A v = lambda v
+      const cv::Vec3d v(vecs[r].x, vecs[r].y, vecs[r].z);
+      EXPECT_LT(cv::norm(M * v - vals[r] * v), 1e-10 * scale + 1e-15);
+    }
+  }
 }
 
 TEST(FitModel, SamplePatternFillsBothSegmentsEvenly) {

@@ -32,7 +32,8 @@ struct StageTimes {
   uint64_t segment_ns = 0;  // torso segmentation: voxels in the cylinder, their moments
   uint64_t pca_ns = 0;      // covariance, eigenvectors, components' order and signs
   uint64_t layer1_ns = 0;
-  std::array<uint64_t, kLimbCount> layer2_ns{};  // per limb (0 when skipped)
+  std::array<uint64_t, kLimbCount> layer2_ns{};    // per limb
+  std::array<bool, kLimbCount> layer2_searched{};  // the limb was bent: searched (else rho kept)
   uint64_t total_ns = 0;
 };
 

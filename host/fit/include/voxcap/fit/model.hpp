@@ -114,6 +114,11 @@ std::array<Vec3, pipeline::kPoseJointCount> forward_kinematics(const BodyModel& 
 // The level rotation with the heading of R (its x axis projected on the floor; z stays world up).
 Mat3 level_heading(const Mat3& R);
 
+// Eigenvalues (descending) and unit eigenvectors (vecs[i] for vals[i]) of the symmetric 3x3 matrix A
+// (destroyed) by cyclic Jacobi rotations: exact to rounding in a few sweeps, no allocation (the torso
+// PCA runs it every frame; cv::eigen goes through cv::Mat).
+void eigen_sym3(double A[3][3], double vals[3], Vec3 vecs[3]);
+
 // Cylinder samples of one limb in the unit frame: (t, r, cos a, sin a) with t in [0, 1] along the
 // segment, r in [0, 1] of the radius; the first `upper` of them belong to the upper segment. A fixed,
 // even spread (golden-angle spiral per segment), the same for every limb and frame.

@@ -4,6 +4,7 @@
 // triangulation stage would report them; and the true pose's 15 joints to score a fit against.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -46,7 +47,7 @@ inline pipeline::Frame synthetic_frame(const sim::Scene& scene, const rig::Voxel
   for (int i = 0; i < body::kFeatureCount; ++i) {
     pipeline::Feature3D ft;
     ft.feature_id = static_cast<uint16_t>(i);
-    const cv::Vec3d p = joints[static_cast<size_t>(body::feature_joint(static_cast<body::Feature>(i)))];
+    const cv::Vec3d& p = joints[static_cast<size_t>(body::feature_joint(static_cast<body::Feature>(i)))];
     for (int c = 0; c < 3; ++c) ft.p_world[static_cast<size_t>(c)] = p[c] + noise.sigma_m * n01(rng);
     ft.state = pipeline::Feature3DState::Triangulated;
     ft.confidence = noise.confidence;
@@ -57,6 +58,70 @@ inline pipeline::Frame synthetic_frame(const sim::Scene& scene, const rig::Voxel
     f.features3d.push_back(ft);
   }
   f.triangulated = true;
+  return f;
+}
+
+// A visual hull like the rig's: the centre of every voxel near the body carved against hw/sim's true
+// silhouettes of every camera of the scene (the method's rule: inside all of them), so with the
+// phantom volumes that few views leave. Voxels further than margin_m from the true body's box are
+// left empty (they would be carved away with silhouettes of the body alone anyway, but for a rare
+// aligned ghost). `masks` is reused between calls.
+inline std::vector<uint8_t> carved_hull(const sim::Scene& scene, const rig::VoxelGrid& grid, int frame,
+                                        std::vector<cv::Mat>* masks, double margin_m = 0.3) {
+  const rig::Calibration& cal = scene.calibration();
+  masks->resize(cal.cameras.size());
+  cv::Mat rgb;
+  for (size_t c = 0; c < cal.cameras.size(); ++c)
+    scene.render_clean(frame, static_cast<int>(c), rgb, &(*masks)[c]);
+  // The box: the true body's, grown by the margin.
+  std::vector<uint8_t> truth;
+  scene.occupancy(grid, frame, &truth);
+  int lo[3] = {grid.nx, grid.ny, grid.nz}, hi[3] = {-1, -1, -1};
+  for (int k = 0; k < grid.nz; ++k)
+    for (int j = 0; j < grid.ny; ++j)
+      for (int i = 0; i < grid.nx; ++i)
+        if (rig::hull_bit(truth.data(), grid.index(i, j, k))) {
+          lo[0] = std::min(lo[0], i), lo[1] = std::min(lo[1], j), lo[2] = std::min(lo[2], k);
+          hi[0] = std::max(hi[0], i), hi[1] = std::max(hi[1], j), hi[2] = std::max(hi[2], k);
+        }
+  std::vector<uint8_t> bits(grid.bitset_bytes(), 0);
+  if (hi[0] < 0) return bits;
+  const int m = static_cast<int>(std::ceil(margin_m / grid.voxel_m));
+  const int dims[3] = {grid.nx, grid.ny, grid.nz};
+  for (int a = 0; a < 3; ++a) lo[a] = std::max(0, lo[a] - m), hi[a] = std::min(dims[a] - 1, hi[a] + m);
+  for (int k = lo[2]; k <= hi[2]; ++k)
+    for (int j = lo[1]; j <= hi[1]; ++j)
+      for (int i = lo[0]; i <= hi[0]; ++i) {
+        const cv::Vec3d p = grid.center(i, j, k);
+        bool in = true;
+        for (size_t c = 0; c < cal.cameras.size() && in; ++c) {
+          const rig::Camera& cam = cal.cameras[c];
+          if (cam.to_cam(p)[2] <= 0) {
+            in = false;
+            break;
+          }
+          const cv::Point2d px = cam.project(p);
+          const int u = static_cast<int>(std::lround(px.x)), v = static_cast<int>(std::lround(px.y));
+          // Outside the image: no evidence against it (the camera does not see it).
+          if (u < 0 || v < 0 || u >= cam.width || v >= cam.height) continue;
+          in = (*masks)[c].at<uint8_t>(v, u) != 0;
+        }
+        if (in) rig::hull_set(bits.data(), grid.index(i, j, k));
+      }
+  return bits;
+}
+
+// The same frame as synthetic_frame with the carved hull in place of the true occupancy.
+inline pipeline::Frame carved_frame(const sim::Scene& scene, const rig::VoxelGrid& grid, int frame,
+                                    const FeatureNoise& noise, std::mt19937_64& rng,
+                                    std::vector<cv::Mat>* masks) {
+  pipeline::Frame f = synthetic_frame(scene, grid, frame, noise, rng);
+  const std::vector<uint8_t> bits = carved_hull(scene, grid, frame, masks);
+  f.rle.assign(vc_rle_max_encoded_size(grid.count()), 0);
+  size_t len = 0;
+  if (vc_rle_encode(bits.data(), grid.count(), f.rle.data(), f.rle.size(), &len) != 0)
+    throw std::runtime_error("carved_frame: RLE encoding failed");
+  f.rle.resize(len);
   return f;
 }
 
