@@ -142,15 +142,6 @@ TEST(Fitter, CarvedHullsOfSixCameras) {
       sum += testing::mpjpe(pose, truth);
       for (int j = 0; j < pipeline::kPoseJointCount; ++j)
         per[static_cast<size_t>(j)] += cv::norm(at(pose, static_cast<J>(j)) - truth[static_cast<size_t>(j)]);
-      if (std::getenv("VOXCAP_FIT_DEBUG") && frame % 10 == 0) {
-        std::printf("  f%d", frame);
-        for (J j : {J::neck, J::hips, J::l_shoulder, J::l_elbow, J::r_elbow}) {
-          const cv::Vec3d d = at(pose, j) - at(truth, j);
-          std::printf("  %s %+.0f %+.0f %+.0f", pipeline::pose_joint_name(static_cast<int>(j)), 1000 * d[0],
-                      1000 * d[1], 1000 * d[2]);
-        }
-        std::printf(" slack %.3f %.3f\n", fitter.layer2().slack_m[0], fitter.layer2().slack_m[1]);
-      }
       if (cv::norm(at(pose, J::l_shoulder) - at(truth, J::l_shoulder)) >
           cv::norm(at(pose, J::l_shoulder) - at(truth, J::r_shoulder)))
         ++swaps;
