@@ -39,6 +39,7 @@ set(VC_LAYERS
   "host/assemble: vc_host_assemble"
   "host/triangulate: vc_host_triangulate vc_host_triangulate_testing"  # features in 3D, the "triangulate" stage
   "host/record: vc_host_record vc_host_record_testing"
+  "host/export: vc_host_export"         # fitted poses -> BVH and joints.csv (hw/body's standard humanoid)
   "host/aggregator: vc_host_aggregator"
   "host/emulated: vc_host_emulated"
   "apps: voxcap voxcap-host voxcap-edge voxcap-edge-nosim"

@@ -21,6 +21,7 @@ void add_proto_commands(CLI::App& app);    // cmd_proto.cpp: voxcap proto dump
 void add_rig_commands(CLI::App& app);      // cmd_rig.cpp: voxcap rig [--emulated]
 void add_sim_commands(CLI::App& app);      // cmd_sim.cpp: voxcap sim (the virtual rig, hw/sim)
 void add_track_commands(CLI::App& app);    // cmd_track.cpp: voxcap track debug (edge/segment)
+void add_export_commands(CLI::App& app);   // cmd_export.cpp: voxcap export (BVH, joints.csv)
 
 // `voxcap bench ...` (cmd_bench.cpp).
 void add_bench_commands(CLI::App& app);
