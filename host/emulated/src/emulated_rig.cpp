@@ -599,6 +599,7 @@ struct EmulatedRig::Impl {
   std::vector<pid_t> pids;
   std::unique_ptr<aggregator::Aggregator> agg;
   TruthScorer* scorer = nullptr;  // stages of agg's pipeline (owned there)
+  PoseScorer* pose_scorer = nullptr;
   aggregator::RecordStage* recorder = nullptr;
   Clock::time_point t_start;
   long rss_start = 0;
@@ -748,6 +749,16 @@ void EmulatedRig::start(double timeout_s) {
   if (o.truth_every > 0)
     m.scorer = &m.agg->pipeline().tap(std::make_unique<TruthScorer>(o, cal, grid, cal_path.string()),
                                       TruthScorer::queue(o));
+  if (o.score_poses) {
+    sim::SceneOptions so;
+    so.motion.source = o.motion;
+    so.motion.fps = o.rate_hz;
+    so.seed = o.seed;
+    so.calibration = cal;
+    m.pose_scorer = &m.agg->pipeline().tap(
+        std::make_unique<PoseScorer>(std::make_unique<sim::Scene>(so), grid, o.keep_poses),
+        PoseScorer::kQueue);
+  }
   if (o.stages) o.stages(m.agg->pipeline());
   m.agg->start();
   m.pids.assign(static_cast<size_t>(o.nodes), 0);
@@ -769,6 +780,7 @@ void EmulatedRig::start(double timeout_s) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   if (m.scorer) m.scorer->set_origin(m.agg->report().origin);
+  if (m.pose_scorer) m.pose_scorer->set_origin(m.agg->report().origin);
   m.t_start = Clock::now();
 }
 
@@ -826,6 +838,8 @@ Result EmulatedRig::stop() {
   m.agg->stop();  // every stage drains its queue; the recording is closed cleanly
   r.stages = m.agg->report().pipeline;
   if (m.scorer) r.accuracy = m.scorer->accuracy();
+  if (m.pose_scorer) r.poses = m.pose_scorer->accuracy();
+  r.origin = r.report.origin;
   r.host_rss_start_kb = m.rss_start;
   r.host_rss_end_kb = rss_kb();
   r.workdir = m.dir;
