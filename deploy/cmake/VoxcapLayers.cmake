@@ -38,6 +38,7 @@ set(VC_LAYERS
   "host/pipeline: vc_host_pipeline"     # the stage lifecycle; the stages in the layers above link it
   "host/assemble: vc_host_assemble"
   "host/triangulate: vc_host_triangulate vc_host_triangulate_testing"  # features in 3D, the "triangulate" stage
+  "host/fit: vc_host_fit vc_host_fit_testing"  # the two-layer skeleton, the "fit" stage
   "host/record: vc_host_record vc_host_record_testing"
   "host/export: vc_host_export"         # fitted poses -> BVH and joints.csv (hw/body's standard humanoid)
   "host/aggregator: vc_host_aggregator"

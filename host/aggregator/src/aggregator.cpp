@@ -8,6 +8,7 @@
 
 #include "voxcap/assemble/merge_stage.hpp"
 #include "voxcap/crc32c.h"
+#include "voxcap/fit/fitter.hpp"
 #include "voxcap/rig/c_models.hpp"
 #include "voxcap/triangulate/triangulate_stage.hpp"
 
@@ -151,8 +152,11 @@ Aggregator::Aggregator(config::RigConfig rig, Options options)
   ctx.log = log_;
   pipeline_ = std::make_unique<pipeline::Pipeline>(ctx);
   pipeline_->then(std::make_unique<assemble::MergeStage>(), {64, pipeline::Overflow::Block});
-  if (rig_.triangulation.enabled && rig_.features.enabled && rig_.calibration.cameras.size() >= 2)
+  if (rig_.triangulation.enabled && rig_.features.enabled && rig_.calibration.cameras.size() >= 2) {
     pipeline_->then(std::make_unique<triangulate::TriangulateStage>(), {64, pipeline::Overflow::Block});
+    if (rig_.fitting.enabled)
+      pipeline_->then(std::make_unique<fit::FitStage>(), {64, pipeline::Overflow::Block});
+  }
   assembly_ = std::make_unique<AssemblyStage>(ao, opt_.assembly, *pipeline_, ctx.log);
   for (const auto& n : nodes_) assembly_->set_running(n->id, false);
   session::ServerOptions so;

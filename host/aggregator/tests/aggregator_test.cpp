@@ -427,7 +427,10 @@ TEST(Aggregator, FeaturesAndStatsTravelWithTheirFrameThroughEveryStageIntoTheRec
     // The triangulation stage runs after merge (the rig has features and [triangulation] enabled).
     EXPECT_TRUE(f.triangulated);
     EXPECT_EQ(f.features3d.size(), 5u);
-    for (const char* stage : {"assemble", "merge", "triangulate", "test-sink", "record", "figures"}) {
+    // The fitting stage runs after triangulation ([fitting] enabled): one frame is an initialization
+    // frame at most, so no pose yet.
+    EXPECT_EQ(f.pose.state, pipeline::PoseState::None);
+    for (const char* stage : {"assemble", "merge", "triangulate", "fit", "test-sink", "record", "figures"}) {
       const pipeline::StageReport* s = r.pipeline.stage(stage);
       ASSERT_NE(s, nullptr) << stage;
       EXPECT_EQ(s->queue.dropped, 0u) << stage;
@@ -437,9 +440,10 @@ TEST(Aggregator, FeaturesAndStatsTravelWithTheirFrameThroughEveryStageIntoTheRec
     EXPECT_GE(r.pipeline.stage("assemble")->processed, 5u);
     std::vector<std::string> order;
     for (const auto& s : r.pipeline.stages) order.push_back(s.name);
-    EXPECT_EQ(order, (std::vector<std::string>{"assemble", "merge", "triangulate", "test-sink", "record",
-                                               "figures"}));
+    EXPECT_EQ(order, (std::vector<std::string>{"assemble", "merge", "triangulate", "fit", "test-sink",
+                                               "record", "figures"}));
     EXPECT_EQ(r.pipeline.stage("triangulate")->processed, 1u);
+    EXPECT_EQ(r.pipeline.stage("fit")->processed, 1u);
   }
   record::Reader reader = record::Reader::open(rec.dir());
   const record::Reader::Summary& s = reader.summary();

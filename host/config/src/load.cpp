@@ -251,6 +251,37 @@ void read_triangulation(Reader& r, TriangulationOptions* o) {
   r.finish();
 }
 
+void read_fitting(Reader& r, FittingOptions* o, const std::filesystem::path& source) {
+  r.get("enabled", &o->enabled);
+  r.get_int("samples", &o->samples, 0, 1000000);
+  r.get_int("steps", &o->steps, 0, 1000000);
+  r.get("span_deg", &o->span_deg);
+  r.get("k", &o->k);
+  r.get("straight_deg", &o->straight_deg);
+  std::string smoothing;
+  if (r.get("smoothing", &smoothing)) {
+    if (smoothing == "none")
+      o->smoothing = Smoothing::None;
+    else if (smoothing == "one-euro")
+      o->smoothing = Smoothing::OneEuro;
+    else
+      r.ctx().fail(r.key("smoothing"),
+                   fmt::format("must be \"none\" or \"one-euro\", got \"{}\"", smoothing));
+  }
+  r.get("one_euro_min_cutoff", &o->one_euro_min_cutoff);
+  r.get("one_euro_beta", &o->one_euro_beta);
+  std::string body;
+  if (r.get("body", &body) && !body.empty()) {
+    std::filesystem::path p(body);
+    if (p.is_relative()) p = source.parent_path() / p;
+    o->body = std::filesystem::absolute(p).lexically_normal();
+  }
+  r.get_int("init_frames", &o->init_frames, 0, 10000000);
+  r.get_int("reinit_after_frames", &o->reinit_after_frames, 0, 10000000);
+  r.get_int("predict_frames", &o->predict_frames, 0, 10000000);
+  r.finish();
+}
+
 void read_trigger(Reader& r, TriggerOptions* o) {
   std::string backend;
   if (r.get("backend", &backend) && !parse_trigger_backend(backend, &o->backend))
@@ -375,6 +406,7 @@ void check_sections(const RigConfig& c, const Context& ctx) {
   if (!c.carving.valid(&why)) fail_validation(ctx, "carving", why);
   if (!c.silhouettes.valid(&why)) fail_validation(ctx, "silhouettes", why);
   if (!c.triangulation.valid(&why)) fail_validation(ctx, "triangulation", why);
+  if (!c.fitting.valid(&why)) fail_validation(ctx, "fitting", why);
   if (!c.trigger.valid(&why)) fail_validation(ctx, "trigger", why);
   if (!c.assembly.valid(&why)) fail_validation(ctx, "assembly", why);
   if (!c.recording.valid(&why)) fail_validation(ctx, "recording", why);
@@ -477,6 +509,10 @@ RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::pa
     Reader r(*t, "triangulation", ctx);
     read_triangulation(r, &c.triangulation);
   }
+  if (const toml::table* t = top.table("fitting")) {
+    Reader r(*t, "fitting", ctx);
+    read_fitting(r, &c.fitting, source);
+  }
   if (const toml::table* t = top.table("trigger")) {
     Reader r(*t, "trigger", ctx);
     read_trigger(r, &c.trigger);
@@ -557,6 +593,33 @@ bool TriangulationOptions::valid(std::string* why) const {
     return bad(fmt::format("swap_ratio: must be in (0, 1), got {}", swap_ratio));
   if (identity_gap_frames < 1 || identity_gap_frames > 100000)
     return bad(fmt::format("identity_gap_frames: must be in [1, 100000], got {}", identity_gap_frames));
+  return true;
+}
+
+// Here rather than in options.cpp: [fitting] is read and checked in this file alone.
+bool FittingOptions::valid(std::string* why) const {
+  auto bad = [why](std::string m) {
+    if (why) *why = std::move(m);
+    return false;
+  };
+  if (samples < 8 || samples > 4096)
+    return bad(fmt::format("samples: must be in [8, 4096], got {}", samples));
+  if (steps < 1 || steps > 360) return bad(fmt::format("steps: must be in [1, 360], got {}", steps));
+  if (!(span_deg > 0 && span_deg <= 180))
+    return bad(fmt::format("span_deg: must be in (0, 180], got {}", span_deg));
+  if (!(k >= 1 && k <= 16)) return bad(fmt::format("k: must be in [1, 16], got {}", k));
+  if (!(straight_deg >= 0 && straight_deg < 90))
+    return bad(fmt::format("straight_deg: must be in [0, 90), got {}", straight_deg));
+  if (!(one_euro_min_cutoff > 0 && one_euro_min_cutoff <= 1000))
+    return bad(fmt::format("one_euro_min_cutoff: must be in (0, 1000] Hz, got {}", one_euro_min_cutoff));
+  if (!(one_euro_beta >= 0 && one_euro_beta <= 1000))
+    return bad(fmt::format("one_euro_beta: must be in [0, 1000], got {}", one_euro_beta));
+  if (init_frames < 1 || init_frames > 600)
+    return bad(fmt::format("init_frames: must be in [1, 600], got {}", init_frames));
+  if (reinit_after_frames < 1 || reinit_after_frames > 100000)
+    return bad(fmt::format("reinit_after_frames: must be in [1, 100000], got {}", reinit_after_frames));
+  if (predict_frames < 0 || predict_frames > 100000)
+    return bad(fmt::format("predict_frames: must be in [0, 100000], got {}", predict_frames));
   return true;
 }
 

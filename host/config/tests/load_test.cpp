@@ -175,6 +175,83 @@ targets = ["127.0.0.1:7700"]
   EXPECT_EQ(r, CarveRule::Subpixel);
 }
 
+TEST(LoadRigConfig, FittingDefaultsKeysAndErrors) {
+  TempRig rig;
+  const std::string head = R"(calibration = "rig.yaml"
+[[nodes]]
+id = "a"
+number = 1
+cameras = ["cam0", "cam1"]
+role = "front"
+[trigger.udp]
+targets = ["127.0.0.1:7700"]
+)";
+  const RigConfig d = parse(rig, head);
+  EXPECT_TRUE(d.fitting.enabled);
+  EXPECT_EQ(d.fitting.samples, 256);
+  EXPECT_EQ(d.fitting.steps, 15);
+  EXPECT_DOUBLE_EQ(d.fitting.k, 4);
+  EXPECT_EQ(d.fitting.smoothing, Smoothing::None);
+  EXPECT_TRUE(d.fitting.body.empty());
+  const RigConfig c = parse(rig, head + R"([fitting]
+enabled = false
+samples = 128
+steps = 9
+span_deg = 30
+k = 2
+straight_deg = 5
+smoothing = "one-euro"
+one_euro_min_cutoff = 2.5
+one_euro_beta = 0.1
+body = "bodies/me.toml"
+init_frames = 4
+reinit_after_frames = 7
+predict_frames = 12
+)");
+  EXPECT_FALSE(c.fitting.enabled);
+  EXPECT_EQ(c.fitting.samples, 128);
+  EXPECT_EQ(c.fitting.steps, 9);
+  EXPECT_DOUBLE_EQ(c.fitting.span_deg, 30);
+  EXPECT_DOUBLE_EQ(c.fitting.k, 2);
+  EXPECT_DOUBLE_EQ(c.fitting.straight_deg, 5);
+  EXPECT_EQ(c.fitting.smoothing, Smoothing::OneEuro);
+  EXPECT_DOUBLE_EQ(c.fitting.one_euro_min_cutoff, 2.5);
+  EXPECT_DOUBLE_EQ(c.fitting.one_euro_beta, 0.1);
+  // Relative to the rig.toml's folder.
+  EXPECT_EQ(c.fitting.body,
+            std::filesystem::absolute(rig.toml_path().parent_path() / "bodies/me.toml").lexically_normal());
+  EXPECT_EQ(c.fitting.init_frames, 4);
+  EXPECT_EQ(c.fitting.reinit_after_frames, 7);
+  EXPECT_EQ(c.fitting.predict_frames, 12);
+  const std::pair<std::string, std::string> bad[] = {
+      {"[fitting]\nsmoothing = \"kalman\"\n",
+       "fitting.smoothing: must be \"none\" or \"one-euro\", got \"kalman\""},
+      {"[fitting]\nsamples = 4\n", "fitting.samples: must be in [8, 4096], got 4 (line 10)"},
+      {"[fitting]\nsteps = 0\n", "fitting.steps: must be in [1, 360], got 0 (line 10)"},
+      {"[fitting]\nspan_deg = 0\n", "fitting.span_deg: must be in"},
+      {"[fitting]\nk = 0.5\n", "fitting.k: must be in"},
+      {"[fitting]\nstraight_deg = 90\n", "fitting.straight_deg: must be in"},
+      {"[fitting]\none_euro_min_cutoff = 0\n", "fitting.one_euro_min_cutoff: must be in"},
+      {"[fitting]\ninit_frames = 0\n", "fitting.init_frames: must be in"},
+      {"[fitting]\nsample = 3\n", "fitting.sample"},
+      {"[fitting]\nenabled = 1\n", "fitting.enabled"},
+  };
+  for (const auto& [text, expect] : bad) {
+    SCOPED_TRACE(text);
+    try {
+      parse(rig, head + text);
+      ADD_FAILURE() << "accepted";
+    } catch (const ConfigError& e) {
+      EXPECT_THAT(std::string(e.what()), HasSubstr(expect));
+    }
+  }
+  FittingOptions f;
+  f.predict_frames = -1;
+  std::string why;
+  EXPECT_FALSE(f.valid(&why));
+  EXPECT_EQ(why, "predict_frames: must be in [0, 100000], got -1");
+}
+
 TEST(LoadRigConfig, TrackingRolesEveryNodeByDefaultFrontOnlyOnRequestAndPerNodeOverrides) {
   TempRig rig;
   const std::string nodes = R"(calibration = "rig.yaml"

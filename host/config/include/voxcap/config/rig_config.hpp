@@ -51,6 +51,28 @@ struct TriangulationOptions {
   bool valid(std::string* why) const;
 };
 
+// [fitting]: the host's skeleton fitting stage (host/fit, the method's section 8). Defaults are
+// documented in host/config/README.md and host/fit/README.md.
+enum class Smoothing { None, OneEuro };
+struct FittingOptions {
+  bool enabled = true;       // run the "fit" stage after triangulation (voxcap-host, voxcap rig)
+  int samples = 256;         // cylinder samples per limb (upper + lower segment), 8..4096
+  int steps = 15;            // the method's nu: angles tried per layer-2 search, 1..360
+  double span_deg = 45;      // the method's s: the search covers rho(t-1) +- s, (0, 180]
+  double k = 4;              // the match score is n^k, [1, 16]
+  double straight_deg = 10;  // a limb bent less than this keeps rho(t-1) (the method's skip), [0, 90)
+  Smoothing smoothing = Smoothing::None;  // output smoothing of the joint positions
+  double one_euro_min_cutoff = 1.0;       // Hz, > 0
+  double one_euro_beta = 0.5;             // >= 0
+  std::filesystem::path body;             // optional body.toml overriding the automatic body model (absolute,
+                                          // resolved against the rig.toml's folder); empty: none
+  int init_frames = 10;                   // initialization frames averaged for the body model, 1..600
+  int reinit_after_frames = 15;  // the fit failing this many frames in a row re-initializes, 1..100000
+  int predict_frames = 30;       // a lost feature is predicted for at most this many frames, 0..100000
+
+  bool valid(std::string* why) const;
+};
+
 enum class GridSource { Config, Calibration };  // [grid] in rig.toml wins over the calibration's grid
 
 struct RigConfig {
@@ -67,6 +89,7 @@ struct RigConfig {
   CarvingOptions carving;
   SilhouetteOptions silhouettes;
   TriangulationOptions triangulation;
+  FittingOptions fitting;
   TriggerOptions trigger;
   AssemblyOptions assembly;
   RecordingOptions recording;

@@ -1,0 +1,80 @@
+// The per-frame skeleton fitter (the method's sections 8.2-8.4, online), and the pipeline's "fit"
+// stage. host/fit/README.md explains the steps, what is done beyond the method, the confidence and
+// how a failed fit is detected.
+//
+// Per frame: decode the merged hull once into a reused bitset; torso segmentation (the hull voxels
+// inside the torso cylinder placed as at t-1, moved with the head) and its PCA (continuity gives the
+// components' order and signs); layer 1 from the triangulated head, hands and feet (a missing or
+// implausible one predicted from its history in the limb root's frame, then fitted to the hull);
+// layer 2 by the method's search (eq. 3). No allocation per frame after the first.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "voxcap/config/rig_config.hpp"
+#include "voxcap/fit/hull.hpp"
+#include "voxcap/fit/init.hpp"
+#include "voxcap/fit/model.hpp"
+#include "voxcap/pipeline/frame.hpp"
+#include "voxcap/pipeline/stage.hpp"
+
+namespace vc::fit {
+
+// Time spent in each step of the last fit() (nanoseconds, CLOCK_MONOTONIC), as the method's Table 1
+// splits it (decoding the hull is ours: the method had the voxels at hand).
+struct StageTimes {
+  uint64_t decode_ns = 0;
+  uint64_t segment_ns = 0;  // torso segmentation: voxels in the cylinder, their moments
+  uint64_t pca_ns = 0;      // covariance, eigenvectors, components' order and signs
+  uint64_t layer1_ns = 0;
+  std::array<uint64_t, kLimbCount> layer2_ns{};  // per limb (0 when skipped)
+  uint64_t total_ns = 0;
+};
+
+class Fitter {
+ public:
+  // Grid, calibration and rig.fitting; reads rig.fitting.body when set (throws std::runtime_error on
+  // a bad body.toml, std::invalid_argument on bad options).
+  explicit Fitter(const config::RigConfig& rig);
+  Fitter(const rig::VoxelGrid& grid, const config::FittingOptions& options, double rate_hz = 60);
+  ~Fitter();
+
+  // One merged frame (frame.rle = merged hull, frame.features3d, frame.seq): the pose for it.
+  // State None while the body model is not initialized yet (initialization frames) and on a frame
+  // without a usable merged hull.
+  pipeline::Pose fit(const pipeline::Frame& frame);
+  // Forget the body model and the history.
+  void reset();
+
+  bool initialized() const;
+  const BodyModel& body() const;  // valid once initialized()
+  const Layer1& layer1() const;
+  const Layer2& layer2() const;
+  const StageTimes& times() const;
+  // Frames the fit has failed in a row (README: "Re-initialization").
+  int failing_frames() const;
+
+  struct State;
+
+ private:
+  std::unique_ptr<State> s_;
+};
+
+// The "fit" chain stage (after "triangulate"): Frame::pose for every frame.
+class FitStage : public pipeline::Stage {
+ public:
+  std::string name() const override { return "fit"; }
+  void configure(const pipeline::StageContext& ctx) override;
+  void process(pipeline::Frame& frame) override;
+  const Fitter* fitter() const { return fitter_.get(); }
+
+ private:
+  std::unique_ptr<Fitter> fitter_;
+};
+
+}  // namespace vc::fit

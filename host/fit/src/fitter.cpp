@@ -1,0 +1,666 @@
+// The per-frame fitter (fitter.hpp; host/fit/README.md has the steps and the rules).
+#include "voxcap/fit/fitter.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include <glm/geometric.hpp>
+#include <glm/matrix.hpp>
+#include <opencv2/core.hpp>
+
+#include "voxcap/base/clock.hpp"
+
+namespace vc::fit {
+namespace {
+
+constexpr double kMinFeatureConfidence = 0.05;  // a triangulated feature below this is not used
+constexpr double kSampleRadius = 0.8;           // cylinder samples fill this fraction of a limb's radius
+constexpr double kTorsoExclusion = 0.85;        // limb samples inside this much of the torso do not count
+constexpr double kMaxTurnPerFrameDeg = 25;      // a larger jump of the torso's axes is not believed
+constexpr double kSlack = 0.03;                 // m: goals near full reach may be this much short
+
+struct OneEuro {
+  bool init = false;
+  double x = 0, dx = 0;
+  static double alpha(double cutoff_hz, double dt) {
+    const double tau = 1.0 / (2 * M_PI * cutoff_hz);
+    return 1.0 / (1.0 + tau / dt);
+  }
+  double filter(double v, double dt, double min_cutoff, double beta) {
+    if (!init) {
+      init = true;
+      x = v;
+      dx = 0;
+      return v;
+    }
+    const double d = (v - x) / dt;
+    dx += alpha(1.0, dt) * (d - dx);
+    x += alpha(min_cutoff + beta * std::abs(dx), dt) * (v - x);
+    return x;
+  }
+};
+
+struct LimbTrack {
+  bool have = false;     // a last good end
+  Vec3 last_local{0.0};  // end - root in the root's frame, last good
+  Vec3 vel_local{0.0};   // per frame
+  int lost = 0;          // frames since the last good end
+  bool straight = true;  // straight at the previous frame (rho unknown or kept)
+};
+
+struct Moments {
+  int n = 0;
+  Vec3 mean_local{0.0};  // in the cylinder's frame, relative to its neck point
+  double cov[3][3] = {};
+};
+
+Vec3 level(const Vec3& v) {
+  return {v.x, v.y, 0};
+}
+
+double angle_deg(const Vec3& a, const Vec3& b) {
+  return std::acos(std::clamp(glm::dot(glm::normalize(a), glm::normalize(b)), -1.0, 1.0)) * 180 / M_PI;
+}
+
+}  // namespace
+
+struct Fitter::State {
+  config::FittingOptions opt;
+  double rate_hz;
+  HullBits hull;
+  SamplePattern pattern;
+  BodyModel body;
+  bool initialized = false;
+  uint32_t body_version = 0;
+  std::vector<InitMeasurement> init_meas;
+  int uninit_frames = 0;
+  Layer1 l1;
+  Layer2 l2;
+  Vec3 centroid_off_local{0.0};  // torso voxels' centroid - neck, in the torso frame (at init)
+  double init_torso_voxels = 0;
+  std::array<LimbTrack, kLimbCount> limbs{};
+  std::array<LimbPose, kLimbCount> last{};  // each limb's fitted pose (previous frame while fitting)
+  bool have_last = false;
+  bool have_head = false;
+  Vec3 last_head{0.0};
+  int failing = 0;
+  bool reacquire_pending = false;  // re-initialized on a hull without a torso: the next torso decides
+  StageTimes times;
+  std::array<OneEuro, 3 * pipeline::kPoseJointCount> euro{};
+  bool have_seq = false;
+  uint64_t last_seq = 0;
+
+  State(const rig::VoxelGrid& grid, const config::FittingOptions& o, double rate)
+      : opt(o), rate_hz(rate > 0 ? rate : 60), hull(grid), pattern(cylinder_sample_pattern(o.samples)) {
+    std::string why;
+    if (!opt.valid(&why)) throw std::invalid_argument("fit: " + why);
+    if (!opt.body.empty()) apply_body_toml(opt.body.string(), &body);  // fail early on a bad file
+  }
+
+  void reset() {
+    initialized = false;
+    init_meas.clear();
+    uninit_frames = 0;
+    l1 = Layer1{};
+    l2 = Layer2{};
+    limbs = {};
+    have_last = false;
+    have_head = false;
+    failing = 0;
+    euro = {};
+    have_seq = false;
+  }
+
+  // ---- Torso segmentation: the occupied voxels inside the cylinder placed at (neck, R). ----
+  Moments segment(const Vec3& neck, const Mat3& R, double scale) const {
+    const double a = body.torso_half_width_m * 1.05 * scale, b = body.torso_half_depth_m * 1.1 * scale;
+    const double zlo = -body.spine_m, zhi = -0.03;
+    Vec3 lo(1e9), hi(-1e9);
+    for (int c = 0; c < 8; ++c) {
+      const Vec3 q((c & 1) ? a : -a, (c & 2) ? b : -b, (c & 4) ? zhi : zlo);
+      const Vec3 p = neck + R * q;
+      lo = glm::min(lo, p);
+      hi = glm::max(hi, p);
+    }
+    const rig::VoxelGrid& g = hull.grid();
+    int i0, j0, k0, i1, j1, k1;
+    hull.cell(lo, &i0, &j0, &k0);
+    hull.cell(hi, &i1, &j1, &k1);
+    i0 = std::max(i0, 0), j0 = std::max(j0, 0), k0 = std::max(k0, 0);
+    i1 = std::min(i1, g.nx - 1), j1 = std::min(j1, g.ny - 1), k1 = std::min(k1, g.nz - 1);
+    const Mat3 Rt = glm::transpose(R);
+    const double ia2 = 1 / (a * a), ib2 = 1 / (b * b);
+    double s1[3] = {0, 0, 0}, s2[6] = {0, 0, 0, 0, 0, 0};
+    int n = 0;
+    const uint8_t* bits = hull.bits();
+    for (int k = k0; k <= k1; ++k)
+      for (int j = j0; j <= j1; ++j) {
+        const size_t row = g.index(0, j, k);
+        for (int i = i0; i <= i1; ++i) {
+          const size_t idx = row + static_cast<size_t>(i);
+          if (!((bits[idx >> 3] >> (idx & 7)) & 1u)) continue;
+          const Vec3 q = Rt * (hull.centre(i, j, k) - neck);
+          if (q.z < zlo || q.z > zhi || q.x * q.x * ia2 + q.y * q.y * ib2 > 1) continue;
+          ++n;
+          s1[0] += q.x, s1[1] += q.y, s1[2] += q.z;
+          s2[0] += q.x * q.x, s2[1] += q.x * q.y, s2[2] += q.x * q.z;
+          s2[3] += q.y * q.y, s2[4] += q.y * q.z, s2[5] += q.z * q.z;
+        }
+      }
+    Moments m;
+    m.n = n;
+    if (n == 0) return m;
+    const Vec3 mu(s1[0] / n, s1[1] / n, s1[2] / n);
+    m.mean_local = mu;
+    m.cov[0][0] = s2[0] / n - mu.x * mu.x;
+    m.cov[0][1] = m.cov[1][0] = s2[1] / n - mu.x * mu.y;
+    m.cov[0][2] = m.cov[2][0] = s2[2] / n - mu.x * mu.z;
+    m.cov[1][1] = s2[3] / n - mu.y * mu.y;
+    m.cov[1][2] = m.cov[2][1] = s2[4] / n - mu.y * mu.z;
+    m.cov[2][2] = s2[5] / n - mu.z * mu.z;
+    return m;
+  }
+
+  // ---- PCA: the torso frame from the moments (in the cylinder's frame R), with the components
+  // ordered and signed by continuity with R (the previous torso frame). ----
+  Mat3 pca(const Moments& m, const Mat3& R, bool free = false) const {
+    const cv::Matx33d C(m.cov[0][0], m.cov[0][1], m.cov[0][2], m.cov[1][0], m.cov[1][1], m.cov[1][2],
+                        m.cov[2][0], m.cov[2][1], m.cov[2][2]);
+    cv::Matx31d vals;
+    cv::Matx33d vecs;
+    cv::eigen(C, vals, vecs);  // descending; eigenvectors as rows
+    Vec3 v[3];
+    for (int r = 0; r < 3; ++r) v[r] = Vec3(vecs(r, 0), vecs(r, 1), vecs(r, 2));
+    // The spine: the component nearest the previous z; the shoulder line: the one of the other two
+    // nearest the previous x. Signs: toward the previous axes.
+    int zi = 0;
+    for (int r = 1; r < 3; ++r)
+      if (std::abs(v[r].z) > std::abs(v[zi].z)) zi = r;
+    int xi = zi == 0 ? 1 : 0, yi = 3 - zi - xi;
+    if (std::abs(v[yi].x) > std::abs(v[xi].x)) std::swap(xi, yi);
+    Vec3 z = v[zi].z < 0 ? -v[zi] : v[zi];
+    Vec3 x = v[xi].x < 0 ? -v[xi] : v[xi];
+    const double lx = vals(xi), ly = vals(yi);
+    if (free) {  // re-acquiring: R is only a hint; the shoulder line is the wider component
+      if (lx < ly) x = v[yi].x < 0 ? -v[yi] : v[yi];
+      x = glm::normalize(x - glm::dot(x, z) * z);
+      return R * Mat3(x, glm::cross(z, x), z);
+    }
+    // Cross-section too round to tell the shoulder line: keep the previous one.
+    if (lx < 1.15 * ly) x = Vec3(1, 0, 0);
+    if (angle_deg(z, Vec3(0, 0, 1)) > kMaxTurnPerFrameDeg) z = Vec3(0, 0, 1);
+    x = glm::normalize(x - glm::dot(x, z) * z);
+    if (angle_deg(x, Vec3(1, 0, 0)) > kMaxTurnPerFrameDeg) x = glm::normalize(Vec3(1, 0, 0) - z.x * z);
+    const Vec3 y = glm::cross(z, x);
+    return R * Mat3(x, y, z);
+  }
+
+  // ---- Cylinder samples of one limb in the hull: occupied ones outside the torso. ----
+  int count_limb(int limb, const Vec3& root, const Vec3& hinge, const Vec3& end) const {
+    const Mat3 Rt = glm::transpose(l1.R_torso_world);
+    const double ta = 1 / (kTorsoExclusion * body.torso_half_width_m);
+    const double tb = 1 / (kTorsoExclusion * body.torso_half_depth_m);
+    int n = 0;
+    const int total = static_cast<int>(pattern.samples.size());
+    const int other = limb ^ 1;  // the limb of the same pair (the other arm, the other leg)
+    for (int seg = 0; seg < 2; ++seg) {
+      const Vec3 A = seg == 0 ? root : hinge, B = seg == 0 ? hinge : end;
+      const Vec3 ax = B - A;
+      const double len = glm::length(ax);
+      if (len < 1e-6) continue;
+      const Vec3 u = ax / len;
+      const Vec3 any = std::abs(u.z) < 0.9 ? Vec3(0, 0, 1) : Vec3(1, 0, 0);
+      const Vec3 p1 = glm::normalize(glm::cross(u, any)), p2 = glm::cross(u, p1);
+      const double r = kSampleRadius * (seg == 0 ? body.upper_radius_m(limb) : body.lower_radius_m(limb));
+      const int from = seg == 0 ? 0 : pattern.upper, to = seg == 0 ? pattern.upper : total;
+      for (int i = from; i < to; ++i) {
+        const SamplePattern::S& s = pattern.samples[static_cast<size_t>(i)];
+        const double rr = r * s.r;
+        const Vec3 p = A + static_cast<double>(s.t) * ax + (rr * s.c) * p1 + (rr * s.s) * p2;
+        if (!hull.at(p)) continue;
+        const Vec3 q = Rt * (p - l1.neck_world);
+        if (q.z < 0 && q.z > -body.spine_m && (q.x * ta) * (q.x * ta) + (q.y * tb) * (q.y * tb) < 1) continue;
+        if (have_last && in_other(other, p)) continue;
+        ++n;
+      }
+    }
+    return n;
+  }
+
+  // Whether p lies inside the fitted torso cylinder (at this frame's neck and torso frame).
+  bool inside_torso(const Vec3& p) const {
+    const Vec3 q = glm::transpose(l1.R_torso_world) * (p - l1.neck_world);
+    const double x = q.x / body.torso_half_width_m, y = q.y / body.torso_half_depth_m;
+    return q.z < 0 && q.z > -body.spine_m && x * x + y * y < 1;
+  }
+
+  // Whether p lies inside the other limb of the pair as fitted at t-1 (its own radii): hull there
+  // is that limb's, not this one's (legs together, hands crossing).
+  bool in_other(int other, const Vec3& p) const {
+    const LimbPose& o = last[static_cast<size_t>(other)];
+    auto near = [&p](const Vec3& a, const Vec3& b, double r) {
+      const Vec3 ab = b - a;
+      const double t = std::clamp(glm::dot(p - a, ab) / std::max(1e-12, glm::dot(ab, ab)), 0.0, 1.0);
+      const Vec3 dq = p - (a + t * ab);
+      return glm::dot(dq, dq) < r * r;
+    };
+    return near(o.root, o.hinge, body.upper_radius_m(other)) ||
+           near(o.hinge, o.end, body.lower_radius_m(other));
+  }
+
+  int count_limb_at(int limb, const Vec3& root, const Vec3& end, const Vec3& bend_world) const {
+    const LimbPose lp = solve_limb(root, end, body.upper_m(limb), body.lower_m(limb), bend_world);
+    return count_limb(limb, lp.root, lp.hinge, lp.end);
+  }
+
+  // ---- Layer 2: the method's search for rho (eq. 3) about the previous bend direction, at three
+  // stretches of the segment (0, kSlack/2, kSlack: goals near full reach are noisy). ----
+  void fit_layer2(int limb) {
+    const size_t li = static_cast<size_t>(limb);
+    const Mat3& F = limb_frame(l1, limb);
+    const Vec3 root = limb_root(body, l1, limb), end = l1.end_world[li];
+    const double L1 = body.upper_m(limb), L2 = body.lower_m(limb);
+    const Vec3 bend_world = F * l2.bend_local[li];
+    const LimbPose now = solve_limb(root, end, L1, L2, bend_world);
+    const double straight_rad = opt.straight_deg * M_PI / 180;
+    l2.slack_m[li] = 0;
+    if (now.bend_rad < straight_rad) {  // the method: keep rho(t-1)
+      limbs[li].straight = true;
+      last[li] = now;
+      return;
+    }
+    const Vec3 seg = end - root;
+    const double d = glm::length(seg);
+    const Vec3 u = seg / d;
+    const Vec3 e1_0 = glm::normalize(now.hinge - (root + glm::dot(now.hinge - root, u) * u));
+    double best_n = -1, best_rho = 0, best_slack = 0;
+    Vec3 best_e1 = e1_0;
+    for (int c = 0; c < 3; ++c) {
+      const double slack = c * 0.5 * kSlack;
+      const double dd = std::min(d + slack, L1 + L2);
+      const double a = (L1 * L1 - L2 * L2 + dd * dd) / (2 * dd);
+      const double h = std::sqrt(std::max(0.0, L1 * L1 - a * a));
+      const Vec3 tip = root + dd * u;
+      auto eval = [&](const Vec3& e1, const Vec3& e2, double xi) {
+        const Vec3 hinge = root + a * u + h * (std::cos(xi) * e1 + std::sin(xi) * e2);
+        return count_limb(limb, root, hinge, tip);
+      };
+      Vec3 e1 = e1_0, e2 = glm::cross(u, e1_0);
+      if (limbs[li].straight) {
+        // Bending out of a straight limb: rho(t-1) means nothing; the best of the whole circle.
+        const int n = 2 * std::max(opt.steps, 12);
+        double best_xi = 0;
+        int best = -1;
+        for (int l = 0; l < n; ++l) {
+          const double xi = -M_PI + 2 * M_PI * l / n;
+          const int k = eval(e1, e2, xi);
+          if (k > best || (k == best && std::abs(xi) < std::abs(best_xi))) best = k, best_xi = xi;
+        }
+        const Vec3 e1n = std::cos(best_xi) * e1 + std::sin(best_xi) * e2;
+        e2 = glm::cross(u, e1n);
+        e1 = e1n;
+      }
+      const double s = opt.span_deg * M_PI / 180;
+      const int nu = opt.steps;
+      double sum_w = 0, sum_xi = 0;
+      int n_max = 0;
+      for (int l = 0; l < nu; ++l) {
+        const double xi = nu == 1 ? 0 : -s + 2 * s * l / (nu - 1);
+        const int k = eval(e1, e2, xi);
+        n_max = std::max(n_max, k);
+        const double match = std::pow(static_cast<double>(k), opt.k);
+        sum_w += match;
+        sum_xi += xi * match;
+      }
+      if (n_max > best_n) {
+        best_n = n_max;
+        best_rho = sum_w > 0 ? sum_xi / sum_w : 0;
+        best_slack = slack;
+        best_e1 = e1;
+      }
+      if (dd >= L1 + L2) break;  // straight already: more slack changes nothing
+    }
+    const Vec3 e2 = glm::cross(u, best_e1);
+    Vec3 dir = std::cos(best_rho) * best_e1 + std::sin(best_rho) * e2;
+    if (is_arm(limb)) {
+      // An elbow inside the torso is never right (arms against the body): the nearest rho that
+      // takes it out, when one does.
+      const double dd = std::min(d + best_slack, L1 + L2);
+      const double a = (L1 * L1 - L2 * L2 + dd * dd) / (2 * dd);
+      const double h = std::sqrt(std::max(0.0, L1 * L1 - a * a));
+      auto hinge_at = [&](double xi) {
+        return root + a * u + h * (std::cos(best_rho + xi) * best_e1 + std::sin(best_rho + xi) * e2);
+      };
+      if (inside_torso(hinge_at(0))) {
+        for (int step = 1; step <= 36; ++step) {
+          const double xi = step * 5 * M_PI / 180;
+          const double pick = !inside_torso(hinge_at(xi)) ? xi : !inside_torso(hinge_at(-xi)) ? -xi : 0;
+          if (pick != 0) {
+            dir = std::cos(best_rho + pick) * best_e1 + std::sin(best_rho + pick) * e2;
+            break;
+          }
+        }
+      }
+    }
+    l2.bend_local[li] = glm::transpose(F) * dir;
+    l2.slack_m[li] = best_slack;
+    last[li] = solve_limb(root, end, L1, L2, dir, best_slack);
+    limbs[li].straight = last[li].bend_rad < straight_rad;
+  }
+
+  // ---- A limb without a usable feature: predicted in its root's frame, then fitted to the hull
+  // by turning the layer-1 segment up to +-20 degrees about two axes. ----
+  Vec3 predict_end(int limb, const Vec3& root) {
+    const size_t li = static_cast<size_t>(limb);
+    LimbTrack& t = limbs[li];
+    const Mat3& F = limb_frame(l1, limb);
+    Vec3 local;
+    if (t.have) {
+      local = t.last_local;
+      if (t.lost <= opt.predict_frames) {
+        double damp = 0, f = 1;
+        for (int i = 0; i < t.lost && i < 30; ++i) damp += (f *= 0.8);
+        local += damp * t.vel_local;
+      }
+    } else {
+      const double reach = 0.98 * (body.upper_m(limb) + body.lower_m(limb));
+      local = is_arm(limb) ? Vec3(0, 0, -reach) : Vec3(0, 0, -reach);
+    }
+    const double len = glm::length(local);
+    const Vec3 u0 = F * (local / std::max(len, 1e-9));
+    const Vec3 any = std::abs(u0.z) < 0.9 ? Vec3(0, 0, 1) : Vec3(1, 0, 0);
+    const Vec3 p1 = glm::normalize(glm::cross(u0, any)), p2 = glm::cross(u0, p1);
+    const Vec3 bend = F * l2.bend_local[li];
+    Vec3 best_end = root + len * u0;
+    int best = count_limb_at(limb, root, best_end, bend);
+    for (int ia = -2; ia <= 2; ++ia)
+      for (int ib = -2; ib <= 2; ++ib) {
+        if (ia == 0 && ib == 0) continue;
+        const double aa = ia * 10 * M_PI / 180, bb = ib * 10 * M_PI / 180;
+        const Vec3 u = glm::normalize(u0 + std::tan(aa) * p1 + std::tan(bb) * p2);
+        const Vec3 e = root + len * u;
+        const int c = count_limb_at(limb, root, e, bend);
+        if (c > best) best = c, best_end = e;
+      }
+    // Then the lower segment about its hinge (a forearm swings about the elbow): +-45 degrees.
+    const LimbPose lp = solve_limb(root, best_end, body.upper_m(limb), body.lower_m(limb), bend);
+    const Vec3 w0 = glm::normalize(lp.end - lp.hinge);
+    const Vec3 any2 = std::abs(w0.z) < 0.9 ? Vec3(0, 0, 1) : Vec3(1, 0, 0);
+    const Vec3 q1 = glm::normalize(glm::cross(w0, any2)), q2 = glm::cross(w0, q1);
+    const double L2 = body.lower_m(limb);
+    Vec3 end = lp.hinge + L2 * w0;
+    best = count_limb(limb, root, lp.hinge, end);
+    for (int ia = -3; ia <= 3; ++ia)
+      for (int ib = -3; ib <= 3; ++ib) {
+        if (ia == 0 && ib == 0) continue;
+        const Vec3 w =
+            glm::normalize(w0 + std::tan(ia * 15 * M_PI / 180) * q1 + std::tan(ib * 15 * M_PI / 180) * q2);
+        const Vec3 e = lp.hinge + L2 * w;
+        const int c = count_limb(limb, root, lp.hinge, e);
+        if (c > best) best = c, end = e;
+      }
+    return end;
+  }
+
+  void initialize(const InitMeasurement& m, const Vec3& head, pipeline::PoseState* state) {
+    body = m.body;
+    if (!opt.body.empty()) apply_body_toml(opt.body.string(), &body);
+    l1 = Layer1{};
+    l1.R_torso_world = m.R_torso_world;
+    l1.R_pelvis_world = level_heading(m.R_torso_world);
+    l1.neck_world = m.neck_world;
+    l1.head_world = head;
+    l2 = Layer2{};
+    limbs = {};
+    have_last = false;
+    const Moments mo = segment(l1.neck_world, l1.R_torso_world, 1.0);
+    centroid_off_local = mo.n > 0 ? mo.mean_local : Vec3(0, 0, -0.5 * body.spine_m);
+    centroid_off_local.x = 0;  // left-right symmetric by definition
+    init_torso_voxels = mo.n;
+    initialized = true;
+    ++body_version;
+    failing = 0;
+    *state = pipeline::PoseState::Fitted;
+  }
+
+  // The performer's right as the features say: from the left to the right foot and hand (level).
+  static Vec3 feature_right(const FeatureSet& f, const std::array<bool, 5>& ok, bool hands) {
+    Vec3 v(0.0);
+    if (ok[3] && ok[4]) v += level(f[4] - f[3]);
+    if (hands && ok[1] && ok[2]) v += level(f[2] - f[1]);
+    return v;
+  }
+
+  // Re-acquire the torso after a failed fit: a wider cylinder below the head, the heading hinted
+  // by the feet and hands (else the last one), then a PCA that takes the wider horizontal component
+  // for the shoulder line (signed by the hint). Pending until the hull shows a torso.
+  void reacquire(const FeatureSet& f, const std::array<bool, 5>& ok) {
+    Vec3 x = feature_right(f, ok, true);
+    if (glm::length(x) < 0.05) x = level(l1.R_torso_world[0]);
+    if (glm::length(x) < 1e-6) x = Vec3(1, 0, 0);
+    x = glm::normalize(x);
+    const Vec3 z(0, 0, 1);
+    const Mat3 R(x, glm::cross(z, x), z);
+    const Vec3 neck = ok[0] ? f[0] - Vec3(0, 0, body.neck_to_head_m) : l1.neck_world;
+    const Moments m = segment(neck, R, 1.3);
+    reacquire_pending = m.n < std::max(30.0, 0.3 * init_torso_voxels);
+    l1.R_torso_world = reacquire_pending ? R : pca(m, R, true);
+    l1.R_pelvis_world = level_heading(l1.R_torso_world);
+    l1.neck_world = neck;
+    l2 = Layer2{};
+    limbs = {};
+    have_last = false;
+    ++body_version;
+    failing = 0;
+  }
+};
+
+Fitter::Fitter(const config::RigConfig& rig) : Fitter(rig.grid, rig.fitting, rig.trigger.rate_hz) {}
+Fitter::Fitter(const rig::VoxelGrid& grid, const config::FittingOptions& options, double rate_hz)
+    : s_(std::make_unique<State>(grid, options, rate_hz)) {}
+Fitter::~Fitter() = default;
+
+void Fitter::reset() {
+  s_->reset();
+}
+bool Fitter::initialized() const {
+  return s_->initialized;
+}
+const BodyModel& Fitter::body() const {
+  return s_->body;
+}
+const Layer1& Fitter::layer1() const {
+  return s_->l1;
+}
+const Layer2& Fitter::layer2() const {
+  return s_->l2;
+}
+const StageTimes& Fitter::times() const {
+  return s_->times;
+}
+int Fitter::failing_frames() const {
+  return s_->failing;
+}
+
+pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
+  State& s = *s_;
+  const uint64_t t0 = monotonic_ns();
+  s.times = StageTimes{};
+  pipeline::Pose pose;
+  pose.body_version = s.body_version;
+  auto finish = [&](pipeline::Pose& p) {
+    p.t_fitted_ns = monotonic_ns();
+    s.times.total_ns = p.t_fitted_ns - t0;
+    return p;
+  };
+  if (!frame.merged || frame.rle.empty() || !s.hull.decode(frame.rle)) return finish(pose);
+  const uint64_t t1 = monotonic_ns();
+  s.times.decode_ns = t1 - t0;
+
+  // The features (feature id order: head, left hand, right hand, left foot, right foot).
+  FeatureSet f{};
+  std::array<bool, 5> ok{};
+  std::array<double, 5> conf{};
+  for (const pipeline::Feature3D& ft : frame.features3d) {
+    if (ft.feature_id >= 5 || ft.state != pipeline::Feature3DState::Triangulated) continue;
+    if (!(ft.confidence >= kMinFeatureConfidence)) continue;
+    const Vec3 p(ft.p_world[0], ft.p_world[1], ft.p_world[2]);
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) continue;
+    f[ft.feature_id] = p;
+    ok[ft.feature_id] = true;
+    conf[ft.feature_id] = std::min(1.0, static_cast<double>(ft.confidence));
+  }
+
+  pipeline::PoseState state = pipeline::PoseState::Fitted;
+  if (!s.initialized) {
+    ++s.uninit_frames;
+    if (ok[0] && ok[1] && ok[2] && ok[3] && ok[4] && looks_like_init_pose(f)) {
+      if (auto m = measure_init_frame(s.hull, f)) s.init_meas.push_back(*m);
+    }
+    if (static_cast<int>(s.init_meas.size()) >= s.opt.init_frames) {
+      s.initialize(combine_measurements(s.init_meas), f[0], &state);
+      s.init_meas.clear();
+    } else if (s.uninit_frames >= std::max(4 * s.opt.init_frames, 120) && ok[0]) {
+      // No initialization pose seen: average proportions scaled to the head's height.
+      InitMeasurement m;
+      const double top = f[0].z + 0.115 * f[0].z / 1.635;
+      m.body = proportional_body(top);
+      const Vec3 z(0, 0, 1);
+      Vec3 x(1, 0, 0);
+      if (ok[3] && ok[4] && glm::length(level(f[4] - f[3])) > 0.1) x = glm::normalize(level(f[4] - f[3]));
+      m.R_torso_world = Mat3(x, glm::cross(z, x), z);
+      m.neck_world = f[0] - Vec3(0, 0, m.body.neck_to_head_m);
+      s.initialize(m, f[0], &state);
+      s.reacquire(f, ok);
+      state = pipeline::PoseState::Fitted;
+      --s.body_version;  // reacquire counted one more
+    }
+    if (!s.initialized) return finish(pose);
+  }
+
+  // ---- Torso segmentation and PCA (8.2), the cylinder as at t-1 moved with the head. ----
+  Layer1& l1 = s.l1;
+  const BodyModel& b = s.body;
+  const Vec3 shift = ok[0] && s.have_head ? f[0] - s.last_head : Vec3(0.0);
+  const Vec3 neck_pred = l1.neck_world + shift;
+  const Moments mo = s.segment(neck_pred, l1.R_torso_world, 1.0);
+  const uint64_t t2 = monotonic_ns();
+  s.times.segment_ns = t2 - t1;
+  const bool torso_ok = mo.n >= std::max(30.0, 0.3 * s.init_torso_voxels);
+  const Mat3 R = torso_ok ? s.pca(mo, l1.R_torso_world, s.reacquire_pending) : l1.R_torso_world;
+  if (torso_ok) s.reacquire_pending = false;
+  const uint64_t t3 = monotonic_ns();
+  s.times.pca_ns = t3 - t2;
+
+  // ---- Layer 1 (8.3): the neck on the torso's axis below the head; ends from the features. ----
+  const Vec3 z = R[2];
+  const Vec3 centroid = neck_pred + l1.R_torso_world * mo.mean_local;
+  Vec3 neck;
+  if (torso_ok) {
+    const Vec3 axis_pt = centroid - R * Vec3(s.centroid_off_local.x, s.centroid_off_local.y, 0);
+    const Vec3 neck_from = ok[0] ? f[0] - Vec3(0, 0, b.neck_to_head_m) : centroid - R * s.centroid_off_local;
+    neck = axis_pt + glm::dot(neck_from - axis_pt, z) * z;
+  } else {
+    neck = ok[0] ? f[0] - Vec3(0, 0, b.neck_to_head_m) : neck_pred;
+  }
+  const Vec3 head = ok[0] ? f[0] : neck + (l1.head_world - l1.neck_world);
+  l1.R_torso_world = R;
+  l1.R_pelvis_world = level_heading(R);
+  l1.neck_world = neck;
+  l1.head_world = head;
+  if (ok[0]) {
+    s.last_head = f[0];
+    s.have_head = true;
+  }
+  bool predicted = !ok[0];
+  for (int limb = 0; limb < kLimbCount; ++limb) {
+    const size_t li = static_cast<size_t>(limb);
+    const Vec3 root = limb_root(b, l1, limb);
+    const Mat3& F = limb_frame(l1, limb);
+    const double reach = b.upper_m(limb) + b.lower_m(limb);
+    LimbTrack& t = s.limbs[li];
+    const bool good = ok[li + 1] && glm::length(f[li + 1] - root) <= 1.3 * reach + 0.05;
+    if (good) {
+      const Vec3 local = glm::transpose(F) * (f[li + 1] - root);
+      t.vel_local = t.have && t.lost == 0 ? 0.5 * t.vel_local + 0.5 * (local - t.last_local) : Vec3(0.0);
+      t.last_local = local;
+      t.have = true;
+      t.lost = 0;
+      l1.end_world[li] = f[li + 1];
+    } else {
+      ++t.lost;
+      predicted = true;
+      l1.end_world[li] = s.predict_end(limb, root);
+    }
+  }
+  const uint64_t t4 = monotonic_ns();
+  s.times.layer1_ns = t4 - t3;
+
+  // ---- Layer 2 (8.4). ----
+  uint64_t tl = t4;
+  for (int limb = 0; limb < kLimbCount; ++limb) {
+    s.fit_layer2(limb);
+    const uint64_t t = monotonic_ns();
+    s.times.layer2_ns[static_cast<size_t>(limb)] = t - tl;
+    tl = t;
+  }
+
+  s.have_last = true;
+
+  // ---- The pose, its confidence, and whether the fit failed. ----
+  const std::array<Vec3, pipeline::kPoseJointCount> joints = forward_kinematics(b, l1, s.l2);
+  int hits = 0;
+  for (int limb = 0; limb < kLimbCount; ++limb) {
+    const size_t li = static_cast<size_t>(limb);
+    hits += s.count_limb(limb, s.last[li].root, s.last[li].hinge, s.last[li].end);
+  }
+  const double support = hits / (4.0 * static_cast<double>(s.pattern.samples.size()));
+  double feat = 0;
+  for (int i = 0; i < 5; ++i) feat += ok[static_cast<size_t>(i)] ? conf[static_cast<size_t>(i)] : 0;
+  feat /= 5;
+  double confidence = 0.5 * feat + 0.5 * support;
+  if (!torso_ok) confidence *= 0.5;
+  const bool head_far = ok[0] && glm::length(f[0] - neck) > b.neck_to_head_m + 0.25;
+  // The torso's right against the feet's (they rarely cross): a heading turned the wrong way.
+  const bool heading_wrong = glm::dot(R[0], State::feature_right(f, ok, false)) < -0.05;
+  const bool failed = !torso_ok || support < 0.3 || head_far || heading_wrong;
+  s.failing = failed ? s.failing + 1 : 0;
+  if (s.failing >= s.opt.reinit_after_frames) {
+    s.reacquire(f, ok);
+    state = pipeline::PoseState::Reinitialized;
+  } else if (predicted) {
+    state = pipeline::PoseState::Predicted;
+  }
+
+  // Output (optionally One-Euro smoothed).
+  double dt = 1.0 / s.rate_hz;
+  if (s.have_seq && frame.seq > s.last_seq) dt = static_cast<double>(frame.seq - s.last_seq) / s.rate_hz;
+  s.have_seq = true;
+  s.last_seq = frame.seq;
+  for (int j = 0; j < pipeline::kPoseJointCount; ++j)
+    for (int c = 0; c < 3; ++c) {
+      double v = joints[static_cast<size_t>(j)][c];
+      if (s.opt.smoothing == config::Smoothing::OneEuro)
+        v = s.euro[static_cast<size_t>(3 * j + c)].filter(v, dt, s.opt.one_euro_min_cutoff,
+                                                          s.opt.one_euro_beta);
+      pose.p_world[static_cast<size_t>(j)][static_cast<size_t>(c)] = v;
+    }
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) pose.torso_R_world[static_cast<size_t>(3 * r + c)] = R[c][r];
+  pose.state = state;
+  pose.body_version = s.body_version;
+  pose.confidence = static_cast<float>(std::clamp(confidence, 0.0, 1.0));
+  return finish(pose);
+}
+
+void FitStage::configure(const pipeline::StageContext& ctx) {
+  if (!ctx.rig) throw std::invalid_argument("fit: no rig configuration");
+  fitter_ = std::make_unique<Fitter>(*ctx.rig);
+}
+
+void FitStage::process(pipeline::Frame& frame) {
+  frame.pose = fitter_->fit(frame);
+}
+
+}  // namespace vc::fit

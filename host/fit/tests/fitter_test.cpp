@@ -1,0 +1,240 @@
+// The fitter on hw/sim's truth: the true occupancy as the merged hull and noisy true features as the
+// triangulated ones, over whole built-in motions. MPJPE per motion (printed; bounded by what was
+// measured, with margin), no left/right swap through `turn`, no elbow or wrist inside the torso on
+// `arms-close`, a hand's feature lost for 10 frames, re-initialization after a failed fit, and the
+// "fit" stage in a pipeline.
+#include "voxcap/fit/fitter.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <random>
+
+#include "voxcap/fit/synthetic.hpp"
+#include "voxcap/sim/body.hpp"
+
+namespace vc::fit {
+namespace {
+
+using J = pipeline::PoseJoint;
+
+cv::Vec3d at(const pipeline::Pose& p, J j) {
+  const auto& v = p.p_world[static_cast<size_t>(j)];
+  return {v[0], v[1], v[2]};
+}
+cv::Vec3d at(const std::array<cv::Vec3d, pipeline::kPoseJointCount>& t, J j) {
+  return t[static_cast<size_t>(j)];
+}
+
+struct MotionResult {
+  double mpjpe_m = 0;
+  std::array<double, pipeline::kPoseJointCount> per_joint_m{};
+  int fitted = 0, frames = 0, swaps = 0, in_torso = 0;
+  double worst_frame_m = 0;
+};
+
+// Fits `frames` frames of the motion (all of them from 0) and scores every fitted frame.
+MotionResult run_motion(const std::string& motion, int frames, const testing::FeatureNoise& noise,
+                        config::FittingOptions opt = {}, int score_from = 0, int score_to = 1 << 30) {
+  sim::SceneOptions so;
+  so.motion.source = motion;
+  const sim::Scene scene(so);
+  const rig::VoxelGrid grid = *scene.calibration().grid;
+  Fitter fitter(grid, opt, 60);
+  std::mt19937_64 rng(11);
+  MotionResult r;
+  for (int frame = 0; frame < frames; ++frame) {
+    const pipeline::Frame f = testing::synthetic_frame(scene, grid, frame, noise, rng);
+    const pipeline::Pose pose = fitter.fit(f);
+    ++r.frames;
+    if (!pose.valid() || frame < score_from || frame >= score_to) continue;
+    ++r.fitted;
+    const auto truth = testing::true_pose(scene, frame);
+    const double e = testing::mpjpe(pose, truth);
+    r.mpjpe_m += e;
+    r.worst_frame_m = std::max(r.worst_frame_m, e);
+    for (int j = 0; j < pipeline::kPoseJointCount; ++j) {
+      const auto& p = pose.p_world[static_cast<size_t>(j)];
+      r.per_joint_m[static_cast<size_t>(j)] +=
+          cv::norm(cv::Vec3d(p[0], p[1], p[2]) - truth[static_cast<size_t>(j)]);
+    }
+    // Left/right: each fitted shoulder and hip nearer its own true joint than the other side's.
+    for (auto [l, rr] : {std::pair{J::l_shoulder, J::r_shoulder}, std::pair{J::l_hip, J::r_hip}}) {
+      if (cv::norm(at(pose, l) - at(truth, l)) > cv::norm(at(pose, l) - at(truth, rr)) ||
+          cv::norm(at(pose, rr) - at(truth, rr)) > cv::norm(at(pose, rr) - at(truth, l)))
+        ++r.swaps;
+    }
+    // Elbows and wrists inside the true torso (chest, abdomen, pelvis primitives).
+    const std::vector<sim::Primitive> prims = scene.primitives(frame);
+    for (J j : {J::l_elbow, J::r_elbow, J::l_wrist, J::r_wrist})
+      for (sim::Part part : {sim::Part::chest, sim::Part::abdomen, sim::Part::pelvis})
+        if (prims[static_cast<size_t>(part)].contains(at(pose, j))) {
+          ++r.in_torso;
+        }
+  }
+  if (r.fitted > 0) {
+    r.mpjpe_m /= r.fitted;
+    for (double& e : r.per_joint_m) e /= r.fitted;
+  }
+  std::printf("%-12s frames %4d fitted %4d  MPJPE %5.1f mm (worst frame %5.1f)  swaps %d  in-torso %d\n   ",
+              motion.c_str(), r.frames, r.fitted, 1000 * r.mpjpe_m, 1000 * r.worst_frame_m, r.swaps,
+              r.in_torso);
+  for (int j = 0; j < pipeline::kPoseJointCount; ++j)
+    std::printf(" %s %.0f", pipeline::pose_joint_name(j), 1000 * r.per_joint_m[static_cast<size_t>(j)]);
+  std::printf("\n");
+  return r;
+}
+
+int motion_frames(const std::string& name) {
+  sim::SceneOptions so;
+  so.motion.source = name;
+  const sim::Motion m = sim::Motion::create(so.motion, so.body);
+  return m.natural_frames();
+}
+
+TEST(Fitter, BuiltinMotionsOnTrueHullsAndNoisyFeatures) {
+  // Measured (2 cm voxels, 1 cm feature noise), see host/fit/README.md; bounds with margin.
+  // Measured 15.6 (arms-close) .. 18.0 (walk) mm; wrists and ankles are the features' own 16 mm.
+  const std::map<std::string, double> bound_mm = {{"wave", 24}, {"walk", 24},       {"squat", 24},
+                                                  {"turn", 24}, {"arms-close", 24}, {"cross", 24}};
+  for (const auto& [motion, bound] : bound_mm) {
+    SCOPED_TRACE(motion);
+    const MotionResult r = run_motion(motion, motion_frames(motion), {});
+    EXPECT_GE(r.fitted, r.frames - 12);  // all but the initialization frames
+    EXPECT_LE(1000 * r.mpjpe_m, bound);
+    EXPECT_EQ(r.swaps, 0);
+    if (motion == "arms-close") EXPECT_EQ(r.in_torso, 0);
+  }
+}
+
+TEST(Fitter, AHandLostForTenFramesIsPredictedAndStaysClose) {
+  // wave: the right hand waves first; its feature is lost for 10 frames in the middle of it.
+  sim::SceneOptions so;
+  so.motion.source = "wave";
+  const sim::Scene scene(so);
+  const int from = scene.motion().lead_in_frames() + 90, to = from + 10;
+  testing::FeatureNoise noise;
+  noise.drop_feature = VC_FEATURE_RIGHT_HAND;
+  noise.drop_from = from;
+  noise.drop_to = to;
+  const rig::VoxelGrid grid = *scene.calibration().grid;
+  Fitter fitter(grid, {}, 60);
+  std::mt19937_64 rng(12);
+  double worst_wrist = 0, sum = 0;
+  for (int frame = 0; frame < to + 5; ++frame) {
+    const pipeline::Pose pose = fitter.fit(testing::synthetic_frame(scene, grid, frame, noise, rng));
+    if (frame < from || frame >= to) continue;
+    EXPECT_EQ(pose.state, pipeline::PoseState::Predicted) << frame;
+    const auto truth = testing::true_pose(scene, frame);
+    worst_wrist = std::max(worst_wrist, cv::norm(at(pose, J::r_wrist) - at(truth, J::r_wrist)));
+    sum += testing::mpjpe(pose, truth);
+  }
+  std::printf("right hand lost 10 frames: worst wrist error %.1f mm, MPJPE %.1f mm\n", 1000 * worst_wrist,
+              100 * sum);
+  // Measured 80 mm worst (the hand waving at ~1 m/s) and 17.6 mm MPJPE.
+  EXPECT_LE(1000 * worst_wrist, 100);
+  EXPECT_LE(100 * sum, 30);
+}
+
+TEST(Fitter, ReinitializesAfterTheHullIsLostAndFitsAgain) {
+  sim::SceneOptions so;
+  so.motion.source = "walk";
+  const sim::Scene scene(so);
+  const rig::VoxelGrid grid = *scene.calibration().grid;
+  config::FittingOptions opt;
+  opt.reinit_after_frames = 15;
+  Fitter fitter(grid, opt, 60);
+  std::mt19937_64 rng(13);
+  const int lost_from = 150, lost_to = 170;  // 20 frames without a body in the hull
+  std::vector<uint8_t> empty_rle(vc_rle_max_encoded_size(grid.count()));
+  {
+    const std::vector<uint8_t> zero(grid.bitset_bytes(), 0);
+    size_t len = 0;
+    ASSERT_EQ(vc_rle_encode(zero.data(), grid.count(), empty_rle.data(), empty_rle.size(), &len), 0);
+    empty_rle.resize(len);
+  }
+  int reinit = 0;
+  uint32_t version_before = 0;
+  double sum_after = 0;
+  int n_after = 0;
+  for (int frame = 0; frame < 300; ++frame) {
+    pipeline::Frame f = testing::synthetic_frame(scene, grid, frame, {}, rng);
+    if (frame >= lost_from && frame < lost_to) f.rle = empty_rle;
+    const pipeline::Pose pose = fitter.fit(f);
+    if (frame == lost_from - 1) version_before = pose.body_version;
+    if (pose.state == pipeline::PoseState::Reinitialized) {
+      ++reinit;
+      EXPECT_EQ(frame, lost_from + opt.reinit_after_frames - 1);
+      EXPECT_EQ(pose.body_version, version_before + 1);
+    }
+    if (frame >= lost_from && frame < lost_to) EXPECT_LT(pose.confidence, 0.6) << frame;
+    if (frame >= lost_to + 10) {
+      EXPECT_EQ(pose.state, pipeline::PoseState::Fitted) << frame;
+      sum_after += testing::mpjpe(pose, testing::true_pose(scene, frame));
+      ++n_after;
+    }
+  }
+  EXPECT_EQ(reinit, 1);
+  std::printf("after the hull came back: MPJPE %.1f mm\n", 1000 * sum_after / n_after);
+  EXPECT_LE(1000 * sum_after / n_after, 24);
+}
+
+TEST(FitStage, FillsThePoseOfEveryFrameAndRefusesBadInput) {
+  sim::SceneOptions so;
+  so.motion.source = "wave";
+  const sim::Scene scene(so);
+  config::RigConfig rig;
+  rig.grid = *scene.calibration().grid;
+  FitStage stage;
+  EXPECT_EQ(stage.name(), "fit");
+  EXPECT_THROW(stage.configure(pipeline::StageContext{}), std::invalid_argument);
+  pipeline::StageContext ctx;
+  ctx.rig = &rig;
+  stage.configure(ctx);
+  std::mt19937_64 rng(14);
+  int fitted = 0;
+  for (int frame = 0; frame < 40; ++frame) {
+    pipeline::Frame f = testing::synthetic_frame(scene, rig.grid, frame, {}, rng);
+    stage.process(f);
+    if (frame < rig.fitting.init_frames - 1) {
+      EXPECT_EQ(f.pose.state, pipeline::PoseState::None) << frame;  // initialization frames
+    } else {
+      EXPECT_EQ(f.pose.state, pipeline::PoseState::Fitted) << frame;
+      EXPECT_EQ(f.pose.body_version, 1u);
+      EXPECT_GT(f.pose.confidence, 0.7f);
+      EXPECT_GT(f.pose.t_fitted_ns, 0u);
+      EXPECT_LE(testing::mpjpe(f.pose, testing::true_pose(scene, frame)), 0.03);
+      // The init pose faces -y: the performer's right is world -x, up is z (row-major R).
+      EXPECT_LT(f.pose.torso_R_world[0], -0.95);
+      EXPECT_LT(f.pose.torso_R_world[4], -0.95);
+      EXPECT_GT(f.pose.torso_R_world[8], 0.95);
+      ++fitted;
+    }
+  }
+  EXPECT_EQ(fitted, 40 - rig.fitting.init_frames + 1);
+  // A malformed hull or none: no pose, no exception, and the fitter goes on.
+  pipeline::Frame bad = testing::synthetic_frame(scene, rig.grid, 40, {}, rng);
+  bad.rle.resize(bad.rle.size() / 2);
+  stage.process(bad);
+  EXPECT_EQ(bad.pose.state, pipeline::PoseState::None);
+  pipeline::Frame unmerged = testing::synthetic_frame(scene, rig.grid, 41, {}, rng);
+  unmerged.merged = false;
+  stage.process(unmerged);
+  EXPECT_EQ(unmerged.pose.state, pipeline::PoseState::None);
+  pipeline::Frame good = testing::synthetic_frame(scene, rig.grid, 42, {}, rng);
+  stage.process(good);
+  EXPECT_EQ(good.pose.state, pipeline::PoseState::Fitted);
+  // Features that are no numbers, or ids out of range, are ignored.
+  good.features3d[0].p_world[0] = std::nan("");
+  good.features3d.push_back(good.features3d[1]);
+  good.features3d.back().feature_id = 77;
+  stage.process(good);
+  EXPECT_EQ(good.pose.state, pipeline::PoseState::Predicted);
+  for (const auto& p : good.pose.p_world)
+    for (double v : p) EXPECT_TRUE(std::isfinite(v));
+}
+
+}  // namespace
+}  // namespace vc::fit

@@ -1,0 +1,103 @@
+// Initialization on hw/sim's truth: the true occupancy and the noisy true features of the
+// initialization frames give the sim body's segment lengths within the stated tolerances, for
+// bodies of different statures; frames that are not the init pose are refused.
+#include "voxcap/fit/init.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <random>
+
+#include "voxcap/fit/synthetic.hpp"
+#include "voxcap/sim/rig_layout.hpp"
+
+namespace vc::fit {
+namespace {
+
+FeatureSet features_of(const pipeline::Frame& f) {
+  FeatureSet out;
+  for (const pipeline::Feature3D& ft : f.features3d)
+    out[ft.feature_id] = Vec3(ft.p_world[0], ft.p_world[1], ft.p_world[2]);
+  return out;
+}
+
+struct Case {
+  double height_m;
+  double voxel_m;
+};
+
+TEST(FitInit, MeasuresTheSimBodyOnTheInitFrames) {
+  for (const Case c : {Case{1.75, 0.02}, Case{1.60, 0.02}, Case{1.90, 0.02}, Case{1.75, 0.015}}) {
+    SCOPED_TRACE(::testing::Message() << "height " << c.height_m << " voxel " << c.voxel_m);
+    sim::SceneOptions so;
+    so.motion.source = "wave";
+    so.body = sim::BodyDescription::adult(c.height_m);
+    so.rig.voxel_m = c.voxel_m;
+    const sim::Scene scene(so);
+    const rig::VoxelGrid grid = *scene.calibration().grid;
+    HullBits hull(grid);
+    std::mt19937_64 rng(7);
+    std::vector<InitMeasurement> ms;
+    for (int frame = 0; frame < 10; ++frame) {
+      const pipeline::Frame f = testing::synthetic_frame(scene, grid, frame, {}, rng);
+      ASSERT_TRUE(hull.decode(f.rle));
+      const FeatureSet fs = features_of(f);
+      std::string why;
+      ASSERT_TRUE(looks_like_init_pose(fs, &why)) << why;
+      const auto m = measure_init_frame(hull, fs, &why);
+      ASSERT_TRUE(m) << why;
+      ms.push_back(*m);
+    }
+    const InitMeasurement m = combine_measurements(ms);
+    const sim::BodyDescription& t = so.body;
+    const BodyModel& b = m.body;
+    const double neck_z =
+        t.ankle_height_m + t.shank_m + t.thigh_m + t.pelvis_drop_m + t.hips_to_spine_m + t.spine_to_neck_m;
+    std::printf(
+        "init %.2f m, voxel %.3f: upper arm %.3f (%.3f) forearm %.3f (%.3f) thigh %.3f (%.3f) shank %.3f "
+        "(%.3f) "
+        "shoulder %.3f (%.3f) hip %.3f (%.3f) spine %.3f (%.3f) neck->head %.3f (%.3f) stature %.3f (%.3f) "
+        "radii %.3f %.3f %.3f %.3f\n",
+        c.height_m, c.voxel_m, b.upper_arm_m, t.upper_arm_m, b.forearm_m, t.forearm_m, b.thigh_m, t.thigh_m,
+        b.shank_m, t.shank_m, b.shoulder_half_width_m, t.shoulder_half_width_m, b.hip_half_width_m,
+        t.hip_half_width_m, b.spine_m, t.hips_to_spine_m + t.spine_to_neck_m, b.neck_to_head_m,
+        t.neck_to_head_m(), m.stature_m, t.standing_height_m(), b.upper_arm_radius_m, b.forearm_radius_m,
+        b.thigh_radius_m, b.shank_radius_m);
+    // Tolerances: whole limbs within 2 cm (features 1 cm noisy, a voxel's 2 cm), the elbow's and
+    // knee's split within 3 cm, the torso's joints within 2.5 cm.
+    EXPECT_NEAR(b.upper_arm_m + b.forearm_m, t.upper_arm_m + t.forearm_m, 0.02);
+    EXPECT_NEAR(b.thigh_m + b.shank_m, t.thigh_m + t.shank_m, 0.02);
+    EXPECT_NEAR(b.upper_arm_m, t.upper_arm_m, 0.03);
+    EXPECT_NEAR(b.thigh_m, t.thigh_m, 0.03);
+    EXPECT_NEAR(b.shoulder_half_width_m, t.shoulder_half_width_m, 0.025);
+    EXPECT_NEAR(b.hip_half_width_m, t.hip_half_width_m, 0.02);
+    EXPECT_NEAR(b.spine_m, t.hips_to_spine_m + t.spine_to_neck_m, 0.025);
+    EXPECT_NEAR(b.neck_to_head_m, t.neck_to_head_m(), 0.025);
+    EXPECT_NEAR(m.neck_world.z, neck_z, 0.025);
+    EXPECT_NEAR(m.stature_m, t.standing_height_m(), 0.02);
+    EXPECT_NEAR(b.upper_arm_radius_m, t.upper_arm_radius_m, 0.015);
+    EXPECT_NEAR(b.thigh_radius_m, t.thigh_radius_m, 0.02);
+    // Facing -y: the performer's right is world -x.
+    EXPECT_LT(m.R_torso_world[0].x, -0.99);
+    EXPECT_LT(m.R_torso_world[1].y, -0.99);
+  }
+}
+
+TEST(FitInit, OtherPosesAreNotTakenForTheInitPose) {
+  sim::SceneOptions so;
+  so.motion.source = "walk";
+  const sim::Scene scene(so);
+  const rig::VoxelGrid grid = *scene.calibration().grid;
+  std::mt19937_64 rng(8);
+  int refused = 0, n = 0;
+  for (int frame = scene.motion().lead_in_frames() + 10; frame < scene.motion().lead_in_frames() + 300;
+       frame += 10) {
+    const pipeline::Frame f = testing::synthetic_frame(scene, grid, frame, {}, rng);
+    refused += looks_like_init_pose(features_of(f)) ? 0 : 1;
+    ++n;
+  }
+  EXPECT_EQ(refused, n);
+}
+
+}  // namespace
+}  // namespace vc::fit
