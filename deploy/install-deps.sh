@@ -35,6 +35,8 @@ pkgs+=(libopencv-dev libglm-dev nlohmann-json3-dev libtomlplusplus-dev libcli11-
        libspdlog-dev libfmt-dev libusb-1.0-0-dev libftdi1-dev linux-libc-dev)
 # The V4L2 VM test: a Debian kernel with the vivid module booted under qemu with a busybox initramfs.
 pkgs+=(qemu-system-x86 busybox-static cpio xz-utils zstd kmod)
+# The client test (label client): the exported BVH in Blender, headless, with its stock importer.
+pkgs+=(blender)
 # From bookworm-backports (pinned to that suite explicitly).
 bp_pkgs=(libcamera-dev libgpiod-dev)
 

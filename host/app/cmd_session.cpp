@@ -15,6 +15,7 @@
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/pipeline/frame.hpp"
 #include "voxcap/proto.h"
+#include "voxcap/record/pose.hpp"
 #include "voxcap/record/recorder.hpp"
 #include "voxcap/record/session_info.hpp"
 
@@ -126,11 +127,29 @@ nlohmann::json to_json(const record::Record& r) {
           }
           return {{"type", "features3d"}, {"seq", x.seq}, {"features", fs_json}};
         } else if constexpr (std::is_same_v<T, record::PoseRecord>) {
-          return {{"type", "pose"},
-                  {"seq", x.seq},
-                  {"layout", x.layout},
-                  {"joint_names", x.joint_names},
-                  {"values", x.values}};
+          pipeline::Pose p;
+          std::string why;
+          if (x.layout == record::kPoseLayout && record::from_record(x, &p, &why)) {
+            json joints = json::object();
+            for (int j = 0; j < pipeline::kPoseJointCount; ++j)
+              joints[pipeline::pose_joint_name(j)] = p.p_world[static_cast<size_t>(j)];
+            return {{"type", "pose"},
+                    {"seq", x.seq},
+                    {"layout", x.layout},
+                    {"state", pipeline::pose_state_name(p.state)},
+                    {"body_version", p.body_version},
+                    {"confidence", p.confidence},
+                    {"t_fitted_ns", p.t_fitted_ns},
+                    {"torso_R_world", p.torso_R_world},
+                    {"p_world_m", joints}};
+          }
+          json out = {{"type", "pose"},
+                      {"seq", x.seq},
+                      {"layout", x.layout},
+                      {"joint_names", x.joint_names},
+                      {"values", x.values}};
+          if (x.layout == record::kPoseLayout) out["error"] = why;
+          return out;
         } else {
           json body = json::parse(x.json, nullptr, false);
           if (body.is_discarded()) body = x.json;
@@ -174,9 +193,23 @@ std::string to_text(const record::Record& r) {
           }
           return fmt::format("features3d seq {:<8}{}", x.seq, fs_text);
         } else if constexpr (std::is_same_v<T, record::PoseRecord>) {
+          pipeline::Pose p;
+          std::string why;
+          if (x.layout == record::kPoseLayout && record::from_record(x, &p, &why)) {
+            std::string joints;
+            if (p.valid())
+              for (int j = 0; j < pipeline::kPoseJointCount; ++j) {
+                const auto& q = p.p_world[static_cast<size_t>(j)];
+                joints += fmt::format("  {} ({:.3f}, {:.3f}, {:.3f})", pipeline::pose_joint_name(j), q[0],
+                                      q[1], q[2]);
+              }
+            return fmt::format("pose     seq {:<8} {} body {} c{:.2f}{}", x.seq,
+                               pipeline::pose_state_name(p.state), p.body_version, p.confidence, joints);
+          }
           return fmt::format(
-              "pose     seq {:<8} {} values ({}){}", x.seq, x.values.size(), x.layout,
-              x.joint_names.empty() ? "" : fmt::format(", joints {}", fmt::join(x.joint_names, " ")));
+              "pose     seq {:<8} {} values ({}){}{}", x.seq, x.values.size(), x.layout,
+              x.joint_names.empty() ? "" : fmt::format(", joints {}", fmt::join(x.joint_names, " ")),
+              x.layout == record::kPoseLayout ? ": " + why : std::string());
         } else {
           return fmt::format(
               "stats    t {} ns node {}: {}", x.t_ns,
@@ -239,7 +272,8 @@ void add_session_commands(CLI::App& app) {
   dump->add_option("DIR", dump_args->dir, "Session folder")->required();
   dump->add_option("--type", dump_args->type,
                    "Only records of this type: frame, features, features3d (the host's triangulated "
-                   "features), pose or stats");
+                   "features), pose (the fitted skeleton: state, body version, the 15 joints in metres) or "
+                   "stats");
   dump->add_option("--limit", dump_args->limit, "Stop after printing this many records (0: all)");
   dump->add_flag("--json", dump_args->json,
                  "One JSON object per line (hull RLE given as its size, rle_bytes)");

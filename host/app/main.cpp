@@ -22,6 +22,9 @@ int main(int argc, char** argv) {
     vc::cli::add_rig_commands(app);
     vc::cli::add_sim_commands(app);
     vc::cli::add_track_commands(app);
+    vc::cli::add_export_commands(app);
+    vc::cli::add_demo_commands(app);
+    vc::cli::add_fit_commands(app);
     vc::cli::add_bench_commands(app);
     try {
       app.parse(argc, argv);

@@ -9,6 +9,7 @@
 #include "voxcap/base/clock.hpp"
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/record/from_proto.hpp"
+#include "voxcap/record/pose.hpp"
 
 namespace vc::aggregator {
 
@@ -76,6 +77,13 @@ void RecordStage::process(pipeline::Frame& f) {
       o.views.assign(in.views.begin(), in.views.end());
     }
     rec_->append(features3d_);
+  }
+  // The fitting stage ran on this frame (it stamps t_fitted_ns; an initialization frame's pose has state
+  // none): its pose, with the joint names in the session's first pose record.
+  if (f.pose.t_fitted_ns != 0 || f.pose.valid()) {
+    record::to_record(f.seq, f.pose, !pose_names_written_, &pose_);
+    rec_->append(pose_);
+    pose_names_written_ = true;
   }
   auto t = std::chrono::steady_clock::now();
   if (t - last_sync_ >= std::chrono::seconds(1)) {

@@ -3,6 +3,7 @@
 #include "voxcap/aggregator/aggregator.hpp"
 #include "voxcap/aggregator/record_stage.hpp"
 #include "voxcap/base/clock.hpp"
+#include "voxcap/record/pose.hpp"
 
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
@@ -451,6 +452,57 @@ TEST(Aggregator, FeaturesAndStatsTravelWithTheirFrameThroughEveryStageIntoTheRec
   EXPECT_EQ(s.features, agg.report().nodes[0].features);
   EXPECT_EQ(s.stats, 1u);
   EXPECT_EQ(s.first_seq, seq);
+}
+
+// The record stage writes a POSE record (layout voxcap.pose15/1) for every frame the fitting stage ran
+// on, state none (initialization) included, and none for frames it did not run on.
+TEST(RecordStage, WritesThePoseOfEveryFittedFrame) {
+  TmpDir tmp;
+  const config::RigConfig rig = make_rig(tmp.p);
+  RecordStage stage(tmp.p / "rec");
+  pipeline::StageContext ctx;
+  ctx.rig = &rig;
+  stage.configure(ctx);
+  std::vector<pipeline::Pose> sent;
+  for (uint64_t seq = 100; seq < 110; ++seq) {
+    pipeline::Frame f;
+    f.seq = seq;
+    f.t_trigger_ns = 1000 * seq;
+    if (seq >= 102) {  // 100, 101: no fitting stage ran; 102, 103: initialization frames
+      f.pose.t_fitted_ns = 1000 * seq + 7;
+      f.pose.state = seq < 104 ? pipeline::PoseState::None : pipeline::PoseState::Fitted;
+      f.pose.body_version = seq < 104 ? 0 : 1;
+      f.pose.confidence = 0.5f;
+      for (size_t j = 0; j < static_cast<size_t>(pipeline::kPoseJointCount); ++j)
+        f.pose.p_world[j] = {0.1 * double(j), -0.01 * double(seq), 1.0};
+      sent.push_back(f.pose);
+    }
+    stage.process(f);
+  }
+  stage.stop();
+  record::Reader reader = record::Reader::open(stage.dir());
+  EXPECT_EQ(reader.summary_ref().frames, 10u);
+  EXPECT_EQ(reader.summary_ref().poses, 8u);
+  EXPECT_EQ(reader.summary_ref().pose_layout, record::kPoseLayout);
+  record::Record r;
+  size_t k = 0, with_names = 0;
+  while (reader.next(r)) {
+    const auto* p = std::get_if<record::PoseRecord>(&r);
+    if (!p) continue;
+    ASSERT_LT(k, sent.size());
+    with_names += p->joint_names.empty() ? 0 : 1;
+    pipeline::Pose back;
+    std::string why;
+    ASSERT_TRUE(record::from_record(*p, &back, &why)) << why;
+    EXPECT_EQ(p->seq, 102 + k);
+    EXPECT_EQ(back.state, sent[k].state);
+    EXPECT_EQ(back.body_version, sent[k].body_version);
+    EXPECT_EQ(back.t_fitted_ns, sent[k].t_fitted_ns);
+    EXPECT_EQ(back.p_world, sent[k].p_world);
+    ++k;
+  }
+  EXPECT_EQ(k, sent.size());
+  EXPECT_EQ(with_names, 1u) << "the joint names ride in the first pose record only";
 }
 
 TEST(Aggregator, RejectsUnknownNodesAndWrongCameras) {

@@ -603,6 +603,7 @@ struct EmulatedRig::Impl {
   std::unique_ptr<aggregator::Aggregator> agg;
   TruthScorer* scorer = nullptr;  // stages of agg's pipeline (owned there)
   FeatureScorer* feature_scorer = nullptr;
+  PoseScorer* pose_scorer = nullptr;
   aggregator::RecordStage* recorder = nullptr;
   Clock::time_point t_start;
   long rss_start = 0;
@@ -757,6 +758,17 @@ void EmulatedRig::start(double timeout_s) {
     m.feature_scorer = &m.agg->pipeline().tap(
         std::make_unique<FeatureScorer>(o, cal_path.string(), rig.triangulation.confident),
         FeatureScorer::queue());
+  if (o.score_poses) {
+    sim::SceneOptions so;
+    so.motion.source = o.motion;
+    so.motion.fps = o.rate_hz;
+    so.motion.bvh_scale = o.bvh_scale;
+    so.seed = o.seed;
+    so.calibration = cal;
+    m.pose_scorer = &m.agg->pipeline().tap(
+        std::make_unique<PoseScorer>(std::make_unique<sim::Scene>(so), grid, o.keep_poses),
+        PoseScorer::kQueue);
+  }
   if (o.stages) o.stages(m.agg->pipeline());
   m.agg->start();
   m.pids.assign(static_cast<size_t>(o.nodes), 0);
@@ -779,6 +791,7 @@ void EmulatedRig::start(double timeout_s) {
   }
   if (m.scorer) m.scorer->set_origin(m.agg->report().origin);
   if (m.feature_scorer) m.feature_scorer->set_origin(m.agg->report().origin);
+  if (m.pose_scorer) m.pose_scorer->set_origin(m.agg->report().origin);
   m.t_start = Clock::now();
 }
 
@@ -837,6 +850,8 @@ Result EmulatedRig::stop() {
   r.stages = m.agg->report().pipeline;
   if (m.scorer) r.accuracy = m.scorer->accuracy();
   if (m.feature_scorer) r.accuracy.features = m.feature_scorer->figures();
+  if (m.pose_scorer) r.poses = m.pose_scorer->accuracy();
+  r.origin = r.report.origin;
   r.host_rss_start_kb = m.rss_start;
   r.host_rss_end_kb = rss_kb();
   r.workdir = m.dir;

@@ -13,6 +13,7 @@
 
 #include "voxcap/crc32c.h"
 #include "voxcap/record/format.hpp"
+#include "voxcap/record/pose.hpp"
 #include "voxcap/record/recorder.hpp"
 
 namespace {
@@ -60,7 +61,12 @@ void decode_all(std::span<const uint8_t> body) {
       __builtin_trap();
   }
   (void)format::decode_body(body, &fe, &why);
-  (void)format::decode_body(body, &p, &why);
+  if (format::decode_body(body, &p, &why)) {
+    // A pose record of any content: the fitted-pose reader checks it, never trusts it.
+    vc::pipeline::Pose pose;
+    if (from_record(p, &pose, &why) && !pose.valid() && pose.state != vc::pipeline::PoseState::None)
+      __builtin_trap();
+  }
   (void)format::decode_body(body, &s, &why);
   (void)format::decode_body(body, &e, &why);
 }

@@ -12,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "session_fixture.hpp"
+#include "voxcap/record/pose.hpp"
 #include "voxcap/record/recorder.hpp"
 
 namespace vc::record {
@@ -121,6 +122,45 @@ TEST_F(RecordCli, DumpPrintsRecordsInOrder) {
   EXPECT_THAT(text.out, HasSubstr("frame    seq 10"));
   EXPECT_THAT(text.out, HasSubstr("features seq 10"));
   EXPECT_EQ(std::count(text.out.begin(), text.out.end(), '\n'), 3);
+}
+
+// Fitted poses (layout voxcap.pose15/1) are printed decoded: state, body version, joints by name.
+TEST_F(RecordCli, DumpPrintsFittedPosesByJointName) {
+  const testing::RigFiles rig = testing::write_rig_files(tmp.path(), "fitted");
+  const fs::path dir = tmp.path() / "fitted-session";
+  {
+    Recorder rec = Recorder::create(dir, rig.rig_toml, rig.calibration_yaml, "");
+    PoseRecord r;
+    for (uint64_t seq = 5; seq < 8; ++seq) {
+      pipeline::Pose p;
+      p.state = seq == 5 ? pipeline::PoseState::None : pipeline::PoseState::Fitted;
+      p.body_version = seq == 5 ? 0 : 3;
+      p.t_fitted_ns = 123;
+      p.p_world[static_cast<size_t>(pipeline::PoseJoint::l_wrist)] = {0.5, -0.25, 1.5};
+      to_record(seq, p, seq == 5, &r);
+      rec.append(r);
+    }
+    rec.close();
+  }
+  const CliRun j = voxcap("session dump --type pose --json '" + dir.string() + "'");
+  ASSERT_EQ(j.code, 0) << j.out;
+  std::vector<nlohmann::json> lines;
+  size_t start = 0;
+  for (size_t nl; (nl = j.out.find('\n', start)) != std::string::npos; start = nl + 1)
+    lines.push_back(nlohmann::json::parse(j.out.substr(start, nl - start)));
+  ASSERT_EQ(lines.size(), 3u);
+  EXPECT_EQ(lines[0]["state"], "none");
+  EXPECT_EQ(lines[1]["state"], "fitted");
+  EXPECT_EQ(lines[2]["seq"], 7);
+  EXPECT_EQ(lines[2]["body_version"], 3);
+  EXPECT_EQ(lines[2]["t_fitted_ns"], 123);
+  EXPECT_EQ(lines[2]["p_world_m"]["l_wrist"], nlohmann::json::array({0.5, -0.25, 1.5}));
+  EXPECT_EQ(lines[2]["p_world_m"].size(), 15u);
+  const CliRun text = voxcap("session dump --type pose '" + dir.string() + "'");
+  ASSERT_EQ(text.code, 0);
+  EXPECT_THAT(text.out, HasSubstr("pose     seq 5        none body 0"));
+  EXPECT_THAT(text.out, HasSubstr("pose     seq 6        fitted body 3"));
+  EXPECT_THAT(text.out, HasSubstr("l_wrist (0.500, -0.250, 1.500)"));
 }
 
 TEST_F(RecordCli, BadInputIsExitCode2) {

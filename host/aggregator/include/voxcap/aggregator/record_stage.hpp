@@ -1,7 +1,8 @@
 // The record stage: every frame that leaves the chain goes to the session recording (a
-// vc::record::Recorder): its merged hull, the FEATURES of its front nodes (one record per camera) and
-// the STATS that rode on it; synced to disk about once a second, closed cleanly at stop. It must see
-// every frame: add it with RecordStage::kQueue (Overflow::Block, ~8 s of frames at 60 Hz).
+// vc::record::Recorder): its merged hull, the FEATURES of its front nodes (one record per camera), the
+// STATS that rode on it, the triangulated 3D features and the fitted pose (host/record/include/voxcap/
+// record/pose.hpp) when those stages ran on it; synced to disk about once a second, closed cleanly at stop.
+// It must see every frame: add it with RecordStage::kQueue (Overflow::Block, ~8 s of frames at 60 Hz).
 #pragma once
 
 #include <chrono>
@@ -36,6 +37,8 @@ class RecordStage : public pipeline::Stage {
   record::FrameRecord frame_;  // reused: no allocation per frame once warmed up
   record::FeatureRecord features_;
   record::Features3DRecord features3d_;  // the triangulation stage's 3D features, when it ran
+  record::PoseRecord pose_;              // the fitting stage's pose, when it ran
+  bool pose_names_written_ = false;      // the joint names go in the first pose record only
   std::chrono::steady_clock::time_point last_sync_;
 };
 

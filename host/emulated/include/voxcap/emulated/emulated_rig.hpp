@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "voxcap/aggregator/aggregator.hpp"
+#include "voxcap/emulated/pose_scorer.hpp"
 #include "voxcap/sim/body.hpp"
 
 namespace vc::emulated {
@@ -53,6 +54,10 @@ struct Options {
   std::filesystem::path edge_binary;  // empty: voxcap-edge beside this executable
   std::filesystem::path record_dir;   // record the session in a new folder below this; empty: no recording
   bool quiet = true;                  // edges log warnings only, host info lines suppressed
+  // Score every frame's fitted pose against the virtual rig's true joints (pose_scorer.hpp), keeping
+  // the poses too with keep_poses (for writing the take).
+  bool score_poses = false;
+  bool keep_poses = false;
   // More stages for the host's pipeline (a viewer, a test's probe), added after the recorder and the
   // scorer, before the rig starts.
   std::function<void(pipeline::Pipeline&)> stages;
@@ -141,6 +146,8 @@ struct Result {
   aggregator::Report report;        // taken while the run was still going (before the edges stop)
   pipeline::PipelineReport stages;  // every stage once all drained at stop: what each finally saw
   Accuracy accuracy;
+  PoseAccuracy poses;   // with Options::score_poses
+  uint64_t origin = 0;  // the run's origin seq: the virtual rig's frame 0
   uint64_t frames_wanted = 0;
   double wall_seconds = 0;
   long host_rss_start_kb = 0, host_rss_end_kb = 0;

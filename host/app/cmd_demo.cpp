@@ -1,0 +1,212 @@
+// `voxcap demo` and `voxcap eval`: the main job on one machine — the emulated rig end to end (virtual
+// rig -> voxcap-edge processes -> host: assembly, merge, triangulation, fitting) with the fitted
+// skeleton scored against the virtual rig's true joints (host/emulated's pose scorer). `demo` prints the
+// figures and writes DIR/take.bvh, DIR/joints.csv and the session; `eval` prints the same figures (with
+// --json as one object). Thin: options -> emulated::Options, run, then the take (host/export).
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include <fmt/format.h>
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "export_report.hpp"
+#include "voxcap/emulated/emulated_rig.hpp"
+#include "voxcap/export/take.hpp"
+
+namespace vc::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct DemoArgs {
+  emulated::Options rig;
+  uint64_t frames = 600;
+  int cameras = 0;  // 0: 2 x nodes
+  std::string size = "640x480";
+  std::string out;  // demo: where the take and the session go
+  bool json = false;
+  bool eval = false;
+};
+
+void add_rig_options(CLI::App* cmd, DemoArgs& a) {
+  cmd->add_option("--motion", a.rig.motion,
+                  "Built-in motion (tpose wave walk squat turn arms-close cross) or a BVH file")
+      ->capture_default_str();
+  cmd->add_option(
+         "--bvh-scale", a.rig.bvh_scale,
+         "Metres per unit of a --motion FILE.bvh (0: detected from the joint names and the rest pose)")
+      ->check(CLI::Range(0.0, 100.0))
+      ->capture_default_str();
+  cmd->add_option("--frames", a.frames, "Merged frames to run for (the virtual rig's frames 0 .. N-1)")
+      ->capture_default_str();
+  cmd->add_option("--nodes", a.rig.nodes, "Edge nodes (voxcap-edge processes), two cameras each")
+      ->capture_default_str();
+  cmd->add_option("--cameras", a.cameras, "Cameras instead of --nodes (even: two per node)");
+  cmd->add_option("--size", a.size, "Camera size WxH")->capture_default_str();
+  cmd->add_option("--grid", a.rig.grid, "Voxels per axis over the 2.24 m volume")->capture_default_str();
+  cmd->add_option("--noise", a.rig.noise, "Sensor noise sigma (8-bit levels; 0: none)")
+      ->capture_default_str();
+  cmd->add_option("--rate", a.rig.rate_hz, "Trigger rate, Hz")->capture_default_str();
+  cmd->add_option("--seed", a.rig.seed, "Simulator seed")->capture_default_str();
+  cmd->add_option("--appearance", a.rig.appearance, "The performer's appearance preset")
+      ->capture_default_str();
+  cmd->add_option("--room", a.rig.room, "Room preset (default camouflage)")->capture_default_str();
+  cmd->add_option("--workdir", a.rig.workdir, "Keep rig.yaml, rig.toml and the edge logs here");
+  cmd->add_flag(
+      "--verbose", [&a](int64_t) { a.rig.quiet = false; }, "Info logs from host and edges");
+}
+
+nlohmann::json figures_json(const DemoArgs& a, const emulated::Result& r) {
+  const emulated::PoseAccuracy& p = r.poses;
+  nlohmann::json per_joint = nlohmann::json::object();
+  for (int j = 0; j < pipeline::kPoseJointCount; ++j)
+    per_joint[pipeline::pose_joint_name(j)] = p.per_joint_mm[static_cast<size_t>(j)];
+  nlohmann::json drops = nlohmann::json::object();
+  for (const auto& s : r.stages.stages) drops[s.name] = s.queue.dropped;
+  return {{"mpjpe_mm", p.mpjpe_mm},
+          {"per_joint_mm", per_joint},
+          {"pa_mpjpe_mm", p.pa_mpjpe_mm},
+          {"max_joint_mm", p.max_joint_mm},
+          {"frames", p.frames},
+          {"fitted_frames", p.fitted_frames},
+          {"init_frames", p.init_frames},
+          {"merged_frames", p.merged_frames},
+          {"scored_frames", p.scored_frames},
+          {"frames_outside_volume", p.frames_outside_volume},
+          {"arm_in_torso_frames", p.arm_in_torso_frames},
+          {"predicted_frames", p.predicted_frames},
+          {"reinitialized_frames", p.reinitialized_frames},
+          {"fps", p.fps},
+          {"latency_ms", {{"p50", p.latency_p50_ms}, {"p99", p.latency_p99_ms}, {"max", p.latency_max_ms}}},
+          {"pipeline_drops", drops},
+          {"rig",
+           {{"motion", a.rig.motion},
+            {"nodes", a.rig.nodes},
+            {"cameras", 2 * a.rig.nodes},
+            {"size", a.size},
+            {"grid", a.rig.grid},
+            {"noise", a.rig.noise},
+            {"rate_hz", a.rig.rate_hz},
+            {"appearance", a.rig.appearance},
+            {"room", a.rig.room}}},
+          {"wall_seconds", r.wall_seconds}};
+}
+
+void print_figures(const DemoArgs& a, const emulated::Result& r) {
+  const emulated::PoseAccuracy& p = r.poses;
+  fmt::print(
+      "frames      {} merged, {} initialization, {} from the first pose: {} fitted ({} predicted, {} "
+      "re-initialized)\n",
+      p.merged_frames, p.init_frames, p.frames, p.fitted_frames, p.predicted_frames, p.reinitialized_frames);
+  fmt::print(
+      "speed       {:.1f} poses/s at {} Hz; trigger -> pose p50 {:.1f} ms, p99 {:.1f} ms, max {:.1f} ms "
+      "(frame period {:.1f} ms)\n",
+      p.fps, a.rig.rate_hz, p.latency_p50_ms, p.latency_p99_ms, p.latency_max_ms, 1e3 / a.rig.rate_hz);
+  fmt::print(
+      "accuracy    MPJPE {:.1f} mm, PA-MPJPE {:.1f} mm, worst joint {:.0f} mm over {} frames ({} with part "
+      "of the body outside the volume, left out); arm inside the torso on {} frames\n",
+      p.mpjpe_mm, p.pa_mpjpe_mm, p.max_joint_mm, p.scored_frames, p.frames_outside_volume,
+      p.arm_in_torso_frames);
+  std::string joints;
+  for (int j = 0; j < pipeline::kPoseJointCount; ++j)
+    joints += fmt::format(" {} {:.0f}", pipeline::pose_joint_name(j), p.per_joint_mm[static_cast<size_t>(j)]);
+  fmt::print("per joint  {} (mm)\n", joints);
+}
+
+void run_demo(DemoArgs& a) {
+  if (a.cameras != 0) {
+    if (a.cameras < 2 || a.cameras % 2 != 0)
+      throw UsageError(fmt::format("--cameras: an even number (two per node), got {}", a.cameras));
+    a.rig.nodes = a.cameras / 2;
+  }
+  if (std::sscanf(a.size.c_str(), "%dx%d", &a.rig.width, &a.rig.height) != 2)
+    throw UsageError("--size: expected WxH, got '" + a.size + "'");
+  if (a.frames < 2 || a.frames > 10'000'000) throw UsageError("--frames: 2 .. 10000000");
+  a.rig.truth_every = 0;  // the hull scorer (voxcap rig --emulated) is not needed here: its renders cost
+  a.rig.score_poses = true;
+  a.rig.keep_poses = !a.eval;
+  if (!a.eval) {
+    if (a.out.empty()) a.out = "voxcap-demo";
+    std::error_code ec;
+    fs::create_directories(a.out, ec);
+    if (ec) throw UsageError(fmt::format("--out {}: {}", a.out, ec.message()));
+    a.rig.record_dir = fs::path(a.out);
+  }
+  std::string why;
+  if (!a.rig.valid(&why)) throw UsageError(why);
+  emulated::EmulatedRig rig(a.rig);
+  if (!a.json)
+    fmt::print("starting {} edge nodes ({} cameras, {}, {}^3 voxels), motion '{}', {} frames at {} Hz...\n",
+               a.rig.nodes, 2 * a.rig.nodes, a.size, a.rig.grid, a.rig.motion, a.frames, a.rig.rate_hz);
+  rig.start();
+  rig.run_frames(a.frames, double(a.frames) / a.rig.rate_hz * 20 + 30);  // generous on a loaded machine
+  emulated::Result r = rig.stop();
+  if (r.report.frames == 0) throw std::runtime_error("no frame was merged");
+  if (a.json)
+    fmt::print("{}\n", figures_json(a, r).dump(2));
+  else
+    print_figures(a, r);
+  if (a.eval) return;
+  if (r.poses.fitted_frames == 0)
+    throw std::runtime_error("no frame got a pose (is [fitting] enabled?): no take written");
+  const take::Take t = take::make_take(r.poses.poses);
+  report_take(t, "demo");
+  take::WriteOptions wo;
+  wo.frame_time_s = 1.0 / a.rig.rate_hz;
+  const fs::path out(a.out);
+  take::write_bvh(out / "take.bvh", t, wo);
+  const uint64_t rows = take::write_joints_csv(out / "joints.csv", t);
+  if (!a.json)
+    fmt::print("wrote       {} ({} frames from frame {}), {} ({} rows), session {}\n",
+               (out / "take.bvh").string(), t.poses.size(), t.first_frame, (out / "joints.csv").string(),
+               rows, r.session_dir.string());
+}
+
+}  // namespace
+
+void add_demo_commands(CLI::App& app) {
+  auto demo = std::make_shared<DemoArgs>();
+  demo->rig.grid = 128;
+  CLI::App* d =
+      app.add_subcommand("demo",
+                         "The main job on this machine: the emulated rig end to end (virtual rig -> "
+                         "voxcap-edge processes -> host: "
+                         "hulls, tracking, triangulation, skeleton fitting); prints fps, trigger-to-pose "
+                         "latency and the accuracy "
+                         "against the virtual rig's truth, writes DIR/take.bvh, DIR/joints.csv (frame "
+                         "numbers = the virtual rig's, "
+                         "as in voxcap sim's truth/joints.csv) and the session (DIR/emulated-<time>)");
+  add_rig_options(d, *demo);
+  d->add_option("--out", demo->out, "Output folder (default ./voxcap-demo)");
+  d->add_flag("--json", demo->json, "Print the figures as JSON (the keys of voxcap eval --json)");
+  d->callback([demo] { run_demo(*demo); });
+
+  auto eval = std::make_shared<DemoArgs>();
+  eval->rig.grid = 128;
+  eval->eval = true;
+  CLI::App* e = app.add_subcommand(
+      "eval",
+      "The fitted skeleton's accuracy on the emulated rig against the virtual rig's truth. Figures (--json "
+      "keys): "
+      "mpjpe_mm (mean over the scored frames of the mean distance of the 15 fitted joints to the virtual "
+      "rig's "
+      "standard joints of the same names: hips, neck, head (centre), shoulders, elbows, wrists, hip joints, "
+      "knees, ankles), per_joint_mm, pa_mpjpe_mm (after the per-frame Procrustes similarity alignment), "
+      "max_joint_mm, frames (merged frames from the first pose on), fitted_frames (of those with a pose), "
+      "init_frames (before the first pose), merged_frames, scored_frames, frames_outside_volume (a true "
+      "joint "
+      "outside the grid's box: counted, left out of the errors), arm_in_torso_frames (a fitted elbow or "
+      "wrist "
+      "inside the true torso volume), predicted_frames, reinitialized_frames, fps (poses per second), "
+      "latency_ms {p50, p99, max} (trigger -> pose), pipeline_drops {stage: frames}, rig {...}, "
+      "wall_seconds");
+  add_rig_options(e, *eval);
+  e->add_flag("--json", eval->json, "Print the figures as one JSON object");
+  e->callback([eval] { run_demo(*eval); });
+}
+
+}  // namespace vc::cli

@@ -1,0 +1,200 @@
+// `voxcap fit SESSION [--samples N --steps N --span-deg S --k K ...] --out DIR`: re-fits a recorded
+// session offline with other [fitting] parameters (host/fit) and writes a new session: the same frames,
+// 2D and 3D features and stats, with a new pose stream (POSE records, layout voxcap.pose15/1). Reads
+// the records in file order, fitting each frame once its 3D features are in (the record stage writes a
+// frame's FRAME record first, then its features, stats and FEATURES3D); the old poses are left out.
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include <fmt/format.h>
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "voxcap/base/clock.hpp"
+#include "voxcap/config/rig_config.hpp"
+#include "voxcap/fit/fitter.hpp"
+#include "voxcap/record/pose.hpp"
+#include "voxcap/record/recorder.hpp"
+#include "voxcap/rig/calibration.hpp"
+
+namespace vc::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct FitArgs {
+  std::string session, out;
+  std::optional<int> samples, steps, init_frames, reinit_after, predict_frames;
+  std::optional<double> span_deg, k, straight_deg, min_cutoff, beta;
+  std::string smoothing, body;
+};
+
+config::FittingOptions fitting_options(const config::RigConfig& rig, const FitArgs& a) {
+  config::FittingOptions o = rig.fitting;
+  o.enabled = true;
+  if (a.samples) o.samples = *a.samples;
+  if (a.steps) o.steps = *a.steps;
+  if (a.span_deg) o.span_deg = *a.span_deg;
+  if (a.k) o.k = *a.k;
+  if (a.straight_deg) o.straight_deg = *a.straight_deg;
+  if (a.init_frames) o.init_frames = *a.init_frames;
+  if (a.reinit_after) o.reinit_after_frames = *a.reinit_after;
+  if (a.predict_frames) o.predict_frames = *a.predict_frames;
+  if (a.min_cutoff) o.one_euro_min_cutoff = *a.min_cutoff;
+  if (a.beta) o.one_euro_beta = *a.beta;
+  if (!a.smoothing.empty()) {
+    if (a.smoothing == "none")
+      o.smoothing = config::Smoothing::None;
+    else if (a.smoothing == "one-euro")
+      o.smoothing = config::Smoothing::OneEuro;
+    else
+      throw UsageError("--smoothing: none or one-euro, got '" + a.smoothing + "'");
+  }
+  if (!a.body.empty()) o.body = fs::absolute(a.body);
+  std::string why;
+  if (!o.valid(&why)) throw UsageError("fit: " + why);
+  return o;
+}
+
+void run_fit(const FitArgs& a) {
+  const fs::path in(a.session);
+  std::error_code ec;
+  if (!fs::is_directory(in, ec) || !fs::exists(in / "records.vcr", ec))
+    throw UsageError(fmt::format("fit: {}: not a voxcap session (no records.vcr)", a.session));
+  if (a.out.empty()) throw UsageError("fit: --out DIR is required (a new session folder)");
+  // The session's own rig.toml and calibration copies: the grid the hulls were carved on.
+  config::RigConfig rig;
+  try {
+    config::LoadOptions lo;
+    lo.load_calibration = false;
+    rig = config::load_rig_config(in / "rig.toml", lo);
+  } catch (const config::ConfigError& e) {
+    throw UsageError(fmt::format("fit: {}/rig.toml: {}", a.session, e.what()));
+  }
+  if (rig.grid.nx <= 0) {
+    const rig::Calibration cal = rig::read_calibration((in / "calibration.yaml").string());
+    if (!cal.grid)
+      throw UsageError(fmt::format("fit: {}: neither rig.toml nor calibration.yaml has a grid", a.session));
+    rig.grid = *cal.grid;
+  }
+  const config::FittingOptions options = fitting_options(rig, a);
+  fit::Fitter fitter(rig.grid, options, rig.trigger.rate_hz);
+
+  record::Reader reader = record::Reader::open(in);
+  const nlohmann::json meta = {
+      {"refit_of", fs::absolute(in).string()},
+      {"fitting",
+       {{"samples", options.samples},
+        {"steps", options.steps},
+        {"span_deg", options.span_deg},
+        {"k", options.k},
+        {"straight_deg", options.straight_deg},
+        {"smoothing", options.smoothing == config::Smoothing::OneEuro ? "one-euro" : "none"},
+        {"init_frames", options.init_frames}}}};
+  record::Recorder out =
+      record::Recorder::create(a.out, in / "rig.toml", in / "calibration.yaml", meta.dump());
+
+  pipeline::Frame frame;  // the frame being gathered (its FRAME record came, its features may follow)
+  bool pending = false;
+  uint64_t frames = 0, posed = 0, init = 0, old_poses = 0;
+  uint64_t fit_ns = 0;
+  record::PoseRecord pose_rec;
+  auto flush = [&] {
+    if (!pending) return;
+    const uint64_t t0 = vc::monotonic_ns();
+    const pipeline::Pose pose = fitter.fit(frame);
+    fit_ns += vc::monotonic_ns() - t0;
+    record::to_record(frame.seq, pose, frames == 0, &pose_rec);
+    out.append(pose_rec);
+    ++frames;
+    posed += pose.valid() ? 1 : 0;
+    init += (!pose.valid() && posed == 0) ? 1 : 0;
+    pending = false;
+  };
+  record::Record r;
+  while (reader.next(r)) {
+    if (const auto* f = std::get_if<record::FrameRecord>(&r)) {
+      flush();
+      frame = pipeline::Frame{};
+      frame.seq = f->seq;
+      frame.t_trigger_ns = f->t_trigger_ns;
+      frame.t_merged_ns = f->t_merged_ns;
+      frame.grid_id = f->grid_id;
+      frame.voxel_count = f->voxel_count;
+      frame.occupied = f->occupied;
+      frame.degraded = f->degraded;
+      frame.present = f->nodes_present;
+      frame.missing = f->nodes_missing;
+      frame.rle = f->rle;
+      frame.merged = !f->rle.empty();
+      pending = true;
+      out.append(*f);
+    } else if (const auto* f3 = std::get_if<record::Features3DRecord>(&r)) {
+      if (pending && f3->seq == frame.seq) {
+        frame.triangulated = true;
+        frame.features3d.clear();
+        for (const auto& p : f3->features) {
+          pipeline::Feature3D q;
+          q.feature_id = p.id;
+          q.state = p.state < pipeline::kFeature3DStateCount ? static_cast<pipeline::Feature3DState>(p.state)
+                                                             : pipeline::Feature3DState::Inconsistent;
+          q.p_world = {p.x, p.y, p.z};
+          q.confidence = p.confidence;
+          q.reproj_px = p.reproj_px;
+          q.views = p.views;
+          frame.features3d.push_back(std::move(q));
+        }
+      }
+      out.append(*f3);
+    } else if (std::holds_alternative<record::PoseRecord>(r)) {
+      ++old_poses;  // replaced by the new pose stream
+    } else {
+      std::visit([&](const auto& x) { out.append(x); }, r);
+    }
+  }
+  flush();
+  out.close();
+  const record::Reader::Summary& s = reader.summary_ref();
+  if (!s.closed_cleanly)
+    fmt::print(stderr, "voxcap fit: {}: the session is {} ({}); fitted up to its last complete record\n",
+               a.session, to_string(s.stop), s.stop_detail);
+  fmt::print(
+      "{} frames re-fitted ({} initialization, {} with a pose; {} old poses replaced), {:.3f} ms a frame, "
+      "session {}\n",
+      frames, init, posed, old_poses, frames ? double(fit_ns) / double(frames) * 1e-6 : 0.0, a.out);
+}
+
+}  // namespace
+
+void add_fit_commands(CLI::App& app) {
+  auto a = std::make_shared<FitArgs>();
+  CLI::App* cmd =
+      app.add_subcommand("fit",
+                         "Re-fit a recorded session offline with other [fitting] parameters (host/fit) and "
+                         "write a new session to "
+                         "--out: the same frames, features and stats with a new pose stream (voxcap export "
+                         "reads it). Options not "
+                         "given keep the session's rig.toml [fitting] values (host/config/README.md)");
+  cmd->add_option("SESSION", a->session, "Session folder with merged hulls and 3D features")->required();
+  cmd->add_option("--out", a->out, "The new session folder (must not exist or be empty)")->required();
+  cmd->add_option("--samples", a->samples, "Cylinder samples per limb");
+  cmd->add_option("--steps", a->steps, "The method's nu: angles tried per layer-2 search");
+  cmd->add_option("--span-deg", a->span_deg, "The method's s: the search covers rho(t-1) +- s degrees");
+  cmd->add_option("--k", a->k, "The match score is n^k");
+  cmd->add_option("--straight-deg", a->straight_deg, "A limb bent less than this keeps rho(t-1)");
+  cmd->add_option("--smoothing", a->smoothing, "Output smoothing: none or one-euro");
+  cmd->add_option("--one-euro-min-cutoff", a->min_cutoff, "One-Euro filter minimum cutoff, Hz");
+  cmd->add_option("--one-euro-beta", a->beta, "One-Euro filter speed coefficient");
+  cmd->add_option("--body", a->body, "A body.toml overriding the automatic body model");
+  cmd->add_option("--init-frames", a->init_frames, "Initialization frames averaged for the body model");
+  cmd->add_option("--reinit-after", a->reinit_after, "Frames the fit must fail in a row to re-initialize");
+  cmd->add_option("--predict-frames", a->predict_frames,
+                  "A lost feature is predicted for at most this many frames");
+  cmd->callback([a] { run_fit(*a); });
+}
+
+}  // namespace vc::cli
