@@ -71,6 +71,19 @@ bool Options::valid(std::string* why) const {
   return true;
 }
 
+sim::SceneOptions truth_scene_options(const Options& o, const rig::Calibration& cal) {
+  sim::SceneOptions so;
+  so.motion.source = o.motion;
+  so.motion.fps = o.rate_hz;
+  so.motion.bvh_scale = o.bvh_scale;
+  so.seed = o.seed;
+  so.noise_sigma = o.noise;
+  so.appearance = o.appearance;
+  so.room = o.room;
+  so.calibration = cal;
+  return so;
+}
+
 static long status_kb(const char* key) {
   std::ifstream f("/proc/self/status");
   std::string line;
@@ -157,16 +170,7 @@ class TruthScorer : public pipeline::Stage {
   TruthScorer(const Options& opt, const rig::Calibration& cal, const rig::VoxelGrid& grid,
               const std::string& spec_cal)
       : opt_(opt), grid_(grid) {
-    sim::SceneOptions so;
-    so.motion.source = opt.motion;
-    so.motion.fps = opt.rate_hz;
-    so.motion.bvh_scale = opt.bvh_scale;
-    so.seed = opt.seed;
-    so.noise_sigma = opt.noise;
-    so.appearance = opt.appearance;
-    so.room = opt.room;
-    so.calibration = rig::read_calibration(spec_cal);
-    scene_ = std::make_unique<sim::Scene>(so);
+    scene_ = std::make_unique<sim::Scene>(truth_scene_options(opt, rig::read_calibration(spec_cal)));
     const vc_voxel_grid g = rig::to_c_grid(grid);
     const vc_carve_rule rule = carve_rule(opt.carve);
     reference_carve_ = opt.carve;
@@ -759,14 +763,9 @@ void EmulatedRig::start(double timeout_s) {
         std::make_unique<FeatureScorer>(o, cal_path.string(), rig.triangulation.confident),
         FeatureScorer::queue());
   if (o.score_poses) {
-    sim::SceneOptions so;
-    so.motion.source = o.motion;
-    so.motion.fps = o.rate_hz;
-    so.motion.bvh_scale = o.bvh_scale;
-    so.seed = o.seed;
-    so.calibration = cal;
     m.pose_scorer = &m.agg->pipeline().tap(
-        std::make_unique<PoseScorer>(std::make_unique<sim::Scene>(so), grid, o.keep_poses),
+        std::make_unique<PoseScorer>(std::make_unique<sim::Scene>(truth_scene_options(o, cal)), grid,
+                                     o.keep_poses),
         PoseScorer::kQueue);
   }
   if (o.stages) o.stages(m.agg->pipeline());

@@ -55,15 +55,7 @@ double Histogram::quantile(double q) const {
 
 FeatureScorer::FeatureScorer(const Options& opt, const std::string& calibration, double confident)
     : cameras_(2 * opt.nodes), confident_(confident) {
-  sim::SceneOptions so;
-  so.motion.source = opt.motion;
-  so.motion.fps = opt.rate_hz;
-  so.seed = opt.seed;
-  so.noise_sigma = opt.noise;
-  so.appearance = opt.appearance;
-  so.room = opt.room;
-  so.calibration = rig::read_calibration(calibration);
-  scene_ = std::make_unique<sim::Scene>(so);
+  scene_ = std::make_unique<sim::Scene>(truth_scene_options(opt, rig::read_calibration(calibration)));
   views_.resize(static_cast<size_t>(cameras_));
   truth_.resize(static_cast<size_t>(cameras_));
 }

@@ -27,6 +27,7 @@
 #include "voxcap/aggregator/aggregator.hpp"
 #include "voxcap/emulated/pose_scorer.hpp"
 #include "voxcap/sim/body.hpp"
+#include "voxcap/sim/scene.hpp"
 
 namespace vc::emulated {
 
@@ -182,6 +183,10 @@ class EmulatedRig {
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+// The virtual rig as the edges render it (motion, rate, BVH scale, seed, noise, appearance, room) on
+// the calibration `cal`: the one truth every scorer of the emulated rig compares with.
+sim::SceneOptions truth_scene_options(const Options& o, const rig::Calibration& cal);
 
 // Peak resident set of this process so far, and now (kB), from /proc/self/status.
 long rss_kb();
