@@ -132,6 +132,7 @@ std::vector<PosedFrame> sim_frames(const std::string& motion, int first, int cou
   for (int f = first; f < first + count; ++f) {
     const auto j = scene.joints(f);
     std::vector<glm::dvec3> p;
+    p.reserve(j.size());
     for (const cv::Vec3d& v : j) p.emplace_back(v[0], v[1], v[2]);
     frames.push_back({f, pose_of(p)});
   }

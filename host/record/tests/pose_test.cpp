@@ -97,7 +97,7 @@ TEST(RecordPose, RefusesRecordsThatAreNotTheLayout) {
   std::string why;
   ASSERT_TRUE(from_record(good, &out, &why)) << why;
 
-  auto refused = [&](PoseRecord r, const char* words) {
+  auto refused = [&](const PoseRecord& r, const char* words) {
     std::string w;
     EXPECT_FALSE(from_record(r, &out, &w)) << words;
     EXPECT_NE(w.find(words), std::string::npos) << w;
