@@ -50,6 +50,7 @@ vc_config make_config_message(const config::RigConfig& rig, const config::NodeCo
 void Latency::add(uint64_t v) {
   n++;
   sum += double(v);
+  max = std::max(max, v);
   if (samples.size() < kReservoir) {
     samples.reserve(kReservoir);  // allocated once, at the first sample
     samples.push_back(v);

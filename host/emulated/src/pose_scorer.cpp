@@ -27,20 +27,10 @@ const std::array<int, kJ>& standard_of() {
   return m;
 }
 
-double percentile(std::vector<double> v, double q) {
-  if (v.empty()) return 0;
-  const auto k =
-      static_cast<size_t>(std::min<double>(double(v.size() - 1), std::floor(q * double(v.size()))));
-  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
-  return v[k];
-}
-
 }  // namespace
 
 PoseScorer::PoseScorer(std::unique_ptr<sim::Scene> scene, const rig::VoxelGrid& grid, bool keep_poses)
-    : scene_(std::move(scene)), grid_(grid), keep_poses_(keep_poses) {
-  latency_ms_.reserve(1 << 16);
-}
+    : scene_(std::move(scene)), grid_(grid), keep_poses_(keep_poses) {}
 
 PoseScorer::~PoseScorer() = default;
 
@@ -107,7 +97,7 @@ void PoseScorer::process(pipeline::Frame& f) {
   acc_.predicted_frames += pose.state == pipeline::PoseState::Predicted ? 1 : 0;
   acc_.reinitialized_frames += pose.state == pipeline::PoseState::Reinitialized ? 1 : 0;
   if (pose.t_fitted_ns >= f.t_trigger_ns && f.t_trigger_ns > 0)
-    latency_ms_.push_back(double(pose.t_fitted_ns - f.t_trigger_ns) * 1e-6);
+    latency_.add(pose.t_fitted_ns - f.t_trigger_ns);
   if (t_first_ns_ == 0) t_first_ns_ = pose.t_fitted_ns;
   t_last_ns_ = pose.t_fitted_ns;
 
@@ -162,9 +152,9 @@ PoseAccuracy PoseScorer::accuracy() const {
   }
   if (acc_.fitted_frames > 1 && t_last_ns_ > t_first_ns_)
     a.fps = double(acc_.fitted_frames - 1) / (double(t_last_ns_ - t_first_ns_) * 1e-9);
-  a.latency_p50_ms = percentile(latency_ms_, 0.50);
-  a.latency_p99_ms = percentile(latency_ms_, 0.99);
-  a.latency_max_ms = latency_ms_.empty() ? 0 : *std::max_element(latency_ms_.begin(), latency_ms_.end());
+  a.latency_p50_ms = latency_.percentile_ms(0.50);
+  a.latency_p99_ms = latency_.percentile_ms(0.99);
+  a.latency_max_ms = latency_.max_ms();
   return a;
 }
 

@@ -62,10 +62,12 @@ struct Latency {                              // nanoseconds
   static constexpr size_t kReservoir = 4096;  // p99 rests on ~40 values above it
   uint64_t n = 0;
   double sum = 0;
+  uint64_t max = 0;
   std::vector<uint64_t> samples;  // a uniform sample of all values (reservoir), for percentiles
   uint64_t rng = 0x9E3779B97F4A7C15ull;
   void add(uint64_t v);
   double mean_ms() const { return n ? sum / double(n) / 1e6 : 0; }
+  double max_ms() const { return double(max) / 1e6; }
   double percentile_ms(double p) const;
 };
 

@@ -25,6 +25,7 @@
 #include <string>
 #include <vector>
 
+#include "voxcap/aggregator/aggregator.hpp"
 #include "voxcap/export/take.hpp"
 #include "voxcap/pipeline/frame.hpp"
 #include "voxcap/pipeline/pipeline.hpp"
@@ -82,7 +83,7 @@ class PoseScorer : public pipeline::Stage {
   bool seen_pose_ = false;
   double sum_mpjpe_ = 0, sum_pa_ = 0;
   std::array<double, pipeline::kPoseJointCount> sum_joint_{};
-  std::vector<double> latency_ms_;
+  aggregator::Latency latency_;  // trigger -> pose: bounded reservoir, as the host's own latency figures
   uint64_t t_first_ns_ = 0, t_last_ns_ = 0;
 };
 
