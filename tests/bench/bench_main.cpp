@@ -305,6 +305,16 @@ void add_silhouettes_command(CLI::App& app) {
   sil->add_option("--shadow-texture-k", opt->shadow_texture_k,
                   "The texture test's k (noise sigmas; 0 = off; default that of voxcap/subtraction.h)")
       ->check(CLI::Range(0.0, VC_SUBTRACT_SHADOW_TEXTURE_K_MAX));
+  sil->add_option("--nodes", opt->nodes,
+                  "Score a rig of N nodes (2 cameras each, all of them): each node's hull carved from its "
+                  "masks, merged, against the true occupancy (0 = masks only)")
+      ->check(CLI::Range(0, 32))
+      ->capture_default_str();
+  sil->add_option("--grid", opt->grid, "With --nodes: voxels per axis of the emulated rig's volume")
+      ->check(CLI::Range(8, 512))
+      ->capture_default_str();
+  sil->add_option("--carve", opt->carve, "With --nodes: the edges' carve rule (centre, footprint, subpixel)")
+      ->capture_default_str();
   sil->add_flag("--json", *json, "Print JSON instead of a table");
   sil->callback([=] {
     vc::bench::SilhouetteBenchOptions o = *opt;

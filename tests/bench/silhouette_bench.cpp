@@ -16,7 +16,9 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "voxcap/edge/bgmodel.h"
+#include "voxcap/edge/carver.h"
 #include "voxcap/edge/cleanup.h"
+#include "voxcap/rig/c_models.hpp"
 #include "voxcap/sim/scene.hpp"
 #include "voxcap/subtraction.h"
 
@@ -139,6 +141,121 @@ struct ModelDeleter {
   void operator()(vc_bgmodel* m) const { vc_bgmodel_free(m); }
 };
 
+// "centre", "footprint", "subpixel" -> the rule; -1 for another name.
+int carve_rule(const std::string& name) {
+  if (name == "centre") return VC_CARVE_CENTRE;
+  if (name == "footprint") return VC_CARVE_FOOTPRINT;
+  if (name == "subpixel") return VC_CARVE_SUBPIXEL;
+  return -1;
+}
+
+// The merged hull of a rig of nodes (cameras 2k and 2k + 1 on node k) from the edges' masks, against
+// hw/sim's true occupancy: the grid is the emulated rig's (grid^3 over [-1.12, 1.12]^2 x [0, 2.24] m),
+// each node carves with the edge's carver and the hulls are ANDed (the host's merge, on bitsets).
+class HullScorer {
+ public:
+  HullScorer(const vc::sim::Scene& scene, const SilhouetteBenchOptions& opt) : scene_(scene), opt_(opt) {
+    grid_.min_m = cv::Vec3d(-1.12, -1.12, 0.0);
+    grid_.voxel_m = 2.24 / opt.grid;
+    grid_.nx = grid_.ny = grid_.nz = opt.grid;
+    const vc_voxel_grid g = vc::rig::to_c_grid(grid_);
+    const auto& cal = scene.calibration();
+    for (int k = 0; k < opt.nodes; k++) {
+      const vc_camera a = vc::rig::to_c_camera(cal.cameras[2 * static_cast<size_t>(k)]);
+      const vc_camera b = vc::rig::to_c_camera(cal.cameras[2 * static_cast<size_t>(k) + 1]);
+      vc_carver* c = nullptr;
+      char why[200];
+      if (vc_carver_new(&g, &a, &b, static_cast<vc_carve_rule>(carve_rule(opt.carve)), &c, why, sizeof why) <
+          0)
+        throw std::runtime_error(std::string("cannot build a carver for the rig: ") + why);
+      carvers_.emplace_back(c);
+    }
+    const size_t bytes = vc_carver_bitset_bytes(carvers_.front().get());
+    merged_.resize(bytes);
+    part_.resize(bytes);
+  }
+
+  // masks: the cleaned mask of every camera of the rig, in rig order.
+  void score(int frame, const std::vector<const uint8_t*>& masks) {
+    std::fill(merged_.begin(), merged_.end(), 0xFF);
+    for (size_t k = 0; k < carvers_.size(); k++) {
+      if (vc_carver_run(carvers_[k].get(), masks[2 * k], masks[2 * k + 1], part_.data(), nullptr) != 0)
+        throw std::runtime_error("vc_carver_run failed");
+      for (size_t i = 0; i < merged_.size(); i++) merged_[i] &= part_[i];
+    }
+    scene_.occupancy_parts(grid_, frame, &label_);
+    const int n[3] = {grid_.nx, grid_.ny, grid_.nz};
+    auto in_hull = [&](size_t v) { return ((merged_[v / 8] >> (v % 8)) & 1u) != 0; };
+    auto body = [&](int i, int j, int k) {
+      return i >= 0 && j >= 0 && k >= 0 && i < n[0] && j < n[1] && k < n[2] &&
+             label_[grid_.index(i, j, k)] != vc::sim::Scene::kNoPart;
+    };
+    uint64_t hull_n = 0, near = 0;
+    for (int k = 0; k < n[2]; k++)
+      for (int j = 0; j < n[1]; j++)
+        for (int i = 0; i < n[0]; i++) {
+          const size_t v = grid_.index(i, j, k);
+          const uint8_t lab = label_[v];
+          if (lab != vc::sim::Scene::kNoPart) {
+            const size_t g = group_of(static_cast<Part>(lab));
+            part_n_[g]++;
+            part_in_[g] += in_hull(v);
+          }
+          if (!in_hull(v)) continue;
+          hull_n++;
+          bool close = false;  // a body voxel in the 3x3x3 neighbourhood
+          for (int dk = -1; dk <= 1 && !close; dk++)
+            for (int dj = -1; dj <= 1 && !close; dj++)
+              for (int di = -1; di <= 1 && !close; di++) close = body(i + di, j + dj, k + dk);
+          near += close;
+        }
+    hull_voxels_ += hull_n;
+    hull_near_ += near;
+    frames_++;
+  }
+
+  nlohmann::json json() const {
+    nlohmann::json j;
+    j["nodes"] = opt_.nodes;
+    j["grid"] = opt_.grid;
+    j["carve"] = opt_.carve;
+    j["frames"] = frames_;
+    uint64_t all = 0, in = 0;
+    nlohmann::json parts = nlohmann::json::object();
+    double worst_hf = 2.0;
+    std::string worst_name;
+    for (size_t g = 0; g < kGroups.size(); g++) {
+      all += part_n_[g];
+      in += part_in_[g];
+      parts[std::string(kGroups[g])] = {{"voxels", part_n_[g]}, {"recall", ratio(part_in_[g], part_n_[g])}};
+      if (hand_or_foot(g) && part_n_[g] > 0) {
+        const double r = static_cast<double>(part_in_[g]) / static_cast<double>(part_n_[g]);
+        if (r < worst_hf) worst_hf = r, worst_name = kGroups[g];
+      }
+    }
+    j["body_voxels"] = all;
+    j["recall"] = ratio(in, all);
+    j["parts"] = parts;
+    j["worst_hand_foot"] = worst_name.empty() ? nlohmann::json(nullptr) : nlohmann::json(worst_name);
+    j["worst_hand_foot_recall"] = worst_name.empty() ? nlohmann::json(nullptr) : nlohmann::json(worst_hf);
+    j["hull_voxels"] = hull_voxels_;
+    j["precision"] = ratio(hull_near_, hull_voxels_);
+    return j;
+  }
+
+ private:
+  struct CarverDeleter {
+    void operator()(vc_carver* c) const { vc_carver_free(c); }
+  };
+  const vc::sim::Scene& scene_;
+  const SilhouetteBenchOptions& opt_;
+  vc::rig::VoxelGrid grid_;
+  std::vector<std::unique_ptr<vc_carver, CarverDeleter>> carvers_;
+  std::vector<uint8_t> merged_, part_, label_;
+  std::array<uint64_t, vc::sim::kPartGroups> part_n_{}, part_in_{};
+  uint64_t hull_voxels_ = 0, hull_near_ = 0, frames_ = 0;
+};
+
 }  // namespace
 
 bool SilhouetteBenchOptions::valid(std::string* why) const {
@@ -150,14 +267,20 @@ bool SilhouetteBenchOptions::valid(std::string* why) const {
   if (every < 1 || every > 10000) return fail(fmt::format("--every: 1..10000, not {}", every));
   if (rig_cameras < 1 || rig_cameras > 64)
     return fail(fmt::format("--rig-cameras: 1..64, not {}", rig_cameras));
+  if (nodes < 0 || nodes > 32) return fail(fmt::format("--nodes: 0..32, not {}", nodes));
+  if (nodes > 0 && !cameras.empty()) return fail("--nodes: every camera of the rig is used; no --cameras");
+  const int ncam = nodes > 0 ? 2 * nodes : rig_cameras;
   for (int c : cameras)
-    if (c < 0 || c >= rig_cameras)
-      return fail(fmt::format("--cameras: {} is not a camera of a {}-camera rig", c, rig_cameras));
+    if (c < 0 || c >= ncam)
+      return fail(fmt::format("--cameras: {} is not a camera of a {}-camera rig", c, ncam));
   if (width < 16 || height < 16 || width > 4096 || height > 4096)
     return fail(fmt::format("--size: 16..4096 each, not {}x{}", width, height));
   if (bg_frames < VC_BACKGROUND_FRAMES_MIN || bg_frames > VC_BACKGROUND_FRAMES_MAX)
     return fail(fmt::format("--bg-frames: {}..{}, not {}", VC_BACKGROUND_FRAMES_MIN, VC_BACKGROUND_FRAMES_MAX,
                             bg_frames));
+  if (grid < 8 || grid > 512) return fail(fmt::format("--grid: 8..512, not {}", grid));
+  if (carve_rule(carve) < 0)
+    return fail(fmt::format("--carve: centre, footprint or subpixel, not '{}'", carve));
   return true;
 }
 
@@ -168,7 +291,7 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
   so.motion.source = opt.motion;
   so.appearance = opt.appearance;
   so.room = opt.room;
-  so.rig.cameras = opt.rig_cameras;
+  so.rig.cameras = opt.nodes > 0 ? 2 * opt.nodes : opt.rig_cameras;
   so.rig.width = opt.width;
   so.rig.height = opt.height;
   const vc::sim::Scene scene(so);  // the emulated rig's noise (sigma 2) and shadows (factor 0.6)
@@ -186,44 +309,61 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
   char bad[160];
   if (vc_subtract_params_check(&params, bad, sizeof bad) != 0) throw std::invalid_argument(bad);
 
-  nlohmann::json per_camera = nlohmann::json::array();
-  Counts all;
-  for (int cam : cams) {
-    const auto& c = scene.calibration().cameras[static_cast<size_t>(cam)];
+  // One background model, mask and score per camera; the frames outer, so a frame's masks are at
+  // hand together for the hull.
+  struct Camera {
+    int index = 0, width = 0, height = 0;
+    std::unique_ptr<vc_bgmodel, ModelDeleter> model;
+    std::vector<uint8_t> mask;
+    Counts counts;
+    double worst = 2.0;
+    cv::Mat worst_png;
+    int worst_frame = -1;
+  };
+  std::vector<Camera> cam_state(cams.size());
+  cv::Mat rgb, sil, shadow;
+  size_t scratch_bytes = 0;
+  for (size_t ci = 0; ci < cams.size(); ci++) {
+    Camera& s = cam_state[ci];
+    const auto& c = scene.calibration().cameras[static_cast<size_t>(cams[ci])];
+    s.index = cams[ci];
+    s.width = c.width;
+    s.height = c.height;
     vc_bgmodel* made = nullptr;
     char reason[160];
     if (vc_bgmodel_new(c.width, c.height, &made, reason, sizeof reason) != 0)
       throw std::runtime_error(reason);
-    std::unique_ptr<vc_bgmodel, ModelDeleter> m(made);
-    cv::Mat rgb, sil, shadow;
+    s.model.reset(made);
     for (int i = 0; i < opt.bg_frames; i++) {
-      scene.render_background(cam, i, rgb);
-      if (vc_bgmodel_learn(m.get(), rgb.data, rgb.step) != 0)
+      scene.render_background(s.index, i, rgb);
+      if (vc_bgmodel_learn(s.model.get(), rgb.data, rgb.step) != 0)
         throw std::runtime_error("vc_bgmodel_learn failed");
     }
-    if (vc_bgmodel_finish(m.get()) != 0 || vc_bgmodel_set_params(m.get(), &params) != 0)
+    if (vc_bgmodel_finish(s.model.get()) != 0 || vc_bgmodel_set_params(s.model.get(), &params) != 0)
       throw std::runtime_error("background model: finish/set_params failed");
-    const size_t n = static_cast<size_t>(c.width) * c.height;
-    std::vector<uint8_t> mask(n), scratch(vc_cleanup_radius_scratch_size(c.width, VC_CLEANUP_RADIUS_PX));
-    std::vector<uint8_t> label;
-    Counts cc;
-    double worst = 2.0;
-    cv::Mat worst_png;
-    int worst_frame = -1;
-    for (int f : frames) {
-      scene.render(f, cam, rgb, &sil, &shadow);
+    s.mask.resize(static_cast<size_t>(c.width) * c.height);
+    scratch_bytes = std::max(scratch_bytes, vc_cleanup_radius_scratch_size(c.width, VC_CLEANUP_RADIUS_PX));
+  }
+  std::vector<uint8_t> scratch(scratch_bytes), label;
+  std::unique_ptr<HullScorer> hull;
+  if (opt.nodes > 0) hull = std::make_unique<HullScorer>(scene, opt);
+
+  for (int f : frames) {
+    for (Camera& s : cam_state) {
+      scene.render(f, s.index, rgb, &sil, &shadow);
       vc_subtract_stats st{};
-      if (vc_subtract(m.get(), rgb.data, rgb.step, mask.data(), &st) != 0 ||
-          vc_cleanup_radius(mask.data(), c.width, c.height, VC_CLEANUP_RADIUS_PX, scratch.data(),
+      if (vc_subtract(s.model.get(), rgb.data, rgb.step, s.mask.data(), &st) != 0 ||
+          vc_cleanup_radius(s.mask.data(), s.width, s.height, VC_CLEANUP_RADIUS_PX, scratch.data(),
                             scratch.size()) != 0)
         throw std::runtime_error("vc_subtract/vc_cleanup_radius failed");
-      label_parts(scene, f, cam, sil, &label);
+      label_parts(scene, f, s.index, sil, &label);
       Counts fc;
+      const size_t n = s.mask.size();
       fc.pixels = n;
       fc.band = st.band;
       fc.called_shadow = st.shadow;
       for (size_t i = 0; i < n; i++) {
-        const bool t = sil.data[i] != 0, e = mask[i] != 0;
+        const bool t = sil.data[i] != 0, e = s.mask[i] != 0;
         fc.mask += e;
         if (t) {
           fc.body++;
@@ -238,23 +378,34 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
         }
       }
       const double recall = fc.body ? static_cast<double>(fc.body_kept) / fc.body : 1.0;
-      if (!opt.png_dir.empty() && recall < worst) {
-        worst = recall;
-        worst_frame = f;
-        worst_png = overlay(rgb, sil, shadow, mask);
+      if (!opt.png_dir.empty() && recall < s.worst) {
+        s.worst = recall;
+        s.worst_frame = f;
+        s.worst_png = overlay(rgb, sil, shadow, s.mask);
       }
-      cc.add(fc);
+      s.counts.add(fc);
     }
-    nlohmann::json j = to_json(cc);
-    j["camera"] = cam;
-    if (worst_frame >= 0) {
+    if (hull) {
+      std::vector<const uint8_t*> masks;
+      masks.reserve(cam_state.size());
+      for (const Camera& s : cam_state) masks.push_back(s.mask.data());
+      hull->score(f, masks);
+    }
+  }
+
+  nlohmann::json per_camera = nlohmann::json::array();
+  Counts all;
+  for (Camera& s : cam_state) {
+    nlohmann::json j = to_json(s.counts);
+    j["camera"] = s.index;
+    if (s.worst_frame >= 0) {
       const std::string path = fmt::format("{}/{}-{}-{}-cam{}-f{}.png", opt.png_dir, opt.motion,
-                                           opt.appearance, opt.room, cam, worst_frame);
-      cv::imwrite(path, worst_png);
+                                           opt.appearance, opt.room, s.index, s.worst_frame);
+      cv::imwrite(path, s.worst_png);
       j["png"] = path;
     }
     per_camera.push_back(std::move(j));
-    all.add(cc);
+    all.add(s.counts);
   }
   nlohmann::json out;
   out["motion"] = opt.motion;
@@ -269,6 +420,7 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
   out["shadow_texture_k"] = params.shadow_texture_k;
   out["cameras"] = per_camera;
   out["overall"] = to_json(all);
+  if (hull) out["hull"] = hull->json();
   out["source"] = "edge masks (vc_subtract + vc_cleanup_radius) vs hw/sim truth";
   return out;
 }
@@ -295,6 +447,18 @@ void print_silhouette_table(const nlohmann::json& j) {
   row("all", j["overall"]);
   fmt::print("parts (all cameras):");
   for (const auto& [name, v] : j["overall"]["parts"].items()) fmt::print(" {} {}", name, pct(v["recall"]));
+  fmt::print("\n");
+  if (!j.contains("hull")) return;
+  const auto& h = j["hull"];
+  fmt::print(
+      "merged hull ({} nodes, {}^3, {} carve, {} frames, edge masks vs true occupancy, %): recall {}, "
+      "precision {}, worst hand/foot {} {}\n",
+      h["nodes"].get<int>(), h["grid"].get<int>(), h["carve"].get<std::string>(), h["frames"].get<int>(),
+      pct(h["recall"]), pct(h["precision"]),
+      h["worst_hand_foot"].is_null() ? std::string("-") : h["worst_hand_foot"].get<std::string>(),
+      pct(h["worst_hand_foot_recall"]));
+  fmt::print("hull parts:");
+  for (const auto& [name, v] : h["parts"].items()) fmt::print(" {} {}", name, pct(v["recall"]));
   fmt::print("\n");
 }
 
