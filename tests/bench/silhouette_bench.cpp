@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <limits>
@@ -46,7 +47,8 @@ struct Counts {
   uint64_t mask = 0;                 // mask pixels (foreground after clean-up)
   uint64_t shadow = 0, shadow_kept = 0;
   uint64_t pixels = 0, band = 0, called_shadow = 0;
-  std::array<uint64_t, vc::sim::kPartGroups> part{}, part_kept{};
+  uint64_t body_noise = 0;  // body pixels within the background's noise in every channel
+  std::array<uint64_t, vc::sim::kPartGroups> part{}, part_kept{}, part_noise{};
 
   void add(const Counts& o) {
     body += o.body;
@@ -57,9 +59,11 @@ struct Counts {
     pixels += o.pixels;
     band += o.band;
     called_shadow += o.called_shadow;
+    body_noise += o.body_noise;
     for (size_t g = 0; g < part.size(); g++) {
       part[g] += o.part[g];
       part_kept[g] += o.part_kept[g];
+      part_noise[g] += o.part_noise[g];
     }
   }
 };
@@ -77,10 +81,13 @@ nlohmann::json to_json(const Counts& c) {
   j["shadow_kept"] = ratio(c.shadow_kept, c.shadow);
   j["band_share"] = ratio(c.band, c.pixels);
   j["shadow_share"] = ratio(c.called_shadow, c.pixels);
+  j["within_noise"] = ratio(c.body_noise, c.body);
   uint64_t hf = 0, hf_kept = 0;
   nlohmann::json parts = nlohmann::json::object();
   for (size_t g = 0; g < kGroups.size(); g++) {
-    parts[std::string(kGroups[g])] = {{"pixels", c.part[g]}, {"recall", ratio(c.part_kept[g], c.part[g])}};
+    parts[std::string(kGroups[g])] = {{"pixels", c.part[g]},
+                                      {"recall", ratio(c.part_kept[g], c.part[g])},
+                                      {"within_noise", ratio(c.part_noise[g], c.part[g])}};
     if (hand_or_foot(g)) {
       hf += c.part[g];
       hf_kept += c.part_kept[g];
@@ -117,6 +124,18 @@ void label_parts(const vc::sim::Scene& scene, int frame, int cam, const cv::Mat&
       }
       (*out)[static_cast<size_t>(y) * sil.cols + x] = label;
     }
+}
+
+// Whether pixel p is within the background's noise in every channel: |p - mu| <= ceil(T_l sigma) - 1
+// (sigma floored), eq. 1's background as vc_bgmodel_set_params computes it. No subtraction of this
+// model can keep such a body pixel (the clean-up may fill it in).
+bool within_noise(const uint8_t* p, const uint8_t* mu, const uint16_t* sigma_q8,
+                  const vc_subtract_params& params) {
+  for (int c = 0; c < 3; c++) {
+    const double tl = std::ceil(params.t_lower * std::max(sigma_q8[c] / 256.0, params.sigma_floor)) - 1.0;
+    if (std::abs(static_cast<double>(p[c]) - mu[c]) > tl) return false;
+  }
+  return true;
 }
 
 // The frame dimmed, body kept green, body missed red, other foreground blue (shadow kept: yellow).
@@ -359,6 +378,9 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
       label_parts(scene, f, s.index, sil, &label);
       Counts fc;
       const size_t n = s.mask.size();
+      if (!rgb.isContinuous()) throw std::runtime_error("hw/sim rendered a non-continuous frame");
+      const uint8_t* mean = vc_bgmodel_mean(s.model.get());
+      const uint16_t* sigma = vc_bgmodel_sigma_q8(s.model.get());
       fc.pixels = n;
       fc.band = st.band;
       fc.called_shadow = st.shadow;
@@ -368,9 +390,12 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
         if (t) {
           fc.body++;
           fc.body_kept += e;
+          const bool noise = within_noise(rgb.data + 3 * i, mean + 3 * i, sigma + 3 * i, params);
+          fc.body_noise += noise;
           if (label[i] != kUnlabelled) {
             fc.part[label[i]]++;
             fc.part_kept[label[i]] += e;
+            fc.part_noise[label[i]] += noise;
           }
         } else if (shadow.data[i] != 0) {
           fc.shadow++;
@@ -448,6 +473,12 @@ void print_silhouette_table(const nlohmann::json& j) {
   fmt::print("parts (all cameras):");
   for (const auto& [name, v] : j["overall"]["parts"].items()) fmt::print(" {} {}", name, pct(v["recall"]));
   fmt::print("\n");
+  fmt::print(
+      "body pixels within the background's noise (no subtraction keeps them): {} (hands {} {}, feet {} {})\n",
+      pct(j["overall"]["within_noise"]), pct(j["overall"]["parts"]["l_hand"]["within_noise"]),
+      pct(j["overall"]["parts"]["r_hand"]["within_noise"]),
+      pct(j["overall"]["parts"]["l_foot"]["within_noise"]),
+      pct(j["overall"]["parts"]["r_foot"]["within_noise"]));
   if (!j.contains("hull")) return;
   const auto& h = j["hull"];
   fmt::print(

@@ -69,7 +69,7 @@ typedef struct vc_subtract_params {
 } vc_subtract_params;
 
 /* Fills the defaults of voxcap/subtraction.h (the ones the host's rig.toml starts from): T_u 60,
- * T_l 3.5, T_angular 8 degrees, alpha in [0.25, 1.0], sigma floor 1.0, texture k 2. */
+ * T_l 3.5, T_angular 8 degrees, alpha in [0.45, 1.0], sigma floor 1.0, texture k 1.5. */
 void vc_subtract_params_default(vc_subtract_params* params);
 
 /* 0 if the parameters are usable, -EINVAL otherwise. The reason, when why is given (NULL/0 when not
