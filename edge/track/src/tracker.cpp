@@ -14,6 +14,49 @@ namespace vc::track {
 
 namespace {
 
+// The distance of every non-zero pixel of `in` to the nearest zero pixel (0 at zero pixels), by the
+// two-pass 3x3 chamfer with OpenCV's DIST_L2 / DIST_MASK_3 weights (1 step 0.955, diagonal 1.3693);
+// pixels beyond the region's edge are not zeros. What cv::distanceTransform gives, without its
+// per-call buffers (a few small regions per frame).
+void chamfer_distance(const cv::Mat1b& in, cv::Mat1f& d) {
+  constexpr float a = 0.955f, b = 1.3693f, far = 1e6f;
+  const int w = in.cols, h = in.rows;
+  for (int y = 0; y < h; ++y) {
+    const std::uint8_t* src = in[y];
+    float* row = d[y];
+    const float* up = y > 0 ? d[y - 1] : nullptr;
+    for (int x = 0; x < w; ++x) {
+      if (!src[x]) {
+        row[x] = 0;
+        continue;
+      }
+      float v = far;
+      if (x > 0) v = std::min(v, row[x - 1] + a);
+      if (up) {
+        v = std::min(v, up[x] + a);
+        if (x > 0) v = std::min(v, up[x - 1] + b);
+        if (x + 1 < w) v = std::min(v, up[x + 1] + b);
+      }
+      row[x] = v;
+    }
+  }
+  for (int y = h - 1; y >= 0; --y) {
+    float* row = d[y];
+    const float* down = y + 1 < h ? d[y + 1] : nullptr;
+    for (int x = w - 1; x >= 0; --x) {
+      float v = row[x];
+      if (v == 0) continue;
+      if (x + 1 < w) v = std::min(v, row[x + 1] + a);
+      if (down) {
+        v = std::min(v, down[x] + a);
+        if (x + 1 < w) v = std::min(v, down[x + 1] + b);
+        if (x > 0) v = std::min(v, down[x - 1] + b);
+      }
+      row[x] = v;
+    }
+  }
+}
+
 cv::Point2f centre_of(const cv::Rect& r) {
   return {float(r.x) + 0.5f * float(r.width), float(r.y) + 0.5f * float(r.height)};
 }
@@ -372,7 +415,7 @@ bool CameraTracker::estimate_point(int f, const cv::Rect& window, const cv::Rect
 // D is capped at the limb's largest radius for the blob's size (kLimbRadiusPer*): the clothes around
 // (the torso behind a hand, the other trouser leg touching) are wider than the limb.
 // Without a junction (nothing of the limb covered, or the limb hidden behind the blob) the blob's
-// centroid is reported. Cost: a distance transform of a window about twice the blob's size.
+// centroid is reported. Cost: a chamfer distance transform of a window about twice the blob's size.
 cv::Point2f CameraTracker::joint_beyond_blob(const cv::Rect& window, const cv::Rect& inner,
                                              const cv::Mat1b& mask, cv::Point2f c) {
   const int m = std::max(window.width, window.height);
@@ -390,7 +433,7 @@ cv::Point2f CameraTracker::joint_beyond_blob(const cv::Rect& window, const cv::R
       out[x] = mk[x] && pr[x] <= low && pooled_.probability(h[x]) <= thr ? 255 : 0;
   }
   cv::Mat1f dist = dist_(g);
-  cv::distanceTransform(cloth_(g), dist, cv::DIST_L2, cv::DIST_MASK_3);
+  chamfer_distance(cloth_(g), dist);
   // The blob's axes (second moments of its pixels in the window) and the junction.
   const int gx = window.width / 4 + 1, gy = window.height / 4 + 1;
   const cv::Rect w = cv::Rect(window.x - gx, window.y - gy, window.width + 2 * gx, window.height + 2 * gy) &
