@@ -487,17 +487,28 @@ cv::Point2f CameraTracker::joint_beyond_blob(const cv::Rect& window, const cv::R
   cv::Point2f toward = j - c;
   const float tl = float(cv::norm(toward));
   toward = tl > 0.5f ? toward / tl : cv::Point2f(0, 0);
-  auto score = [&](int x, int y, float d) {
-    const cv::Point2f q(float(x) - j.x, float(y) - j.y);
-    const float r = std::hypot(q.x, q.y);
-    if (r > reach || q.dot(toward) < -0.5f * r) return -1.0f;
-    return std::min(d, cap) - kJointSlope * r;
-  };
+  // One pass scores every cloth pixel in place of its clearance (no longer needed), the second takes
+  // the pixels near the best.
+  const float reach2 = reach * reach;
   float best = 0;
   for (int y = g.y; y < g.y + g.height; ++y) {
-    const float* d = dist[y - g.y];
-    for (int x = g.x; x < g.x + g.width; ++x)
-      if (d[x - g.x] > 0) best = std::max(best, score(x, y, d[x - g.x]));
+    float* d = dist[y - g.y];
+    const float qy = float(y) - j.y;
+    for (int x = g.x; x < g.x + g.width; ++x) {
+      float& v = d[x - g.x];
+      if (v <= 0) {  // not cloth
+        v = -1;
+        continue;
+      }
+      const float qx = float(x) - j.x, r2 = qx * qx + qy * qy;
+      if (r2 > reach2) {
+        v = -1;
+        continue;
+      }
+      const float r = std::sqrt(r2);
+      v = qx * toward.x + qy * toward.y < -0.5f * r ? -1.0f : std::min(v, cap) - kJointSlope * r;
+      best = std::max(best, v);
+    }
   }
   if (best <= 0) return j;
   // Sub-pixel: the centroid of the pixels within a pixel of the maximum, weighted by how close.
@@ -505,8 +516,7 @@ cv::Point2f CameraTracker::joint_beyond_blob(const cv::Rect& window, const cv::R
   for (int y = g.y; y < g.y + g.height; ++y) {
     const float* d = dist[y - g.y];
     for (int x = g.x; x < g.x + g.width; ++x) {
-      if (d[x - g.x] <= 0) continue;
-      const float v = score(x, y, d[x - g.x]) - (best - 1.0f);
+      const float v = d[x - g.x] - (best - 1.0f);
       if (v > 0) sx += double(v) * x, sy += double(v) * y, sw += v;
     }
   }

@@ -265,8 +265,9 @@ inline EvalResult evaluate(const EvalOptions& o) {
                           tracked[static_cast<std::size_t>(i)][static_cast<std::size_t>(f)], &p))
         continue;
       const auto limb = limb_of(f);
-      const cv::Vec3d a = j[static_cast<std::size_t>(limb[0])], w = j[static_cast<std::size_t>(limb[1])],
-                      t = j[static_cast<std::size_t>(limb[2])];
+      const cv::Vec3d& a = j[static_cast<std::size_t>(limb[0])];
+      const cv::Vec3d& w = j[static_cast<std::size_t>(limb[1])];
+      const cv::Vec3d& t = j[static_cast<std::size_t>(limb[2])];
       const cv::Vec3d d = p - w;
       LimbBias& b = res.bias3d[static_cast<std::size_t>(f)];
       const double dist = cv::norm(d) * 1000;
