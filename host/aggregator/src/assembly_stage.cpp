@@ -88,6 +88,10 @@ void AssemblyStage::set_running(uint16_t node_id, bool running) {
   inbox_.push_always(Running{node_id, running});
 }
 
+void AssemblyStage::post_pulse(uint64_t seq, uint64_t t_ns) {
+  inbox_.push_always(Pulse{seq, t_ns});
+}
+
 void AssemblyStage::forward(std::vector<assemble::MergedFrame>& frames) {
   for (auto& f : frames) out_.push(std::make_shared<pipeline::Frame>(std::move(f)));
   frames.clear();
@@ -117,6 +121,8 @@ void AssemblyStage::run() {
                                     now, out);
         } else if (auto* r = std::get_if<Running>(&*in)) {
           assembler_.set_running(r->node_id, r->running);
+        } else if (auto* pu = std::get_if<Pulse>(&*in)) {
+          assembler_.pulse(pu->seq, pu->t_ns);
         }
       }
       if (!in || now - last_poll >= poll_ns) {

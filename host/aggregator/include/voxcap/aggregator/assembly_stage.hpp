@@ -49,6 +49,9 @@ class AssemblyStage {
   // Which nodes a frame waits for. Queued in order with the messages (never dropped, never waits):
   // hulls queued before a node started running are assembled as if it was not running yet.
   void set_running(uint16_t node_id, bool running);
+  // The host sent pulse seq at t_ns (the trigger thread): the assembler takes that seq from now on
+  // (assemble::AssemblerOptions::pulsed_only). Queued in order, never dropped, never waits.
+  void post_pulse(uint64_t seq, uint64_t t_ns);
 
   assemble::AssemblerStats stats() const;
   size_t pending() const;
@@ -74,7 +77,10 @@ class AssemblyStage {
     uint16_t node_id;
     bool running;
   };
-  using Input = std::variant<assemble::PartialHull, Features, Stats, Running, SilhouetteIn>;
+  struct Pulse {
+    uint64_t seq, t_ns;
+  };
+  using Input = std::variant<assemble::PartialHull, Features, Stats, Running, SilhouetteIn, Pulse>;
 
   bool post(uint16_t node_id, Input in);
   void run();
