@@ -325,8 +325,8 @@ std::string Aggregator::on_hello(session::ConnId conn, const vc_msg& m, const st
   if (!n->addresses.empty() &&
       std::find(n->addresses.begin(), n->addresses.end(), peer_ip) == n->addresses.end()) {
     n->rep.hellos_refused++;
-    const std::string why = fmt::format("node {} ({}) must connect from {}, not from {}", n->id, n->cfg->id,
-                                        n->cfg->address, peer_ip);
+    std::string why = fmt::format("node {} ({}) must connect from {}, not from {}", n->id, n->cfg->id,
+                                  n->cfg->address, peer_ip);
     log(log::Level::warn, "refused a HELLO: " + why);
     return why;
   }
@@ -336,8 +336,8 @@ std::string Aggregator::on_hello(session::ConnId conn, const vc_msg& m, const st
   // the heartbeat timeout); edges retry with backoff.
   if (n->connected) {
     n->rep.hellos_refused++;
-    const std::string why = fmt::format("node {} ({}) is already connected (connection {} from {})", n->id,
-                                        n->cfg->id, n->conn, n->peer);
+    std::string why = fmt::format("node {} ({}) is already connected (connection {} from {})", n->id,
+                                  n->cfg->id, n->conn, n->peer);
     log(log::Level::warn, fmt::format("refused a HELLO from {}: {}", peer, why));
     return why;
   }
