@@ -38,8 +38,6 @@
 #endif
 #endif
 
-extern char** environ;
-
 namespace vc::emulated {
 namespace {
 
@@ -393,6 +391,7 @@ TEST(Attack, KillNineOfTheHostLeavesNoEdge) {
       "--size",      "160x120",   "--grid",     "48",        "--truth-every",
       "0",           "--seconds", "60",         "--workdir", (dir / "work").string()};
   std::vector<char*> argv;
+  argv.reserve(args.size() + 1);
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
   pid_t host = fork();
