@@ -427,7 +427,7 @@ void Reader::Impl::scan() {
         break;
       }
       off += raw.total;
-      s.closed_cleanly = s.skipped_records == 0;
+      s.closed_cleanly = s.skipped_records == 0 && s.skipped_bytes == 0;
       stop_at(Stop::Closed, "closed cleanly");
       if (s.skipped_records > 0)
         s.stop_detail =

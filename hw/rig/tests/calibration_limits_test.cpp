@@ -20,7 +20,7 @@ namespace fs = std::filesystem;
 using ::testing::HasSubstr;
 
 fs::path temp_dir() {
-  const fs::path dir = fs::path(::testing::TempDir()) / "vc_rig_calibration_limits_test";
+  fs::path dir = fs::path(::testing::TempDir()) / "vc_rig_calibration_limits_test";
   fs::create_directories(dir);
   return dir;
 }
