@@ -3,18 +3,27 @@
 #include <fmt/core.h>
 
 #include <toml++/toml.h>
+#include <cmath>
+#include <limits>
 #include <set>
 
 #include "voxcap/edge/clock.h"
+#include "voxcap/rig/input_file.hpp"
 
 namespace vc::edge {
 namespace {
+
+std::string one_line(std::string m) {
+  for (char& c : m)
+    if (c == '\n' || c == '\r') c = ' ';
+  return m;
+}
 
 struct Reader {
   std::string file;
 
   [[noreturn]] void fail(const std::string& key, const std::string& what) const {
-    throw ConfigError(fmt::format("{}: {}: {}", file, key, what));
+    throw ConfigError(one_line(fmt::format("{}: {}: {}", file, key, what)));  // a quoted key may hold '\n'
   }
 
   void check_keys(const toml::table& t, const std::string& prefix, const std::set<std::string>& known) const {
@@ -36,7 +45,10 @@ struct Reader {
       out = **n->as_boolean();
     } else if constexpr (std::is_integral_v<T>) {
       if (!n->is_integer()) fail(prefix + key, "must be an integer");
-      out = static_cast<T>(**n->as_integer());
+      const int64_t v = **n->as_integer();  // range-checked before the cast: 4294967296 is not node 0
+      if (v < std::numeric_limits<T>::min() || v > std::numeric_limits<T>::max())
+        fail(prefix + key, fmt::format("{} is out of range", v));
+      out = static_cast<T>(v);
     } else {
       if (n->is_integer())
         out = static_cast<T>(**n->as_integer());
@@ -44,6 +56,7 @@ struct Reader {
         out = static_cast<T>(**n->as_floating_point());
       else
         fail(prefix + key, "must be a number");
+      if (!std::isfinite(out)) fail(prefix + key, "must be a finite number");
     }
   }
 
@@ -58,13 +71,23 @@ struct Reader {
 }  // namespace
 
 void load_edge_toml(const std::string& path, EdgeSettings& s) {
+  std::string text;
+  try {
+    text = vc::rig::read_input_file(path, kMaxEdgeTomlBytes);  // a FIFO or a device: refused, not waited on
+  } catch (const std::runtime_error& e) {
+    throw ConfigError(e.what());
+  }
+  parse_edge_toml(text, path, s);
+}
+
+void parse_edge_toml(const std::string& text, const std::string& path, EdgeSettings& s) {
   Reader r{path};
   toml::table root;
   try {
-    root = toml::parse_file(path);
+    root = toml::parse(text, path);
   } catch (const toml::parse_error& e) {
-    throw ConfigError(
-        fmt::format("{}:{}:{}: {}", path, e.source().begin.line, e.source().begin.column, e.description()));
+    throw ConfigError(fmt::format("{}:{}:{}: {}", path, e.source().begin.line, e.source().begin.column,
+                                  one_line(std::string(e.description()))));
   }
   r.check_keys(root, "", {"node_id", "state_dir", "host", "cameras", "trigger", "link", "log"});
   r.get(root, "", "node_id", s.node_id);
@@ -148,6 +171,9 @@ void EdgeSettings::validate() const {
       bad(p + "backend", fmt::format("must be v4l2, libcamera, file or sim, got '{}'", c.backend));
     if (c.backend != "sim" && c.device.empty()) bad(p + "device", "must be set for backend " + c.backend);
     if (c.width < 0 || c.height < 0 || c.width > 16384 || c.height > 16384) bad(p + "width", "out of range");
+    if (c.index < -1 || c.index > 65535) bad(p + "index", "must be in 0..65535 (or absent)");
+    if (c.exposure_us < 0 || c.exposure_us > 10'000'000) bad(p + "exposure_us", "must be in 0..10000000");
+    if (!(c.latency_us >= 0 && c.latency_us <= 1e6)) bad(p + "latency_us", "must be in 0..1000000");
     vc_pixfmt f;
     if (vc_pixfmt_from_name(c.format.c_str(), &f) < 0)
       bad(p + "format", fmt::format("unknown pixel format '{}'", c.format));
@@ -156,6 +182,9 @@ void EdgeSettings::validate() const {
   if (trigger_backend != "udp" && trigger_backend != "gpiod")
     bad("trigger.backend", fmt::format("must be udp or gpiod, got '{}'", trigger_backend));
   if (trigger_port < 0 || trigger_port > 65535) bad("trigger.port", "must be in 0..65535");
+  if (gpio_line < -1 || gpio_line > 65535) bad("trigger.line", "must be in 0..65535");
+  if (gpio_debounce_us < 0 || gpio_debounce_us > 1'000'000)
+    bad("trigger.debounce_us", "must be in 0..1000000");
   if (trigger_backend == "gpiod" && gpio_line < 0 && gpio_line_name.empty())
     bad("trigger.line", "set trigger.line (offset) or trigger.line_name for the gpiod backend");
   if (gpio_bias != "as-is" && gpio_bias != "disabled" && gpio_bias != "pull-up" && gpio_bias != "pull-down")
@@ -163,15 +192,21 @@ void EdgeSettings::validate() const {
   vc_clock_id clk;
   if (vc_clock_from_name(gpio_event_clock.c_str(), &clk) < 0 || clk == VC_CLOCK_BOOTTIME)
     bad("trigger.event_clock", "must be monotonic or realtime");
-  if (pair_tolerance_us <= 0) bad("trigger.tolerance_us", "must be > 0");
-  if (pair_max_delay_ms <= 0) bad("trigger.max_delay_ms", "must be > 0");
+  if (!(pair_tolerance_us > 0 && pair_tolerance_us <= 1e6))
+    bad("trigger.tolerance_us", "must be in (0, 1000000]");
+  if (!(pair_max_delay_ms > 0 && pair_max_delay_ms <= 1e4))
+    bad("trigger.max_delay_ms", "must be in (0, 10000]");
   if (queue_messages < 1 || queue_messages > 4096) bad("link.queue_messages", "must be in 1..4096");
   if (queue_mib < 1 || queue_mib > 1024) bad("link.queue_mib", "must be in 1..1024");
-  if (heartbeat_ms < 10) bad("link.heartbeat_ms", "must be >= 10");
-  if (host_timeout_ms <= heartbeat_ms) bad("link.host_timeout_ms", "must be larger than link.heartbeat_ms");
-  if (reconnect_min_ms < 1 || reconnect_max_ms < reconnect_min_ms)
-    bad("link.reconnect_min_ms", "need 1 <= reconnect_min_ms <= reconnect_max_ms");
-  if (stats_ms < 10) bad("link.stats_ms", "must be >= 10");
+  if (heartbeat_ms < 10 || heartbeat_ms > 60'000) bad("link.heartbeat_ms", "must be in 10..60000");
+  if (host_timeout_ms <= heartbeat_ms || host_timeout_ms > 600'000)
+    bad("link.host_timeout_ms", "must be larger than link.heartbeat_ms and at most 600000");
+  if (reconnect_min_ms < 1 || reconnect_max_ms < reconnect_min_ms || reconnect_max_ms > 600'000)
+    bad("link.reconnect_min_ms", "need 1 <= reconnect_min_ms <= reconnect_max_ms <= 600000");
+  if (stats_ms < 10 || stats_ms > 600'000) bad("link.stats_ms", "must be in 10..600000");
+  if (camera_timeout_ms < 1 || camera_timeout_ms > 600'000)
+    bad("link.camera_timeout_ms", "must be in 1..600000");
+  if (verbosity < 0 || verbosity > 2) bad("log.verbosity", "must be 0, 1 or 2");
 }
 
 vc_edged_options to_options(const EdgeSettings& s) {

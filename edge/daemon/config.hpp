@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -61,8 +62,15 @@ struct EdgeSettings {
   void validate() const;
 };
 
-// Reads edge.toml into s (keys not in the file keep their values). Unknown keys are errors.
+// What an edge.toml may hold (a real one is under 2 KB).
+inline constexpr std::size_t kMaxEdgeTomlBytes = std::size_t{1} << 20;
+
+// Reads edge.toml into s (keys not in the file keep their values). Unknown keys are errors, and so
+// are integers out of their type's range and numbers that are not finite. Only a regular file of at
+// most kMaxEdgeTomlBytes is read (a FIFO or a device is refused at once).
 void load_edge_toml(const std::string& path, EdgeSettings& s);
+// The same over a file's text in memory (`path` names it in messages): tests and fuzzing.
+void parse_edge_toml(const std::string& text, const std::string& path, EdgeSettings& s);
 
 // The daemon's options; strings point into s, which must outlive them.
 vc_edged_options to_options(const EdgeSettings& s);

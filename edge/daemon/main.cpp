@@ -1,10 +1,12 @@
 // voxcap-edge: the edge node daemon. Thin: options from edge.toml and the command line, then the run
-// loop of edged.c until SIGINT/SIGTERM. Exit codes: 0 ok, 1 runtime failure, 2 bad configuration.
+// loop of edged.c until SIGINT/SIGTERM. Exit codes: 0 ok, 1 runtime failure, 2 bad configuration or
+// command line (one line; every numeric flag is range-checked, so --node-id -5 is refused, not node 0).
 #include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <optional>
 #include <string>
+#include <string_view>
 
 #include <CLI/CLI.hpp>
 
@@ -25,6 +27,23 @@ int track_features(void* user, uint64_t seq, const uint8_t* const rgb[VC_NODE_CA
 }
 void reset_features(void* user) {
   static_cast<vc::track::Producer*>(user)->reset();
+}
+
+// "WxH", each side 1..16384 and nothing else (sscanf took "640x480junk" and overflowed on 99999999999).
+bool parse_size(const std::string& s, int* w, int* h) {
+  const std::size_t x = s.find('x');
+  if (x == std::string::npos) return false;
+  auto side = [](std::string_view t, int* out) {
+    if (t.empty() || t.size() > 5) return false;
+    int v = 0;
+    for (char c : t) {
+      if (c < '0' || c > '9') return false;
+      v = v * 10 + (c - '0');
+    }
+    *out = v;
+    return v >= 1 && v <= 16384;
+  };
+  return side(std::string_view(s).substr(0, x), w) && side(std::string_view(s).substr(x + 1), h);
 }
 
 void on_signal(int) {
@@ -48,19 +67,23 @@ int run(int argc, char** argv) {
   int node_id = -1, port = -1, trigger_port = -1, gpio_line = -1, verbosity = -1;
   std::string host, trigger, gpio_chip, camera0, camera1, size, state_dir;
   app.add_option("-c,--config", config_path, "edge.toml to read (keys not given keep their defaults)");
-  app.add_option("--node-id", node_id, "this node's id (overrides node_id)");
+  app.add_option("--node-id", node_id, "this node's id, 0..65535 (overrides node_id)")
+      ->check(CLI::Range(0, 65535));
   app.add_option("--host", host, "host address (overrides host.address)");
-  app.add_option("--port", port, "host TCP port (overrides host.port; default 7600)");
+  app.add_option("--port", port, "host TCP port, 1..65535 (overrides host.port; default 7600)")
+      ->check(CLI::Range(1, 65535));
   app.add_option("--trigger", trigger, "trigger input backend: udp | gpiod (overrides trigger.backend)");
   app.add_option("--trigger-port", trigger_port,
-                 "udp trigger port (overrides trigger.port; default 47000+node id)");
+                 "udp trigger port, 1..65535 (overrides trigger.port; default 47000+node id)")
+      ->check(CLI::Range(1, 65535));
   app.add_option("--gpio-chip", gpio_chip, "gpiod: chip, e.g. gpiochip0 (overrides trigger.chip)");
-  app.add_option("--gpio-line", gpio_line, "gpiod: line offset (overrides trigger.line)");
+  app.add_option("--gpio-line", gpio_line, "gpiod: line offset, 0..65535 (overrides trigger.line)")
+      ->check(CLI::Range(0, 65535));
   app.add_option("--camera0", camera0,
                  "first camera as BACKEND[:DEVICE], e.g. v4l2:/dev/video0, sim, file:DIR");
   app.add_option("--camera1", camera1, "second camera as BACKEND[:DEVICE]");
   app.add_option("--size", size, "both cameras' size WxH (overrides cameras[].width/height)");
-  app.add_option("-v,--verbosity", verbosity, "0 warnings, 1 info, 2 debug");
+  app.add_option("-v,--verbosity", verbosity, "0 warnings, 1 info, 2 debug")->check(CLI::Range(0, 2));
   app.add_option(
       "--state-dir", state_dir,
       "keep the learnt background model here and restore it after a restart (overrides state_dir)");
@@ -69,7 +92,17 @@ int run(int argc, char** argv) {
                "when the host's rig.toml gives it the tracking role)");
   app.add_flag("--check", check,
                "validate the configuration, open the cameras and the trigger, report, and exit");
-  CLI11_PARSE(app, argc, argv);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);  // --help
+    // Bad input, whatever CLI11 calls it (an unknown option, -5 for --node-id): one line, exit 2.
+    std::string msg = e.what();
+    for (char& c : msg)
+      if (c == '\n') c = ' ';
+    vc_log(VC_LOG_ERROR, "%s (see --help)", msg.c_str());
+    return 2;
+  }
 
   vc::edge::EdgeSettings s;
   try {
@@ -85,8 +118,8 @@ int run(int argc, char** argv) {
     if (!camera1.empty()) apply_camera(camera1, s.cameras[1]);
     if (!size.empty()) {
       int w = 0, h = 0;
-      if (std::sscanf(size.c_str(), "%dx%d", &w, &h) != 2 || w <= 0 || h <= 0)
-        throw vc::edge::ConfigError("--size: expected WxH, got '" + size + "'");
+      if (!parse_size(size, &w, &h))
+        throw vc::edge::ConfigError("--size: expected WxH with each side in 1..16384, got '" + size + "'");
       for (auto& c : s.cameras) c.width = w, c.height = h;
     }
     if (verbosity >= 0) s.verbosity = verbosity;

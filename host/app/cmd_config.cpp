@@ -1,5 +1,7 @@
 // `voxcap config check [rig.toml] [--json]`: loads a rig configuration with its calibration, reports the
-// first error naming the key (exit 2), or prints what the rig resolves to and any warnings.
+// first error naming the key (exit 2), or prints what the rig resolves to and any warnings. It runs
+// every check the host runs before it starts: the file's (load_rig_config, RigConfig::valid, the
+// protocol's limits) and the aggregator's own, each node's CONFIG encoded for every protocol minor.
 #include <cstdio>
 #include <memory>
 #include <string>
@@ -9,7 +11,9 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "voxcap/aggregator/aggregator.hpp"
 #include "voxcap/config/rig_config.hpp"
+#include "voxcap/proto.h"
 
 namespace vc::cli {
 namespace {
@@ -127,6 +131,24 @@ void print_summary(const RigConfig& c) {
   fmt::print("  network      listen {}:{}\n", c.network.listen, c.network.port);
 }
 
+// What host/aggregator's constructor does with the configuration before the rig starts: a CONFIG
+// message per node and protocol minor, encoded with the protocol's own checks (vc_encode_config).
+void check_like_the_host(const RigConfig& c) {
+  const uint32_t gid = aggregator::grid_id(c.grid);
+  std::vector<uint8_t> msg(VC_PROTO_HEADER_SIZE + 4096);
+  for (size_t k = 0; k < c.nodes.size(); ++k) {
+    for (uint8_t minor = 0; minor <= VC_PROTO_VERSION_MINOR; ++minor) {
+      const vc_config m = aggregator::make_config_message(c, c.nodes[k], gid, minor);
+      size_t len = 0;
+      vc_header hdr{};
+      const int rc = vc_encode_config(msg.data(), msg.size(), &len, &hdr, &m);
+      if (rc < 0)
+        throw UsageError(fmt::format("{}: nodes[{}]: the host cannot encode its CONFIG: {}",
+                                     c.source.string(), k, vc_proto_strerror(rc)));
+    }
+  }
+}
+
 }  // namespace
 
 void add_config_commands(CLI::App& app) {
@@ -152,6 +174,7 @@ void add_config_commands(CLI::App& app) {
     } catch (const config::ConfigError& e) {
       throw UsageError(e.what());
     }
+    check_like_the_host(c);
     if (args->json) {
       fmt::print("{}\n", to_json(c).dump(2));
     } else {

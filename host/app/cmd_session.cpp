@@ -30,7 +30,11 @@ Reader open_session(const std::string& dir) {
   if (!fs::is_directory(dir, ec)) throw UsageError(fmt::format("{}: no such session folder", dir));
   if (!fs::exists(fs::path(dir) / "records.vcr", ec))
     throw UsageError(fmt::format("{}: not a voxcap session (no records.vcr)", dir));
-  return Reader::open(dir);
+  try {
+    return Reader::open(dir);
+  } catch (const std::runtime_error& e) {  // records.vcr a FIFO, a device, unreadable: bad input
+    throw UsageError(e.what());
+  }
 }
 
 // The rig's names of the node ids, from the [[nodes]] of the session's copy of rig.toml and the

@@ -1,12 +1,28 @@
 // voxcap: the single user-facing command. Thin: it builds the subcommand tree and turns errors into
 // one-line messages and exit codes (0 ok, 1 runtime failure, 2 bad input). No exception leaves main.
+// Every command-line error CLI11 finds (an unknown subcommand or option, a value that does not convert
+// or fails its check, a missing argument) is bad input: one line and exit 2, never CLI11's own codes
+// (105, 106, ...). --help and --version print and exit 0.
 #include <cstdio>
 #include <exception>
+#include <string>
 
 #include <CLI/CLI.hpp>
 
 #include "commands.hpp"
 #include "voxcap/base/log.hpp"
+
+namespace {
+
+// CLI11's messages may span lines (a list of the expected subcommands): the exit-2 contract is one line.
+std::string one_line(std::string s) {
+  for (char& c : s)
+    if (c == '\n' || c == '\r') c = ' ';
+  while (!s.empty() && s.back() == ' ') s.pop_back();
+  return s;
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   try {
@@ -29,13 +45,23 @@ int main(int argc, char** argv) {
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-      return app.exit(e);
+      if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);  // help
+      std::string what = one_line(e.what());
+      if (argc > 1 && argv[1][0] != '-') {  // CLI11 says "A subcommand is required": name the word
+        bool known = false;
+        const CLI::App& all = app;
+        for (const CLI::App* sub : all.get_subcommands([](const CLI::App*) { return true; }))
+          known = known || sub->get_name() == argv[1];
+        if (!known) what = std::string("unknown command '") + argv[1] + "'";
+      }
+      std::fprintf(stderr, "voxcap: %s (see --help)\n", what.c_str());
+      return 2;
     }
   } catch (const vc::cli::UsageError& e) {
-    std::fprintf(stderr, "voxcap: %s\n", e.what());
+    std::fprintf(stderr, "voxcap: %s\n", one_line(e.what()).c_str());
     return 2;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "voxcap: %s\n", e.what());
+    std::fprintf(stderr, "voxcap: %s\n", one_line(e.what()).c_str());
     return 1;
   }
   return 0;

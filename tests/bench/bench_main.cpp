@@ -230,9 +230,13 @@ void add_host_command(CLI::App& app) {
       "layer2_all|total {us, us_p99}, mpjpe_mm, paper_table1_ms}; rig {nodes, size, "
       "grid, seconds, pulses, frames, complete, degraded, fps, "
       "trigger_to_merged_ms {p50, p99}, host_rss_kb {start, end}}. Keys also in tests/bench/README.md.");
-  host->add_option("--grid", *grids, "merge: voxels per axis; repeat for several (default 64 128 256)");
-  host->add_option("--nodes", *nodes, "merge: node counts; repeat for several (default 3 4 8)");
-  host->add_option("--repeats", hopt->repeats, "merge: timed merges per configuration")
+  host->add_option("--grid", *grids,
+                   "merge: voxels per axis, 8..512; repeat for several (default 64 128 256)")
+      ->check(CLI::Range(8, 512));
+  host->add_option("--nodes", *nodes, "merge: node counts, 1..64; repeat for several (default 3 4 8)")
+      ->check(CLI::Range(1, 64));
+  host->add_option("--repeats", hopt->repeats, "merge: timed merges per configuration (1..1000000)")
+      ->check(CLI::Range(1, 1000000))  // 0 timed nothing and read the median of an empty list
       ->capture_default_str();
   host->add_option("--tri-frames", hopt->tri_frames, "triangulate: frames timed per camera count")
       ->check(CLI::Range(1, 100000))
@@ -246,10 +250,15 @@ void add_host_command(CLI::App& app) {
       ->capture_default_str();
   host->add_option("--minutes", hopt->rig_minutes,
                    "rig: how long the emulated rig runs (memory at start and end)")
+      ->check(CLI::Range(0.0, 1440.0))
       ->capture_default_str();
   host->add_option("--size", *hsize, "rig: camera size WxH")->capture_default_str();
-  host->add_option("--rig-grid", hopt->rig_grid, "rig: voxels per axis")->capture_default_str();
-  host->add_option("--rig-nodes", hopt->rig_nodes, "rig: edge nodes")->capture_default_str();
+  host->add_option("--rig-grid", hopt->rig_grid, "rig: voxels per axis")
+      ->check(CLI::Range(16, 512))
+      ->capture_default_str();
+  host->add_option("--rig-nodes", hopt->rig_nodes, "rig: edge nodes")
+      ->check(CLI::Range(1, 8))
+      ->capture_default_str();
   host->add_flag(
       "--no-rig", [hopt](int64_t) { hopt->rig = false; }, "merge figures only");
   host->add_flag("--json", *hjson, "Print JSON (keys below) instead of text");
@@ -357,7 +366,12 @@ int main(int argc, char** argv) {
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-      return app.exit(e);
+      if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);  // --help
+      std::string msg = e.what();  // bad input: one line and exit 2, as `voxcap` (not CLI11's 105, 106)
+      for (char& c : msg)
+        if (c == '\n') c = ' ';
+      std::fprintf(stderr, "%s: %s (see --help)\n", name.c_str(), msg.c_str());
+      return 2;
     }
   } catch (const UsageError& e) {
     std::fprintf(stderr, "%s: %s\n", name.c_str(), e.what());

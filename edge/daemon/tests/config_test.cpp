@@ -2,6 +2,9 @@
 
 #include <gtest/gtest.h>
 
+#include <sys/stat.h>
+#include <unistd.h>
+
 #include <cstdio>
 #include <fstream>
 #include <string>
@@ -115,6 +118,62 @@ TEST(EdgeConfig, DefaultsAreTheEmulatedNode) {
   EXPECT_STREQ(o.trigger.backend, "udp");
   EXPECT_EQ(o.trigger.port, 47000);
   EXPECT_STREQ(o.cameras[0].backend, "sim");
+}
+
+}  // namespace
+
+namespace {
+
+// Issue #13: numbers that wrapped or were not finite became a configuration; now each is one line.
+TEST(EdgeConfig, OutOfRangeAndNonFiniteValuesAreRefused) {
+  EXPECT_NE(load_error("node_id = 4294967296\n").find("node_id: 4294967296 is out of range"),
+            std::string::npos);
+  EXPECT_NE(load_error("node_id = -5\n").find("node_id: must be in 0..65535, got -5"), std::string::npos);
+  EXPECT_NE(load_error("[host]\nport = 99999999999\n").find("host.port: 99999999999 is out of range"),
+            std::string::npos);
+  EXPECT_NE(
+      load_error("[[cameras]]\nfps = nan\n[[cameras]]\n").find("cameras[0].fps: must be a finite number"),
+      std::string::npos);
+  EXPECT_NE(
+      load_error("[trigger]\ntolerance_us = inf\n").find("trigger.tolerance_us: must be a finite number"),
+      std::string::npos);
+  EXPECT_NE(
+      load_error("[trigger]\nmax_delay_ms = 1e300\n").find("trigger.max_delay_ms: must be in (0, 10000]"),
+      std::string::npos);
+  EXPECT_NE(
+      load_error("[[cameras]]\nindex = -7\n[[cameras]]\n").find("cameras[0].index: must be in 0..65535"),
+      std::string::npos);
+  EXPECT_NE(load_error("[[cameras]]\nlatency_us = -1\n[[cameras]]\n").find("cameras[0].latency_us"),
+            std::string::npos);
+  EXPECT_NE(load_error("[log]\nverbosity = 9\n").find("log.verbosity: must be 0, 1 or 2"), std::string::npos);
+  EXPECT_NE(load_error("[link]\nstats_ms = 2147483647\n").find("link.stats_ms: must be in 10..600000"),
+            std::string::npos);
+  EXPECT_NE(load_error("[trigger]\nline = -3\n").find("trigger.line: must be in 0..65535"),
+            std::string::npos);
+}
+
+TEST(EdgeConfig, OnlyABoundedRegularFileIsRead) {
+  char dir[] = "/tmp/voxcap-edge-fifo-XXXXXX";
+  ASSERT_NE(mkdtemp(dir), nullptr);
+  const std::string fifo = std::string(dir) + "/edge.toml";
+  ASSERT_EQ(mkfifo(fifo.c_str(), 0600), 0);
+  vc::edge::EdgeSettings s;
+  try {
+    vc::edge::load_edge_toml(fifo, s);  // returns at once: no writer is needed to refuse it
+    ADD_FAILURE() << "a FIFO was read";
+  } catch (const vc::edge::ConfigError& e) {
+    EXPECT_EQ(std::string(e.what()), fifo + ": not a regular file (a FIFO)");
+  }
+  std::remove(fifo.c_str());
+  const std::string big = write_tmp("# " + std::string(vc::edge::kMaxEdgeTomlBytes, 'x') + "\n");
+  try {
+    vc::edge::load_edge_toml(big, s);
+    ADD_FAILURE() << "an oversized file was read";
+  } catch (const vc::edge::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("larger than 1048576 bytes"), std::string::npos) << e.what();
+  }
+  std::remove(big.c_str());
+  rmdir(dir);
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include <toml++/toml.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <fstream>
 #include <limits>
@@ -14,6 +15,7 @@
 #include <fmt/format.h>
 
 #include "voxcap/config/rig_config.hpp"
+#include "voxcap/rig/input_file.hpp"
 
 #ifndef VOXCAP_DEFAULT_RIG
 #define VOXCAP_DEFAULT_RIG ""
@@ -21,9 +23,20 @@
 
 namespace vc::config {
 
+namespace {
+
+// Every error is one line (a quoted TOML key or a parser's description may hold a newline).
+std::string one_line(std::string s) {
+  for (char& c : s)
+    if (c == '\n' || c == '\r') c = ' ';
+  return s;
+}
+
+}  // namespace
+
 ConfigError::ConfigError(std::string file, std::string key, std::string problem, int line)
-    : std::runtime_error(fmt::format("{}: {}{}{}", file, key.empty() ? "" : key + ": ", problem,
-                                     line > 0 ? fmt::format(" (line {})", line) : "")),
+    : std::runtime_error(one_line(fmt::format("{}: {}{}{}", file, key.empty() ? "" : key + ": ", problem,
+                                              line > 0 ? fmt::format(" (line {})", line) : ""))),
       file_(std::move(file)),
       key_(std::move(key)),
       line_(line) {}
@@ -166,9 +179,15 @@ class Reader {
   }
 
   double number(const toml::node& n, const std::string& k) const {
-    if (n.is_floating_point()) return n.as_floating_point()->get();
-    if (n.is_integer()) return static_cast<double>(n.as_integer()->get());
-    ctx_.fail(k, "expected a number, got " + type_name(n));
+    double v = 0;
+    if (n.is_floating_point())
+      v = n.as_floating_point()->get();
+    else if (n.is_integer())
+      v = static_cast<double>(n.as_integer()->get());
+    else
+      ctx_.fail(k, "expected a number, got " + type_name(n));
+    if (!std::isfinite(v)) ctx_.fail(k, fmt::format("must be a finite number, got {}", v));  // nan, inf
+    return v;
   }
 
   int64_t integer(const toml::node& n, const std::string& k, int64_t lo, int64_t hi) const {
@@ -566,11 +585,16 @@ RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::pa
 }
 
 RigConfig load_rig_config(const std::filesystem::path& path, const LoadOptions& options) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw ConfigError(path.string(), "", "cannot open the rig configuration");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return parse_rig_config(text.str(), path, options);
+  std::string text;
+  try {  // a regular file of at most kMaxRigTomlBytes: a FIFO or a device is refused, never waited on
+    text = rig::read_input_file(path.string(), kMaxRigTomlBytes);
+  } catch (const std::runtime_error& e) {
+    std::string what = e.what();  // "PATH: problem"
+    const std::string prefix = path.string() + ": ";
+    if (what.rfind(prefix, 0) == 0) what.erase(0, prefix.size());
+    throw ConfigError(path.string(), "", "cannot open the rig configuration: " + what);
+  }
+  return parse_rig_config(text, path, options);
 }
 
 // Here rather than in options.cpp: [triangulation] is read and checked in this file alone.

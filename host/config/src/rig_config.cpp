@@ -3,6 +3,8 @@
 
 #include <fmt/format.h>
 
+#include "voxcap/proto.h"
+
 #include <cctype>
 #include <string>
 
@@ -84,6 +86,10 @@ std::vector<const NodeConfig*> RigConfig::tracking_nodes() const {
 bool RigConfig::valid(std::string* why) const {
   std::string sub;
   if (!grid.valid(&sub)) return fail(why, "grid: " + sub);
+  // The protocol's limits (proto/SPEC.md): the host could not encode a CONFIG for a larger grid.
+  if (grid.count() > VC_PROTO_MAX_VOXELS)
+    return fail(why, fmt::format("grid: {}x{}x{} = {} voxels is over the protocol's limit of {} (512^3)",
+                                 grid.nx, grid.ny, grid.nz, grid.count(), VC_PROTO_MAX_VOXELS));
   if (nodes.empty()) return fail(why, "nodes: at least one [[nodes]] table is needed");
 
   const bool have_cameras = !calibration.cameras.empty();

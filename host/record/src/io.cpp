@@ -18,14 +18,24 @@ void throw_errno(const std::string& what, const std::filesystem::path& path, int
 }
 
 std::string read_file(const std::filesystem::path& path, const char* what) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  // O_NONBLOCK then fstat: a FIFO (or a device) in a session folder is refused, never waited on.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
   if (fd < 0) throw_errno(fmt::format("cannot read {}", what), path, errno);
   std::string data;
   struct stat st {};
-  if (::fstat(fd, &st) == 0 && S_ISDIR(st.st_mode)) {
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    const int err = S_ISDIR(st.st_mode) ? EISDIR : EINVAL;
     ::close(fd);
-    throw_errno(fmt::format("cannot read {}", what), path, EISDIR);
+    if (err == EINVAL)
+      throw std::runtime_error(fmt::format("cannot read {} {}: not a regular file", what, path.string()));
+    throw_errno(fmt::format("cannot read {}", what), path, err);
   }
+  if (static_cast<uint64_t>(st.st_size) > kMaxSideFileBytes) {
+    ::close(fd);
+    throw std::runtime_error(
+        fmt::format("cannot read {} {}: larger than {} bytes", what, path.string(), kMaxSideFileBytes));
+  }
+  if (const int flags = ::fcntl(fd, F_GETFL); flags >= 0) (void)::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);
   char chunk[1 << 16];
   for (;;) {
     const ssize_t n = ::read(fd, chunk, sizeof chunk);
@@ -36,6 +46,11 @@ std::string read_file(const std::filesystem::path& path, const char* what) {
       throw_errno(fmt::format("cannot read {}", what), path, err);
     }
     if (n == 0) break;
+    if (data.size() + static_cast<size_t>(n) > kMaxSideFileBytes) {  // it grew while we read
+      ::close(fd);
+      throw std::runtime_error(
+          fmt::format("cannot read {} {}: larger than {} bytes", what, path.string(), kMaxSideFileBytes));
+    }
     data.append(chunk, static_cast<size_t>(n));
   }
   ::close(fd);

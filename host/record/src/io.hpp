@@ -13,6 +13,8 @@ inline constexpr const char* kRecordsFile = "records.vcr";
 inline constexpr const char* kManifestFile = "session.json";
 inline constexpr const char* kRigFile = "rig.toml";
 inline constexpr const char* kCalibrationFile = "calibration.yaml";
+// The most read_file() takes (a manifest, a rig.toml or a calibration is a few KB).
+inline constexpr size_t kMaxSideFileBytes = size_t{64} << 20;
 
 // "<what> <path>: <strerror(err)>"
 [[noreturn]] void throw_errno(const std::string& what, const std::filesystem::path& path, int err);

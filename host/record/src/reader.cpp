@@ -1,11 +1,16 @@
 // The crash-tolerant session reader. It walks records.vcr from the start and accepts a record only
 // when all of it is there and valid: magic, header CRC, the expected record number, a body that fits
 // in the file, the record CRC, and a body whose every length and count checks out (frames: the RLE
-// matches voxel_count and occupied). The first record that fails ends the session as read; what
-// follows is counted in Summary::truncated_bytes and classified: a record the file ends inside of
-// (or a zero-filled tail, what a power loss leaves) is a torn tail, anything else is corruption.
-// Limits: it does not resynchronise past a damaged record, so damage in the middle of a session
-// hides everything after it (the bytes are reported, not silently lost).
+// matches voxel_count and occupied).
+//
+// Damage in the middle (a flipped byte, a bad sector) is skipped: from the damaged record the reader
+// scans forward for the magic of a record that reads in full (header CRC, a number above the last
+// good one, record CRC, body) and goes on from there; what it skipped (records by their numbers,
+// bytes, where and why) is in Summary::skipped_* and damage, and a session with skips is not
+// closed_cleanly. A damaged BEGIN is skipped the same way (the manifest then comes from session.json).
+// The first record that fails with no valid record after it ends the session as read; what follows is
+// counted in Summary::truncated_bytes and classified: a record the file ends inside of (or a
+// zero-filled tail, what a power loss leaves) is a torn tail, anything else is corruption.
 #include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -32,6 +37,7 @@ using format::RecordType;
 namespace {
 
 constexpr size_t kReadChunk = size_t{1} << 20;
+constexpr size_t kMaxDamageReports = 100;  // Summary::damage keeps the first ones
 
 // Random access to records.vcr, from a file (buffered pread) or from memory.
 class Source {
@@ -197,6 +203,40 @@ bool decode_data(const RawRecord& raw, Record& out, std::string* why) {
   return false;
 }
 
+// After damage at `from`: the offset of the next record that reads and decodes in full and whose
+// number is above `after` (a record's own magic, header CRC, record CRC and body must all agree, so a
+// stray "VXRC" in a hull's bytes is not taken). false when there is none.
+bool resync(Source& src, uint64_t from, uint64_t after, uint64_t* at, RawRecord* raw, Record& scratch) {
+  static constexpr uint8_t kMagicBytes[4] = {0x56, 0x58, 0x52, 0x43};
+  const uint64_t size = src.size();
+  uint64_t off = from;
+  std::string why;
+  while (off + format::kHeaderBytes + format::kTrailerBytes <= size) {
+    const size_t n = static_cast<size_t>(std::min<uint64_t>(kReadChunk, size - off));
+    const uint8_t* p = src.get(off, n);
+    if (!p) return false;
+    const void* m = ::memmem(p, n, kMagicBytes, sizeof kMagicBytes);
+    if (!m) {
+      off += n > 3 ? n - 3 : 1;  // a magic may straddle the chunks
+      continue;
+    }
+    const uint64_t cand = off + static_cast<uint64_t>(static_cast<const uint8_t*>(m) - p);
+    const uint8_t* h = src.get(cand, format::kHeaderBytes);  // p is stale from here on
+    Header header;
+    if (h && format::decode_header(h, &header, &why) && header.index > after &&
+        read_record(src, cand, header.index, raw, &why) == Step::Ok) {
+      if (raw->header.type == RecordType::End) {
+        format::EndRecord end;
+        if (format::decode_body(raw->body, &end, &why)) return *at = cand, true;
+      } else if (raw->header.type != RecordType::Begin && decode_data(*raw, scratch, &why)) {
+        return *at = cand, true;
+      }
+    }
+    off = cand + 1;
+  }
+  return false;
+}
+
 // Folds one valid data record into the summary.
 class Tally {
  public:
@@ -274,9 +314,16 @@ struct Reader::Impl {
   uint64_t data_end = 0;       // offset after the last valid data record
   std::string begin_manifest;  // the manifest copy in BEGIN
 
+  uint64_t first_index = 1;  // the number of the first data record read (above 1 after damage)
+  struct Gap {
+    uint64_t from, to, index;  // damage at `from`: reading goes on at `to` with record `index`
+  };
+  std::vector<Gap> gaps;  // in file order
+
   // Iteration state.
   uint64_t it_off = 0;
   uint64_t it_index = 0;
+  size_t it_gap = 0;
   std::vector<std::string> joint_names;
 
   void scan();
@@ -297,6 +344,22 @@ void Reader::Impl::scan() {
     s.valid_bytes = off;
     s.truncated_bytes = s.file_bytes - off;
   };
+  Record scratch;
+  // Damage from `off` (record `index` expected): skip to the next valid record, or false.
+  auto skip_damage = [&](uint64_t index, const std::string& what) {
+    uint64_t at = 0;
+    // From `off` itself: an intact record with a higher number there means records were lost.
+    if (!resync(src, off, index - 1, &at, &raw, scratch)) return false;
+    const uint64_t lost = raw.header.index - index;
+    s.skipped_records += lost;
+    s.skipped_bytes += at - off;
+    if (s.damage.size() < kMaxDamageReports)
+      s.damage.push_back(fmt::format("{} at byte {}: {} bytes skipped ({} record{}), reading on at record {}",
+                                     what, off, at - off, lost, lost == 1 ? "" : "s", raw.header.index));
+    gaps.push_back({off, at, raw.header.index});
+    off = at;
+    return true;
+  };
 
   // BEGIN
   const Step first = read_record(src, 0, 0, &raw, &why);
@@ -312,16 +375,21 @@ void Reader::Impl::scan() {
     begin_manifest = std::move(begin.manifest_json);
     off = raw.total;
   }
+  uint64_t index = 1;
   if (off == 0) {
     data_begin = data_end = 0;
     if (first == Step::Eof) return stop_at(Stop::EndOfFile, "records.vcr is empty (no BEGIN record)");
-    return stop_at(first == Step::Torn ? Stop::TornTail : Stop::Corrupt, why);
+    if (first == Step::Torn || !skip_damage(1, why)) {
+      return stop_at(first == Step::Torn ? Stop::TornTail : Stop::Corrupt, why);
+    }
+    s.warnings.push_back("the BEGIN record is damaged: the manifest comes from session.json");
+    index = raw.header.index;
   }
   data_begin = off;
+  first_index = index;
 
   Tally tally(&s);
-  Record scratch;
-  for (uint64_t index = 1;; ++index) {
+  for (;; ++index) {
     data_end = off;
     const Step step = read_record(src, off, index, &raw, &why);
     if (step == Step::Eof) {
@@ -333,39 +401,64 @@ void Reader::Impl::scan() {
       break;
     }
     if (step == Step::Corrupt) {
+      if (skip_damage(index, why)) {
+        index = raw.header.index - 1;  // read it again below with its own number
+        continue;
+      }
       stop_at(Stop::Corrupt, fmt::format("{} at byte {}", why, off));
       break;
     }
     if (raw.header.type == RecordType::End) {
       format::EndRecord end;
       if (!format::decode_body(raw.body, &end, &why)) {
-        stop_at(Stop::Corrupt, fmt::format("record {} (end): {} at byte {}", index, why, off));
+        const std::string what = fmt::format("record {} (end): {}", index, why);
+        if (skip_damage(index, what)) {
+          index = raw.header.index - 1;
+          continue;
+        }
+        stop_at(Stop::Corrupt, fmt::format("{} at byte {}", what, off));
         break;
       }
-      if (end.data_records != s.records) {
+      // With records skipped, END counts more than were read: exactly the ones lost, when the
+      // damage took data records only.
+      if (end.data_records != s.records && (s.skipped_records == 0 || end.data_records < s.records)) {
         stop_at(Stop::Corrupt, fmt::format("record {} (end) counts {} data records, the file has {}", index,
                                            end.data_records, s.records));
         break;
       }
       off += raw.total;
-      s.closed_cleanly = true;
+      s.closed_cleanly = s.skipped_records == 0 && s.skipped_bytes == 0;
       stop_at(Stop::Closed, "closed cleanly");
-      if (s.truncated_bytes > 0) {
+      if (s.skipped_records > 0)
         s.stop_detail =
-            fmt::format("closed cleanly; {} bytes after the END record ignored", s.truncated_bytes);
+            fmt::format("closed; END counts {} data records, {} read", end.data_records, s.records);
+      if (s.truncated_bytes > 0) {
+        s.stop_detail += fmt::format("; {} bytes after the END record ignored", s.truncated_bytes);
         s.warnings.push_back(s.stop_detail);
       }
       break;
     }
     if (!decode_data(raw, scratch, &why)) {
-      stop_at(Stop::Corrupt, fmt::format("record {} ({}): {} at byte {}", index,
-                                         format::to_string(raw.header.type), why, off));
+      const std::string what =
+          fmt::format("record {} ({}): {}", index, format::to_string(raw.header.type), why);
+      if (skip_damage(index, what)) {
+        index = raw.header.index - 1;
+        continue;
+      }
+      stop_at(Stop::Corrupt, fmt::format("{} at byte {}", what, off));
       break;
     }
     tally.add(scratch);
     off += raw.total;
   }
   tally.finish();
+  if (s.skipped_records > 0 || s.skipped_bytes > 0) {
+    s.stop_detail += fmt::format("; skipped {} damaged record{} ({} bytes)", s.skipped_records,
+                                 s.skipped_records == 1 ? "" : "s", s.skipped_bytes);
+    s.warnings.push_back(fmt::format("skipped {} damaged record{} ({} bytes) and read on: {}",
+                                     s.skipped_records, s.skipped_records == 1 ? "" : "s", s.skipped_bytes,
+                                     s.damage.front()));
+  }
 }
 
 void Reader::Impl::apply_manifest(const std::string& text, const char* origin) {
@@ -382,6 +475,12 @@ void Reader::Impl::apply_manifest(const std::string& text, const char* origin) {
   summary.meta_json = "{}";
   summary.software_version = str("software_version");
   if (const auto it = m.find("meta"); it != m.end()) summary.meta_json = it->dump();
+  if (summary.format_version == 0) {  // no valid BEGIN: the manifest says which version wrote the file
+    if (const auto it = m.find("format_version"); it != m.end() && it->is_number_unsigned() &&
+                                                  it->get<uint64_t>() >= 1 &&
+                                                  it->get<uint64_t>() <= format::kFormatVersion)
+      summary.format_version = it->get<uint32_t>();
+  }
   if (summary.created_unix_ns == 0) {
     if (const auto it = m.find("created_unix_ns"); it != m.end() && it->is_number_integer())
       summary.created_unix_ns = it->get<int64_t>();
@@ -414,7 +513,8 @@ void Reader::Impl::check_copies(const fs::path& dir, const nlohmann::json& manif
 
 void Reader::Impl::read_rig_nodes(const fs::path& dir) {
   try {
-    const toml::table rig = toml::parse_file((dir / io::kRigFile).string());
+    const toml::table rig =
+        toml::parse(io::read_file(dir / io::kRigFile, "rig.toml"), (dir / io::kRigFile).string());
     if (const toml::array* nodes = rig["nodes"].as_array())
       for (const toml::node& n : *nodes)
         if (const toml::table* t = n.as_table())
@@ -425,8 +525,7 @@ void Reader::Impl::read_rig_nodes(const fs::path& dir) {
 }
 
 Reader::Reader(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {
-  impl_->it_off = impl_->data_begin;
-  impl_->it_index = 1;
+  rewind();
 }
 Reader::Reader(Reader&&) noexcept = default;
 Reader& Reader::operator=(Reader&&) noexcept = default;
@@ -437,7 +536,8 @@ Reader Reader::open(const fs::path& dir) {
   if (!fs::is_directory(dir, ec))
     throw std::runtime_error(fmt::format("{} is not a session folder (not a directory)", dir.string()));
   const fs::path records_path = dir / io::kRecordsFile;
-  const int fd = ::open(records_path.c_str(), O_RDONLY | O_CLOEXEC);
+  // O_NONBLOCK: a FIFO named records.vcr would otherwise block open() until a writer came.
+  const int fd = ::open(records_path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK | O_NOCTTY);
   if (fd < 0) {
     if (errno == ENOENT)
       throw std::runtime_error(
@@ -454,6 +554,7 @@ Reader Reader::open(const fs::path& dir) {
     ::close(fd);
     throw std::runtime_error(fmt::format("cannot read {}: not a regular file", records_path.string()));
   }
+  if (const int flags = ::fcntl(fd, F_GETFL); flags >= 0) (void)::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);
   auto impl = std::make_unique<Impl>();
   impl->src = Source::file(fd, static_cast<uint64_t>(st.st_size));
   impl->scan();
@@ -503,6 +604,13 @@ const Reader::Summary& Reader::summary_ref() const {
 
 bool Reader::next(Record& out) {
   Impl& s = *impl_;
+  while (s.it_gap < s.gaps.size() && s.gaps[s.it_gap].from <= s.it_off) {  // damage skipped by the scan
+    if (s.gaps[s.it_gap].from == s.it_off) {
+      s.it_off = s.gaps[s.it_gap].to;
+      s.it_index = s.gaps[s.it_gap].index;
+    }
+    ++s.it_gap;
+  }
   if (s.it_off >= s.data_end) return false;
   RawRecord raw;
   std::string why;
@@ -520,7 +628,8 @@ bool Reader::next(Record& out) {
 
 void Reader::rewind() {
   impl_->it_off = impl_->data_begin;
-  impl_->it_index = 1;
+  impl_->it_index = impl_->first_index;
+  impl_->it_gap = 0;
   impl_->joint_names.clear();
 }
 

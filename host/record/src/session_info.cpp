@@ -86,6 +86,11 @@ std::string summary_text(const Reader::Summary& s, const std::filesystem::path& 
   line("records", fmt::format("{} data records, {} of {} valid", s.records, human_bytes(s.valid_bytes),
                               human_bytes(s.file_bytes)));
   line("end", ending(s));
+  if (s.skipped_records > 0 || s.skipped_bytes > 0) {
+    line("skipped", fmt::format("{} damaged record{} ({}), read on after each", s.skipped_records,
+                                s.skipped_records == 1 ? "" : "s", human_bytes(s.skipped_bytes)));
+    for (const std::string& d : s.damage) out += fmt::format("  {}\n", d);
+  }
   for (const std::string& w : s.warnings) line("warning", w);
   return out;
 }
@@ -144,6 +149,9 @@ std::string summary_json(const Reader::Summary& s, const std::filesystem::path& 
       {"file_bytes", s.file_bytes},
       {"valid_bytes", s.valid_bytes},
       {"truncated_bytes", s.truncated_bytes},
+      {"skipped_records", s.skipped_records},
+      {"skipped_bytes", s.skipped_bytes},
+      {"damage", s.damage},
       {"meta", meta},
       {"warnings", s.warnings},
   };

@@ -1,8 +1,10 @@
 // `voxcap session info|dump` end to end: the real binary on sessions written by the library —
 // closed, cut (torn tail), and not a session at all — checking what it prints and its exit codes.
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -172,6 +174,56 @@ TEST_F(RecordCli, BadInputIsExitCode2) {
   EXPECT_THAT(r.out, HasSubstr("not a voxcap session"));
   EXPECT_EQ(voxcap("session dump --type hull '" + closed.string() + "'").code, 2);
   EXPECT_NE(voxcap("session info").code, 0);
+}
+
+}  // namespace
+}  // namespace vc::record
+
+namespace vc::record {
+namespace {
+
+// Issue #13 (recovery): one flipped byte in the first record (BEGIN) lost every frame although every
+// data record after it was intact. Now `session info` reads them all and says what it skipped, and
+// `session dump` prints them with the skip on stderr.
+TEST_F(RecordCli, FlippedByteInTheFirstRecordLosesNoFrame) {
+  const fs::path records = closed / "records.vcr";
+  FILE* f = std::fopen(records.c_str(), "r+b");
+  ASSERT_NE(f, nullptr);
+  ASSERT_EQ(std::fseek(f, 40, SEEK_SET), 0);  // inside BEGIN's body (its manifest copy)
+  const int c = std::fgetc(f);
+  ASSERT_EQ(std::fseek(f, 40, SEEK_SET), 0);
+  std::fputc(c ^ 0x20, f);
+  std::fclose(f);
+
+  const CliRun r = voxcap("session info '" + closed.string() + "'");
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("frames    20"));
+  EXPECT_THAT(r.out, HasSubstr("skipped   0 damaged records"));
+  EXPECT_THAT(r.out, HasSubstr("record 0 (begin): bad CRC at byte 0"));
+  const auto j = nlohmann::json::parse(voxcap("session info --json '" + closed.string() + "'").out);
+  EXPECT_EQ(j["frames"], 20);
+  EXPECT_EQ(j["rig_name"], "studio");  // from session.json
+  EXPECT_EQ(j["format_version"], 2);
+  EXPECT_EQ(j["stop"], "closed");
+  EXPECT_EQ(j["skipped_records"], 0);
+  EXPECT_GT(j["skipped_bytes"].get<int>(), 40);
+  EXPECT_EQ(j["damage"].size(), 1u);
+
+  const CliRun dump = voxcap("session dump --type frame '" + closed.string() + "'", true);
+  EXPECT_EQ(dump.code, 0);
+  EXPECT_EQ(std::count(dump.out.begin(), dump.out.end(), '\n'), 21) << dump.out;  // 20 frames + the skip
+  EXPECT_THAT(dump.out, HasSubstr("skipped"));
+}
+
+// Issue #13: a FIFO as records.vcr hung `session info` in open(2); now it is refused at once (exit 2).
+TEST_F(RecordCli, FifoAsRecordsIsRefusedWithoutHanging) {
+  const fs::path dir = tmp.path() / "fifo-session";
+  fs::create_directories(dir);
+  ASSERT_EQ(::mkfifo((dir / "records.vcr").c_str(), 0600), 0);
+  const CliRun r = voxcap("session info '" + dir.string() + "'", true);
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_THAT(r.out, HasSubstr("records.vcr: not a regular file"));
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
 }
 
 }  // namespace

@@ -1,5 +1,5 @@
 // Cut and damaged sessions: a records.vcr cut at any byte reopens with exactly the records before the
-// cut; any single damaged byte stops reading at the damaged record with the count right; zero-filled
+// cut; any single damaged byte skips exactly its record and reading goes on after it; zero-filled
 // tails (power loss), bytes after END, and lost, repeated or swapped records are all caught.
 #include <unistd.h>
 
@@ -112,32 +112,74 @@ TEST_F(RecordCrash, CutFilesReopen) {
 
 // Any single byte of a middle record damaged (two different flips per byte): reading stops right
 // before that record, with every earlier record intact and the rest of the file reported.
-TEST_F(RecordCrash, DamagedByteStopsReadingAtItsRecord) {
+// Issue #13 (recovery): a damaged record is skipped and reading goes on at the next valid one. (This
+// replaces "a damaged byte stops reading at its record": every record after it is now read, and the
+// skip is reported exactly: one record, its bytes, its number.)
+TEST_F(RecordCrash, DamagedByteSkipsOnlyItsRecord) {
   const size_t k = records.size() / 2;  // data record k sits at offsets[k + 1]
   const uint64_t begin = offsets[k + 1], end = offsets[k + 2];
+  std::vector<Record> expected = records;
+  expected.erase(expected.begin() + static_cast<ptrdiff_t>(k));
   for (uint64_t at = begin; at < end; ++at) {
     for (uint8_t flip : {uint8_t{0x01}, uint8_t{0xFF}}) {
       std::vector<uint8_t> damaged = bytes;
       damaged[at] ^= flip;
       Reader reader = Reader::from_bytes(std::move(damaged));
       const Reader::Summary& s = reader.summary_ref();
-      ASSERT_EQ(s.records, k) << "byte " << at << " ^ " << int{flip};
-      ASSERT_EQ(s.stop, Reader::Stop::Corrupt) << "byte " << at << ": " << s.stop_detail;
-      ASSERT_EQ(s.valid_bytes, begin);
-      ASSERT_EQ(s.truncated_bytes, bytes.size() - begin);
-      ASSERT_THAT(s.stop_detail, ::testing::HasSubstr("record " + std::to_string(k + 1)));
-      ASSERT_EQ(read_and_compare(reader, records), k);
+      ASSERT_EQ(s.records, records.size() - 1) << "byte " << at << " ^ " << int{flip};
+      ASSERT_EQ(s.stop, Reader::Stop::EndOfFile) << "byte " << at << ": " << s.stop_detail;
+      ASSERT_EQ(s.skipped_records, 1u);
+      ASSERT_EQ(s.skipped_bytes, end - begin);
+      ASSERT_EQ(s.valid_bytes, bytes.size());
+      ASSERT_EQ(s.truncated_bytes, 0u);
+      ASSERT_FALSE(s.closed_cleanly);
+      ASSERT_EQ(s.damage.size(), 1u);
+      ASSERT_THAT(s.damage[0], ::testing::HasSubstr("record " + std::to_string(k + 1)));
+      ASSERT_THAT(s.damage[0], ::testing::HasSubstr("at byte " + std::to_string(begin)));
+      ASSERT_THAT(s.stop_detail, ::testing::HasSubstr("skipped 1 damaged record"));
+      ASSERT_EQ(read_and_compare(reader, expected), expected.size());
+      reader.rewind();  // the iteration skips the same record again
+      ASSERT_EQ(read_and_compare(reader, expected), expected.size());
     }
   }
 }
 
-TEST_F(RecordCrash, DamagedBeginRecordYieldsNothing) {
-  std::vector<uint8_t> damaged = bytes;
-  damaged[30] ^= 0x40;
-  const Reader reader = Reader::from_bytes(std::move(damaged));
-  EXPECT_EQ(reader.summary().records, 0u);
-  EXPECT_EQ(reader.summary().stop, Reader::Stop::Corrupt);
-  EXPECT_EQ(reader.summary().truncated_bytes, bytes.size());
+// The issue's case: one flipped byte in the first record (BEGIN) lost every frame; now every data
+// record after it is read. (Replaces "a damaged BEGIN yields nothing".)
+TEST_F(RecordCrash, DamagedBeginRecordIsSkipped) {
+  for (uint64_t at : {uint64_t{0}, uint64_t{7}, uint64_t{30}, offsets[1] - 1}) {
+    std::vector<uint8_t> damaged = bytes;
+    damaged[at] ^= 0x40;
+    Reader reader = Reader::from_bytes(std::move(damaged));
+    const Reader::Summary& s = reader.summary_ref();
+    EXPECT_EQ(s.records, records.size()) << "byte " << at;
+    EXPECT_EQ(s.frames, 7u);
+    EXPECT_EQ(s.skipped_records, 0u);  // BEGIN is not a data record; its bytes are skipped
+    EXPECT_EQ(s.skipped_bytes, offsets[1]);
+    EXPECT_EQ(s.format_version, 0u);  // unknown without BEGIN (Reader::open takes session.json's)
+    EXPECT_EQ(s.stop, Reader::Stop::EndOfFile);
+    EXPECT_EQ(s.truncated_bytes, 0u);
+    EXPECT_THAT(s.warnings, ::testing::Contains(::testing::HasSubstr("BEGIN record is damaged")));
+    EXPECT_EQ(read_and_compare(reader, records), records.size());
+  }
+}
+
+// Damage in several places, and a closed session: END counts the records lost.
+TEST_F(RecordCrash, SeveralDamagedRecordsInAClosedSession) {
+  std::vector<uint8_t> closed = session_bytes(records, /*close=*/true);
+  for (size_t k : {1u, 4u, 5u, 9u}) closed[offsets[k + 1] + 26] ^= 0x10;  // inside each record's body
+  Reader reader = Reader::from_bytes(std::move(closed));
+  const Reader::Summary& s = reader.summary_ref();
+  EXPECT_EQ(s.records, records.size() - 4);
+  EXPECT_EQ(s.skipped_records, 4u);
+  EXPECT_EQ(s.damage.size(), 3u);  // records 5 and 6 (data 4, 5) are one stretch
+  EXPECT_EQ(s.stop, Reader::Stop::Closed);
+  EXPECT_FALSE(s.closed_cleanly);
+  EXPECT_THAT(s.stop_detail, ::testing::HasSubstr("END counts " + std::to_string(records.size())));
+  std::vector<Record> expected;
+  for (size_t i = 0; i < records.size(); ++i)
+    if (i != 1 && i != 4 && i != 5 && i != 9) expected.push_back(records[i]);
+  EXPECT_EQ(read_and_compare(reader, expected), expected.size());
 }
 
 // Power loss on ext4 can leave the tail of the file zero-filled: a torn tail, not corruption.
@@ -192,15 +234,24 @@ TEST_F(RecordCrash, LostRepeatedOrSwappedRecordsAreCaught) {
   EXPECT_EQ(r1.summary().stop, Reader::Stop::Corrupt);
   EXPECT_THAT(r1.summary().stop_detail, ::testing::HasSubstr("lost or repeated"));
 
+  // A lost record is now reported as skipped and the record after it read (was: reading stopped, k).
   std::vector<uint8_t> lost = head(k);  // record k missing
   const std::vector<uint8_t> rec_k1 = span_of(k + 1);
   lost.insert(lost.end(), rec_k1.begin(), rec_k1.end());
-  EXPECT_EQ(Reader::from_bytes(std::move(lost)).summary().records, k);
+  const Reader r2 = Reader::from_bytes(std::move(lost));
+  EXPECT_EQ(r2.summary().records, k + 1);
+  EXPECT_EQ(r2.summary().skipped_records, 1u);
+  EXPECT_EQ(r2.summary().skipped_bytes, 0u);
 
+  // Swapped: the later one is read (one record lost before it); the earlier one after it is refused.
   std::vector<uint8_t> swapped = head(k);
   swapped.insert(swapped.end(), rec_k1.begin(), rec_k1.end());
   swapped.insert(swapped.end(), rec_k.begin(), rec_k.end());
-  EXPECT_EQ(Reader::from_bytes(std::move(swapped)).summary().records, k);
+  const Reader r3 = Reader::from_bytes(std::move(swapped));
+  EXPECT_EQ(r3.summary().records, k + 1);
+  EXPECT_EQ(r3.summary().skipped_records, 1u);
+  EXPECT_EQ(r3.summary().stop, Reader::Stop::Corrupt);
+  EXPECT_THAT(r3.summary().stop_detail, ::testing::HasSubstr("lost or repeated"));
 }
 
 TEST_F(RecordCrash, ArbitraryBytesAreNotASession) {

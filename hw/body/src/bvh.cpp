@@ -4,9 +4,15 @@
 // kept per joint, exactly as written, because real files mix orders (ZYX legs with ZXY arms).
 #include "voxcap/body/bvh.hpp"
 
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <sstream>
 #include <stdexcept>
@@ -241,12 +247,34 @@ BvhClip parse_bvh(std::string_view text, const std::string& source_name) {
 }
 
 BvhClip read_bvh(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error(path + ": cannot open");
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) throw std::runtime_error(path + ": read error");
-  return parse_bvh(ss.str(), path);
+  // As hw/rig's read_input_file (hw/body links GLM only): O_NONBLOCK so that a FIFO cannot block the
+  // open, fstat for a regular file, a size limit before reading.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC | O_NOCTTY);
+  if (fd < 0) throw std::runtime_error(path + ": cannot open: " + std::strerror(errno));
+  std::string text;
+  struct stat st {};
+  const char* problem = nullptr;
+  if (::fstat(fd, &st) != 0)
+    problem = "cannot read";
+  else if (!S_ISREG(st.st_mode))
+    problem = S_ISDIR(st.st_mode) ? "not a regular file (a directory)" : "not a regular file";
+  else if (static_cast<unsigned long long>(st.st_size) > kBvhMaxFileBytes)
+    problem = "larger than 1 GiB";
+  if (!problem) {
+    (void)::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+    text.resize(static_cast<std::size_t>(st.st_size));
+    std::size_t got = 0;
+    while (got < text.size()) {
+      const ssize_t n = ::read(fd, text.data() + got, text.size() - got);
+      if (n < 0 && errno == EINTR) continue;
+      if (n <= 0) break;
+      got += static_cast<std::size_t>(n);
+    }
+    if (got != text.size()) problem = "read error (the file shrank?)";
+  }
+  ::close(fd);
+  if (problem) throw std::runtime_error(path + ": " + problem);
+  return parse_bvh(text, path);
 }
 
 Pose BvhClip::pose(int frame, double scale) const {

@@ -698,6 +698,15 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
       units = "height";
     }
   }
+  // A rest pose of 1e-300 scaled to a body's height multiplies every position channel by 1e300: the
+  // truth would be inf and NaN. Refused: no file unit is below a micrometre (scale <= 1e6), and the
+  // scaled body stays within 1 km.
+  if (!(scale > 0 && scale <= 1e6) || !((hi - lo) * scale <= 1000.0)) {
+    std::ostringstream os;
+    os << path << ": the rest pose (height " << (hi - lo) << " file units) at scale " << scale
+       << " metres per unit is not a body (the scale must be in (0, 1e6] and the body under 1 km)";
+    throw std::runtime_error(os.str());
+  }
   {
     // spine: the joint strictly between hips and neck nearest their midpoint (else hips).
     const int hips = get(Joint::hips);

@@ -5,6 +5,10 @@
 // facing -y, toes on the floor; non-humanoids are refused with the missing joint named.
 #include "voxcap/body/humanoid.hpp"
 
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cmath>
 #include <filesystem>
 #include <map>
 #include <stdexcept>
@@ -323,6 +327,57 @@ TEST(BodyHumanoid, EveryRealClipMapsUprightFacingTheFrontOnTheFloor) {
     }
     EXPECT_NEAR(lowest, HumanoidOptions{}.toe_height_m, 1e-9);
   }
+}
+
+// Issue #13: every value finite after scaling. A rest pose 1e-300 tall (finite, within the reader's
+// magnitude limit) was scaled to a body's height by 1.7e300, and its root positions became inf/NaN
+// truth. Refused by name; and read_bvh refuses a FIFO at once instead of waiting for a writer.
+TEST(BodyHumanoid, ScaleThatMakesTheTruthInfiniteIsRefused) {
+  std::array<int, kJointCount> index{};
+  const Skeleton sk = named_skeleton(conventions()[0], &index);
+  const std::string text = format_bvh(sk, {rest_pose(sk, {0, 0, 0.95})}, 1.0 / 30, BvhWriteOptions{});
+  std::string tiny;  // every OFFSET number times 1e-300
+  std::size_t start = 0;
+  for (std::size_t nl; (nl = text.find('\n', start)) != std::string::npos; start = nl + 1) {
+    std::string line = text.substr(start, nl - start);
+    const std::size_t at = line.find("OFFSET ");
+    if (at != std::string::npos) {
+      std::string out = line.substr(0, at + 7);
+      std::size_t p = at + 7;
+      for (std::size_t sp; p < line.size(); p = sp + 1) {
+        sp = line.find(' ', p);
+        if (sp == std::string::npos) sp = line.size();
+        out += line.substr(p, sp - p) + "e-300" + (sp < line.size() ? " " : "");
+      }
+      line = out;
+    }
+    tiny += line + "\n";
+  }
+  ASSERT_NE(tiny, text);
+  const BvhClip clip = parse_bvh(tiny, "tiny.bvh");  // every number is in range for the reader
+  try {
+    (void)map_humanoid(clip, "tiny.bvh");
+    ADD_FAILURE() << "a 1e-300 tall rest pose was scaled to a body";
+  } catch (const std::runtime_error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("tiny.bvh: the rest pose (height"));
+    EXPECT_THAT(e.what(), HasSubstr("is not a body"));
+  }
+  // The same file in metres maps, and its truth is finite.
+  const HumanoidClip h = map_humanoid(parse_bvh(text, "m.bvh"), "m.bvh");
+  std::vector<glm::dvec3> p;
+  forward_kinematics(h.skeleton, h.sample(0.0), &p);
+  for (const glm::dvec3& q : p) EXPECT_TRUE(std::isfinite(q.x) && std::isfinite(q.y) && std::isfinite(q.z));
+
+  const fs::path fifo = fs::temp_directory_path() / ("vc_body_fifo_" + std::to_string(::getpid()) + ".bvh");
+  fs::remove(fifo);
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  try {
+    (void)read_bvh(fifo.string());
+    ADD_FAILURE() << "a FIFO was read";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()), fifo.string() + ": not a regular file");
+  }
+  fs::remove(fifo);
 }
 
 }  // namespace

@@ -1,13 +1,27 @@
 // Calibration file I/O: OpenCV FileStorage YAML, one map per camera (cam0 ... camN-1) and an
 // optional voxel grid. Every error names the file and the node, because a rig.yaml is edited by hand.
+//
+// A rig.yaml may be hostile or broken, and OpenCV's YAML parser is neither bounded nor strict: it
+// recurses once per nesting level (100,000 `[` overflow the stack), and it reads an integer with
+// strtol into an int (a width of 99999999999 wraps silently). So the text is read first (a regular
+// file of at most kMaxCalibrationBytes) and checked by check_yaml_limits() before OpenCV sees it:
+// nesting (block indentation levels + `- ` indicators + flow brackets) at most kMaxYamlDepth, lines
+// at most kMaxYamlLine bytes, no NUL bytes, every plain integer within int32. Only then is it parsed,
+// from memory, and every value checked as before.
 #include "voxcap/rig/calibration.hpp"
 
+#include <cerrno>
+#include <climits>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <stdexcept>
+#include <string_view>
 
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/persistence.hpp>
+
+#include "voxcap/rig/input_file.hpp"
 
 namespace vc::rig {
 namespace {
@@ -20,9 +34,8 @@ constexpr int kVersion = 1;
 }
 
 // A real matrix node with `count` elements (any shape), as doubles in row-major order.
-std::vector<double> read_values(const cv::FileNode& n, const std::string& path,
-                                const std::string& node, std::size_t count_min,
-                                std::size_t count_max) {
+std::vector<double> read_values(const cv::FileNode& n, const std::string& path, const std::string& node,
+                                std::size_t count_min, std::size_t count_max) {
   if (n.isNone()) fail(path, node, "missing");
   std::vector<double> values;
   if (n.isSeq()) {
@@ -31,6 +44,18 @@ std::vector<double> read_values(const cv::FileNode& n, const std::string& path,
       values.push_back(static_cast<double>(e));
     }
   } else if (n.isMap()) {
+    // Sized before OpenCV allocates: rows x cols single-channel values, as many as the node may hold.
+    const cv::FileNode rows = n["rows"], cols = n["cols"], dt = n["dt"], data = n["data"];
+    if (!rows.isInt() || !cols.isInt() || !dt.isString() || !data.isSeq())
+      fail(path, node, "expected an opencv-matrix (rows, cols, dt, data) or a sequence of numbers");
+    const long long r = static_cast<int>(rows), c = static_cast<int>(cols);
+    const std::string type = static_cast<std::string>(dt);
+    if (r < 1 || c < 1 || r * c > static_cast<long long>(count_max) || type.size() != 1 ||
+        std::string("ucswifd").find(type[0]) == std::string::npos ||
+        data.size() != static_cast<std::size_t>(r * c))
+      fail(path, node,
+           "expected an opencv-matrix of at most " + std::to_string(count_max) +
+               " single-channel numbers (rows x cols = the data's length)");
     cv::Mat m;
     try {
       n >> m;
@@ -47,14 +72,253 @@ std::vector<double> read_values(const cv::FileNode& n, const std::string& path,
   if (values.size() < count_min || values.size() > count_max) {
     fail(path, node,
          "expected " + std::to_string(count_min) +
-             (count_max != count_min ? ".." + std::to_string(count_max) : std::string()) +
-             " numbers, got " + std::to_string(values.size()));
+             (count_max != count_min ? ".." + std::to_string(count_max) : std::string()) + " numbers, got " +
+             std::to_string(values.size()));
   }
   for (double v : values) {
     if (!std::isfinite(v)) fail(path, node, "values must be finite");
   }
   return values;
 }
+
+std::string one_line(std::string s) {
+  for (char& c : s)
+    if (c == '\n' || c == '\r') c = ' ';
+  return s;
+}
+
+// A plain scalar that OpenCV would read as an integer (strtol, base 0) must fit an int.
+void check_integer(std::string_view token, const std::string& path, const std::string& where) {
+  std::size_t i = (token[0] == '+' || token[0] == '-') ? 1 : 0;
+  if (i == token.size()) return;
+  const bool hex = token.size() > i + 2 && token[i] == '0' && (token[i + 1] == 'x' || token[i + 1] == 'X');
+  for (std::size_t k = hex ? i + 2 : i; k < token.size(); ++k) {
+    const char c = token[k];
+    const bool digit = (c >= '0' && c <= '9') || (hex && ((c >= 'a' && c <= 'f') || (c >= 'A' && c <= 'F')));
+    if (!digit) return;  // a real, a name, ...: OpenCV does not read it as an integer
+  }
+  const std::string t(token);
+  errno = 0;
+  const long long v = std::strtoll(t.c_str(), nullptr, 0);
+  if (errno == ERANGE || v > INT_MAX || v < INT_MIN)
+    fail(path, where,
+         "integer " + t.substr(0, 40) + " is out of range (at most " + std::to_string(INT_MAX) + ")");
+}
+
+// One line of the YAML subset OpenCV writes, checked left to right. Anything else is refused: OpenCV's
+// own parser loops forever or throws on some malformed text (found by fuzzing), so it only ever sees
+// this grammar:
+//   line   := indent ("- ")* (key ":" [" " value] | value) [comment]    (block context)
+//           | items                                                      (inside an open "[")
+//   value  := "!!opencv-matrix" | "[" items | scalar
+//   items  := [scalar ("," scalar)*] [","] ["]"]                          (one flow level only)
+//   scalar := plain (letters, digits, _ . + - / ( ) @, inner single spaces outside "[") | "..." | '...'
+class YamlLine {
+ public:
+  YamlLine(const YamlLine&) = delete;
+  YamlLine(std::string_view l, std::size_t pos, const std::string& path, const std::string& where)
+      : l_(l), k_(pos), path_(path), where_(where) {}
+
+  enum class Kind { Map, Seq };
+  struct Level {
+    std::size_t col;
+    Kind kind;
+  };
+  struct Block {
+    std::vector<Level> levels;  // the entries the line starts, left to right ("- - key:" gives three)
+    bool opens = false;         // ends with "key:", "-" or a matrix tag: children follow, more indented
+    bool flow = false;          // a "[" is still open at the end of the line
+  };
+
+  Block block_line() {
+    Block b;
+    while (k_ + 1 < l_.size() && l_[k_] == '-' && l_[k_ + 1] == ' ') {  // "- - x": nested sequences
+      b.levels.push_back({k_, Kind::Seq});
+      k_ += 2;
+      spaces();
+      if (k_ < l_.size() && l_[k_] == '\t') bad("a tab in the indentation");
+    }
+    if (k_ + 1 == l_.size() && l_[k_] == '-') {  // "-" alone: the item's value on the next lines
+      b.levels.push_back({k_, Kind::Seq});
+      b.opens = true;
+      return b;
+    }
+    if (at_end()) {
+      b.opens = true;
+      return b;
+    }
+    const std::size_t start = k_;
+    while (k_ < l_.size() && key_char(l_[k_])) ++k_;
+    if (k_ > start && k_ < l_.size() && l_[k_] == ':' && (k_ + 1 == l_.size() || l_[k_ + 1] == ' ')) {
+      b.levels.push_back({start, Kind::Map});
+      ++k_;
+      if (at_end()) {
+        b.opens = true;
+        return b;
+      }
+    } else if (b.levels.empty()) {
+      bad("expected 'key: value' or '- value'");
+    } else {
+      k_ = start;
+    }
+    if (l_.substr(k_, 15) == "!!opencv-matrix") {
+      k_ += 15;
+      end();
+      b.opens = true;
+      return b;
+    }
+    if (l_[k_] == '[') {
+      ++k_;
+      b.flow = items();
+      return b;
+    }
+    scalar(false);
+    end();
+    return b;
+  }
+
+  // Inside an open "[": returns whether it is still open.
+  bool items() {
+    for (;;) {
+      spaces();
+      if (at_end()) return true;
+      if (l_[k_] == ']') {
+        ++k_;
+        end();
+        return false;
+      }
+      scalar(true);
+      spaces();
+      if (at_end()) return true;
+      if (l_[k_] == ',') {
+        ++k_;
+      } else if (l_[k_] != ']') {
+        bad("expected ',' or ']' in a sequence");
+      }
+    }
+  }
+
+ private:
+  static bool key_char(char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+           c == '-' || c == '.';
+  }
+  static bool plain_char(char c) {
+    return key_char(c) || c == '+' || c == '/' || c == '(' || c == ')' || c == '@';
+  }
+  [[noreturn]] void bad(const std::string& what) const { fail(path_, where_, what); }
+  void spaces() {
+    while (k_ < l_.size() && (l_[k_] == ' ' || l_[k_] == '\t')) ++k_;
+  }
+  // End of line, or a comment.
+  bool at_end() {
+    spaces();
+    return k_ == l_.size() || l_[k_] == '#';
+  }
+  void end() {
+    if (!at_end()) bad("unexpected '" + std::string(1, l_[k_]) + "'");
+  }
+  void scalar(bool in_flow) {
+    const char q = l_[k_];
+    if (q == '"' || q == '\'') {
+      const std::size_t close = l_.find(q, k_ + 1);
+      if (close == std::string_view::npos) bad("unterminated quoted string");
+      for (std::size_t i = k_ + 1; i < close; ++i)
+        if (l_[i] == '\\' || static_cast<unsigned char>(l_[i]) < 0x20)
+          bad("escapes and control characters are not allowed in strings");
+      k_ = close + 1;
+      return;
+    }
+    const std::size_t start = k_;
+    while (k_ < l_.size()) {
+      if (plain_char(l_[k_])) {
+        ++k_;
+      } else if (!in_flow && l_[k_] == ' ' && k_ + 1 < l_.size() && plain_char(l_[k_ + 1])) {
+        k_ += 2;  // "front left": one inner space at a time
+      } else {
+        break;
+      }
+    }
+    if (k_ == start) bad("unexpected '" + std::string(1, l_[k_]) + "'");
+    check_integer(l_.substr(start, k_ - start), path_, where_);
+  }
+
+  std::string_view l_;
+  std::size_t k_;
+  const std::string& path_;
+  const std::string& where_;
+};
+
+}  // namespace
+
+void check_yaml_limits(std::string_view text, const std::string& path) {
+  if (text.size() > kMaxCalibrationBytes)
+    fail(path, "", "larger than " + std::to_string(kMaxCalibrationBytes) + " bytes");
+  if (text.find('\0') != std::string_view::npos) fail(path, "", "contains a NUL byte (not a YAML text file)");
+  std::vector<YamlLine::Level> levels;  // block entries open at this line (column, key or item)
+  bool opens = false;                   // the last block line opens children
+  bool flow = false;                    // a "[" open from an earlier line
+  bool content = false;                 // a non-blank line seen
+  int line = 0;
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    ++line;
+    std::size_t eol = text.find('\n', pos);
+    if (eol == std::string_view::npos) eol = text.size();
+    std::string_view l = text.substr(pos, eol - pos);
+    pos = eol + 1;
+    if (!l.empty() && l.back() == '\r') l.remove_suffix(1);
+    const std::string where = "line " + std::to_string(line);
+    if (l.size() > kMaxYamlLine) fail(path, where, "longer than " + std::to_string(kMaxYamlLine) + " bytes");
+    std::size_t i = 0;
+    while (i < l.size() && l[i] == ' ') ++i;
+    if (i == l.size() || l[i] == '#') continue;  // blank or comment
+    if (l[i] == '\t') fail(path, where, "a tab in the indentation");
+    const bool first = !content;
+    content = true;
+    if (first && l.substr(0, 5) == "%YAML") {
+      if (l != "%YAML:1.0" && l != "%YAML 1.0" && l != "%YAML:1.2" && l != "%YAML 1.2")
+        fail(path, where, "expected the header %YAML:1.0");
+      continue;
+    }
+    if (i == 0 && (l.substr(0, 3) == "---" || l.substr(0, 3) == "...")) {
+      // A document marker stands alone, as OpenCV writes it (text after it can hang OpenCV's parser).
+      const std::size_t k = l.find_first_not_of(' ', 3);
+      if (k != std::string_view::npos && !(k > 3 && l[k] == '#'))
+        fail(path, where, "text after the document marker " + std::string(l.substr(0, 3)));
+      continue;
+    }
+    if (flow) {
+      flow = YamlLine(l, i, path, where).items();
+      continue;
+    }
+    const YamlLine::Block b = YamlLine(l, i, path, where).block_line();
+    // The block structure, checked as YAML does (OpenCV's parser hangs on some that are not):
+    // entries at one column are all keys or all items, a line may be more indented only under a
+    // line that opens children, and the top level is a mapping.
+    while (!levels.empty() && levels.back().col > i) levels.pop_back();
+    const YamlLine::Level lead = b.levels.empty() ? YamlLine::Level{i, YamlLine::Kind::Map} : b.levels[0];
+    if (!levels.empty() && levels.back().col == i) {
+      if (levels.back().kind != lead.kind)
+        fail(path, where,
+             lead.kind == YamlLine::Kind::Seq ? "a '- ' item among the keys of a mapping"
+                                              : "a key among the '- ' items of a sequence");
+    } else {
+      if (!levels.empty() && !opens) fail(path, where, "more indented than the line before allows");
+      if (levels.empty() && (lead.kind != YamlLine::Kind::Map || i != 0))
+        fail(path, where, "the top level must be a mapping of keys at column 0");
+      levels.push_back(lead);
+    }
+    for (std::size_t n = 1; n < b.levels.size(); ++n) levels.push_back(b.levels[n]);
+    opens = b.opens;
+    flow = b.flow;
+    if (static_cast<int>(levels.size()) + (flow ? 1 : 0) > kMaxYamlDepth)
+      fail(path, where, "nested more than " + std::to_string(kMaxYamlDepth) + " levels deep");
+  }
+  if (flow) fail(path, "line " + std::to_string(line), "a '[' is not closed");
+}
+
+namespace {
 
 int read_int(const cv::FileNode& n, const std::string& path, const std::string& node) {
   if (n.isNone()) fail(path, node, "missing");
@@ -91,8 +355,8 @@ Camera read_camera(const cv::FileNode& n, const std::string& path, const std::st
       if (i < 5) {
         cam.dist[static_cast<int>(i)] = d[i];
       } else if (d[i] != 0) {
-        fail(path, key + ".dist", "only k1 k2 p1 p2 k3 are supported; coefficient " +
-                                      std::to_string(i) + " is not zero");
+        fail(path, key + ".dist",
+             "only k1 k2 p1 p2 k3 are supported; coefficient " + std::to_string(i) + " is not zero");
       }
     }
   }
@@ -148,15 +412,16 @@ bool Calibration::valid(std::string* why) const {
   return true;
 }
 
-Calibration read_calibration(const std::string& path) {
-  if (!std::filesystem::is_regular_file(path)) fail(path, "", "no such file");
+namespace {
+
+Calibration parse_checked(const std::string& text, const std::string& path) {
   cv::FileStorage fs;
   try {
-    if (!fs.open(path, cv::FileStorage::READ | cv::FileStorage::FORMAT_YAML)) {
+    if (!fs.open(text, cv::FileStorage::READ | cv::FileStorage::MEMORY | cv::FileStorage::FORMAT_YAML)) {
       fail(path, "", "cannot open as OpenCV FileStorage YAML");
     }
   } catch (const cv::Exception& e) {
-    fail(path, "", "not a valid OpenCV FileStorage YAML file (" + e.msg + ")");
+    fail(path, "", "not a valid OpenCV FileStorage YAML file (" + one_line(e.msg) + ")");
   }
   const cv::FileNode root = fs.root();
   if (!root.isMap()) fail(path, "", "expected a YAML map at the top level");
@@ -193,6 +458,27 @@ Calibration read_calibration(const std::string& path) {
   return calib;
 }
 
+}  // namespace
+
+Calibration read_calibration(const std::string& path) {
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) fail(path, "", "no such file");
+  return parse_calibration(read_input_file(path, kMaxCalibrationBytes), path);
+}
+
+Calibration parse_calibration(const std::string& text, const std::string& path) {
+  check_yaml_limits(text, path);
+  try {
+    return parse_checked(text, path);
+  } catch (const std::runtime_error&) {
+    throw;                            // ours, already one line naming the file and the node
+  } catch (const cv::Exception& e) {  // anything OpenCV still refuses while we walk its nodes
+    fail(path, "", "not a valid OpenCV FileStorage YAML file (" + one_line(e.msg) + ")");
+  } catch (const std::exception& e) {  // its parser also throws std::length_error and the like
+    fail(path, "", std::string("not a valid OpenCV FileStorage YAML file (") + one_line(e.what()) + ")");
+  }
+}
+
 void write_calibration(const std::string& path, const Calibration& calib) {
   std::string why;
   if (!calib.valid(&why)) fail(path, "", "refusing to write an invalid calibration: " + why);
@@ -223,8 +509,10 @@ void write_calibration(const std::string& path, const Calibration& calib) {
   }
   if (calib.grid) {
     const VoxelGrid& g = *calib.grid;
-    fs << "grid" << "{";
-    fs << "min_m" << "[:" << g.min_m[0] << g.min_m[1] << g.min_m[2] << "]";
+    fs << "grid"
+       << "{";
+    fs << "min_m"
+       << "[:" << g.min_m[0] << g.min_m[1] << g.min_m[2] << "]";
     fs << "voxel_m" << g.voxel_m;
     fs << "nx" << g.nx << "ny" << g.ny << "nz" << g.nz;
     fs << "}";

@@ -70,7 +70,9 @@ cv::Vec3d Camera::ray_world(const cv::Point2d& px) const {
   return cv::normalize(R_cam_from_world.t() * cv::Vec3d(xy[0], xy[1], 1.0));
 }
 
-cv::Vec3d Camera::center_world() const { return -(R_cam_from_world.t() * t_cam_from_world); }
+cv::Vec3d Camera::center_world() const {
+  return -(R_cam_from_world.t() * t_cam_from_world);
+}
 
 cv::Matx34d Camera::projection_matrix() const {
   cv::Matx34d Rt;
@@ -94,8 +96,8 @@ bool Camera::in_image(const cv::Point2d& px) const {
 
 bool Camera::valid(std::string* why) const {
   std::ostringstream os;
-  if (width <= 0 || height <= 0) {
-    os << "image size must be positive, got " << width << "x" << height;
+  if (width <= 0 || height <= 0 || width > kMaxImageSide || height > kMaxImageSide) {
+    os << "image size must be in [1, " << kMaxImageSide << "] pixels, got " << width << "x" << height;
   } else if (!finite(K) || !finite(R_cam_from_world)) {
     os << "K and R must be finite";
   } else if (!(K(0, 0) > 0) || !(K(1, 1) > 0)) {
@@ -121,9 +123,8 @@ bool Camera::valid(std::string* why) const {
   return false;
 }
 
-Camera Camera::look_at(std::string name, int width, int height, double focal_px,
-                       const cv::Vec3d& eye_world, const cv::Vec3d& target_world,
-                       const cv::Vec3d& up_world) {
+Camera Camera::look_at(std::string name, int width, int height, double focal_px, const cv::Vec3d& eye_world,
+                       const cv::Vec3d& target_world, const cv::Vec3d& up_world) {
   const cv::Vec3d forward = cv::normalize(target_world - eye_world);
   const cv::Vec3d right = cv::normalize(forward.cross(up_world));
   const cv::Vec3d down = forward.cross(right);
@@ -132,8 +133,8 @@ Camera Camera::look_at(std::string name, int width, int height, double focal_px,
   cam.width = width;
   cam.height = height;
   cam.K = cv::Matx33d(focal_px, 0, (width - 1) * 0.5, 0, focal_px, (height - 1) * 0.5, 0, 0, 1);
-  cam.R_cam_from_world = cv::Matx33d(right[0], right[1], right[2], down[0], down[1], down[2],
-                                     forward[0], forward[1], forward[2]);
+  cam.R_cam_from_world = cv::Matx33d(right[0], right[1], right[2], down[0], down[1], down[2], forward[0],
+                                     forward[1], forward[2]);
   cam.t_cam_from_world = -(cam.R_cam_from_world * eye_world);
   return cam;
 }

@@ -9,6 +9,7 @@
 // Unknown keys are errors (a typo must not silently fall back to a default).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -113,7 +114,13 @@ struct LoadOptions {
   bool load_calibration = true;  // false: calibration_path is resolved but not read (grid from [grid])
 };
 
-// Reads, parses and validates a rig.toml (and its calibration file). Throws ConfigError.
+// What a rig.toml may hold (a real one is a few KB).
+inline constexpr std::size_t kMaxRigTomlBytes = std::size_t{1} << 20;
+
+// Reads, parses and validates a rig.toml (and its calibration file). Throws ConfigError, one line. Only
+// a regular file of at most kMaxRigTomlBytes is read (a FIFO is refused at once); numbers must be
+// finite, integers within their key's range, and the grid within the protocol's limits (what the host
+// can encode in CONFIG: VC_PROTO_MAX_VOXELS).
 RigConfig load_rig_config(const std::filesystem::path& path, const LoadOptions& options = {});
 // The same from text; `source` names the file in messages and anchors relative paths.
 RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::path& source,

@@ -148,17 +148,17 @@ class Recorder {
   std::unique_ptr<Impl> impl_;
 };
 
-// Opens a possibly cut session: up to its last complete, valid record. open() scans and validates the
-// whole file once (computing the Summary); next() then iterates the same records again, each decoded
-// and validated in full. A session still being recorded reads as cut at its current end. Not
-// thread-safe: one Reader per thread.
+// Opens a possibly cut or damaged session: up to its last complete, valid record, skipping damaged
+// records in between (Summary::skipped_*). open() scans and validates the whole file once (computing
+// the Summary); next() then iterates the same records again, each decoded and validated in full. A session
+// still being recorded reads as cut at its current end. Not thread-safe: one Reader per thread.
 class Reader {
  public:
   enum class Stop : uint8_t {
     Closed,     // the END record: the session was closed cleanly
     EndOfFile,  // the file ends on a record boundary without END (cut by kill -9 between writes)
     TornTail,   // the file ends inside a record, or in zeros (cut during a write, or power loss)
-    Corrupt,    // a record with bad magic / CRC / structure with bytes after it: reading stops there
+    Corrupt,    // a record with bad magic / CRC / structure and no valid record after it: reading stops there
   };
 
   struct NodeCounts {
@@ -173,8 +173,13 @@ class Reader {
     uint64_t frames = 0, degraded_frames = 0, features = 0, poses = 0, stats = 0;
     uint64_t features3d = 0;               // Features3DRecords (format version 2)
     uint64_t first_seq = 0, last_seq = 0;  // seq of the first and the last frame record; 0 without frames
-    bool closed_cleanly = false;
+    bool closed_cleanly = false;           // an END record, and no damaged record skipped on the way
     uint64_t truncated_bytes = 0;  // bytes after the last valid record that were ignored (torn/corrupt tail)
+    // Damage skipped in the middle (the reader resynchronises at the next valid record): the record
+    // numbers missing and the bytes passed over, and one line per damaged stretch (the first 100):
+    // "record 0 (begin): bad CRC at byte 0: 96 bytes skipped (1 record), reading on at record 1".
+    uint64_t skipped_records = 0, skipped_bytes = 0;
+    std::vector<std::string> damage;
     std::string rig_name;
 
     uint64_t records = 0;         // data records (frames + features + poses + stats + features3d)
@@ -210,7 +215,8 @@ class Reader {
     double duration_s() const;  // (last_trigger_ns - first_trigger_ns) / 1e9
   };
 
-  // Throws std::runtime_error if DIR is not a directory or has no records.vcr. A missing or broken
+  // Throws std::runtime_error if DIR is not a directory, has no records.vcr, or its records.vcr is not
+  // a regular file (a FIFO or a device is refused at once, never waited on). A missing or broken
   // session.json is only a warning: the BEGIN record holds a copy of the manifest.
   static Reader open(const std::filesystem::path& dir);
   // The same over the bytes of a records.vcr held in memory (no folder, no manifest file): for tests,

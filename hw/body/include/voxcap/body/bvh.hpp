@@ -3,6 +3,7 @@
 // they are or as the standard humanoid that Blender and retargeting tools import as is.
 #pragma once
 
+#include <cstddef>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -47,11 +48,13 @@ struct BvhClip {
 inline constexpr int kBvhMaxJoints = 4096;
 inline constexpr long kBvhMaxFrames = 50'000'000;
 inline constexpr double kBvhMaxMagnitude = 1e10;  // largest |value| of an offset, position or angle
+inline constexpr std::size_t kBvhMaxFileBytes = std::size_t{1} << 30;  // read_bvh: 1 GiB (hours of motion)
 
 // Parses BVH text. Throws std::runtime_error("<source_name>:<line>: <what>") on malformed input
 // (including NaN, inf and out-of-range numbers); never reads out of bounds, whatever the bytes.
 BvhClip parse_bvh(std::string_view text, const std::string& source_name = "bvh");
-// Reads and parses a file; errors name the path.
+// Reads and parses a file; errors name the path. Only a regular file of at most kBvhMaxFileBytes is
+// read: a FIFO, a device or a directory is refused at once (opened O_NONBLOCK, checked with fstat).
 BvhClip read_bvh(const std::string& path);
 
 // How poses are written. The file's axes: p_file = R_file_from_world * p_world, in file units

@@ -15,8 +15,9 @@ namespace vc::rig {
 
 struct Camera {
   std::string name;
-  int width = 0;
+  int width = 0;  // pixels, 1..kMaxImageSide
   int height = 0;
+  static constexpr int kMaxImageSide = 16384;  // what any sensor has; the edge's limit too
   cv::Matx33d K = cv::Matx33d::eye();
   cv::Vec<double, 5> dist{0, 0, 0, 0, 0};  // k1 k2 p1 p2 k3 (OpenCV order)
   cv::Matx33d R_cam_from_world = cv::Matx33d::eye();
@@ -46,9 +47,8 @@ struct Camera {
 
   // A distortion-free camera at eye_world looking at target_world, image x axis to the right of
   // the view and image y axis towards -up_world, principal point at the image centre.
-  static Camera look_at(std::string name, int width, int height, double focal_px,
-                        const cv::Vec3d& eye_world, const cv::Vec3d& target_world,
-                        const cv::Vec3d& up_world = cv::Vec3d(0, 0, 1));
+  static Camera look_at(std::string name, int width, int height, double focal_px, const cv::Vec3d& eye_world,
+                        const cv::Vec3d& target_world, const cv::Vec3d& up_world = cv::Vec3d(0, 0, 1));
 };
 
 }  // namespace vc::rig
