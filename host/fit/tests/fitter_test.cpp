@@ -207,17 +207,52 @@ TEST(Fitter, ReinitializesAfterTheHullIsLostAndFitsAgain) {
   }
   int reinit = 0;
   uint32_t version_before = 0;
+  BodyModel body_before;
   double sum_after = 0;
   int n_after = 0;
+  // Re-initialization keeps the measured body: every length and radius as initialization measured it,
+  // bit for bit, at the re-initialized frame and to the end.
+  auto expect_same_body = [&body_before](const BodyModel& b, int frame) {
+    const std::array<double BodyModel::*, 17> fields = {&BodyModel::neck_to_head_m,
+                                                        &BodyModel::spine_m,
+                                                        &BodyModel::shoulder_half_width_m,
+                                                        &BodyModel::shoulder_drop_m,
+                                                        &BodyModel::hip_half_width_m,
+                                                        &BodyModel::pelvis_drop_m,
+                                                        &BodyModel::upper_arm_m,
+                                                        &BodyModel::forearm_m,
+                                                        &BodyModel::thigh_m,
+                                                        &BodyModel::shank_m,
+                                                        &BodyModel::upper_arm_radius_m,
+                                                        &BodyModel::forearm_radius_m,
+                                                        &BodyModel::thigh_radius_m,
+                                                        &BodyModel::shank_radius_m,
+                                                        &BodyModel::torso_half_width_m,
+                                                        &BodyModel::torso_half_depth_m,
+                                                        &BodyModel::head_to_top_m};
+    for (size_t i = 0; i < fields.size(); ++i)
+      EXPECT_EQ(b.*fields[i], body_before.*fields[i]) << frame << " " << i;
+  };
   for (int frame = 0; frame < 300; ++frame) {
     pipeline::Frame f = testing::synthetic_frame(scene, grid, frame, {}, rng);
     if (frame >= lost_from && frame < lost_to) f.rle = empty_rle;
     const pipeline::Pose pose = fitter.fit(f);
-    if (frame == lost_from - 1) version_before = pose.body_version;
+    if (frame == lost_from - 1) {
+      version_before = pose.body_version;
+      ASSERT_TRUE(fitter.initialized());
+      body_before = fitter.body();
+      // Measured, not the defaults: the test would not tell a reset to the defaults otherwise.
+      EXPECT_NE(body_before.upper_arm_m, BodyModel{}.upper_arm_m);
+      EXPECT_NE(body_before.thigh_m, BodyModel{}.thigh_m);
+    }
     if (pose.state == pipeline::PoseState::Reinitialized) {
       ++reinit;
       EXPECT_EQ(frame, lost_from + opt.reinit_after_frames - 1);
       EXPECT_EQ(pose.body_version, version_before + 1);
+    }
+    if (frame >= lost_from + opt.reinit_after_frames - 1) {
+      EXPECT_TRUE(fitter.initialized()) << frame;
+      expect_same_body(fitter.body(), frame);
     }
     if (frame >= lost_from && frame < lost_to) EXPECT_LT(pose.confidence, 0.6) << frame;
     if (frame >= lost_to + 10) {
