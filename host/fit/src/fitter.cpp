@@ -22,7 +22,10 @@ constexpr int kStraightForgetFrames = 30;       // straight this long: rho(t-1) 
 constexpr int kBelieveTurnFrames = 6;           // a larger turn the PCA insists on this long is believed
 constexpr double kSameCandidateDeg = 10;        // ... when its headings agree within this
 constexpr double kHintAgreeDeg = 45;            // ... and the hands and feet agree within this
-constexpr double kYawRateGain = 0.2;            // the turn rate's smoothing (a PCA is noisy by a few degrees)
+constexpr double kFeatureSupport = 0.5;         // a limb at its feature with fewer samples in the hull ...
+constexpr double kHullBeatsFeature = 1.5;  // ... takes the hull's end when that holds this many times more
+constexpr double kYawRateGain = 0.2;       // the turn rate's smoothing (a PCA is noisy by a few degrees)
+constexpr double kMaxTurnRateDeg = 4;      // the predicted turn per frame at most (240 deg/s at 60 Hz)
 
 struct OneEuro {
   bool init = false;
@@ -438,6 +441,15 @@ struct Fitter::State {
       const double reach = 0.98 * (body.upper_m(limb) + body.lower_m(limb));
       local = Vec3(0, 0, -reach);  // never seen: arms hanging, legs standing
     }
+    return fit_end_to_hull(limb, root, root + F * local);
+  }
+
+  // The limb's end fitted to the hull from a guess: the layer-1 segment turned up to +-20 degrees
+  // about the root, then the lower segment +-45 degrees about its hinge; the most samples win.
+  Vec3 fit_end_to_hull(int limb, const Vec3& root, const Vec3& guess) const {
+    const size_t li = static_cast<size_t>(limb);
+    const Mat3& F = limb_frame(l1, limb);
+    const Vec3 local = glm::transpose(F) * (guess - root);
     const double len = glm::length(local);
     const Vec3 u0 = F * (local / std::max(len, 1e-9));
     const Vec3 any = std::abs(u0.z) < 0.9 ? Vec3(0, 0, 1) : Vec3(1, 0, 0);
@@ -629,7 +641,7 @@ pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
   {  // the turn rate: this frame's turn of the level heading, smoothed; bounded by what is believed
     const Vec3 a = level(l1.R_torso_world[0]), c = level(R[0]);
     const double turn = std::atan2(glm::cross(a, c).z, glm::dot(a, c));
-    const double lim = kMaxTurnPerFrameDeg * M_PI / 180;
+    const double lim = kMaxTurnRateDeg * M_PI / 180;
     // Only a measured heading tells the rate (a kept one would only repeat the prediction): without one
     // the rate fades.
     if (!torso_ok || s.reacquire_pending)
@@ -678,6 +690,15 @@ pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
       t.have = true;
       t.lost = 0;
       l1.end_world[li] = f[li + 1];
+      // The feature checked against the limb's hull: a hand or foot feature off its limb (the colour
+      // blob's centre, a mislabelled or drifting track) leaves the limb's samples outside the hull; when
+      // the limb fitted to the hull from it holds clearly more, that end is taken.
+      const Vec3 bend = F * s.l2.bend_local[li];
+      const int n_feat = s.count_limb_at(limb, root, f[li + 1], bend);
+      if (n_feat < kFeatureSupport * static_cast<double>(s.samples.size())) {
+        const Vec3 e = s.fit_end_to_hull(limb, root, f[li + 1]);
+        if (s.count_limb_at(limb, root, e, bend) > kHullBeatsFeature * n_feat) l1.end_world[li] = e;
+      }
     } else {
       ++t.lost;
       predicted = true;
