@@ -22,7 +22,7 @@ constexpr int kStraightForgetFrames = 30;       // straight this long: rho(t-1) 
 constexpr int kBelieveTurnFrames = 6;           // a larger turn the PCA insists on this long is believed
 constexpr double kSameCandidateDeg = 10;        // ... when its headings agree within this
 constexpr double kHintAgreeDeg = 45;            // ... and the hands and feet agree within this
-constexpr double kFeatureSupport = 0.5;         // a limb at its feature with fewer samples in the hull ...
+constexpr double kFeatureSupport = 0.5;         // a leg at its feature with fewer samples in the hull ...
 constexpr double kHullBeatsFeature = 1.5;  // ... takes the hull's end when that holds this many times more
 constexpr double kYawRateGain = 0.2;       // the turn rate's smoothing (a PCA is noisy by a few degrees)
 constexpr double kMaxTurnRateDeg = 4;      // the predicted turn per frame at most (240 deg/s at 60 Hz)
@@ -690,12 +690,13 @@ pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
       t.have = true;
       t.lost = 0;
       l1.end_world[li] = f[li + 1];
-      // The feature checked against the limb's hull: a hand or foot feature off its limb (the colour
-      // blob's centre, a mislabelled or drifting track) leaves the limb's samples outside the hull; when
-      // the limb fitted to the hull from it holds clearly more, that end is taken.
+      // A foot feature checked against the leg's hull: one off its leg (a drifting or mislabelled track)
+      // leaves the leg's samples outside the hull; when the leg fitted to the hull from it holds clearly
+      // more, that end is taken. Not the arms: near the torso or the other arm few of their samples
+      // count, and the check moved correct wrists (README).
       const Vec3 bend = F * s.l2.bend_local[li];
       const int n_feat = s.count_limb_at(limb, root, f[li + 1], bend);
-      if (n_feat < kFeatureSupport * static_cast<double>(s.samples.size())) {
+      if (!is_arm(limb) && n_feat < kFeatureSupport * static_cast<double>(s.samples.size())) {
         const Vec3 e = s.fit_end_to_hull(limb, root, f[li + 1]);
         if (s.count_limb_at(limb, root, e, bend) > kHullBeatsFeature * n_feat) l1.end_world[li] = e;
       }
