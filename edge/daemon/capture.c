@@ -2,6 +2,8 @@
 #define _GNU_SOURCE
 #include "capture.h"
 
+#include "log.h"
+
 #include <errno.h>
 #include <pthread.h>
 #include <stdarg.h>
@@ -149,11 +151,30 @@ static void* cam_main(void* arg) {
 
 /* ---- trigger thread ----------------------------------------------------------------------------- */
 
+/* Datagrams the trigger dropped as forged (a seq jump, a foreign sender): a warning when their count
+ * grows, at most one a second, so an attack is seen in the edge's log without flooding it. */
+static void log_trigger_drops(vc_capture* cap, uint64_t* logged, uint64_t* last_ns) {
+  vc_trigger_stats st;
+  vc_trigger_get_stats(cap->trig, &st);
+  uint64_t n = st.jumps + st.foreign, now = vc_clock_monotonic_ns();
+  if (n == *logged || (*last_ns && now - *last_ns < 1000000000ull)) return;
+  vc_log(
+      VC_LOG_WARN,
+      "trigger: dropped %llu datagrams so far: %llu with a seq jump beyond %u pulses (last seq %llu), %llu "
+      "from another sender than the host",
+      (unsigned long long)n, (unsigned long long)st.jumps, VC_SEQ_MAX_JUMP,
+      (unsigned long long)st.last_jump_seq, (unsigned long long)st.foreign);
+  *logged = n;
+  *last_ns = now;
+}
+
 static void* trig_main(void* arg) {
   vc_capture* cap = arg;
+  uint64_t drops_logged = 0, drops_logged_ns = 0;
   while (atomic_load(&cap->trig_run)) {
     vc_pulse p;
     int rc = vc_trigger_wait(cap->trig, 100, &p);
+    log_trigger_drops(cap, &drops_logged, &drops_logged_ns);
     if (rc == -ETIMEDOUT) continue;
     if (rc < 0) {
       errorf(cap, VC_ERR_TRIGGER, "trigger: %s", vc_trigger_last_error(cap->trig));

@@ -201,6 +201,7 @@ vc_edged_options to_options(const EdgeSettings& s) {
   vc_trigger_config_init(&o.trigger);
   o.trigger.backend = s.trigger_backend.c_str();
   o.trigger.bind_address = s.trigger_bind.c_str();
+  o.trigger.source_address = s.host.c_str();  // only the host pulses (udp; secnet, #13)
   o.trigger.port = static_cast<uint16_t>(s.trigger_port ? s.trigger_port : 47000 + s.node_id);
   o.trigger.chip = s.gpio_chip.c_str();
   o.trigger.line_name = s.gpio_line_name.empty() ? nullptr : s.gpio_line_name.c_str();

@@ -132,10 +132,22 @@ vc_seq_verdict vc_seq_window_push(vc_seq_window* w, uint64_t seq, int64_t* lost_
   if (!w->started || (seq < w->highest && w->highest - seq >= 64)) {
     vc_seq_verdict v = w->started ? VC_SEQ_RESTART : VC_SEQ_NEXT;
     w->started = true;
+    w->jumped = false;
     w->highest = seq;
     w->seen = 1;
     return v;
   }
+  if (seq > w->highest && seq - w->highest > VC_SEQ_MAX_JUMP) {
+    /* Implausible unless it continues a jump dropped just before: then the sender really moved. */
+    bool confirmed = w->jumped && seq > w->jump_seq && seq - w->jump_seq < 64;
+    w->jumped = !confirmed;
+    w->jump_seq = seq;
+    if (!confirmed) return VC_SEQ_JUMP;
+    w->highest = seq;
+    w->seen = 1;
+    return VC_SEQ_RESTART;
+  }
+  w->jumped = false;
   if (seq > w->highest) {
     uint64_t step = seq - w->highest;
     *lost_delta = (int64_t)(step - 1);

@@ -32,17 +32,26 @@ int vc_trigger_set_error(vc_trigger* trig, int code, const char* fmt, ...);
 /* Sets the name the error messages use for the source before open has completed. */
 void vc_trigger_set_source(vc_trigger* trig, const char* source);
 
-/* Pure: udp sequence bookkeeping, a 64-pulse window of recently seen seqs. Unit-tested. */
+/* Pure: udp sequence bookkeeping, a 64-pulse window of recently seen seqs. Unit-tested.
+ * A forward jump of more than VC_SEQ_MAX_JUMP pulses is implausible (the host counts every pulse;
+ * 1024 is 17 s at 60 Hz, far more than a loopback or LAN loses): the datagram is dropped, and only a
+ * second one that follows it in sequence (within the window) moves the window there. So one forged
+ * datagram (seq 100000) is never delivered, while a host that really skipped ahead is followed after
+ * one pulse. A jump back stays what it was: a restarted host (VC_SEQ_RESTART). VC_SEQ_MAX_JUMP is in
+ * voxcap/edge/trigger.h. */
 typedef struct vc_seq_window {
   bool started;
   uint64_t highest; /* highest seq seen */
   uint64_t seen;    /* bit i: seq (highest - i) was seen */
+  bool jumped;      /* a jump was dropped: jump_seq is where it went */
+  uint64_t jump_seq;
 } vc_seq_window;
 typedef enum vc_seq_verdict {
   VC_SEQ_NEXT,      /* deliver: the next or a later seq (gaps counted as lost) */
   VC_SEQ_LATE,      /* deliver: an earlier seq counted lost before, arrived late (un-lose it) */
   VC_SEQ_DUPLICATE, /* drop: already seen */
   VC_SEQ_RESTART,   /* deliver: far below the window — the sender restarted its count; window reset */
+  VC_SEQ_JUMP,      /* drop: more than VC_SEQ_MAX_JUMP above the window (or confirm a dropped one) */
 } vc_seq_verdict;
 /* Classifies seq; *lost_delta receives how the lost count changes (+gap, −1 for late, 0). */
 vc_seq_verdict vc_seq_window_push(vc_seq_window* w, uint64_t seq, int64_t* lost_delta);

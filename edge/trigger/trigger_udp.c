@@ -2,8 +2,10 @@
  * pulse (proto/SPEC.md) to every edge; this backend binds a UDP port (loopback by default), decodes
  * each datagram, drops undecodable and repeated ones, and counts pulses lost on the wire from gaps in
  * seq (a 64-pulse window tells a late datagram from a lost one; a jump back by more than that is the
- * host restarting its count). The datagram's t_ns is the host's CLOCK_MONOTONIC: in the emulated rig
- * host and edges share one machine, so it needs no conversion. */
+ * host restarting its count). A jump ahead by more than VC_SEQ_MAX_JUMP is dropped unless the next
+ * datagram confirms it, and a sender other than the host's address (when known) is dropped: one
+ * forged datagram cannot move the edge's seq. The datagram's t_ns is the host's CLOCK_MONOTONIC: in
+ * the emulated rig host and edges share one machine, so it needs no conversion. */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
 #include <errno.h>
@@ -21,6 +23,8 @@
 struct udp_priv {
   int fd;
   vc_seq_window window;
+  bool check_source;
+  struct in_addr source; /* with check_source: the only sender taken */
 };
 
 static void udp_free(void* p) {
@@ -59,6 +63,10 @@ static int udp_open(vc_trigger* trig, const vc_trigger_config* cfg, vc_trigger_i
     rc = vc_trigger_set_error(trig, -errno, "getsockname: %s", strerror(errno));
     goto err;
   }
+  if (cfg->source_address && cfg->source_address[0]) {
+    const char* src_addr = strcmp(cfg->source_address, "localhost") == 0 ? "127.0.0.1" : cfg->source_address;
+    if (inet_pton(AF_INET, src_addr, &u->source) == 1) u->check_source = true;
+  }
   info->port = ntohs(sa.sin_port);
   snprintf(info->source, sizeof info->source, "%s:%u", addr, info->port);
   *out = u;
@@ -73,7 +81,9 @@ static int udp_wait(vc_trigger* trig, void* p, int timeout_ms, vc_pulse* pulse, 
   uint64_t deadline = timeout_ms > 0 ? vc_clock_monotonic_ns() + (uint64_t)timeout_ms * 1000000ull : 0;
   for (;;) {
     uint8_t buf[64];
-    ssize_t n = recv(u->fd, buf, sizeof buf, 0);
+    struct sockaddr_in from;
+    socklen_t fromlen = sizeof from;
+    ssize_t n = recvfrom(u->fd, buf, sizeof buf, 0, (struct sockaddr*)&from, &fromlen);
     if (n < 0) {
       if (errno == EINTR) continue;
       if (errno != EAGAIN && errno != EWOULDBLOCK)
@@ -92,16 +102,29 @@ static int udp_wait(vc_trigger* trig, void* p, int timeout_ms, vc_pulse* pulse, 
       continue;
     }
     uint64_t seq, t_ns;
+    if (u->check_source && (fromlen < sizeof from || from.sin_addr.s_addr != u->source.s_addr)) {
+      st->foreign++;
+      continue;
+    }
     if (vc_trigger_dgram_decode(buf, (size_t)n, &seq, &t_ns) != 0) {
       st->invalid++;
       continue;
     }
     int64_t lost_delta;
     switch (vc_seq_window_push(&u->window, seq, &lost_delta)) {
-      case VC_SEQ_DUPLICATE: st->duplicate++; continue;
-      case VC_SEQ_LATE: st->late++; break;
+      case VC_SEQ_DUPLICATE:
+        st->duplicate++;
+        continue;
+      case VC_SEQ_JUMP:
+        st->jumps++;
+        st->last_jump_seq = seq;
+        continue;
+      case VC_SEQ_LATE:
+        st->late++;
+        break;
       case VC_SEQ_NEXT:
-      case VC_SEQ_RESTART: break;
+      case VC_SEQ_RESTART:
+        break;
     }
     st->lost = (uint64_t)((int64_t)st->lost + lost_delta);
     pulse->seq = seq;
@@ -110,7 +133,9 @@ static int udp_wait(vc_trigger* trig, void* p, int timeout_ms, vc_pulse* pulse, 
   }
 }
 
-static int udp_fd(const void* p) { return ((const struct udp_priv*)p)->fd; }
+static int udp_fd(const void* p) {
+  return ((const struct udp_priv*)p)->fd;
+}
 
 const vc_trigger_backend vc_trigger_backend_udp = {
     .name = "udp", .open = udp_open, .wait = udp_wait, .fd = udp_fd, .free_priv = udp_free};

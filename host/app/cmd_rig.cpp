@@ -34,6 +34,9 @@ nlohmann::json report_json(const aggregator::Report& r) {
   j["first_seq"] = r.first_seq;
   j["last_seq"] = r.last_seq;
   j["fps"] = r.fps;
+  j["last_pulse"] = r.last_pulse;
+  j["unmerged_pulses"] = r.unmerged_pulses();
+  j["merging_stopped"] = r.merging_stopped();
   j["trigger_to_merged_ms"] = {{"mean", r.merged.mean_ms()},
                                {"p50", r.merged.percentile_ms(0.5)},
                                {"p99", r.merged.percentile_ms(0.99)}};
@@ -46,6 +49,7 @@ nlohmann::json report_json(const aggregator::Report& r) {
          {"connected", n.connected},
          {"state", vc_node_state_name(n.state) ? vc_node_state_name(n.state) : "?"},
          {"joins", n.joins},
+         {"hellos_refused", n.hellos_refused},
          {"leaves", n.leaves},
          {"hulls", n.hulls},
          {"late", n.late},
@@ -59,6 +63,8 @@ nlohmann::json report_json(const aggregator::Report& r) {
          {"host_queue_drops", n.host_queue_drops},
          {"features", n.features},
          {"features_late", n.features_late},
+         {"refused", n.refused},
+         {"unpulsed", n.unpulsed},
          {"edge_stage_ms", s},
          {"trigger_to_received_ms",
           {{"mean", n.rx.mean_ms()}, {"p50", n.rx.percentile_ms(0.5)}, {"p99", n.rx.percentile_ms(0.99)}}}});
@@ -89,9 +95,16 @@ void print_report(const aggregator::Report& r) {
         n.name, n.hulls, n.late, n.missing, st("capture"), st("subtract"), st("carve"), n.edge_frame_ms,
         n.rx.percentile_ms(0.5), n.rx.percentile_ms(0.99), n.edge_queue_drops + n.edge_pulses_without_frame,
         n.joins, n.last_error.empty() ? "" : "  last error: " + n.last_error);
+    std::string refused;
+    for (const auto& [reason, count] : n.refused) refused += fmt::format("  {} {}", reason, count);
+    if (n.unpulsed) refused += fmt::format("  unpulsed (assembler) {}", n.unpulsed);
+    if (!refused.empty()) fmt::print("  {:<8} refused:{}\n", n.name, refused);
   }
   fmt::print("frames: {} merged ({} complete, {} degraded, {} dropped) of {} pulses, seq {}..{}\n", r.frames,
              r.complete, r.degraded, r.dropped, r.pulses, r.first_seq, r.last_seq);
+  if (r.merging_stopped())
+    fmt::print("merging STOPPED: {} pulses after seq {} never merged (the last pulse was seq {})\n",
+               r.unmerged_pulses(), r.frames ? r.last_seq : r.origin, r.last_pulse);
   fmt::print("fps: {:.1f}   trigger->merged hull: mean {:.2f} ms  p50 {:.2f} ms  p99 {:.2f} ms\n", r.fps,
              r.merged.mean_ms(), r.merged.percentile_ms(0.5), r.merged.percentile_ms(0.99));
   fmt::print("stages:");
@@ -228,8 +241,10 @@ void print_accuracy(const emulated::Accuracy& a) {
 }  // namespace
 
 void add_rig_commands(CLI::App& app) {
-  auto* cmd =
-      app.add_subcommand("rig", "Run a rig: the host aggregator (and with --emulated, the edges too)");
+  auto* cmd = app.add_subcommand(
+      "rig",
+      "Run a rig: the host aggregator (and with --emulated, the edges too); exit 1 when its frames "
+      "stopped merging (more than a second of pulses after the last merged frame)");
   auto opt = std::make_shared<emulated::Options>();
   auto emulated = std::make_shared<bool>(false);
   auto frames = std::make_shared<uint64_t>(600);
@@ -284,8 +299,9 @@ void add_rig_commands(CLI::App& app) {
   cmd->add_flag(
       "--json", *json,
       "print the figures as JSON: emulated {nodes, motion, appearance, room, carve, grid, size, rate_hz, "
-      "truth_every}, frames, complete, degraded, dropped, pulses, fps, trigger_to_merged_ms "
-      "{mean,p50,p99}, nodes[] {id, name, hulls, late, missing, host_queue_drops, edge_stage_ms, "
+      "truth_every}, frames, complete, degraded, dropped, pulses, fps, last_pulse, unmerged_pulses, "
+      "merging_stopped, trigger_to_merged_ms {mean,p50,p99}, nodes[] {id, name, hulls, late, missing, "
+      "host_queue_drops, refused {not_running, unpulsed}, unpulsed, hellos_refused, edge_stage_ms, "
       "trigger_to_received_ms, ...}, "
       "stages[] {name, overflow, processed, dropped, errors, queue_max, queue_capacity, busy_ms {mean,max}}, "
       "accuracy {frames, agree, min_agree, iou_silhouette_hull, body_recall, hull_precision, "
@@ -317,11 +333,23 @@ void add_rig_commands(CLI::App& app) {
         while (!g_interrupted && std::chrono::steady_clock::now() < end)
           std::this_thread::sleep_for(std::chrono::milliseconds(20));
       } else {
-        // Generous: a loaded machine runs below the trigger rate.
+        // Generous: a loaded machine runs below the trigger rate. A run whose frames stopped merging
+        // for 10 s after its first one ends early (and says so below).
         double timeout = double(*frames) / opt->rate_hz * 20 + 30;
-        auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout);
-        while (!g_interrupted && rig.merged_frames() < *frames && std::chrono::steady_clock::now() < end)
+        auto now = std::chrono::steady_clock::now();
+        auto end = now + std::chrono::duration<double>(timeout);
+        uint64_t seen = 0;
+        auto last_progress = now;
+        while (!g_interrupted && rig.merged_frames() < *frames &&
+               (now = std::chrono::steady_clock::now()) < end) {
+          if (rig.merged_frames() != seen) {
+            seen = rig.merged_frames();
+            last_progress = now;
+          } else if (seen > 0 && now - last_progress > std::chrono::seconds(10)) {
+            break;
+          }
           std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
       }
       emulated::Result r = rig.stop();
       if (*json) {
@@ -339,6 +367,9 @@ void add_rig_commands(CLI::App& app) {
         print_accuracy(r.accuracy);
       }
       if (r.report.frames == 0) throw std::runtime_error("no frame was merged");
+      if (r.report.merging_stopped())
+        throw std::runtime_error(fmt::format("frames stopped merging after seq {}: {} pulses never merged",
+                                             r.report.last_seq, r.report.unmerged_pulses()));
       return;
     }
     // A real rig: the aggregator alone; the edges are on their boards. A rig.toml that cannot be read
@@ -365,10 +396,14 @@ void add_rig_commands(CLI::App& app) {
     while (!g_interrupted && std::chrono::steady_clock::now() < end)
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     agg.stop();
+    const aggregator::Report rep = agg.report();
     if (*json)
-      fmt::print("{}\n", report_json(agg.report()).dump(2));
+      fmt::print("{}\n", report_json(rep).dump(2));
     else
-      print_report(agg.report());
+      print_report(rep);
+    if (rep.merging_stopped())
+      throw std::runtime_error(fmt::format("frames stopped merging after seq {}: {} pulses never merged",
+                                           rep.last_seq, rep.unmerged_pulses()));
   });
 }
 

@@ -5,8 +5,10 @@
  * half are decoded as they are. Each input is decoded twice, fed whole and fed in pseudo-random chunks
  * (seeded from the input), and must give the same sequence of messages and errors: chunking never
  * changes the result. Every message decoded at this library's exact version must re-encode to the
- * very bytes it was decoded from (decode is exact, encode is its inverse). ASan/UBSan catch over-reads
- * and undefined behaviour; any property violation aborts. */
+ * very bytes it was decoded from (decode is exact, encode is its inverse). A quarter of the inputs are
+ * decoded as the host decodes a stranger: VC_PROTO_MAX_HELLO_PAYLOAD until the first message, the full
+ * maximum after it (vc_decoder_set_max_payload). ASan/UBSan catch over-reads and undefined behaviour;
+ * any property violation aborts. */
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -78,8 +80,10 @@ static void check_reencode(const vc_msg* m) {
   if (memcmp(g_reencoded, m->payload - VC_PROTO_HEADER_SIZE, len) != 0) abort();
 }
 
-/* Decodes b[0..n) with chunk sizes from `seed` (0: one chunk). */
-static void decode(const uint8_t* b, size_t n, size_t max_payload, uint64_t seed, trace* t, vc_msg* m) {
+/* Decodes b[0..n) with chunk sizes from `seed` (0: one chunk); with `raise`, max_payload goes to the
+ * protocol's maximum after the first message. */
+static void decode(const uint8_t* b, size_t n, size_t max_payload, int raise, uint64_t seed, trace* t,
+                   vc_msg* m) {
   vc_decoder* dec = NULL;
   if (vc_decoder_new(max_payload, &dec, NULL, 0) < 0) abort();
   t->n = 0;
@@ -98,6 +102,10 @@ static void decode(const uint8_t* b, size_t n, size_t max_payload, uint64_t seed
         if (rc == 0) break;
         record(t, rc, rc < 0 ? vc_decoder_diag(dec)->offset : at, m);
         if (rc > 0) check_reencode(m);
+        if (rc > 0 && raise) {
+          if (vc_decoder_set_max_payload(dec, 0) != 0) abort();
+          raise = 0;
+        }
         if (rc < 0 && vc_proto_error_is_fatal(rc)) {
           fatal = 1;
           break;
@@ -124,8 +132,10 @@ int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size) memcpy(b, data, size);
   if (seed & 1) repair_crcs(b, size);
   size_t max_payload = (seed & 2) ? 1024 : 0;
-  decode(b, size, max_payload, 0, &whole, &msg);
-  decode(b, size, max_payload, seed, &chunked, &msg);
+  int raise = (seed & 6) == 6; /* the host's pre-HELLO limit, raised after the first message */
+  if (raise) max_payload = VC_PROTO_MAX_HELLO_PAYLOAD;
+  decode(b, size, max_payload, raise, 0, &whole, &msg);
+  decode(b, size, max_payload, raise, seed, &chunked, &msg);
   if (whole.n != chunked.n) abort();
   size_t kept = whole.n < MAX_EVENTS ? whole.n : MAX_EVENTS;
   for (size_t i = 0; i < kept; i++) {

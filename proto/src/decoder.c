@@ -65,6 +65,15 @@ void vc_decoder_free(vc_decoder* dec) {
   free(dec);
 }
 
+int vc_decoder_set_max_payload(vc_decoder* dec, size_t max_payload) {
+  if (!dec) return -EINVAL;
+  if (max_payload == 0) max_payload = VC_PROTO_MAX_PAYLOAD;
+  if (max_payload > VC_PROTO_MAX_PAYLOAD) return -EINVAL;
+  dec->max_payload = max_payload;
+  dec->cap_max = VC_PROTO_HEADER_SIZE + max_payload;
+  return 0;
+}
+
 int vc_decoder_feed(vc_decoder* dec, const uint8_t* data, size_t len, size_t* consumed) {
   if (!dec || (len && !data) || !consumed) return -EINVAL;
   *consumed = 0;

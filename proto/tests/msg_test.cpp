@@ -685,6 +685,42 @@ TEST(Decoder, MemoryIsBoundedAndFeedAlwaysProgresses) {
   EXPECT_EQ(vc_decoder_next(small.get(), msg.get()), VC_PROTO_EOVERSIZE);
 }
 
+// The host's pre-HELLO cap (SPEC.md "Limits"): a stranger's first message declaring 8 MiB is refused
+// from its header, before anything is buffered; after the HELLO the full maximum applies again.
+TEST(Decoder, MaxPayloadCanBeRaisedAfterHello) {
+  auto hello = sample(VC_MSG_HELLO, {}, "");
+  auto config = sample(VC_MSG_CONFIG, {}, "");
+  const Bytes h = encode(*hello), c = encode(*config);
+  ASSERT_LE(h.size() - VC_PROTO_HEADER_SIZE, size_t{VC_PROTO_MAX_HELLO_PAYLOAD});
+  Bytes stream = h;
+  stream.insert(stream.end(), c.begin(), c.end());
+  DecoderPtr dec = new_decoder(200);  // below CONFIG's payload
+  auto msg = std::make_unique<vc_msg>();
+  size_t used = 0;
+  ASSERT_EQ(vc_decoder_feed(dec.get(), stream.data(), stream.size(), &used), 0);
+  ASSERT_EQ(vc_decoder_next(dec.get(), msg.get()), 1);
+  EXPECT_EQ(msg->hdr.type, VC_MSG_HELLO);
+  ASSERT_EQ(vc_decoder_set_max_payload(dec.get(), 0), 0);
+  size_t pos = used;
+  while (pos < stream.size()) {
+    ASSERT_EQ(vc_decoder_feed(dec.get(), stream.data() + pos, stream.size() - pos, &used), 0);
+    pos += used;
+  }
+  ASSERT_EQ(vc_decoder_next(dec.get(), msg.get()), 1);
+  EXPECT_EQ(msg->hdr.type, VC_MSG_CONFIG);
+  // An 8 MiB header as the first thing a stranger sends: oversize after its 40 bytes.
+  Bytes huge = c;
+  const uint32_t plen = VC_PROTO_MAX_PAYLOAD;
+  std::memcpy(&huge[12], &plen, 4);
+  const uint32_t hc = vc_crc32c(0, huge.data(), 36);
+  std::memcpy(&huge[36], &hc, 4);
+  DecoderPtr first = new_decoder(VC_PROTO_MAX_HELLO_PAYLOAD);
+  ASSERT_EQ(vc_decoder_feed(first.get(), huge.data(), VC_PROTO_HEADER_SIZE, &used), 0);
+  EXPECT_EQ(vc_decoder_next(first.get(), msg.get()), VC_PROTO_EOVERSIZE);
+  EXPECT_EQ(vc_decoder_set_max_payload(first.get(), VC_PROTO_MAX_PAYLOAD + 1), -EINVAL);
+  EXPECT_EQ(vc_decoder_set_max_payload(nullptr, 0), -EINVAL);
+}
+
 TEST(Decoder, RejectsBadArguments) {
   char why[128] = "unset";
   vc_decoder* failed = reinterpret_cast<vc_decoder*>(why);  // must come back NULL

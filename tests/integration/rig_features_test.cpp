@@ -67,7 +67,8 @@ TEST(RigFeatures, WaveFiguresAreReportedPerFeatureAndPlausible) {
     EXPECT_LE(f["err3d_p50_mm"].get<double>(), f["err3d_p95_mm"].get<double>());
     EXPECT_LE(f["err2d_p50_px"].get<double>(), f["err2d_p95_px"].get<double>());
     EXPECT_LE(f["recover_p95_frames"].get<double>(), f["recover_max_frames"].get<double>());
-    // Where the parts are, as measured on this build (3 runs, wave, 330 frames), with margin. The head:
+    // Where the parts are, as measured on the build before the joint estimate (3 runs, wave, 330 frames;
+    // figures of the current one in the next comments), with margin. The head:
     // 3D p50 10-12 mm, p95 29-40 mm; 2D p50 0.4 px, p95 3.1 px. Hands: 2D p50 1.7-2.5 px, p95 6-28 px;
     // 3D p50 37-54 mm when the host names the pair right; in one run of five it named them the wrong
     // way round from the start (p50 ~1.2 m, an untrusted naming: never confident), so in 3D only
@@ -89,6 +90,10 @@ TEST(RigFeatures, WaveFiguresAreReportedPerFeatureAndPlausible) {
       // The p95 swings from run to run (a tracker on the wrong blob for a stretch: up to 110 px
       // measured on a foot): only "inside the image" is asserted for it.
       EXPECT_LE(err2d_p50, 8);
+      // The edges report the wrist and the ankle, not the skin blob's centre (edge/track): 2D p50
+      // measured 0.4-0.7 px for hands and feet in 4 runs of this build (the blob-based point gave
+      // hands 1.7-1.8 px, feet 3.7-4.3 px in 2 runs); the median target.
+      EXPECT_LE(err2d_p50, 3) << "the wrist or ankle, not the blob's centre";
       EXPECT_LE(err2d_p95, 320);
       // Hands: 78-88 % of the visible frames; feet 14-94 % (both feet in one blob at 320x240, one of
       // them lost for long stretches).

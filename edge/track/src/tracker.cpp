@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 #include <opencv2/imgproc.hpp>
@@ -12,6 +13,49 @@
 namespace vc::track {
 
 namespace {
+
+// The distance of every non-zero pixel of `in` to the nearest zero pixel (0 at zero pixels), by the
+// two-pass 3x3 chamfer with OpenCV's DIST_L2 / DIST_MASK_3 weights (1 step 0.955, diagonal 1.3693);
+// pixels beyond the region's edge are not zeros. What cv::distanceTransform gives, without its
+// per-call buffers (a few small regions per frame).
+void chamfer_distance(const cv::Mat1b& in, cv::Mat1f& d) {
+  constexpr float a = 0.955f, b = 1.3693f, far = 1e6f;
+  const int w = in.cols, h = in.rows;
+  for (int y = 0; y < h; ++y) {
+    const std::uint8_t* src = in[y];
+    float* row = d[y];
+    const float* up = y > 0 ? d[y - 1] : nullptr;
+    for (int x = 0; x < w; ++x) {
+      if (!src[x]) {
+        row[x] = 0;
+        continue;
+      }
+      float v = far;
+      if (x > 0) v = std::min(v, row[x - 1] + a);
+      if (up) {
+        v = std::min(v, up[x] + a);
+        if (x > 0) v = std::min(v, up[x - 1] + b);
+        if (x + 1 < w) v = std::min(v, up[x + 1] + b);
+      }
+      row[x] = v;
+    }
+  }
+  for (int y = h - 1; y >= 0; --y) {
+    float* row = d[y];
+    const float* down = y + 1 < h ? d[y + 1] : nullptr;
+    for (int x = w - 1; x >= 0; --x) {
+      float v = row[x];
+      if (v == 0) continue;
+      if (x + 1 < w) v = std::min(v, row[x + 1] + a);
+      if (down) {
+        v = std::min(v, down[x] + a);
+        if (x + 1 < w) v = std::min(v, down[x + 1] + b);
+        if (x > 0) v = std::min(v, down[x - 1] + b);
+      }
+      row[x] = v;
+    }
+  }
+}
 
 cv::Point2f centre_of(const cv::Rect& r) {
   return {float(r.x) + 0.5f * float(r.width), float(r.y) + 0.5f * float(r.height)};
@@ -23,13 +67,15 @@ double iou(const cv::Rect& a, const cv::Rect& b) {
   return uni > 0 ? inter / uni : 0.0;
 }
 
-// Where the wrist and the ankle are against the skin blob of the hand or the foot. The blob ends where
-// the sleeve or the trouser begins (the junction J, the blob's pixels that touch non-skin silhouette);
-// the joint lies beyond it, inside the cuff, by a share of the visible blob's extent C -> J: the sleeve's
-// end covers the wrist by about a forearm radius (~4 cm of a ~15 cm visible hand, so J + 0.27 (J - C)),
-// the trouser's end covers the ankle by about a shank radius above the foot's visible top.
-constexpr float kWristBeyondJunction = 0.27f;
-constexpr float kAnkleBeyondJunction = 0.5f;
+// The wrist and the ankle beyond the junction (joint_beyond_blob()): the slope of the distance penalty,
+// below 1 so that the clearance's rise (slope 1 from the junction to the cap's centre) wins, above 0 so
+// that the flat ridge behind the centre loses.
+constexpr float kJointSlope = 0.6f;
+// The largest radius of the covered limb beside a blob of half-length L and half-width W:
+// max(kLimbRadiusPerHalfLength L, kLimbRadiusPerHalfWidth W) (a forearm is as wide as the hand, a
+// shank's radius about half the foot's half-length; both hold for a hand or foot seen end-on).
+constexpr double kLimbRadiusPerHalfLength = 0.6;
+constexpr double kLimbRadiusPerHalfWidth = 1.2;
 // The head blob holds the neck too: the head's centre is the middle of the rows where the blob is
 // nearly as wide as it gets (the neck is ~0.7 of the head's width, so it never counts).
 constexpr float kHeadRowShare = 0.85f;
@@ -208,7 +254,8 @@ void CameraTracker::learn_frame(const cv::Mat3b& rgb, const cv::Mat1b& mask, con
   }
 }
 
-void CameraTracker::adopt(int f, const cv::Rect& box, const cv::Mat1b& mask, bool recovered) {
+void CameraTracker::adopt(int f, const cv::Rect& box, const cv::Rect& valid, const cv::Mat1b& mask,
+                          bool recovered) {
   Track& t = tracks_[static_cast<std::size_t>(f)];
   t.window = box;
   t.centre = centre_of(box);
@@ -221,7 +268,7 @@ void CameraTracker::adopt(int f, const cv::Rect& box, const cv::Mat1b& mask, boo
   t.amb_frames = 0;
   t.since_recovery = recovered ? 0 : opt_.recover_frames;
   cv::Point2f uv;
-  t.uv = estimate_point(f, box, mask, &uv) ? uv : t.centre;
+  t.uv = estimate_point(f, box, valid, mask, &uv) ? uv : t.centre;
   t.confidence = recovered ? 1.0f / float(opt_.recover_frames + 1) : 1.0f;
 }
 
@@ -273,7 +320,7 @@ void CameraTracker::start_tracking(const cv::Mat3b& rgb, const cv::Mat1b& mask, 
     if (best < 0) continue;
     const cv::Rect b(stats_(best, cv::CC_STAT_LEFT) + roi.x, stats_(best, cv::CC_STAT_TOP) + roi.y,
                      stats_(best, cv::CC_STAT_WIDTH), stats_(best, cv::CC_STAT_HEIGHT));
-    adopt(f, b, mask, false);
+    adopt(f, b, roi, mask, false);
   }
   // Two seeds on one blob (e.g. feet together seen from the side): the blob is one feature's only.
   for (int a = 0; a < kFeatures; ++a)
@@ -309,31 +356,24 @@ void CameraTracker::lose(int f) {
   losses_++;
 }
 
-bool CameraTracker::estimate_point(int f, const cv::Rect& window, const cv::Mat1b& mask,
-                                   cv::Point2f* uv) const {
-  const cv::Rect image(0, 0, prob_.cols, prob_.rows);
+bool CameraTracker::estimate_point(int f, const cv::Rect& window, const cv::Rect& valid,
+                                   const cv::Mat1b& mask, cv::Point2f* uv) {
+  // Only where this frame's HSV and back-projection were computed, one pixel in from the image's edge
+  // (the 4-neighbour tests below).
+  const cv::Rect inner = valid & cv::Rect(1, 1, prob_.cols - 2, prob_.rows - 2);
   const int gx = window.width / 4 + 1, gy = window.height / 4 + 1;
-  const cv::Rect e = cv::Rect(window.x - gx, window.y - gy, window.width + 2 * gx, window.height + 2 * gy) &
-                     cv::Rect(1, 1, image.width - 2, image.height - 2);
+  const cv::Rect e =
+      cv::Rect(window.x - gx, window.y - gy, window.width + 2 * gx, window.height + 2 * gy) & inner;
   if (e.empty()) return false;
-  const int thr = opt_.prob_threshold, low = opt_.prob_threshold / 2;
+  const int thr = opt_.prob_threshold;
   const FeatureKind kind = feature_kind(f);
-  double cx = 0, cy = 0, n = 0, jx = 0, jy = 0, jn = 0;
+  double cx = 0, cy = 0, n = 0;
   int max_row = 0;
   for (int y = e.y; y < e.y + e.height; ++y) {
     const std::uint8_t* p = prob_[y];
     int row = 0;
-    for (int x = e.x; x < e.x + e.width; ++x) {
-      if (p[x] <= thr) continue;
-      row++;
-      cx += x, cy += y, n++;
-      if (kind == FeatureKind::head) continue;
-      // A junction pixel touches silhouette that is not skin (sleeve, trouser).
-      const bool cloth = (mask(y, x - 1) && p[x - 1] <= low) || (mask(y, x + 1) && p[x + 1] <= low) ||
-                         (mask(y - 1, x) && prob_(y - 1, x) <= low) ||
-                         (mask(y + 1, x) && prob_(y + 1, x) <= low);
-      if (cloth) jx += x, jy += y, jn++;
-    }
+    for (int x = e.x; x < e.x + e.width; ++x)
+      if (p[x] > thr) row++, cx += x, cy += y, n++;
     max_row = std::max(max_row, row);
   }
   if (n < 0.5 * opt_.min_blob_px + 1) return false;
@@ -352,14 +392,135 @@ bool CameraTracker::estimate_point(int f, const cv::Rect& window, const cv::Mat1
     *uv = hn > 0 ? cv::Point2f(float(hx / hn), float(hy / hn)) : c;
     return true;
   }
-  if (jn < 2) {
-    *uv = c;
-    return true;
-  }
-  const cv::Point2f j(float(jx / jn), float(jy / jn));
-  const float k = kind == FeatureKind::hand ? kWristBeyondJunction : kAnkleBeyondJunction;
-  *uv = j + k * (j - c);
+  *uv = joint_beyond_blob(window, inner, mask, c);
   return true;
+}
+
+// The wrist or the ankle next to a hand's or a foot's skin blob (centroid c). Both joints are the end
+// of a limb that the clothes cover: the sleeve or the trouser leg ends in a rounded cap centred on the
+// joint (a limb of radius r is a capsule), and the skin blob begins where that cap's outline crosses
+// it (the junction). In the clothes-only part of the silhouette (silhouette pixels that are skin
+// neither by this feature's model nor by the pooled one), the distance to the nearest non-cloth pixel D
+// grows from 0 at the junction to r at the cap's centre and stays r along the limb's axis behind it;
+// so along the limb, from the junction J, D(p) - kJointSlope |p - J| rises until the cap's centre and
+// falls after it: its maximum over the cloth pixels near J, on the side away from the blob, is the
+// joint — wherever the limb points and whatever its width in this view (no body proportions, no
+// appearance). J is the centroid of the blob's pixels that touch cloth two pixels deep (a few non-skin
+// pixels of noise inside the blob are no junction).
+// A blob seen over clothes (a hand hanging in front of the trousers, on the hip, across the chest) has
+// cloth all around it: the junction gives no direction. The limb then leaves the blob at one end of
+// its long axis, the end towards the body: the end nearer the head (the head's window when it is
+// tracked, else the image's top) — the wrist is nearer the shoulder than the fingertips, the ankle
+// nearer the hip than the toes. J is then the junction at that end.
+// D is capped at the limb's largest radius for the blob's size (kLimbRadiusPer*): the clothes around
+// (the torso behind a hand, the other trouser leg touching) are wider than the limb.
+// Without a junction (nothing of the limb covered, or the limb hidden behind the blob) the blob's
+// centroid is reported. Cost: a chamfer distance transform of a window about twice the blob's size.
+cv::Point2f CameraTracker::joint_beyond_blob(const cv::Rect& window, const cv::Rect& inner,
+                                             const cv::Mat1b& mask, cv::Point2f c) {
+  const int m = std::max(window.width, window.height);
+  const int grow = m / 2 + 3;
+  const cv::Rect g =
+      cv::Rect(window.x - grow, window.y - grow, window.width + 2 * grow, window.height + 2 * grow) & inner;
+  if (g.width < 5 || g.height < 5) return c;
+  const int thr = opt_.prob_threshold, low = opt_.prob_threshold / 2;
+  for (int y = g.y; y < g.y + g.height; ++y) {
+    const std::uint8_t* mk = mask[y];
+    const cv::Vec3b* h = hsv_[y];
+    const std::uint8_t* pr = prob_[y];
+    std::uint8_t* out = cloth_[y];
+    for (int x = g.x; x < g.x + g.width; ++x)
+      out[x] = mk[x] && pr[x] <= low && pooled_.probability(h[x]) <= thr ? 255 : 0;
+  }
+  cv::Mat1f dist = dist_(g);
+  chamfer_distance(cloth_(g), dist);
+  // The blob's axes (second moments of its pixels in the window) and the junction.
+  const int gx = window.width / 4 + 1, gy = window.height / 4 + 1;
+  const cv::Rect w = cv::Rect(window.x - gx, window.y - gy, window.width + 2 * gx, window.height + 2 * gy) &
+                     cv::Rect(g.x + 2, g.y + 2, g.width - 4, g.height - 4);
+  double sxx = 0, syy = 0, sxy = 0, n = 0, jx = 0, jy = 0, jn = 0;
+  auto touches = [&](int x, int y) {
+    const int lx = x - g.x, ly = y - g.y;
+    return (cloth_(y, x - 1) && dist(ly, lx - 2) >= 1.3f) || (cloth_(y, x + 1) && dist(ly, lx + 2) >= 1.3f) ||
+           (cloth_(y - 1, x) && dist(ly - 2, lx) >= 1.3f) || (cloth_(y + 1, x) && dist(ly + 2, lx) >= 1.3f);
+  };
+  for (int y = w.y; y < w.y + w.height; ++y) {
+    const std::uint8_t* p = prob_[y];
+    for (int x = w.x; x < w.x + w.width; ++x) {
+      if (p[x] <= thr) continue;
+      const double dx = x - c.x, dy = y - c.y;
+      sxx += dx * dx, syy += dy * dy, sxy += dx * dy, n++;
+      if (touches(x, y)) jx += x, jy += y, jn++;
+    }
+  }
+  if (jn < 2 || n < 2) return c;
+  sxx /= n, syy /= n, sxy /= n;
+  // Principal axis e and the half-length / half-width of a uniform bar with those moments.
+  const double tr = 0.5 * (sxx + syy), det = std::sqrt(0.25 * (sxx - syy) * (sxx - syy) + sxy * sxy);
+  const double half_len = std::sqrt(3.0 * (tr + det)), half_wid = std::sqrt(3.0 * std::max(0.0, tr - det));
+  const double ang = 0.5 * std::atan2(2 * sxy, sxx - syy);
+  cv::Point2f e(float(std::cos(ang)), float(std::sin(ang)));
+  cv::Point2f j(float(jx / jn), float(jy / jn));
+  // The limb behind the junction is about as wide as the blob (a forearm's radius is a hand's
+  // half-width, a shank's a foot's half-length or less); clothes around it that are wider (the other
+  // trouser leg touching, the torso behind a hand) must not pull the maximum away.
+  const auto cap =
+      float(std::max({kLimbRadiusPerHalfLength * half_len, kLimbRadiusPerHalfWidth * half_wid, 1.5}));
+  if (cv::norm(j - c) < 0.3 * half_len && half_len > 1.5 * half_wid) {
+    // Cloth all around: the end of the long axis towards the head.
+    const Track& head = tracks_[0];
+    const cv::Point2f to_head = head.active ? head.uv - c : cv::Point2f(0, -1);
+    if (e.dot(to_head) < 0) e = -e;
+    jx = jy = jn = 0;
+    for (int y = w.y; y < w.y + w.height; ++y) {
+      const std::uint8_t* p = prob_[y];
+      for (int x = w.x; x < w.x + w.width; ++x)
+        if (p[x] > thr && e.dot(cv::Point2f(float(x), float(y)) - c) > 0.5 * half_len && touches(x, y))
+          jx += x, jy += y, jn++;
+    }
+    if (jn < 1) return c + float(half_len) * e;
+    j = cv::Point2f(float(jx / jn), float(jy / jn));
+  }
+  // The maximum of min(D, cap) - slope |p - J| over the cloth within reach of J (the blob's size: a
+  // cap's centre is never farther from the junction than the blob is long), away from the blob.
+  const float reach = float(m) * 0.75f + 2.0f;
+  cv::Point2f toward = j - c;
+  const float tl = float(cv::norm(toward));
+  toward = tl > 0.5f ? toward / tl : cv::Point2f(0, 0);
+  // One pass scores every cloth pixel in place of its clearance (no longer needed), the second takes
+  // the pixels near the best.
+  const float reach2 = reach * reach;
+  float best = 0;
+  for (int y = g.y; y < g.y + g.height; ++y) {
+    float* d = dist[y - g.y];
+    const float qy = float(y) - j.y;
+    for (int x = g.x; x < g.x + g.width; ++x) {
+      float& v = d[x - g.x];
+      if (v <= 0) {  // not cloth
+        v = -1;
+        continue;
+      }
+      const float qx = float(x) - j.x, r2 = qx * qx + qy * qy;
+      if (r2 > reach2) {
+        v = -1;
+        continue;
+      }
+      const float r = std::sqrt(r2);
+      v = qx * toward.x + qy * toward.y < -0.5f * r ? -1.0f : std::min(v, cap) - kJointSlope * r;
+      best = std::max(best, v);
+    }
+  }
+  if (best <= 0) return j;
+  // Sub-pixel: the centroid of the pixels within a pixel of the maximum, weighted by how close.
+  double sx = 0, sy = 0, sw = 0;
+  for (int y = g.y; y < g.y + g.height; ++y) {
+    const float* d = dist[y - g.y];
+    for (int x = g.x; x < g.x + g.width; ++x) {
+      const float v = d[x - g.x] - (best - 1.0f);
+      if (v > 0) sx += double(v) * x, sy += double(v) * y, sw += v;
+    }
+  }
+  return sw > 0 ? cv::Point2f(float(sx / sw), float(sy / sw)) : j;
 }
 
 void CameraTracker::track_one(int f, const cv::Mat3b& rgb, const cv::Mat1b& mask) {
@@ -410,7 +571,7 @@ void CameraTracker::track_one(int f, const cv::Mat3b& rgb, const cv::Mat1b& mask
       moved > float(opt_.max_jump * m + 4.0))
     return lose(f);
   cv::Point2f uv;
-  if (!estimate_point(f, next, mask, &uv)) return lose(f);
+  if (!estimate_point(f, next, roi, mask, &uv)) return lose(f);
   t.velocity = 0.5f * t.velocity + 0.5f * (c - t.centre);
   t.centre = c;
   t.window = next;
@@ -550,7 +711,7 @@ void CameraTracker::reacquire(const cv::Mat3b& rgb, const cv::Mat1b& mask) {
     taken[static_cast<std::size_t>(best)] = true;
     const cv::Rect b(stats_(best, cv::CC_STAT_LEFT) + roi.x, stats_(best, cv::CC_STAT_TOP) + roi.y,
                      stats_(best, cv::CC_STAT_WIDTH), stats_(best, cv::CC_STAT_HEIGHT));
-    adopt(f, b, mask, true);
+    adopt(f, b, roi, mask, true);
     reacquired_++;
   }
 }
@@ -564,6 +725,8 @@ void CameraTracker::process(const cv::Mat3b& rgb, const cv::Mat1b& mask, FrameRe
     prob_.create(size_);
     region_.create(size_);
     blobs_.create(size_);
+    cloth_.create(size_);
+    dist_.create(size_);
     prob_.setTo(0);
     reset();
   }

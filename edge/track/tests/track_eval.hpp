@@ -14,6 +14,7 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "voxcap/body/joints.hpp"
 #include "voxcap/edge/bgmodel.h"
 #include "voxcap/edge/cleanup.h"
 #include "voxcap/edge/track/tracker.hpp"
@@ -47,7 +48,8 @@ struct FeatureScore {
   int far_tracking = 0;           // tracking with an error > 25 px (a confident wrong answer in 2D)
   int far_confident = 0;          // ... with confidence above 0.5 (the host's `confident`)
   std::vector<double> predicted;  // px, visible & predicted (counted as untracked too)
-  cv::Point2d bias{0, 0};         // summed (reported - true) over tracking errors <= 25 px (mean: / near)
+  std::vector<std::vector<double>> per_camera;  // the errors, per camera
+  cv::Point2d bias{0, 0};  // summed (reported - true) over tracking errors <= 25 px (mean: / near)
   int near = 0;
   double pct(double q) const { return pct_of(errors, q); }
   static double pct_of(const std::vector<double>& v, double q) {
@@ -59,8 +61,23 @@ struct FeatureScore {
   }
 };
 
+// The error in the limb's own frame, summed over the tracked reports within 25 px (2D, per camera) or
+// over the frames a point could be triangulated (3D): where the reported point sits against the joint.
+// Hands: `along` the forearm (elbow -> wrist, + = towards the fingers), `across` it (2D: signed, image
+// normal to the forearm's projection; 3D: the length of the rest). Feet: `along` the shank (knee ->
+// ankle, + = down), `forward` along the foot (ankle -> toe, orthogonal to the shank; 3D only, in 2D
+// `across` the shank's projection). Head: image x / y (2D), world-frame length (3D).
+struct LimbBias {
+  double along = 0, across = 0, forward = 0, dist = 0;
+  std::vector<double> err_mm;  // 3D only: the error of each triangulated point
+  int n = 0;
+  void add(double a, double c, double f, double d) { along += a, across += c, forward += f, dist += d, n++; }
+  double mean(double LimbBias::*m) const { return n ? this->*m / n : NAN; }
+};
+
 struct EvalResult {
   std::array<FeatureScore, kFeatures> features;
+  std::array<LimbBias, kFeatures> bias2d, bias3d;
   double track_ms_per_camera_frame = 0;  // mean, tracking phase only
   int camera_frames = 0;
   std::vector<double> all_errors() const {
@@ -85,6 +102,34 @@ inline bool sides_swapped(const sim::Scene& scene, int frame, int cam) {
   return t[1].uv.x < t[2].uv.x;  // the performer's left hand left of the right one: seen from behind
 }
 
+// The limb a feature's joint ends: {proximal joint, the joint, the distal joint}.
+inline std::array<int, 3> limb_of(int true_feature) {
+  using J = body::Joint;
+  static const std::array<std::array<J, 3>, kFeatures> limbs = {{{J::neck, J::head, J::head_top},
+                                                                 {J::l_elbow, J::l_wrist, J::l_hand_tip},
+                                                                 {J::r_elbow, J::r_wrist, J::r_hand_tip},
+                                                                 {J::l_knee, J::l_ankle, J::l_toe},
+                                                                 {J::r_knee, J::r_ankle, J::r_toe}}};
+  const auto& l = limbs[static_cast<std::size_t>(true_feature)];
+  return {int(l[0]), int(l[1]), int(l[2])};
+}
+
+// The point nearest (least squares) to the rays through uv of the given cameras.
+inline bool intersect_rays(const rig::Calibration& cal, const std::vector<std::pair<int, cv::Point2d>>& uvs,
+                           cv::Vec3d* p) {
+  cv::Matx33d A = cv::Matx33d::zeros();
+  cv::Vec3d b(0, 0, 0);
+  for (const auto& [cam, uv] : uvs) {
+    const rig::Camera& c = cal.cameras[static_cast<std::size_t>(cam)];
+    const cv::Vec3d d = c.ray_world(uv), o = c.center_world();
+    const cv::Matx33d P = cv::Matx33d::eye() - d * d.t();
+    A += P;
+    b += P * o;
+  }
+  if (uvs.size() < 2) return false;
+  return cv::solve(A, b, *p, cv::DECOMP_CHOLESKY);
+}
+
 inline EvalResult evaluate(const EvalOptions& o) {
   sim::SceneOptions so;
   so.motion.source = o.motion;
@@ -94,8 +139,12 @@ inline EvalResult evaluate(const EvalOptions& o) {
   sim::Scene scene(so);
   EvalResult res;
   const int W = so.rig.width, H = so.rig.height;
+  // Per frame and true feature: the cameras that tracked it (confidence > 0.5) and where.
+  std::vector<std::array<std::vector<std::pair<int, cv::Point2d>>, kFeatures>> tracked(
+      static_cast<std::size_t>(o.frames));
   for (int cam = 0; cam < o.cameras; ++cam) {
     const bool swap = sides_swapped(scene, 0, cam);
+    const rig::Camera& camera = scene.calibration().cameras[static_cast<std::size_t>(cam)];
     auto map_truth = [&](int frame) {
       auto t = truth_features(scene, frame, cam);
       if (swap) std::swap(t[1], t[2]), std::swap(t[3], t[4]);
@@ -161,10 +210,28 @@ inline EvalResult evaluate(const EvalOptions& o) {
           if (trk) {
             const double e = cv::norm(cv::Point2d(rep[fs].uv) - truth[fs].uv);
             s.errors.push_back(e);
-            if (e > 25)
+            s.per_camera.resize(static_cast<std::size_t>(o.cameras));
+            s.per_camera[static_cast<std::size_t>(cam)].push_back(e);
+            const int tf = swap && f > 0 ? (f % 2 == 1 ? f + 1 : f - 1) : f;  // the true feature
+            if (e > 25) {
               s.far_tracking++, s.far_confident += rep[fs].confidence > 0.5f;
-            else
-              s.bias += cv::Point2d(rep[fs].uv) - truth[fs].uv, s.near++;
+            } else {
+              const cv::Point2d d = cv::Point2d(rep[fs].uv) - truth[fs].uv;
+              s.bias += d, s.near++;
+              const auto limb = limb_of(tf);
+              const auto j = scene.joints(frame);
+              cv::Point2d axis = camera.project(j[static_cast<std::size_t>(limb[1])]) -
+                                 camera.project(j[static_cast<std::size_t>(limb[0])]);
+              if (f == 0) axis = {0, 1};  // the head: image x / y
+              const double len = cv::norm(axis);
+              if (len > 1e-6) {
+                axis /= len;
+                res.bias2d[fs].add(d.dot(axis), axis.x * d.y - axis.y * d.x, 0, e);
+              }
+            }
+            if (rep[fs].confidence > 0.5f)
+              tracked[static_cast<std::size_t>(i)][static_cast<std::size_t>(tf)].emplace_back(
+                  cam, cv::Point2d(rep[fs].uv));
           } else {
             s.visible_untracked++;
             if (rep[fs].state == FeatureState::predicted)
@@ -190,6 +257,37 @@ inline EvalResult evaluate(const EvalOptions& o) {
     res.camera_frames += timed;
   }
   if (res.camera_frames) res.track_ms_per_camera_frame /= res.camera_frames;
+  for (int i = 0; i < o.frames; ++i) {
+    const auto j = scene.joints(o.first_frame + i * o.frame_step);
+    for (int f = 0; f < kFeatures; ++f) {
+      cv::Vec3d p;
+      if (!intersect_rays(scene.calibration(),
+                          tracked[static_cast<std::size_t>(i)][static_cast<std::size_t>(f)], &p))
+        continue;
+      const auto limb = limb_of(f);
+      const cv::Vec3d& a = j[static_cast<std::size_t>(limb[0])];
+      const cv::Vec3d& w = j[static_cast<std::size_t>(limb[1])];
+      const cv::Vec3d& t = j[static_cast<std::size_t>(limb[2])];
+      const cv::Vec3d d = p - w;
+      LimbBias& b = res.bias3d[static_cast<std::size_t>(f)];
+      const double dist = cv::norm(d) * 1000;
+      b.err_mm.push_back(dist);
+      if (f == 0) {
+        b.add(0, 0, 0, dist);
+        continue;
+      }
+      const cv::Vec3d ax = cv::normalize(w - a);
+      cv::Vec3d fw = (t - w) - (t - w).dot(ax) * ax;
+      const double fl = cv::norm(fw);
+      fw = fl > 1e-9 ? fw / fl : cv::Vec3d(0, 0, 0);
+      const double along = d.dot(ax) * 1000, forward = d.dot(fw) * 1000;
+      const double rest = cv::norm(d - d.dot(ax) * ax - d.dot(fw) * fw) * 1000;
+      if (f <= 2)
+        b.add(along, cv::norm(d - d.dot(ax) * ax) * 1000, 0, dist);  // hands: the toe axis is the hand's own
+      else
+        b.add(along, rest, forward, dist);
+    }
+  }
   return res;
 }
 

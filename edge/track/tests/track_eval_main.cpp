@@ -42,6 +42,24 @@ int main(int argc, char** argv) {
   }
   FeatureScore all;
   all.errors = r.all_errors();
+  std::printf("limb frame (2D px over tracked reports within 25 px; 3D mm over triangulated frames):\n");
+  std::printf("%-11s %8s %8s %8s | %8s %8s %8s %8s %8s %6s\n", "feature", "2d_along", "2d_acrss", "2d_n",
+              "3d_along", "3d_acrss", "3d_fwd", "3d_p50", "3d_p95", "3d_n");
+  for (int f = 0; f < vc::track::kFeatures; ++f) {
+    const LimbBias& b2 = r.bias2d[static_cast<std::size_t>(f)];
+    const LimbBias& b3 = r.bias3d[static_cast<std::size_t>(f)];
+    std::printf("%-11s %8.2f %8.2f %8d | %8.1f %8.1f %8.1f %8.1f %8.1f %6d\n", names[f],
+                b2.mean(&LimbBias::along), b2.mean(&LimbBias::across), b2.n, b3.mean(&LimbBias::along),
+                b3.mean(&LimbBias::across), b3.mean(&LimbBias::forward), FeatureScore::pct_of(b3.err_mm, 0.5),
+                FeatureScore::pct_of(b3.err_mm, 0.95), b3.n);
+  }
+  std::printf("per camera p50/p95 px:\n");
+  for (int f = 0; f < vc::track::kFeatures; ++f) {
+    std::printf("%-11s", names[f]);
+    for (const auto& e : r.features[static_cast<std::size_t>(f)].per_camera)
+      std::printf(" %5.1f/%5.1f", FeatureScore::pct_of(e, 0.5), FeatureScore::pct_of(e, 0.95));
+    std::printf("\n");
+  }
   std::printf("all         %7.2f %7.2f   cost %.3f ms per camera frame (%d camera frames)\n", all.pct(0.5),
               all.pct(0.95), r.track_ms_per_camera_frame, r.camera_frames);
   return 0;

@@ -57,7 +57,8 @@ TEST(TriggerGpiod, MissingChipGivesAClearError) {
   cfg.chip = "/dev/gpiochip-does-not-exist";
   cfg.line_offset = 17;
   int rc = 0;
-  EXPECT_EQ(open_error(cfg, &rc), "gpiod: /dev/gpiochip-does-not-exist: cannot open chip: No such file or directory");
+  EXPECT_EQ(open_error(cfg, &rc),
+            "gpiod: /dev/gpiochip-does-not-exist: cannot open chip: No such file or directory");
   EXPECT_EQ(rc, -ENOENT);
 }
 
@@ -120,6 +121,30 @@ TEST(SeqWindow, FarJumpBackIsARestart) {
   EXPECT_EQ(d, 0);
 }
 
+// Issue #13: one forged datagram with seq 100000 moved every edge's count there. A jump ahead beyond
+// VC_SEQ_MAX_JUMP is dropped; the host's next pulses go on as if it never came. Only a datagram that
+// follows the dropped one in sequence makes it a real move of the host's count.
+TEST(SeqWindow, ImplausibleJumpIsDroppedUnlessTheNextConfirmsIt) {
+  vc_seq_window w = {};
+  int64_t d = 0;
+  EXPECT_EQ(vc_seq_window_push(&w, 500, &d), VC_SEQ_NEXT);
+  EXPECT_EQ(vc_seq_window_push(&w, 100000, &d), VC_SEQ_JUMP);
+  EXPECT_EQ(d, 0);
+  EXPECT_EQ(vc_seq_window_push(&w, 501, &d), VC_SEQ_NEXT);
+  EXPECT_EQ(d, 0);                                             // nothing counted lost for the forged one
+  EXPECT_EQ(vc_seq_window_push(&w, 100001, &d), VC_SEQ_JUMP);  // 501 came between: not confirmed
+  EXPECT_EQ(vc_seq_window_push(&w, 502, &d), VC_SEQ_NEXT);
+  EXPECT_EQ(vc_seq_window_push(&w, 502 + VC_SEQ_MAX_JUMP, &d), VC_SEQ_NEXT);  // at the bound: plausible
+  EXPECT_EQ(d, int64_t{VC_SEQ_MAX_JUMP} - 1);
+  // A host that really jumped: its next pulse follows the dropped one, and the window moves there.
+  const uint64_t far = 1u << 20;
+  EXPECT_EQ(vc_seq_window_push(&w, far, &d), VC_SEQ_JUMP);
+  EXPECT_EQ(vc_seq_window_push(&w, far + 1, &d), VC_SEQ_RESTART);
+  EXPECT_EQ(vc_seq_window_push(&w, far + 2, &d), VC_SEQ_NEXT);
+  EXPECT_EQ(d, 0);
+  EXPECT_EQ(vc_seq_window_push(&w, far, &d), VC_SEQ_LATE);  // the dropped one again: inside the window
+}
+
 TEST(SeqWindow, BigGapForgetsTheWindow) {
   vc_seq_window w = {};
   int64_t d = 0;
@@ -128,6 +153,6 @@ TEST(SeqWindow, BigGapForgetsTheWindow) {
   EXPECT_EQ(d, 199);
   EXPECT_EQ(vc_seq_window_push(&w, 199, &d), VC_SEQ_LATE);
   EXPECT_EQ(d, -1);
-  EXPECT_EQ(vc_seq_window_push(&w, 137, &d), VC_SEQ_LATE);  // 63 back: still inside the window
+  EXPECT_EQ(vc_seq_window_push(&w, 137, &d), VC_SEQ_LATE);     // 63 back: still inside the window
   EXPECT_EQ(vc_seq_window_push(&w, 100, &d), VC_SEQ_RESTART);  // 100 back: outside
 }

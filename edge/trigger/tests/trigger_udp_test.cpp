@@ -118,7 +118,8 @@ TEST_F(UdpTrigger, PortInUseGivesAClearError) {
   char why[256];
   vc_trigger* other = nullptr;
   EXPECT_EQ(vc_trigger_open(&cfg, &other, why, sizeof why), -EADDRINUSE);
-  EXPECT_EQ(std::string(why), "udp: 127.0.0.1:" + std::to_string(port_) + ": cannot bind: Address already in use");
+  EXPECT_EQ(std::string(why),
+            "udp: 127.0.0.1:" + std::to_string(port_) + ": cannot bind: Address already in use");
   EXPECT_EQ(other, nullptr);
 }
 
@@ -132,4 +133,62 @@ TEST(UdpTriggerConfig, BadAddressIsRejected) {
   vc_trigger* t = nullptr;
   EXPECT_EQ(vc_trigger_open(&cfg, &t, why, sizeof why), -EINVAL);
   EXPECT_STREQ(why, "udp: localhost:47000: bind_address must be an IPv4 address such as 127.0.0.1");
+}
+
+// Issue #13: one datagram with seq 100000 to an edge's trigger port made that edge's frames 100000
+// and stopped the rig. It is dropped now (counted), and the host's pulses go on.
+TEST_F(UdpTrigger, DropsAForgedSeqJump) {
+  send_pulse(500, 1);
+  send_pulse(100000, 2);
+  send_pulse(501, 3);
+  std::vector<uint64_t> got;
+  vc_pulse p;
+  while (vc_trigger_wait(trig_, 300, &p) == 0) got.push_back(p.seq);
+  EXPECT_EQ(got, (std::vector<uint64_t>{500, 501}));
+  vc_trigger_stats st;
+  vc_trigger_get_stats(trig_, &st);
+  EXPECT_EQ(st.jumps, 1u);
+  EXPECT_EQ(st.last_jump_seq, 100000u);
+  EXPECT_EQ(st.lost, 0u);
+}
+
+// With the host's address known, a datagram from any other sender is dropped (loopback has many
+// addresses: the "host" is 127.0.0.2 here, the stranger 127.0.0.1).
+TEST(UdpTriggerSource, TakesPulsesOnlyFromTheHostsAddress) {
+  vc_trigger_config cfg;
+  vc_trigger_config_init(&cfg);
+  cfg.backend = "udp";
+  cfg.source_address = "127.0.0.2";
+  vc_trigger* trig = nullptr;
+  char why[256];
+  ASSERT_EQ(vc_trigger_open(&cfg, &trig, why, sizeof why), 0) << why;
+  vc_trigger_info info;
+  vc_trigger_get_info(trig, &info);
+  auto send_from = [&](const char* from, uint64_t seq) {
+    int fd = socket(AF_INET, SOCK_DGRAM, 0);
+    ASSERT_GE(fd, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    ASSERT_EQ(inet_pton(AF_INET, from, &a.sin_addr), 1);
+    ASSERT_EQ(bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0) << std::strerror(errno);
+    sockaddr_in to{};
+    to.sin_family = AF_INET;
+    to.sin_port = htons(info.port);
+    to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    uint8_t d[VC_TRIGGER_DGRAM_SIZE];
+    ASSERT_EQ(vc_trigger_dgram_encode(d, seq, seq), 0);
+    EXPECT_EQ(sendto(fd, d, sizeof d, 0, reinterpret_cast<sockaddr*>(&to), sizeof to), (ssize_t)sizeof d);
+    close(fd);
+  };
+  send_from("127.0.0.1", 7);
+  send_from("127.0.0.2", 8);
+  send_from("127.0.0.1", 9);
+  std::vector<uint64_t> got;
+  vc_pulse p;
+  while (vc_trigger_wait(trig, 300, &p) == 0) got.push_back(p.seq);
+  EXPECT_EQ(got, (std::vector<uint64_t>{8}));
+  vc_trigger_stats st;
+  vc_trigger_get_stats(trig, &st);
+  EXPECT_EQ(st.foreign, 2u);
+  vc_trigger_free(trig);
 }

@@ -1,6 +1,10 @@
 #include "voxcap/aggregator/aggregator.hpp"
 
+#include <arpa/inet.h>
 #include <fmt/core.h>
+#include <netdb.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 
 #include <algorithm>
 #include <array>
@@ -13,6 +17,27 @@
 #include "voxcap/triangulate/triangulate_stage.hpp"
 
 namespace vc::aggregator {
+
+std::vector<std::string> resolve_ipv4(const std::string& address) {
+  std::vector<std::string> out;
+  if (address.empty() || address == "any") return out;
+  in_addr a{};
+  if (inet_pton(AF_INET, address.c_str(), &a) == 1) return {address};
+  addrinfo hints{};
+  hints.ai_family = AF_INET;
+  hints.ai_socktype = SOCK_STREAM;
+  addrinfo* res = nullptr;
+  if (getaddrinfo(address.c_str(), nullptr, &hints, &res) != 0) return out;
+  for (addrinfo* r = res; r; r = r->ai_next) {
+    char ip[INET_ADDRSTRLEN] = "";
+    const auto* sin = reinterpret_cast<const sockaddr_in*>(r->ai_addr);
+    if (inet_ntop(AF_INET, &sin->sin_addr, ip, sizeof ip) &&
+        std::find(out.begin(), out.end(), ip) == out.end())
+      out.emplace_back(ip);
+  }
+  freeaddrinfo(res);
+  return out;
+}
 
 uint32_t grid_id(const rig::VoxelGrid& g) {
   double d[4] = {g.min_m[0], g.min_m[1], g.min_m[2], g.voxel_m};
@@ -83,9 +108,23 @@ struct Aggregator::Node {
   bool connected = false;
   uint32_t state = VC_STATE_IDLE;
   bool background_sent = false, start_sent = false;
-  bool assembling = false;  // what the assembly stage was last told (set_running)
+  bool assembling = false;             // what the assembly stage was last told (set_running)
+  std::string peer;                    // where its connection comes from
+  std::vector<std::string> addresses;  // nodes[].address resolved (IPv4); empty: "any"
   NodeReport rep;
 };
+
+uint64_t Report::unmerged_pulses() const {
+  if (!running) return 0;
+  const uint64_t from = frames ? last_seq : (origin > 0 ? origin - 1 : 0);
+  return last_pulse > from ? last_pulse - from : 0;
+}
+
+bool Report::merging_stopped() const {
+  if (!running) return false;
+  const uint64_t allowed = std::max<uint64_t>(64, static_cast<uint64_t>(std::ceil(rate_hz)));
+  return unmerged_pulses() > allowed;
+}
 
 class Aggregator::Figures : public pipeline::Stage {
  public:
@@ -124,6 +163,7 @@ Aggregator::Aggregator(config::RigConfig rig, Options options)
   ao.voxel_count = static_cast<uint64_t>(rig_.grid.nx) * static_cast<uint64_t>(rig_.grid.ny) *
                    static_cast<uint64_t>(rig_.grid.nz);
   ao.deadline_ns = static_cast<uint64_t>(rig_.assembly.deadline_ms * 1e6);
+  ao.pulsed_only = true;  // a seq is taken only once the host pulsed it (note_pulse)
   ao.policy = rig_.assembly.missing_node_policy == config::MissingNodePolicy::Drop
                   ? assemble::MissingPolicy::Drop
                   : assemble::MissingPolicy::Degraded;
@@ -145,6 +185,10 @@ Aggregator::Aggregator(config::RigConfig rig, Options options)
     }
     n->rep.id = n->id;
     n->rep.name = n->cfg->id;
+    n->addresses = resolve_ipv4(n->cfg->address);
+    if (n->cfg->address != "any" && n->addresses.empty())
+      throw config::ConfigError(rig_.source.string(), fmt::format("nodes[{}].address", k),
+                                fmt::format("\"{}\" does not resolve to an IPv4 address", n->cfg->address));
     ao.nodes.push_back(n->id);
     nodes_.push_back(std::move(n));
   }
@@ -224,9 +268,29 @@ uint64_t Aggregator::merged_frames() const {
 }
 
 void Aggregator::note_pulse(uint64_t seq, uint64_t t_ns) {
-  (void)t_ns;
   last_pulse_seq_ = seq;
   pulses_++;
+  assembly_->post_pulse(seq, t_ns);
+}
+
+bool Aggregator::refuse(Node& n, const vc_msg& m) {
+  const char* reason = nullptr;
+  std::string detail;
+  const char* type = vc_msg_type_name(m.hdr.type) ? vc_msg_type_name(m.hdr.type) : "message";
+  if (n.state != VC_STATE_RUNNING) {
+    reason = "not_running";
+    detail = fmt::format("{} seq {} while the node is {}", type, m.hdr.seq,
+                         vc_node_state_name(n.state) ? vc_node_state_name(n.state) : "?");
+  } else if (pulses_ == 0 || m.hdr.seq > last_pulse_seq_ + 1) {  // +1: it may overtake the pulse's note
+    reason = "unpulsed";
+    detail = fmt::format("{} seq {} was never pulsed (the last pulse is seq {})", type, m.hdr.seq,
+                         last_pulse_seq_.load());
+  }
+  if (!reason) return false;
+  if (n.rep.refused[reason]++ == 0)
+    log(log::Level::warn, fmt::format("node {} ({}): refused {} (counted as '{}'; logged once per reason)",
+                                      n.id, n.cfg->id, detail, reason));
+  return true;
 }
 
 Aggregator::Node* Aggregator::by_conn(session::ConnId conn) {
@@ -256,12 +320,28 @@ std::string Aggregator::on_hello(session::ConnId conn, const vc_msg& m, const st
       return fmt::format("node {} camera {} delivers {}x{}, {} is calibrated at {}x{}", h.node_id, k,
                          h.cameras[k].width, h.cameras[k].height, cam.name, cam.width, cam.height);
   }
-  if (n->connected) {  // a restarted edge came back before we noticed the old connection die
-    server_->close(n->conn, "replaced by a new connection of the same node");
-    n->connected = false;
-    set_running(*n);
-    n->rep.leaves++;
+  // nodes[].address: a HELLO from elsewhere is refused (the address it came from is logged).
+  const std::string peer_ip = peer.substr(0, peer.rfind(':'));
+  if (!n->addresses.empty() &&
+      std::find(n->addresses.begin(), n->addresses.end(), peer_ip) == n->addresses.end()) {
+    n->rep.hellos_refused++;
+    std::string why = fmt::format("node {} ({}) must connect from {}, not from {}", n->id, n->cfg->id,
+                                  n->cfg->address, peer_ip);
+    log(log::Level::warn, "refused a HELLO: " + why);
+    return why;
   }
+  // A second HELLO for a node that is connected is refused: the live node stays (issue #13: a
+  // duplicate HELLO replaced the real node and took its calibration). An edge that restarted before
+  // its old connection was seen to die gets in once that connection is dropped (closed or silent for
+  // the heartbeat timeout); edges retry with backoff.
+  if (n->connected) {
+    n->rep.hellos_refused++;
+    std::string why = fmt::format("node {} ({}) is already connected (connection {} from {})", n->id,
+                                  n->cfg->id, n->conn, n->peer);
+    log(log::Level::warn, fmt::format("refused a HELLO from {}: {}", peer, why));
+    return why;
+  }
+  n->peer = peer;
   n->conn = conn;
   n->connected = true;
   n->state = VC_STATE_IDLE;
@@ -356,6 +436,7 @@ void Aggregator::on_message(session::ConnId conn, const vc_msg& m, uint64_t t_rx
       }
       break;
     case VC_MSG_HULL: {
+      if (refuse(*n, m)) break;
       if (m.hdr.node_id != n->id) {
         n->rep.rejected++;
         break;
@@ -375,6 +456,7 @@ void Aggregator::on_message(session::ConnId conn, const vc_msg& m, uint64_t t_rx
       break;
     }
     case VC_MSG_FEATURES:
+      if (refuse(*n, m)) break;
       if (m.hdr.node_id != n->id) {
         n->rep.rejected++;
         break;
@@ -382,6 +464,7 @@ void Aggregator::on_message(session::ConnId conn, const vc_msg& m, uint64_t t_rx
       assembly_->post_features(n->id, m.hdr.seq, m.hdr.t_trigger_ns, m.u.features);
       break;
     case VC_MSG_SILHOUETTE: {
+      if (refuse(*n, m)) break;
       if (m.hdr.node_id != n->id) {
         n->rep.rejected++;
         break;
@@ -539,6 +622,8 @@ Report Aggregator::report() const {
   r.running = run_started_;
   if (server_) r.server = server_->stats();
   r.origin = origin_;
+  r.last_pulse = last_pulse_seq_;
+  r.rate_hz = rig_.trigger.rate_hz;
   for (const auto& n : nodes_) {
     NodeReport nr = n->rep;
     nr.connected = n->connected;
@@ -550,6 +635,7 @@ Report Aggregator::report() const {
       nr.rejected += it->second.rejected;
       nr.features = it->second.features;
       nr.features_late = it->second.features_late;
+      nr.unpulsed = it->second.unpulsed;
     }
     auto hd = host_drops.find(n->id);
     if (hd != host_drops.end()) nr.host_queue_drops = hd->second;

@@ -40,15 +40,48 @@ void AssemblyStage::stop() {
   if (thread_.joinable()) thread_.join();
 }
 
+size_t AssemblyStage::bytes_of(const Input& in) {
+  if (const auto* h = std::get_if<assemble::PartialHull>(&in)) return sizeof(*h) + h->rle.size();
+  if (const auto* s = std::get_if<SilhouetteIn>(&in)) return sizeof(*s) + s->silhouette.rle.size();
+  if (const auto* f = std::get_if<Features>(&in)) return sizeof(*f);
+  if (const auto* st = std::get_if<Stats>(&in)) return sizeof(*st);
+  return 0;
+}
+
 bool AssemblyStage::post(uint16_t node_id, Input in) {
+  const size_t bytes = bytes_of(in);
+  bool over = false;
+  {
+    std::lock_guard<std::mutex> g(mu_);
+    size_t& q = queued_bytes_[node_id];
+    over = q + bytes > opt_.max_node_bytes;
+    if (over)
+      drops_[node_id]++;  // over its share: the other nodes' messages still get in
+    else
+      q += bytes;
+  }
+  if (over) {
+    note_drop("a node over its share of the queue's bytes");
+    return false;
+  }
   if (inbox_.push(std::move(in))) return true;
+  {
+    std::lock_guard<std::mutex> g(mu_);
+    queued_bytes_[node_id] -= bytes;
+    if (!inbox_.closed_and_empty()) drops_[node_id]++;
+  }
   if (inbox_.closed_and_empty()) return false;
-  // Dropped: the stages are behind by a whole queue. Counted per node; a line at most every 5 s.
+  note_drop("queue full");
+  return false;
+}
+
+void AssemblyStage::note_drop(const char* why) {
+  // Dropped: the stages are behind by a whole queue, or one node sends more than its share. Counted
+  // per node; a line at most every 5 s.
   uint64_t now = vc::monotonic_ns(), total = 0, since = 0;
   bool say = false;
   {
     std::lock_guard<std::mutex> g(mu_);
-    drops_[node_id]++;
     for (const auto& [n, d] : drops_) total += d;
     if (last_drop_log_ns_ == 0 || now - last_drop_log_ns_ >= 5'000'000'000u) {
       say = true;
@@ -59,10 +92,10 @@ bool AssemblyStage::post(uint16_t node_id, Input in) {
   }
   if (say)
     log_(log::Level::warn,
-         fmt::format("assemble: queue full ({} messages): dropping what the nodes send ({} dropped so far, "
-                     "{} since the last such line)",
-                     opt_.queue, total, since));
-  return false;
+         fmt::format(
+             "assemble: {} ({} messages, {} bytes a node): dropping what the nodes send ({} dropped so "
+             "far, {} since the last such line)",
+             why, opt_.queue, opt_.max_node_bytes, total, since));
 }
 
 bool AssemblyStage::post_hull(assemble::PartialHull hull) {
@@ -88,6 +121,10 @@ void AssemblyStage::set_running(uint16_t node_id, bool running) {
   inbox_.push_always(Running{node_id, running});
 }
 
+void AssemblyStage::post_pulse(uint64_t seq, uint64_t t_ns) {
+  inbox_.push_always(Pulse{seq, t_ns});
+}
+
 void AssemblyStage::forward(std::vector<assemble::MergedFrame>& frames) {
   for (auto& f : frames) out_.push(std::make_shared<pipeline::Frame>(std::move(f)));
   frames.clear();
@@ -106,6 +143,15 @@ void AssemblyStage::run() {
     {
       std::lock_guard<std::mutex> g(mu_);
       if (in) {
+        if (const size_t bytes = bytes_of(*in)) {
+          const uint16_t node = std::visit(
+              [](const auto& x) -> uint16_t {
+                if constexpr (requires { x.node_id; }) return x.node_id;
+                return 0;
+              },
+              *in);
+          queued_bytes_[node] -= bytes;
+        }
         if (auto* h = std::get_if<assemble::PartialHull>(&*in)) {
           assembler_.add(std::move(*h), now, out);
         } else if (auto* f = std::get_if<Features>(&*in)) {
@@ -117,6 +163,8 @@ void AssemblyStage::run() {
                                     now, out);
         } else if (auto* r = std::get_if<Running>(&*in)) {
           assembler_.set_running(r->node_id, r->running);
+        } else if (auto* pu = std::get_if<Pulse>(&*in)) {
+          assembler_.pulse(pu->seq, pu->t_ns);
         }
       }
       if (!in || now - last_poll >= poll_ns) {

@@ -230,6 +230,31 @@ TEST(Latency, PercentilesComeFromAUniformSampleOfTheWholeRunInBoundedMemory) {
   EXPECT_DOUBLE_EQ(Latency{}.percentile_ms(0.5), 0.0);
 }
 
+// "voxcap rig prints fps: 60.0 and exits 0" after the frames stopped merging: the report tells.
+TEST(Report, MergingStoppedWhenMoreThanASecondOfPulsesNeverMerged) {
+  Report r;
+  r.rate_hz = 60;
+  r.origin = 100;
+  r.last_pulse = 400;
+  EXPECT_FALSE(r.merging_stopped()) << "not started";
+  r.running = true;
+  EXPECT_TRUE(r.merging_stopped()) << "started, nothing merged: 301 pulses since the origin";
+  EXPECT_EQ(r.unmerged_pulses(), 301u);
+  r.frames = 200;
+  r.first_seq = 100;
+  r.last_seq = 299;
+  EXPECT_TRUE(r.merging_stopped());
+  EXPECT_EQ(r.unmerged_pulses(), 101u);
+  r.last_seq = 340;  // 60 pulses: within a second (and below 64)
+  EXPECT_FALSE(r.merging_stopped());
+  r.last_seq = 336;
+  EXPECT_FALSE(r.merging_stopped()) << "64 is the floor";
+  r.last_seq = 335;
+  EXPECT_TRUE(r.merging_stopped());
+  r.rate_hz = 240;  // a second is 240 pulses here
+  EXPECT_FALSE(r.merging_stopped());
+}
+
 TEST(Aggregator, ConfigMessageCarriesTheCalibrationOfTheNodesCameras) {
   TmpDir tmp;
   config::RigConfig rig = make_rig(tmp.p);
@@ -305,6 +330,7 @@ TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
   uint32_t gid = grid_id(make_rig(tmp.p).grid);
   std::vector<uint8_t> a(8, 0xF0), b(8, 0x3C);
   uint64_t t106 = vc::monotonic_ns();
+  agg.note_pulse(118, t106);  // a hull is taken only for a seq the host has pulsed
   e1.hull(118, t106, gid, a);
   e2.hull(118, t106, gid, b);
   for (int i = 0; i < 200; i++) {
@@ -327,6 +353,7 @@ TEST(Aggregator, DrivesNodesThroughTheSessionAndMergesTheirHulls) {
   e2.fd = socket(AF_INET, SOCK_STREAM, 0);
   for (int i = 0; i < 200 && agg.report().nodes[1].connected; i++)
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  agg.note_pulse(119, vc::monotonic_ns());
   e1.hull(119, vc::monotonic_ns(), gid, a);
   for (int i = 0; i < 400; i++) {
     {
@@ -391,6 +418,7 @@ TEST(Aggregator, FeaturesAndStatsTravelWithTheirFrameThroughEveryStageIntoTheRec
   int64_t origin = bring_up(agg, e1, e2);
   ASSERT_GT(origin, 0);
   uint64_t seq = static_cast<uint64_t>(origin), t = vc::monotonic_ns();
+  agg.note_pulse(seq, t);
   std::vector<uint8_t> a(8, 0xF0), b(8, 0x3C);
   e1.stats();
   e1.features(seq, t, 0);  // the front node's features, before and after its hull
@@ -503,6 +531,102 @@ TEST(RecordStage, WritesThePoseOfEveryFittedFrame) {
   }
   EXPECT_EQ(k, sent.size());
   EXPECT_EQ(with_names, 1u) << "the joint names ride in the first pose record only";
+}
+
+// Issue #13: a HULL with seq 2^62 from a connected node moved the assembler's high-water mark and
+// every real hull after it was late (0 fps, nothing logged). Now a HULL or FEATURES is taken only from
+// a running node and for a seq the host has pulsed; the others are counted per node by reason, and
+// the real frames go on merging complete.
+TEST(Aggregator, RefusesHullsFromANodeNotRunningOrForASeqNeverPulsed) {
+  TmpDir tmp;
+  Options o;
+  o.start_trigger = false;
+  std::mutex lmu;
+  std::vector<std::string> lines;
+  o.log = [&](log::Level, const std::string& l) {
+    std::lock_guard<std::mutex> g(lmu);
+    lines.push_back(l);
+  };
+  config::RigConfig rig = make_rig(tmp.p);
+  uint32_t gid = grid_id(rig.grid);
+  Aggregator agg(rig, o);
+  agg.start();
+  FakeEdge e1(agg.port(), 1), e2(agg.port(), 2);
+  const uint64_t origin = static_cast<uint64_t>(bring_up(agg, e1, e2));
+  std::vector<uint8_t> a(8, 0xF0), b(8, 0x3C);
+  const uint64_t huge = uint64_t{1} << 62;
+  for (uint64_t k = 0; k < 30; k++) {
+    const uint64_t seq = origin + k, t = vc::monotonic_ns();
+    agg.note_pulse(seq, t);
+    if (k == 3) {
+      e1.hull(huge, 0, gid, a);  // the attack: the seq of no pulse, a trigger time of 0
+      e1.features(huge, 0, 0);
+      e2.hull(seq + 5, t, gid, b);  // five pulses ahead: never pulsed either
+    }
+    e1.hull(seq, t, gid, a);
+    e2.hull(seq, t, gid, b);
+    for (int i = 0; i < 400 && agg.merged_frames() < k + 1; i++)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    ASSERT_EQ(agg.merged_frames(), k + 1) << "frame " << seq;
+  }
+  // A node that is no longer running: its hull is refused too.
+  e2.state(VC_STATE_READY);
+  for (int i = 0; i < 200 && agg.all_running(); i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  agg.note_pulse(origin + 30, vc::monotonic_ns());
+  e2.hull(origin + 30, vc::monotonic_ns(), gid, b);
+  Report r;
+  for (int i = 0; i < 400; i++) {
+    r = agg.report();
+    if (r.nodes[1].refused["not_running"] == 1) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(r.complete, 30u);
+  EXPECT_EQ(r.nodes[0].refused["unpulsed"], 2u);
+  EXPECT_EQ(r.nodes[1].refused["unpulsed"], 1u);
+  EXPECT_EQ(r.nodes[1].refused["not_running"], 1u);
+  EXPECT_EQ(r.nodes[0].late + r.nodes[1].late, 0u);
+  EXPECT_FALSE(r.merging_stopped());
+  agg.stop();
+  std::lock_guard<std::mutex> g(lmu);
+  size_t said = 0;
+  for (const std::string& l : lines)
+    if (l.find("refused") != std::string::npos && l.find("never pulsed") != std::string::npos) said++;
+  EXPECT_EQ(said, 2u) << "logged once per node and reason";
+}
+
+// Issue #13: a duplicate HELLO with a live node's id replaced the real node (and got its calibration);
+// nodes[].address was read and never checked. Both are refused now, and the live node keeps its session.
+TEST(Aggregator, RefusesADuplicateHelloAndAHelloFromAnotherAddress) {
+  TmpDir tmp;
+  Options o;
+  o.start_trigger = false;
+  o.log = [](log::Level, const std::string&) {};
+  config::RigConfig rig = make_rig(tmp.p);
+  rig.nodes[0].address = "127.0.0.1";
+  rig.nodes[1].address = "127.0.0.2";  // the fake edges all come from 127.0.0.1
+  Aggregator agg(rig, o);
+  agg.start();
+  FakeEdge live(agg.port(), 1);
+  ASSERT_EQ(live.expect(VC_MSG_CONFIG), 0);
+  for (int k = 0; k < 3; k++) {
+    FakeEdge dup(agg.port(), 1);
+    EXPECT_EQ(dup.expect(VC_MSG_CONFIG, 1000), -2) << "closed without CONFIG";
+  }
+  FakeEdge elsewhere(agg.port(), 2);
+  EXPECT_EQ(elsewhere.expect(VC_MSG_CONFIG, 1000), -2);
+  live.state(VC_STATE_CONFIGURED);
+  EXPECT_GE(live.expect(VC_MSG_BACKGROUND), 0) << "the live node's session goes on";
+  Report r = agg.report();
+  EXPECT_TRUE(r.nodes[0].connected);
+  EXPECT_EQ(r.nodes[0].joins, 1u);
+  EXPECT_EQ(r.nodes[0].leaves, 0u);
+  EXPECT_EQ(r.nodes[0].hellos_refused, 3u);
+  EXPECT_EQ(r.nodes[1].hellos_refused, 1u);
+  EXPECT_FALSE(r.nodes[1].connected);
+  agg.stop();
+  EXPECT_EQ(resolve_ipv4("localhost"), std::vector<std::string>{"127.0.0.1"});
+  EXPECT_TRUE(resolve_ipv4("any").empty());
 }
 
 TEST(Aggregator, RejectsUnknownNodesAndWrongCameras) {

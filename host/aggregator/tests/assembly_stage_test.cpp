@@ -115,6 +115,38 @@ TEST(AssemblyStage, PostingNeverWaitsAndAFullQueueDropsCountedPerNode) {
   EXPECT_FALSE(a.post_hull(hull(1, 999))) << "stopped";
 }
 
+// Per-node bounds (issue #13): one node that floods the queue with big messages is held to its share
+// of bytes; the other node's messages still get in, and the queue's memory stays bounded.
+TEST(AssemblyStage, ANodeOverItsShareOfBytesIsDroppedAndTheOthersGetIn) {
+  pipeline::Pipeline p(pipeline::StageContext{});
+  Gate& gate = p.tap(std::make_unique<Gate>(), {1, pipeline::Overflow::Block});
+  p.start();
+  AssemblyOptions ao;
+  ao.queue = 1024;
+  ao.max_node_bytes = 64 * 1024;
+  AssemblyStage a(options(), ao, p, {});
+  a.set_running(1, true);
+  a.set_running(2, true);
+  a.start();
+  // Node 1's hulls carry 8 KiB of RLE each (the stage counts bytes; it never decodes them). The
+  // stage's thread takes a few frames before the shut gate holds it: then nothing leaves the queue.
+  uint64_t ok1 = 0, ok2 = 0;
+  for (uint64_t seq = 1; seq <= 200; seq++) {
+    assemble::PartialHull big = hull(1, seq);
+    big.rle.resize(8192, 0);
+    ok1 += a.post_hull(std::move(big)) ? 1 : 0;
+    ok2 += a.post_hull(hull(2, seq)) ? 1 : 0;
+  }
+  EXPECT_LE(ok1, 12u) << "node 1 held to about 64 KiB";
+  EXPECT_GE(ok1, 7u);
+  EXPECT_EQ(ok2, 200u) << "node 2 was never crowded out";
+  EXPECT_EQ(a.drops()[2], 0u);
+  EXPECT_EQ(a.drops()[1], 200u - ok1);
+  gate.release();
+  a.stop();
+  p.stop();
+}
+
 TEST(AssemblyStage, WaitsOnlyForRunningNodesAndFlushesPendingFramesAtStop) {
   pipeline::Pipeline p(pipeline::StageContext{});
   Gate& gate = p.tap(std::make_unique<Gate>(), {16, pipeline::Overflow::Block});

@@ -34,6 +34,37 @@ Assembler::Assembler(AssemblerOptions options) : opt_(std::move(options)) {
     running_[n] = true;
     stats_.nodes[n];
   }
+  if (opt_.pulsed_only) pulse_times_.resize(opt_.max_pending);
+}
+
+void Assembler::pulse(uint64_t seq, uint64_t t_ns) {
+  if (any_pulse_ && seq <= last_pulse_) return;
+  any_pulse_ = true;
+  last_pulse_ = seq;
+  if (pulse_times_.empty()) return;
+  pulse_times_[seq % pulse_times_.size()] = {seq, t_ns};
+  // A frame that a message opened before its pulse's note arrived takes the host's time now.
+  auto it = pending_.find(seq);
+  if (it != pending_.end()) it->second.t_trigger_ns = t_ns;
+}
+
+bool Assembler::trusted(uint64_t seq, uint64_t& t_trigger_ns, NodeCounters& nc) const {
+  if (!opt_.pulsed_only) return true;
+  if (!any_pulse_ || (seq > last_pulse_ && seq - last_pulse_ > opt_.pulse_slack)) {
+    nc.unpulsed++;
+    return false;
+  }
+  const PulseTime& pt = pulse_times_[seq % pulse_times_.size()];
+  // Not (or no longer) known: an old seq is late anyway; one just ahead waits from its own stamp,
+  // at most the last pulse's time (a stamp from the future would hold the frame back).
+  if (pt.seq == seq && pt.t_ns != 0) {
+    t_trigger_ns = pt.t_ns;
+  } else {
+    const PulseTime& last = pulse_times_[last_pulse_ % pulse_times_.size()];
+    if (last.seq == last_pulse_)
+      t_trigger_ns = std::clamp(t_trigger_ns, last.t_ns, last.t_ns + 1'000'000'000u);
+  }
+  return true;
 }
 
 void Assembler::set_running(uint16_t node_id, bool running) {
@@ -178,6 +209,7 @@ bool Assembler::add(PartialHull h, uint64_t now_ns, std::vector<MergedFrame>& ou
     nc.rejected++;
     return false;
   }
+  if (!trusted(h.seq, h.t_trigger_ns, nc)) return false;
   const bool fresh = !pending_.count(h.seq);
   Pending* p = slot(h.seq, h.t_trigger_ns, now_ns, out, nc.late);
   if (!p) return false;
@@ -206,6 +238,7 @@ bool Assembler::add_features(uint16_t node_id, uint64_t seq, uint64_t t_trigger_
   auto node_it = stats_.nodes.find(node_id);
   if (node_it == stats_.nodes.end()) return false;
   NodeCounters& nc = node_it->second;
+  if (!trusted(seq, t_trigger_ns, nc)) return false;
   Pending* p = slot(seq, t_trigger_ns, now_ns, out, nc.features_late);
   if (!p) return false;
   pipeline::NodePart& part = p->parts[node_id];
@@ -225,6 +258,7 @@ bool Assembler::add_silhouette(uint16_t node_id, uint64_t seq, uint64_t t_trigge
     nc.silhouettes_rejected++;
     return false;
   }
+  if (!trusted(seq, t_trigger_ns, nc)) return false;
   Pending* p = slot(seq, t_trigger_ns, now_ns, out, nc.silhouettes_late);
   if (!p) return false;
   pipeline::NodePart& part = p->parts[node_id];

@@ -142,6 +142,52 @@ TEST(Assembler, MemoryIsBoundedWhenANodeStalls) {
   EXPECT_EQ(a.pending(), 0u);
 }
 
+// The attack of issue #13: one HULL (or FEATURES) with seq 2^62 and a pulse time of 0 made every later
+// frame late. With pulsed_only the seq is refused (counted), and a pulse time written by a node never
+// decides a deadline: the real frames go on merging complete.
+TEST(Assembler, PulsedOnlyRefusesSeqsNeverPulsedAndKeepsMerging) {
+  AssemblerOptions o = opts();
+  o.pulsed_only = true;
+  Assembler a(o);
+  std::vector<MergedFrame> out;
+  auto bits = random_bits(11, 0.5);
+  vc_features f{};
+  EXPECT_FALSE(a.add(hull(1, 5, bits), 0, out));  // nothing pulsed yet
+  EXPECT_FALSE(a.add_features(1, 5, 0, f, 0, out));
+  uint64_t t = 1'000'000'000;
+  for (uint64_t seq = 1; seq <= 200; seq++, t += 16'666'667) {
+    a.pulse(seq, t);
+    if (seq == 50) {
+      EXPECT_FALSE(a.add(hull(2, uint64_t{1} << 62, bits, 0), t, out));
+      EXPECT_FALSE(a.add_features(3, 100000, 0, f, t, out));
+      pipeline::Silhouette s;
+      EXPECT_FALSE(a.add_silhouette(1, seq + 2, 0, s, t, out));
+      // A pulsed seq whose node wrote a trigger time of 0: the deadline is the host's pulse time.
+      EXPECT_TRUE(a.add(hull(2, seq, bits, 0), t, out));
+      a.poll(t + 1000, out);
+      EXPECT_EQ(a.pending(), 1u);
+    } else {
+      a.add(hull(2, seq, bits, t), t + 1000, out);
+    }
+    a.add(hull(1, seq, bits, t), t + 2000, out);
+    a.add(hull(3, seq, bits, t), t + 3000, out);
+    a.poll(t + 4000, out);
+  }
+  EXPECT_EQ(out.size(), 200u);
+  EXPECT_EQ(a.stats().complete, 200u);
+  EXPECT_EQ(a.stats().nodes.at(1).unpulsed, 3u);  // two before any pulse, one silhouette ahead
+  EXPECT_EQ(a.stats().nodes.at(2).unpulsed, 1u);
+  EXPECT_EQ(a.stats().nodes.at(3).unpulsed, 1u);
+  for (const auto& [id, nc] : a.stats().nodes) EXPECT_EQ(nc.late, 0u);
+  // A message one pulse ahead of the pulse's note (pulse_slack) is taken and waits for its pulse.
+  EXPECT_TRUE(a.add(hull(1, 201, bits, 0), t, out));
+  a.pulse(201, t);
+  a.poll(t + 1000, out);
+  EXPECT_EQ(a.pending(), 1u);
+  a.poll(t + o.deadline_ns, out);
+  EXPECT_EQ(a.pending(), 0u);
+}
+
 TEST(Assembler, InvalidOptionsThrow) {
   AssemblerOptions o = opts();
   o.nodes = {1, 1};

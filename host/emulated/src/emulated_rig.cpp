@@ -5,7 +5,7 @@
 #include <fmt/core.h>
 #include <netinet/in.h>
 #include <signal.h>
-#include <spawn.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -640,15 +640,29 @@ struct EmulatedRig::Impl {
     argv.reserve(args.size() + 1);
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
-    posix_spawn_file_actions_t fa;
-    posix_spawn_file_actions_init(&fa);
+    // fork + exec rather than posix_spawn: the child must ask for a parent-death signal between the
+    // two, so that an edge never outlives its host (kill -9 of the host left every edge running, issue
+    // #13). The signal races the fork (the host may die before prctl), hence the check of getppid()
+    // against the host's pid. It is delivered when the *thread* that forked exits, so start() and
+    // restart_node() must be called from a thread that lives as long as the rig (the main thread in
+    // voxcap and the tests). Between fork and exec the child calls async-signal-safe functions only.
     std::string log = (dir / fmt::format("edge{}.log", k)).string();
-    posix_spawn_file_actions_addopen(&fa, 1, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    posix_spawn_file_actions_adddup2(&fa, 1, 2);
-    pid_t pid = 0;
-    int rc = posix_spawn(&pid, argv[0], &fa, nullptr, argv.data(), environ);
-    posix_spawn_file_actions_destroy(&fa);
-    if (rc != 0) throw std::runtime_error(fmt::format("cannot start {}: {}", argv[0], std::strerror(rc)));
+    if (access(argv[0], X_OK) != 0)
+      throw std::runtime_error(fmt::format("cannot start {}: {}", argv[0], std::strerror(errno)));
+    int log_fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
+    if (log_fd < 0) throw std::runtime_error(fmt::format("cannot open {}: {}", log, std::strerror(errno)));
+    const pid_t host = getpid();
+    pid_t pid = fork();
+    if (pid == 0) {
+      if (prctl(PR_SET_PDEATHSIG, SIGTERM) != 0 || getppid() != host) _exit(127);
+      if (dup2(log_fd, 1) < 0 || dup2(log_fd, 2) < 0) _exit(127);
+      execve(argv[0], argv.data(), environ);
+      _exit(127);
+    }
+    const int fork_errno = errno;
+    ::close(log_fd);
+    if (pid < 0)
+      throw std::runtime_error(fmt::format("cannot start {}: {}", argv[0], std::strerror(fork_errno)));
     pids[static_cast<size_t>(k)] = pid;
   }
 

@@ -29,6 +29,9 @@ bool ServerOptions::valid(std::string* why) const {
     return fail("heartbeat_timeout_ms: must exceed the interval");
   if (hello_timeout_ms < 10) return fail("hello_timeout_ms: must be >= 10");
   if (max_out_bytes < 4096) return fail("max_out_bytes: must be >= 4096");
+  if (max_prehello_connections == 0) return fail("max_prehello_connections: must be >= 1");
+  if (max_prehello_payload < 128 || max_prehello_payload > VC_PROTO_MAX_PAYLOAD)
+    return fail("max_prehello_payload: must be in 128..VC_PROTO_MAX_PAYLOAD");
   if (poll_interval_ms < 1 || poll_interval_ms > 1000) return fail("poll_interval_ms: must be in 1..1000");
   return true;
 }
@@ -244,6 +247,7 @@ void Server::handle_readable(Conn& c, uint64_t now_ns) {
             return;
           }
           c.hello = true;
+          vc_decoder_set_max_payload(c.dec, 0);  // a node now: the protocol's maximum
           c.node_id = m.u.hello.node_id;
           c.st.hello = true;
           c.st.node_id = c.node_id;
@@ -307,12 +311,26 @@ void Server::run() {
         inet_ntop(AF_INET, &peer.sin_addr, ip, sizeof(ip));
         c->peer = fmt::format("{}:{}", ip, ntohs(peer.sin_port));
         char why[128];
-        if (vc_decoder_new(0, &c->dec, why, sizeof(why)) < 0) {
+        if (vc_decoder_new(opt_.max_prehello_payload, &c->dec, why, sizeof(why)) < 0) {
           log(log::Level::warn, fmt::format("connection from {} refused: {}", c->peer, why));
           continue;  // ~Conn closes the socket
         }
         c->created_ns = c->last_rx_ns = now;
         std::lock_guard<std::mutex> g(mu_);
+        // At most max_prehello_connections strangers: the oldest goes (a real node says HELLO at once,
+        // so it is never the oldest for long).
+        size_t strangers = 0;
+        Conn* oldest = nullptr;
+        for (auto& [id, x] : conns_) {
+          if (x->hello || !x->closing.empty()) continue;
+          strangers++;
+          if (!oldest) oldest = x.get();  // ids grow: the first is the oldest
+        }
+        if (oldest && strangers >= opt_.max_prehello_connections) {
+          oldest->closing =
+              fmt::format("evicted: more than {} connections without HELLO", opt_.max_prehello_connections);
+          stats_.prehello_evicted++;
+        }
         c->id = next_id_++;
         c->st.id = c->id;
         c->st.peer = c->peer;
@@ -354,8 +372,12 @@ void Server::run() {
         drop(*c, "outgoing queue overflow: the edge stopped reading", true);
         continue;
       }
-      if (!c->hello && now - c->created_ns > static_cast<uint64_t>(opt_.hello_timeout_ms) * 1'000'000u)
-        closing = closing.empty() ? "no HELLO in time" : closing;
+      if (!c->hello && closing.empty() &&
+          now - c->created_ns > static_cast<uint64_t>(opt_.hello_timeout_ms) * 1'000'000u) {
+        closing = "no HELLO in time";
+        std::lock_guard<std::mutex> g(mu_);
+        stats_.prehello_timeouts++;
+      }
       if (c->hello && now - c->last_rx_ns > static_cast<uint64_t>(opt_.heartbeat_timeout_ms) * 1'000'000u) {
         timeout = fmt::format("silent for {} ms (heartbeat timeout)", (now - c->last_rx_ns) / 1'000'000u);
         std::lock_guard<std::mutex> g(mu_);

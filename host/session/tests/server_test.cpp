@@ -10,8 +10,12 @@
 
 #include <chrono>
 #include <condition_variable>
+#include <cstring>
 #include <mutex>
 #include <thread>
+#include <vector>
+
+#include "voxcap/crc32c.h"
 
 namespace vc::session {
 namespace {
@@ -243,6 +247,61 @@ TEST(SessionServer, SendReachesTheEdge) {
   vc_decoder_free(dec);
   EXPECT_TRUE(got);
   close(fd);
+  s.stop();
+}
+
+// Issue #13, "memory before HELLO is unbounded": a stranger's first message that declares 8 MiB is
+// dropped after its header, and strangers beyond max_prehello_connections evict the oldest, while a
+// node that said HELLO keeps its connection and its messages through all of it.
+TEST(SessionServer, StrangersBeforeHelloAreBoundedInCountAndBytes) {
+  Recorder h;
+  ServerOptions o = opts();
+  o.hello_timeout_ms = 5000;  // the bounds below act, not the timeout
+  o.heartbeat_timeout_ms = 5000;
+  o.max_prehello_connections = 4;
+  Server s(o, h);
+  s.start();
+  int node = connect_to(s.port());
+  send_hello(node, 3);
+  ASSERT_TRUE(h.wait([&] { return h.hellos.size() == 1; }));
+  // One stranger declaring an 8 MiB message, then sending 1 MiB of it.
+  int big = connect_to(s.port());
+  uint8_t hdr[VC_PROTO_HEADER_SIZE];
+  {
+    std::vector<uint8_t> buf(VC_PROTO_HEADER_SIZE + 16);
+    size_t len = 0;
+    vc_header hh{};
+    vc_background b{5};
+    ASSERT_EQ(vc_encode_background(buf.data(), buf.size(), &len, &hh, &b), 0);
+    std::memcpy(hdr, buf.data(), sizeof hdr);
+    const uint32_t plen = VC_PROTO_MAX_PAYLOAD;
+    std::memcpy(&hdr[12], &plen, 4);
+    const uint32_t hc = vc_crc32c(0, hdr, 36);
+    std::memcpy(&hdr[36], &hc, 4);
+  }
+  ASSERT_EQ(::send(big, hdr, sizeof hdr, MSG_NOSIGNAL), (ssize_t)sizeof hdr);
+  std::vector<uint8_t> junk(1 << 16, 0x5a);
+  for (int i = 0; i < 16; i++)
+    if (::send(big, junk.data(), junk.size(), MSG_NOSIGNAL | MSG_DONTWAIT) < 0) break;
+  EXPECT_TRUE(closed_within(big, 3000)) << "oversize first message: dropped";
+  close(big);
+  // Ten silent strangers: at most four stay open, the oldest go first.
+  std::vector<int> strangers;
+  for (int i = 0; i < 10; i++) {
+    strangers.push_back(connect_to(s.port()));
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));  // accepted in this order
+  }
+  for (int i = 0; i < 6; i++) EXPECT_TRUE(closed_within(strangers[static_cast<size_t>(i)], 3000)) << i;
+  for (int i = 6; i < 10; i++) EXPECT_FALSE(closed_within(strangers[static_cast<size_t>(i)], 100)) << i;
+  ServerStats st = s.stats();
+  EXPECT_EQ(st.prehello_evicted, 6u);
+  EXPECT_GE(st.decode_drops, 1u);
+  // The node was never touched.
+  send_heartbeat(node, 3);
+  ASSERT_TRUE(h.wait([&] { return !h.types.empty(); }));
+  EXPECT_TRUE(h.disconnects.empty());
+  for (int fd : strangers) close(fd);
+  close(node);
   s.stop();
 }
 

@@ -42,6 +42,7 @@ extern "C" {
 #define VC_PROTO_MAX_ERROR_TEXT 1024              /* bytes of ERROR text */
 #define VC_PROTO_MAX_SILHOUETTE_SIDE 16384        /* SILHOUETTE width and height, pixels (2.1) */
 #define VC_PROTO_MAX_SILHOUETTE_SCALE 16          /* CONFIG silhouette_scale, SILHOUETTE scale (2.1) */
+#define VC_PROTO_MAX_HELLO_PAYLOAD 1024           /* a receiver's cap on the first message (HELLO) */
 
 /* ---- Error codes of the decoder and encoders (SPEC.md "Errors") ----------------------------------
  * Fatal codes concern the framing: the byte stream cannot be resynchronised, the decoder stays in the
@@ -397,6 +398,12 @@ typedef struct vc_decoder vc_decoder;
  * (edge/README.md). *out owns the decoder; free it with vc_decoder_free. */
 int vc_decoder_new(size_t max_payload, vc_decoder** out, char* why, size_t why_len);
 void vc_decoder_free(vc_decoder* dec); /* NULL is a no-op */
+
+/* Changes the largest payload taken from the next message on (0: VC_PROTO_MAX_PAYLOAD; larger is
+ * -EINVAL). A receiver starts an unauthenticated peer's stream small (VC_PROTO_MAX_HELLO_PAYLOAD: its
+ * first message must be a HELLO) and raises it once the HELLO was accepted, so a stranger cannot make
+ * it buffer megabytes (SPEC.md "Limits"). The buffer already grown is kept. */
+int vc_decoder_set_max_payload(vc_decoder* dec, size_t max_payload);
 
 /* Copies up to len bytes into the decoder; *consumed = how many. It takes fewer (possibly 0) only when
  * its buffer holds a whole message or an error that vc_decoder_next has not yet returned, so

@@ -53,7 +53,10 @@ typedef struct vc_trigger_config {
   uint64_t seq_base;       /* gpiod: seq of the first pulse after open */
   /* udp */
   const char* bind_address; /* NULL = "127.0.0.1" */
-  uint16_t port;            /* 0 = any free port (see vc_trigger_info.port) */
+  /* The host's IPv4 address when it is known (the edge's host.address): datagrams from any other
+   * sender are dropped (counted in foreign). NULL: any sender. */
+  const char* source_address;
+  uint16_t port; /* 0 = any free port (see vc_trigger_info.port) */
 } vc_trigger_config;
 
 /* All zero except event_clock = MONOTONIC (which is zero). */
@@ -65,12 +68,19 @@ typedef struct vc_trigger_info {
   uint16_t port;       /* udp: the bound port */
 } vc_trigger_info;
 
+/* udp: a seq more than this many pulses ahead of the last one is implausible (dropped unless the next
+ * datagram follows it). */
+#define VC_SEQ_MAX_JUMP 1024u
+
 typedef struct vc_trigger_stats {
   uint64_t pulses;    /* pulses delivered */
   uint64_t lost;      /* pulses known to be missing (gaps in seq / kernel counter) */
   uint64_t late;      /* udp: datagrams that arrived after a later one (delivered, not lost) */
   uint64_t duplicate; /* udp: repeated seq (dropped) */
   uint64_t invalid;   /* udp: datagrams that failed to decode (dropped); gpiod: unexpected events */
+  uint64_t jumps;     /* udp: datagrams whose seq jumped implausibly far ahead (dropped; VC_SEQ_MAX_JUMP) */
+  uint64_t foreign;   /* udp: datagrams from another sender than source_address (dropped) */
+  uint64_t last_jump_seq; /* udp: the seq of the last datagram dropped as a jump */
 } vc_trigger_stats;
 
 /* Opens the input: validates cfg, picks the backend by name, requests the line / binds the socket.

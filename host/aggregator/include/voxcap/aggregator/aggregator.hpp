@@ -1,7 +1,9 @@
 // The host aggregator: runs the rig. It owns the session server (edges connect), the trigger
 // generator, and the frame assembler, and drives every node through its session on its own:
 //
-//   HELLO (checked: node in the rig, two cameras of the calibrated sizes)  → CONFIG
+//   HELLO (checked: node in the rig, two cameras of the calibrated sizes,   → CONFIG
+//          from its nodes[].address when given, and not connected already: a second HELLO for a
+//          connected node is refused and the live node stays)
 //   node reports CONFIGURED (HEARTBEAT)                                     → BACKGROUND
 //   node reports READY: the run starts when every node is READY; START(origin) carries the run's
 //   origin seq (the first pulse streamed; emulated cameras show motion frame seq − origin), and a
@@ -45,6 +47,9 @@ namespace vc::aggregator {
 // silhouette_scale as 0 (its `reserved`: centre carving, no SILHOUETTE), as proto/SPEC.md "Evolution" says.
 vc_config make_config_message(const config::RigConfig& rig, const config::NodeConfig& node, uint32_t grid_id,
                               uint8_t node_minor = VC_PROTO_VERSION_MINOR);
+// nodes[].address as the IPv4 addresses a node's connection may come from: an IPv4 address itself, a
+// host name's IPv4 addresses, none for "any" (or a name that does not resolve).
+std::vector<std::string> resolve_ipv4(const std::string& address);
 // A stable id for the rig's grid (CRC32C of its parameters).
 uint32_t grid_id(const rig::VoxelGrid& grid);
 
@@ -77,12 +82,17 @@ struct NodeReport {
   bool connected = false;
   uint32_t state = VC_STATE_IDLE;
   uint64_t joins = 0, leaves = 0;
+  uint64_t hellos_refused = 0;  // HELLOs for this node refused: already connected, or a wrong address
   uint64_t hulls = 0, late = 0, missing = 0, rejected = 0;
   uint64_t edge_queue_drops = 0, edge_frames_without_pulse = 0, edge_pulses_without_frame = 0;
   uint64_t host_queue_drops = 0;  // its messages dropped because the assembly stage's queue was full
   uint64_t features = 0, features_late = 0;  // FEATURES that joined a frame / came after it
   uint64_t errors = 0;
   std::string last_error;
+  // HULL, FEATURES and SILHOUETTE refused before assembly, by reason: "not_running" (the node is not
+  // in state running), "unpulsed" (a seq the host has not pulsed). Each reason is logged once per node.
+  std::map<std::string, uint64_t> refused;
+  uint64_t unpulsed = 0;     // refused by the assembler itself for a seq never pulsed (a second guard)
   double edge_frame_ms = 0;  // trigger edge → HULL queued, as the edge's STATS say (mean)
   std::map<std::string, double> edge_stage_ms;  // mean per stage from the last STATS
   Latency rx;                                   // trigger → HULL received at the host
@@ -101,6 +111,14 @@ struct Report {
   pipeline::PipelineReport pipeline;  // every stage: assemble, merge, ..., figures, consumers
   bool running = false;               // the run has started (every node was READY once)
   uint64_t origin = 0;
+  uint64_t last_pulse = 0;  // seq of the last pulse sent
+  double rate_hz = 0;       // the trigger's rate
+  // Pulses after the last merged frame that never merged, once the run started.
+  uint64_t unmerged_pulses() const;
+  // The run stopped merging: it started, and more than a second of pulses (at least 64) after its last
+  // merged frame (or since its origin, when none merged) never merged. The summary says so and
+  // `voxcap rig` exits non-zero.
+  bool merging_stopped() const;
 };
 
 class Aggregator : public session::Handler {
@@ -134,6 +152,9 @@ class Aggregator : public session::Handler {
   void send(Node& n, const std::vector<uint8_t>& msg);
   void advance(Node& n);
   void set_running(Node& n);
+  // HULL, FEATURES, SILHOUETTE from a node that is not running, or for a seq never pulsed: true when
+  // refused (counted in its report by reason, logged once per reason).
+  bool refuse(Node& n, const vc_msg& m);
   void log(log::Level level, const std::string& line) const;
   pipeline::PipelineReport pipeline_report() const;
 

@@ -27,6 +27,10 @@ namespace vc::aggregator {
 struct AssemblyOptions {
   size_t queue = 1024;  // messages waiting at most (~8 s of 3 nodes at 60 Hz with FEATURES)
   int poll_ms = 5;      // deadlines are checked at least this often (as the session tick did before)
+  // Bytes one node may have waiting in the queue (hull and silhouette RLE, FEATURES, STATS): beyond
+  // them its messages are dropped (counted as its drops) while the other nodes' still get in, so the
+  // queue's memory is bounded by nodes x this, whatever one node sends (a HULL may be 8 MiB).
+  size_t max_node_bytes = 64u << 20;
 };
 
 class AssemblyStage {
@@ -49,6 +53,9 @@ class AssemblyStage {
   // Which nodes a frame waits for. Queued in order with the messages (never dropped, never waits):
   // hulls queued before a node started running are assembled as if it was not running yet.
   void set_running(uint16_t node_id, bool running);
+  // The host sent pulse seq at t_ns (the trigger thread): the assembler takes that seq from now on
+  // (assemble::AssemblerOptions::pulsed_only). Queued in order, never dropped, never waits.
+  void post_pulse(uint64_t seq, uint64_t t_ns);
 
   assemble::AssemblerStats stats() const;
   size_t pending() const;
@@ -74,9 +81,14 @@ class AssemblyStage {
     uint16_t node_id;
     bool running;
   };
-  using Input = std::variant<assemble::PartialHull, Features, Stats, Running, SilhouetteIn>;
+  struct Pulse {
+    uint64_t seq, t_ns;
+  };
+  using Input = std::variant<assemble::PartialHull, Features, Stats, Running, SilhouetteIn, Pulse>;
 
   bool post(uint16_t node_id, Input in);
+  void note_drop(const char* why);  // the warning line, at most every 5 s
+  static size_t bytes_of(const Input& in);
   void run();
   void forward(std::vector<assemble::MergedFrame>& frames);
 
@@ -89,6 +101,7 @@ class AssemblyStage {
   uint64_t processed_ = 0;
   double busy_ns_sum_ = 0, busy_ns_max_ = 0;
   std::map<uint16_t, uint64_t> drops_;
+  std::map<uint16_t, size_t> queued_bytes_;  // per node: bytes of its messages in inbox_
   uint64_t drops_logged_ = 0, last_drop_log_ns_ = 0;
   std::thread thread_;
   bool started_ = false, stopped_ = false;

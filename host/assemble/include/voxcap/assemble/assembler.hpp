@@ -15,6 +15,14 @@
 // Memory is bounded whatever the nodes do: at most max_pending frames wait; a newer seq beyond that
 // evicts the oldest pending frame, which is resolved early as if its deadline had passed. Pure logic:
 // no clocks (times are passed in), no sockets, no threads.
+//
+// Trusting seq (AssemblerOptions::pulsed_only, what the host runs): the host tells the assembler every
+// pulse it sends (pulse()). A HULL, FEATURES or SILHOUETTE is then taken only for a seq the host has
+// pulsed (at most pulse_slack ahead of the last pulse, for a message that overtook the pulse's note),
+// and a frame's deadline runs from the host's own time of that pulse, never from the t_trigger_ns a
+// node wrote. The high-water mark of resolved seqs (what makes a hull "late") therefore never moves
+// past the last pulse: one message with seq 2^62, or a pulse time of 0, cannot make every later
+// frame late. What is refused is counted per node (`unpulsed`).
 #pragma once
 
 #include <cstddef>
@@ -53,6 +61,8 @@ struct AssemblerOptions {
   size_t max_pending = 64;        // frames waiting at most
   bool merge = true;              // AND the hulls when a frame is resolved; false: leave it to merge()
   size_t max_stats_waiting = 16;  // STATS kept per node until the next frame leaves (the oldest go)
+  bool pulsed_only = false;       // take a seq only after pulse() named it (see above); the host's setting
+  uint64_t pulse_slack = 1;       // with pulsed_only: how far past the last pulse a seq may be
 
   bool valid(std::string* why) const;
 };
@@ -67,6 +77,7 @@ struct NodeCounters {
   uint64_t silhouettes = 0;           // SILHOUETTEs that joined a frame
   uint64_t silhouettes_late = 0;      // SILHOUETTEs for a frame already resolved (or older than all kept)
   uint64_t silhouettes_rejected = 0;  // a second one of a camera for a frame, or a camera >= 8
+  uint64_t unpulsed = 0;              // pulsed_only: HULL/FEATURES/SILHOUETTE for a seq never pulsed
 };
 
 struct AssemblerStats {
@@ -98,6 +109,11 @@ class Assembler {
   // not from a configured node.
   bool add_silhouette(uint16_t node_id, uint64_t seq, uint64_t t_trigger_ns, pipeline::Silhouette silhouette,
                       uint64_t now_ns, std::vector<MergedFrame>& out);
+  // The host sent pulse seq at t_ns (its CLOCK_MONOTONIC). With pulsed_only a seq is taken only once
+  // pulsed, and its frame's deadline runs from t_ns. Pulses go up; an older seq is ignored.
+  void pulse(uint64_t seq, uint64_t t_ns);
+  uint64_t last_pulse() const { return last_pulse_; }
+
   // One node's STATS: they go with the next frame that leaves the assembler.
   void add_stats(uint16_t node_id, const vc_stats& stats);
 
@@ -123,6 +139,9 @@ class Assembler {
   Pending* slot(uint64_t seq, uint64_t t_trigger_ns, uint64_t now_ns, std::vector<MergedFrame>& out,
                 uint64_t& late);
   void resolve(uint64_t seq, Pending& p, uint64_t now_ns, std::vector<MergedFrame>& out);
+  // pulsed_only: false (counted in nc.unpulsed) when seq was not pulsed; t_trigger_ns becomes the
+  // host's time of the pulse when it is known.
+  bool trusted(uint64_t seq, uint64_t& t_trigger_ns, NodeCounters& nc) const;
   bool complete(const Pending& p) const;
 
   AssemblerOptions opt_;
@@ -133,6 +152,12 @@ class Assembler {
   AssemblerStats stats_;
   std::vector<uint8_t> tmp_;  // merge scratch, reused
   std::map<uint16_t, std::vector<vc_stats>> stats_waiting_;
+  bool any_pulse_ = false;
+  uint64_t last_pulse_ = 0;
+  struct PulseTime {
+    uint64_t seq = 0, t_ns = 0;
+  };
+  std::vector<PulseTime> pulse_times_;  // ring of the last max_pending pulses, by seq % size
 };
 
 // The merged hull of a frame: the AND of its nodes' partial hulls into frame.rle, its occupied count,

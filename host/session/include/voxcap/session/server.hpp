@@ -8,6 +8,12 @@
 // has said nothing for heartbeat_timeout, when its outgoing queue overflows (the edge stopped
 // reading), or when it closes. A decodable but invalid message (non-fatal decoder error) is answered
 // with ERROR and skipped. The server sends HEARTBEAT to every connection each heartbeat_interval.
+//
+// Before its HELLO is accepted a connection is a stranger's, and bounded (issue #13: 100 connections
+// sending 8 MiB each took the host to 1 GB): at most max_prehello_connections of them are open (a new
+// one evicts the oldest), each is dropped after hello_timeout_ms, and its decoder takes a first message
+// of at most max_prehello_payload bytes (a message that declares more is dropped after its 40-byte
+// header, nothing buffered). After HELLO the protocol's maximum applies (VC_PROTO_MAX_PAYLOAD).
 #pragma once
 
 #include <atomic>
@@ -46,8 +52,10 @@ struct ServerOptions {
   uint16_t port = 7600;              // 0: any free port (see Server::port())
   int heartbeat_interval_ms = 250;
   int heartbeat_timeout_ms = 2000;
-  int hello_timeout_ms = 2000;       // a connection that does not say HELLO in time is dropped
-  size_t max_out_bytes = 16u << 20;  // per-connection outgoing queue
+  int hello_timeout_ms = 2000;           // a connection that does not say HELLO in time is dropped
+  size_t max_prehello_connections = 16;  // open before HELLO; a new one evicts the oldest
+  size_t max_prehello_payload = VC_PROTO_MAX_HELLO_PAYLOAD;  // bytes of the first message's payload
+  size_t max_out_bytes = 16u << 20;                          // per-connection outgoing queue
   int poll_interval_ms = 5;
 
   bool valid(std::string* why) const;
@@ -63,6 +71,8 @@ struct ConnectionStats {
 
 struct ServerStats {
   uint64_t accepted = 0, closed = 0, hello_rejected = 0, decode_drops = 0, timeouts = 0, overflow_drops = 0;
+  uint64_t prehello_evicted = 0;   // connections without HELLO closed to make room (max_prehello_connections)
+  uint64_t prehello_timeouts = 0;  // connections without HELLO in hello_timeout_ms
 };
 
 class Server {

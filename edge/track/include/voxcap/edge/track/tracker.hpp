@@ -167,10 +167,14 @@ class CameraTracker {
   void lose(int f);
   // HSV and the back-projection of `model` over roi (into hsv_ and prob_ at the same pixels).
   void prepare(const cv::Mat3b& rgb, const cv::Mat1b& mask, const cv::Rect& roi, const ColourModel& model);
-  // The feature's joint from the blob in `window` (prob_ must be valid there).
-  bool estimate_point(int f, const cv::Rect& window, const cv::Mat1b& mask, cv::Point2f* uv) const;
-  // Adopts the skin blob with bounding box `box` as feature f's window.
-  void adopt(int f, const cv::Rect& box, const cv::Mat1b& mask, bool recovered);
+  // The feature's joint from the blob in `window`; hsv_ and prob_ are this frame's inside `valid`.
+  bool estimate_point(int f, const cv::Rect& window, const cv::Rect& valid, const cv::Mat1b& mask,
+                      cv::Point2f* uv);
+  // The wrist or ankle where the clothes cover the limb beside the blob (centroid c) in `window`.
+  cv::Point2f joint_beyond_blob(const cv::Rect& window, const cv::Rect& inner, const cv::Mat1b& mask,
+                                cv::Point2f c);
+  // Adopts the skin blob with bounding box `box` as feature f's window (hsv_ and prob_ valid in `valid`).
+  void adopt(int f, const cv::Rect& box, const cv::Rect& valid, const cv::Mat1b& mask, bool recovered);
 
   TrackerOptions opt_;
   Seeder seeder_;
@@ -184,7 +188,8 @@ class CameraTracker {
   std::array<std::array<int, kFeatures>, kFeatures> since_apart_{};  // per pair a < b: frames since apart
   cv::Size size_{0, 0};
   cv::Mat3b hsv_;
-  cv::Mat1b prob_, region_, blobs_;
+  cv::Mat1b prob_, region_, blobs_, cloth_;
+  cv::Mat1f dist_;
   cv::Mat1i labels_, stats_;
   cv::Mat1d centroids_;
   std::uint64_t losses_ = 0, reacquired_ = 0, swaps_ = 0;

@@ -1,0 +1,429 @@
+// The network attacks of issue #13 replayed against the emulated rig (host in this process, one
+// voxcap-edge process per node, all on 127.0.0.1), each with the rig's frames checked afterwards and
+// the attack's count (and, where the edge logs it, its line) checked too. Keyless: a loopback-only rig,
+// so what holds here is what holds without any crypto (the sequence checks and the resource bounds).
+//
+// Loops are bounded in time; every attack keeps within about a minute under the sanitizers.
+#include <arpa/inet.h>
+#include <fcntl.h>
+#include <fmt/core.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "voxcap/base/clock.hpp"
+#include "voxcap/config/rig_config.hpp"
+#include "voxcap/crc32c.h"
+#include "voxcap/emulated/emulated_rig.hpp"
+#include "voxcap/proto.h"
+
+#if defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#include <sanitizer/allocator_interface.h>
+#define VC_TEST_ASAN 1
+#endif
+#endif
+
+namespace vc::emulated {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+namespace fs = std::filesystem;
+
+Options options() {
+  Options o;
+  o.nodes = 3;
+  o.motion = "wave";
+  o.width = 160;
+  o.height = 120;
+  o.grid = 48;
+  o.rate_hz = 60;
+  o.deadline_ms = 150;
+  o.missing_policy = "degraded";
+  o.truth_every = 0;
+  o.edge_binary = VOXCAP_EDGE_BINARY;
+  return o;
+}
+
+// The frames merged between two reports: at least `at_least` complete, and at most `tolerance` of
+// them degraded, dropped or with a late hull, merging never stopped. The attacks of #13 made every
+// frame after them late (0 complete, 100 % incomplete); the tolerance is for the machine's own load:
+// on 2 shared cores under the sanitizers the rig misses frames without any attack (at a load average
+// of 19, `voxcap rig --emulated` alone had 30 of 600 frames degraded, and EmulatedRig's 600-frame
+// test 6), which says nothing about the attack. The counts are recorded as test properties. (complete is
+// counted as a frame leaves assembly, frames as it leaves the pipeline: a live report has a few in between,
+// so the two are not compared.)
+void expect_complete_since(const aggregator::Report& before, const aggregator::Report& after,
+                           uint64_t at_least, const char* phase, double tolerance = 0.25) {
+  SCOPED_TRACE(phase);
+  const uint64_t complete = after.complete - before.complete;
+  const uint64_t incomplete = (after.degraded - before.degraded) + (after.dropped - before.dropped);
+  uint64_t late = 0;
+  for (size_t k = 0; k < after.nodes.size(); k++) late += after.nodes[k].late - before.nodes[k].late;
+  EXPECT_GE(complete, at_least);
+  EXPECT_LE(double(incomplete), tolerance * double(complete))
+      << incomplete << " of " << complete + incomplete;
+  EXPECT_LE(double(late), tolerance * double(complete)) << late << " late hulls: the high-water mark moved?";
+  EXPECT_FALSE(after.merging_stopped());
+  ::testing::Test::RecordProperty(std::string(phase) + ": complete / incomplete / late",
+                                  fmt::format("{} / {} / {}", complete, incomplete, late));
+}
+
+std::string read_file(const fs::path& p) {
+  std::ifstream f(p);
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+int connect_host(uint16_t port) {
+  int fd = socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(port);
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  EXPECT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)), 0);
+  return fd;
+}
+
+bool send_all(int fd, const uint8_t* b, size_t n) {
+  return ::send(fd, b, n, MSG_NOSIGNAL) == static_cast<ssize_t>(n);
+}
+
+// Reads (and throws away) until the peer closes or ms pass; true if it closed. Counts CONFIGs seen.
+bool closed_within(int fd, int ms, int* configs = nullptr) {
+  vc_decoder* dec = nullptr;
+  vc_decoder_new(0, &dec, nullptr, 0);
+  auto end = Clock::now() + std::chrono::milliseconds(ms);
+  uint8_t b[65536];
+  bool closed = false;
+  while (Clock::now() < end && !closed) {
+    pollfd p{fd, POLLIN, 0};
+    if (poll(&p, 1, 20) <= 0) continue;
+    ssize_t n = recv(fd, b, sizeof b, 0);
+    if (n <= 0) {
+      closed = true;
+      break;
+    }
+    size_t used = 0;
+    for (size_t off = 0; off < static_cast<size_t>(n); off += used) {
+      if (vc_decoder_feed(dec, b + off, static_cast<size_t>(n) - off, &used) < 0) break;
+      vc_msg m;
+      while (vc_decoder_next(dec, &m) > 0)
+        if (configs && m.hdr.type == VC_MSG_CONFIG) ++*configs;
+    }
+  }
+  vc_decoder_free(dec);
+  return closed;
+}
+
+std::vector<uint8_t> hello(uint16_t node) {
+  vc_hello h{};
+  h.node_id = node;
+  h.camera_count = 2;
+  for (int c = 0; c < 2; c++) {
+    h.cameras[c].width = 160;
+    h.cameras[c].height = 120;
+  }
+  std::vector<uint8_t> buf(256);
+  size_t len = 0;
+  vc_header hdr{};
+  hdr.node_id = node;
+  EXPECT_EQ(vc_encode_hello(buf.data(), buf.size(), &len, &hdr, &h), 0);
+  buf.resize(len);
+  return buf;
+}
+
+std::vector<uint8_t> heartbeat(uint16_t node, uint32_t state) {
+  std::vector<uint8_t> buf(128);
+  size_t len = 0;
+  vc_header hdr{};
+  hdr.node_id = node;
+  vc_heartbeat hb{vc::monotonic_ns(), state};
+  EXPECT_EQ(vc_encode_heartbeat(buf.data(), buf.size(), &len, &hdr, &hb), 0);
+  buf.resize(len);
+  return buf;
+}
+
+std::vector<uint8_t> hull(uint16_t node, uint64_t seq) {
+  std::vector<uint8_t> bits(48 * 48 * 48 / 8, 0xFF);
+  std::vector<uint8_t> buf(1024);
+  size_t len = 0;
+  vc_header hdr{};
+  hdr.node_id = node;
+  hdr.seq = seq;
+  hdr.t_trigger_ns = 0;
+  EXPECT_EQ(vc_encode_hull_bits(buf.data(), buf.size(), &len, &hdr, 1, bits.data(), 48 * 48 * 48), 0);
+  buf.resize(len);
+  return buf;
+}
+
+void send_datagram(uint16_t port, uint64_t seq) {
+  int fd = socket(AF_INET, SOCK_DGRAM, 0);
+  ASSERT_GE(fd, 0);
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(port);
+  to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  uint8_t d[VC_TRIGGER_DGRAM_SIZE];
+  ASSERT_EQ(vc_trigger_dgram_encode(d, seq, vc::monotonic_ns()), 0);
+  EXPECT_EQ(sendto(fd, d, sizeof d, 0, reinterpret_cast<sockaddr*>(&to), sizeof to), (ssize_t)sizeof d);
+  close(fd);
+}
+
+// Resident memory of this process in kB, with AddressSanitizer's quarantine handed back first (see
+// emulated_rig_test.cpp).
+long live_rss_kb() {
+#ifdef VC_TEST_ASAN
+  __sanitizer_purge_allocator();
+#endif
+  return emulated::rss_kb();
+}
+
+// "One datagram stops the rig for the whole session": seq 100000 to every edge's udp trigger port.
+TEST(Attack, ATriggerDatagramWithSeq100000StopsNothing) {
+  EmulatedRig rig(options());
+  rig.start(60);
+  rig.run_frames(60, 30);
+  config::RigConfig cfg = config::load_rig_config(rig.workdir() / "rig.toml");
+  ASSERT_EQ(cfg.trigger.udp.targets.size(), 3u);
+  const aggregator::Report before = rig.report();
+  for (const config::Endpoint& t : cfg.trigger.udp.targets) send_datagram(t.port, 100000);
+  rig.run_seconds(2.0);
+  const aggregator::Report after = rig.report();
+  rig.stop();
+  expect_complete_since(before, after, 60, "after the forged datagram");
+  EXPECT_LT(after.last_seq, 100000u);
+  for (int k = 0; k < 3; k++) {
+    const std::string log = read_file(rig.workdir() / fmt::format("edge{}.log", k));
+    EXPECT_NE(log.find("with a seq jump beyond 1024 pulses (last seq 100000)"), std::string::npos)
+        << "edge " << k << " did not log the forged datagram:\n"
+        << log;
+  }
+}
+
+// "a HELLO followed by one HULL with seq 2^62" and "a duplicate HELLO with a live node's id replaces
+// the real node": the HELLO is refused (the live node stays), and a HULL from a node's id that is not
+// running, or for a seq never pulsed, is refused and counted; frames go on complete.
+TEST(Attack, DuplicateHelloAndAHullWithSeq2Pow62AreRefused) {
+  EmulatedRig rig(options());
+  rig.start(60);
+  rig.run_frames(60, 30);
+  const aggregator::Report before = rig.report();
+  const uint64_t huge = uint64_t{1} << 62;
+  for (int round = 0; round < 5; round++) {  // "repeating it keeps the real node out"
+    int fd = connect_host(rig.host_port());
+    std::vector<uint8_t> msgs = hello(1);
+    for (const auto& m : {heartbeat(1, VC_STATE_RUNNING), hull(1, huge)})
+      msgs.insert(msgs.end(), m.begin(), m.end());
+    ASSERT_TRUE(send_all(fd, msgs.data(), msgs.size()));
+    int configs = 0;
+    EXPECT_TRUE(closed_within(fd, 3000, &configs));
+    EXPECT_EQ(configs, 0) << "the impostor got node 1's calibration";
+    close(fd);
+  }
+  rig.run_seconds(1.0);
+  const aggregator::Report after = rig.report();
+  expect_complete_since(before, after, 30, "after the impostors");
+  EXPECT_EQ(after.nodes[1].hellos_refused, 5u);
+  EXPECT_EQ(after.nodes[1].joins, 1u);
+  EXPECT_TRUE(after.nodes[1].connected);
+
+  // A node's slot that is free (its edge was killed): a stranger may say HELLO for it without a key,
+  // but what it sends is still checked: HULL seq 2^62 while not running, then "running" and again.
+  rig.kill_node(2, SIGKILL);
+  for (int i = 0; i < 200 && rig.report().nodes[2].connected; i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  int fd = connect_host(rig.host_port());
+  std::vector<uint8_t> h = hello(2), hl = hull(2, huge), run = heartbeat(2, VC_STATE_RUNNING);
+  ASSERT_TRUE(send_all(fd, h.data(), h.size()));
+  ASSERT_TRUE(send_all(fd, hl.data(), hl.size()));
+  ASSERT_TRUE(send_all(fd, run.data(), run.size()));
+  ASSERT_TRUE(send_all(fd, hl.data(), hl.size()));
+  aggregator::Report during;
+  for (int i = 0; i < 300; i++) {
+    during = rig.report();
+    if (during.nodes[2].refused["unpulsed"] >= 1 && during.nodes[2].refused["not_running"] >= 1) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  EXPECT_EQ(during.nodes[2].refused["not_running"], 1u);
+  EXPECT_EQ(during.nodes[2].refused["unpulsed"], 1u);
+  close(fd);
+  for (int i = 0; i < 200 && rig.report().nodes[2].connected; i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  rig.restart_node(2);
+  auto t0 = Clock::now();
+  while (!rig.node_running(2) && Clock::now() - t0 < std::chrono::seconds(20))
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_TRUE(rig.node_running(2));
+  // The frames pulsed while it was starting to stream wait for it and may miss it (a rejoin, not the
+  // attack: KilledEdgeIsMissedAndItsRestartRejoins); from a few deadlines on every frame is whole.
+  rig.run_seconds(0.5);
+  const aggregator::Report rejoined = rig.report();
+  rig.run_seconds(1.0);
+  Result r = rig.stop();
+  expect_complete_since(rejoined, r.report, 30, "after node 2 rejoined");
+}
+
+// "100 connections each sending 8 MiB took the host from 60 MB to 1.05 GB": now each stranger is cut
+// after its first message's 40-byte header declares more than a HELLO, at most 16 are open at once,
+// and the host's resident memory grows by less than 32 MB while the rig's frames stay complete.
+TEST(Attack, AHundredConnectionsOfEightMebibytesAreBounded) {
+  EmulatedRig rig(options());
+  rig.start(60);
+  rig.run_frames(60, 30);
+  std::vector<uint8_t> junk(8u << 20, 0x5a);
+  {
+    // The first 40 bytes: a valid header declaring an 8 MiB payload (the worst a stranger can say).
+    vc_header hdr{};
+    std::vector<uint8_t> b(64);
+    size_t len = 0;
+    ASSERT_EQ(vc_encode_stop(b.data(), b.size(), &len, &hdr), 0);
+    const uint32_t plen = VC_PROTO_MAX_PAYLOAD;
+    std::memcpy(&b[12], &plen, 4);
+    const uint32_t hc = vc_crc32c(0, b.data(), 36);
+    std::memcpy(&b[36], &hc, 4);
+    std::memcpy(junk.data(), b.data(), VC_PROTO_HEADER_SIZE);
+  }
+  const long rss_before = live_rss_kb();
+  const aggregator::Report before = rig.report();
+  std::vector<int> fds;
+  std::vector<size_t> sent;
+  for (int i = 0; i < 100; i++) {
+    int fd = connect_host(rig.host_port());
+    fcntl(fd, F_SETFL, O_NONBLOCK);
+    fds.push_back(fd);
+    sent.push_back(0);
+  }
+  long rss_peak = rss_before;
+  uint64_t total = 0;
+  auto end = Clock::now() + std::chrono::seconds(15);
+  size_t open = fds.size();
+  while (open > 0 && Clock::now() < end) {
+    open = 0;
+    for (size_t i = 0; i < fds.size(); i++) {
+      if (fds[i] < 0) continue;
+      ssize_t n = ::send(fds[i], junk.data() + sent[i], junk.size() - sent[i], MSG_NOSIGNAL | MSG_DONTWAIT);
+      if (n > 0) {
+        sent[i] += static_cast<size_t>(n);
+        total += static_cast<uint64_t>(n);
+      }
+      if ((n < 0 && errno != EAGAIN && errno != EWOULDBLOCK) || sent[i] == junk.size()) {
+        close(fds[i]);
+        fds[i] = -1;
+        continue;
+      }
+      open++;
+    }
+    rss_peak = std::max(rss_peak, live_rss_kb());
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  for (int& fd : fds)
+    if (fd >= 0) close(fd);
+  const aggregator::Report flood_end = rig.report();
+  rig.run_seconds(1.5);
+  const long rss_after = live_rss_kb();
+  const aggregator::Report after = rig.report();
+  rig.stop();
+  RecordProperty("attack_bytes_sent", std::to_string(total));
+  RecordProperty("rss_growth_peak_kb", std::to_string(rss_peak - rss_before));
+  EXPECT_LT(rss_peak - rss_before, 32 * 1024) << "host memory grew by " << (rss_peak - rss_before) << " kB";
+  EXPECT_LT(rss_after - rss_before, 32 * 1024);
+  EXPECT_GE(after.server.decode_drops - before.server.decode_drops + after.server.prehello_evicted -
+                before.server.prehello_evicted,
+            100u)
+      << "every stranger dropped for its oversize first message or evicted";
+  // While it lasts, the flood (this process copying up to 800 MB into sockets) takes the cores the
+  // edges need: frames go on merging, some miss a node. After it, the rig is whole again.
+  expect_complete_since(before, flood_end, 30, "during the flood", 0.75);
+  expect_complete_since(flood_end, after, 60, "after the flood");
+  for (const auto& n : after.nodes) EXPECT_EQ(n.joins, 1u) << n.name << " was disturbed";
+}
+
+// "after kill -9 of the host, its emulated edges run on forever": they die with it now.
+std::set<pid_t> children_of(pid_t parent) {
+  std::set<pid_t> out;
+  for (const auto& e : fs::directory_iterator("/proc")) {
+    const std::string name = e.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::ifstream f(e.path() / "stat");
+    std::string stat;
+    std::getline(f, stat);
+    const size_t rp = stat.rfind(')');
+    if (rp == std::string::npos) continue;
+    std::istringstream rest(stat.substr(rp + 2));
+    char state = 0;
+    pid_t ppid = 0;
+    rest >> state >> ppid;
+    if (ppid == parent) out.insert(static_cast<pid_t>(std::stol(name)));
+  }
+  return out;
+}
+
+bool alive(pid_t pid) {  // a zombie (exited, not yet reaped by whoever inherited it) is not alive
+  std::ifstream f(fmt::format("/proc/{}/stat", pid));
+  std::string stat;
+  if (!std::getline(f, stat)) return false;
+  const size_t rp = stat.rfind(')');
+  return rp != std::string::npos && rp + 2 < stat.size() && stat[rp + 2] != 'Z';
+}
+
+TEST(Attack, KillNineOfTheHostLeavesNoEdge) {
+  char tmp[] = "/tmp/voxcap-orphan-XXXXXX";
+  ASSERT_NE(mkdtemp(tmp), nullptr);
+  fs::path dir = tmp;
+  std::vector<std::string> args = {
+      VOXCAP_BINARY, "rig",       "--emulated", "--nodes",   "3",
+      "--size",      "160x120",   "--grid",     "48",        "--truth-every",
+      "0",           "--seconds", "60",         "--workdir", (dir / "work").string()};
+  std::vector<char*> argv;
+  argv.reserve(args.size() + 1);
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t host = fork();
+  ASSERT_GE(host, 0);
+  if (host == 0) {
+    setpgid(0, 0);  // its own group: the clean-up below can reach anything left
+    int null = open("/dev/null", O_WRONLY);
+    dup2(null, 1);
+    execve(argv[0], argv.data(), environ);
+    _exit(127);
+  }
+  std::set<pid_t> edges;
+  auto end = Clock::now() + std::chrono::seconds(60);
+  while (Clock::now() < end && edges.size() < 3) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    edges = children_of(host);
+  }
+  ASSERT_EQ(edges.size(), 3u) << "the host did not start its edges in time";
+  std::this_thread::sleep_for(std::chrono::seconds(2));  // running, mid-session
+  kill(host, SIGKILL);                                   // the host only, not its group
+  int st = 0;
+  waitpid(host, &st, 0);
+  std::set<pid_t> left = edges;
+  end = Clock::now() + std::chrono::seconds(10);
+  while (!left.empty() && Clock::now() < end) {
+    for (auto it = left.begin(); it != left.end();) it = alive(*it) ? std::next(it) : left.erase(it);
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  EXPECT_TRUE(left.empty()) << left.size() << " edges outlived their host";
+  kill(-host, SIGKILL);  // whatever is left of the group
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace vc::emulated
