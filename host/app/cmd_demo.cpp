@@ -1,7 +1,8 @@
 // `voxcap demo` and `voxcap eval`: the main job on one machine — the emulated rig end to end (virtual
 // rig -> voxcap-edge processes -> host: assembly, merge, triangulation, fitting) with the fitted
 // skeleton scored against the virtual rig's true joints (host/emulated's pose scorer). `demo` prints the
-// figures and writes DIR/take.bvh, DIR/joints.csv and the session; `eval` prints the same figures (with
+// figures and writes DIR/take.bvh, DIR/joints.csv and the session (with virtual_rig.json, what
+// `voxcap fit SESSION --score` needs to score it again offline); `eval` prints the same figures (with
 // --json as one object). Thin: options -> emulated::Options, run, then the take (host/export).
 #include <cstdio>
 #include <filesystem>
@@ -14,6 +15,7 @@
 
 #include "commands.hpp"
 #include "export_report.hpp"
+#include "pose_figures.hpp"
 #include "voxcap/emulated/emulated_rig.hpp"
 #include "voxcap/export/take.hpp"
 
@@ -61,60 +63,27 @@ void add_rig_options(CLI::App* cmd, DemoArgs& a) {
 }
 
 nlohmann::json figures_json(const DemoArgs& a, const emulated::Result& r) {
-  const emulated::PoseAccuracy& p = r.poses;
-  nlohmann::json per_joint = nlohmann::json::object();
-  for (int j = 0; j < pipeline::kPoseJointCount; ++j)
-    per_joint[pipeline::pose_joint_name(j)] = p.per_joint_mm[static_cast<size_t>(j)];
+  nlohmann::json j = pose_figures_json(r.poses);
   nlohmann::json drops = nlohmann::json::object();
   for (const auto& s : r.stages.stages) drops[s.name] = s.queue.dropped;
-  return {{"mpjpe_mm", p.mpjpe_mm},
-          {"per_joint_mm", per_joint},
-          {"pa_mpjpe_mm", p.pa_mpjpe_mm},
-          {"max_joint_mm", p.max_joint_mm},
-          {"frames", p.frames},
-          {"fitted_frames", p.fitted_frames},
-          {"init_frames", p.init_frames},
-          {"merged_frames", p.merged_frames},
-          {"scored_frames", p.scored_frames},
-          {"frames_outside_volume", p.frames_outside_volume},
-          {"arm_in_torso_frames", p.arm_in_torso_frames},
-          {"predicted_frames", p.predicted_frames},
-          {"reinitialized_frames", p.reinitialized_frames},
-          {"fps", p.fps},
-          {"latency_ms", {{"p50", p.latency_p50_ms}, {"p99", p.latency_p99_ms}, {"max", p.latency_max_ms}}},
-          {"pipeline_drops", drops},
-          {"rig",
-           {{"motion", a.rig.motion},
-            {"nodes", a.rig.nodes},
-            {"cameras", 2 * a.rig.nodes},
-            {"size", a.size},
-            {"grid", a.rig.grid},
-            {"noise", a.rig.noise},
-            {"rate_hz", a.rig.rate_hz},
-            {"appearance", a.rig.appearance},
-            {"room", a.rig.room}}},
-          {"wall_seconds", r.wall_seconds}};
-}
-
-void print_figures(const DemoArgs& a, const emulated::Result& r) {
-  const emulated::PoseAccuracy& p = r.poses;
-  fmt::print(
-      "frames      {} merged, {} initialization, {} from the first pose: {} fitted ({} predicted, {} "
-      "re-initialized)\n",
-      p.merged_frames, p.init_frames, p.frames, p.fitted_frames, p.predicted_frames, p.reinitialized_frames);
-  fmt::print(
-      "speed       {:.1f} poses/s at {} Hz; trigger -> pose p50 {:.1f} ms, p99 {:.1f} ms, max {:.1f} ms "
-      "(frame period {:.1f} ms)\n",
-      p.fps, a.rig.rate_hz, p.latency_p50_ms, p.latency_p99_ms, p.latency_max_ms, 1e3 / a.rig.rate_hz);
-  fmt::print(
-      "accuracy    MPJPE {:.1f} mm, PA-MPJPE {:.1f} mm, worst joint {:.0f} mm over {} frames ({} with part "
-      "of the body outside the volume, left out); arm inside the torso on {} frames\n",
-      p.mpjpe_mm, p.pa_mpjpe_mm, p.max_joint_mm, p.scored_frames, p.frames_outside_volume,
-      p.arm_in_torso_frames);
-  std::string joints;
-  for (int j = 0; j < pipeline::kPoseJointCount; ++j)
-    joints += fmt::format(" {} {:.0f}", pipeline::pose_joint_name(j), p.per_joint_mm[static_cast<size_t>(j)]);
-  fmt::print("per joint  {} (mm)\n", joints);
+  j["pipeline_drops"] = drops;
+  // Where the latency goes: trigger -> merged (assembly), then each stage's time in process() and the
+  // most frames its queue held (a stage behind the rig shows here first).
+  const aggregator::Latency& m = r.report.merged;
+  j["merged_latency_ms"] = {
+      {"p50", m.percentile_ms(0.5)}, {"p99", m.percentile_ms(0.99)}, {"max", m.max_ms()}};
+  nlohmann::json stages = nlohmann::json::object();
+  for (const auto& s : r.stages.stages)
+    stages[s.name] = {
+        {"busy_ms_mean", s.busy_ms_mean}, {"busy_ms_max", s.busy_ms_max}, {"queue_max", s.queue.max_depth}};
+  j["stages"] = stages;
+  j["rig"] = {{"motion", a.rig.motion},     {"nodes", a.rig.nodes},
+              {"cameras", 2 * a.rig.nodes}, {"size", a.size},
+              {"grid", a.rig.grid},         {"noise", a.rig.noise},
+              {"rate_hz", a.rig.rate_hz},   {"appearance", a.rig.appearance},
+              {"room", a.rig.room}};
+  j["wall_seconds"] = r.wall_seconds;
+  return j;
 }
 
 void run_demo(DemoArgs& a) {
@@ -148,9 +117,27 @@ void run_demo(DemoArgs& a) {
   if (r.report.frames == 0) throw std::runtime_error("no frame was merged");
   if (a.json)
     fmt::print("{}\n", figures_json(a, r).dump(2));
-  else
-    print_figures(a, r);
+  else {
+    print_pose_figures(r.poses, a.rig.rate_hz);
+    const aggregator::Latency& m = r.report.merged;
+    std::string stages;
+    for (const auto& s : r.stages.stages)
+      stages +=
+          fmt::format(" {} {:.2f}/{:.1f} ms q{}", s.name, s.busy_ms_mean, s.busy_ms_max, s.queue.max_depth);
+    fmt::print(
+        "stages      trigger -> merged p50 {:.1f} ms, p99 {:.1f} ms;{} (mean/max in process(), most "
+        "queued)\n",
+        m.percentile_ms(0.5), m.percentile_ms(0.99), stages);
+  }
   if (a.eval) return;
+  if (!r.session_dir.empty()) {  // what voxcap fit SESSION --score needs to score it again offline
+    VirtualRig v;
+    v.rig = a.rig;
+    v.origin = r.origin;
+    v.frames = a.frames;
+    v.live = figures_json(a, r);
+    write_virtual_rig(r.session_dir, v);
+  }
   if (r.poses.fitted_frames == 0)
     throw std::runtime_error("no frame got a pose (is [fitting] enabled?): no take written");
   const take::Take t = take::make_take(r.poses.poses);
@@ -179,7 +166,8 @@ void add_demo_commands(CLI::App& app) {
                          "latency and the accuracy "
                          "against the virtual rig's truth, writes DIR/take.bvh, DIR/joints.csv (frame "
                          "numbers = the virtual rig's, "
-                         "as in voxcap sim's truth/joints.csv) and the session (DIR/emulated-<time>)");
+                         "as in voxcap sim's truth/joints.csv) and the session (DIR/emulated-<time>, with "
+                         "virtual_rig.json: voxcap fit SESSION --score re-fits and scores it offline)");
   add_rig_options(d, *demo);
   d->add_option("--out", demo->out, "Output folder (default ./voxcap-demo)");
   d->add_flag("--json", demo->json, "Print the figures as JSON (the keys of voxcap eval --json)");

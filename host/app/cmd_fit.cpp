@@ -3,6 +3,12 @@
 // 2D and 3D features and stats, with a new pose stream (POSE records, layout voxcap.pose15/1). Reads
 // the records in file order, fitting each frame once its 3D features are in (the record stage writes a
 // frame's FRAME record first, then its features, stats and FEATURES3D); the old poses are left out.
+//
+// `--score`: a session that voxcap demo recorded (it has virtual_rig.json) is also scored against the
+// virtual rig's truth, offline (host/emulated's pose scorer, the figures of voxcap eval; the latency is
+// then the fit's own time per frame, `live` holds the recorded run's figures). Without the real-time rig
+// the figures do not depend on the machine's load: the way to iterate on the fitter.
+#include <array>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -14,12 +20,16 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "pose_figures.hpp"
+#include "voxcap/aggregator/aggregator.hpp"
 #include "voxcap/base/clock.hpp"
 #include "voxcap/config/rig_config.hpp"
+#include "voxcap/emulated/pose_scorer.hpp"
 #include "voxcap/fit/fitter.hpp"
 #include "voxcap/record/pose.hpp"
 #include "voxcap/record/recorder.hpp"
 #include "voxcap/rig/calibration.hpp"
+#include "voxcap/sim/scene.hpp"
 
 namespace vc::cli {
 namespace {
@@ -31,6 +41,7 @@ struct FitArgs {
   std::optional<int> samples, steps, init_frames, reinit_after, predict_frames;
   std::optional<double> span_deg, k, straight_deg, min_cutoff, beta;
   std::string smoothing, body;
+  bool score = false, json = false;
 };
 
 config::FittingOptions fitting_options(const config::RigConfig& rig, const FitArgs& a) {
@@ -65,7 +76,8 @@ void run_fit(const FitArgs& a) {
   std::error_code ec;
   if (!fs::is_directory(in, ec) || !fs::exists(in / "records.vcr", ec))
     throw UsageError(fmt::format("fit: {}: not a voxcap session (no records.vcr)", a.session));
-  if (a.out.empty()) throw UsageError("fit: --out DIR is required (a new session folder)");
+  if (a.out.empty() && !a.score)
+    throw UsageError("fit: --out DIR is required (a new session folder), unless --score");
   // The session's own rig.toml and calibration copies: the grid the hulls were carved on.
   config::RigConfig rig;
   try {
@@ -84,6 +96,21 @@ void run_fit(const FitArgs& a) {
   const config::FittingOptions options = fitting_options(rig, a);
   fit::Fitter fitter(rig.grid, options, rig.trigger.rate_hz);
 
+  // The virtual rig's truth, when scoring: the same scene the edges rendered, on the session's calibration.
+  std::optional<VirtualRig> vrig;
+  std::unique_ptr<emulated::PoseScorer> scorer;
+  if (a.score) {
+    try {
+      vrig = read_virtual_rig(in);
+    } catch (const std::runtime_error& e) {
+      throw UsageError(fmt::format("fit --score: {}", e.what()));
+    }
+    const rig::Calibration cal = rig::read_calibration((in / "calibration.yaml").string());
+    scorer = std::make_unique<emulated::PoseScorer>(
+        std::make_unique<sim::Scene>(emulated::truth_scene_options(vrig->rig, cal)), rig.grid, false);
+    scorer->set_origin(vrig->origin);
+  }
+
   record::Reader reader = record::Reader::open(in);
   const nlohmann::json meta = {
       {"refit_of", fs::absolute(in).string()},
@@ -95,21 +122,40 @@ void run_fit(const FitArgs& a) {
         {"straight_deg", options.straight_deg},
         {"smoothing", options.smoothing == config::Smoothing::OneEuro ? "one-euro" : "none"},
         {"init_frames", options.init_frames}}}};
-  record::Recorder out =
-      record::Recorder::create(a.out, in / "rig.toml", in / "calibration.yaml", meta.dump());
+  std::optional<record::Recorder> out;
+  if (!a.out.empty())
+    out = record::Recorder::create(a.out, in / "rig.toml", in / "calibration.yaml", meta.dump());
+  auto append = [&out](const auto& rec) {
+    if (out) out->append(rec);
+  };
 
   pipeline::Frame frame;  // the frame being gathered (its FRAME record came, its features may follow)
   bool pending = false;
   uint64_t frames = 0, posed = 0, init = 0, old_poses = 0;
   uint64_t fit_ns = 0;
+  // The fit's own time per stage (Fitter::times), for the score's figures: where a slow frame goes.
+  constexpr std::array<const char*, 6> kStageNames = {"decode", "segment", "pca",
+                                                      "layer1", "layer2",  "total"};
+  std::array<aggregator::Latency, kStageNames.size()> stage_ns;
   record::PoseRecord pose_rec;
   auto flush = [&] {
     if (!pending) return;
     const uint64_t t0 = vc::monotonic_ns();
     const pipeline::Pose pose = fitter.fit(frame);
     fit_ns += vc::monotonic_ns() - t0;
+    if (scorer) {  // offline, the "trigger" is the moment the frame is handed to the fitter
+      const fit::StageTimes& st = fitter.times();
+      uint64_t l2 = 0;
+      for (uint64_t v : st.layer2_ns) l2 += v;
+      const std::array<uint64_t, kStageNames.size()> v = {
+          st.decode_ns, st.segment_ns, st.pca_ns, st.layer1_ns, l2, st.total_ns};
+      for (size_t i = 0; i < v.size(); ++i) stage_ns[i].add(v[i]);
+      frame.t_trigger_ns = t0;
+      frame.pose = pose;
+      scorer->process(frame);
+    }
     record::to_record(frame.seq, pose, frames == 0, &pose_rec);
-    out.append(pose_rec);
+    append(pose_rec);
     ++frames;
     posed += pose.valid() ? 1 : 0;
     init += (!pose.valid() && posed == 0) ? 1 : 0;
@@ -132,7 +178,7 @@ void run_fit(const FitArgs& a) {
       frame.rle = f->rle;
       frame.merged = !f->rle.empty();
       pending = true;
-      out.append(*f);
+      append(*f);
     } else if (const auto* f3 = std::get_if<record::Features3DRecord>(&r)) {
       if (pending && f3->seq == frame.seq) {
         frame.triangulated = true;
@@ -149,23 +195,60 @@ void run_fit(const FitArgs& a) {
           frame.features3d.push_back(std::move(q));
         }
       }
-      out.append(*f3);
+      append(*f3);
     } else if (std::holds_alternative<record::PoseRecord>(r)) {
       ++old_poses;  // replaced by the new pose stream
     } else {
-      std::visit([&](const auto& x) { out.append(x); }, r);
+      std::visit([&](const auto& x) { append(x); }, r);
     }
   }
   flush();
-  out.close();
+  if (out) out->close();
   const record::Reader::Summary& s = reader.summary_ref();
   if (!s.closed_cleanly)
     fmt::print(stderr, "voxcap fit: {}: the session is {} ({}); fitted up to its last complete record\n",
                a.session, to_string(s.stop), s.stop_detail);
-  fmt::print(
-      "{} frames re-fitted ({} initialization, {} with a pose; {} old poses replaced), {:.3f} ms a frame, "
-      "session {}\n",
-      frames, init, posed, old_poses, frames ? double(fit_ns) / double(frames) * 1e-6 : 0.0, a.out);
+  if (scorer) {
+    const emulated::PoseAccuracy acc = scorer->accuracy();
+    if (a.json) {
+      nlohmann::json j = pose_figures_json(acc);
+      j["offline"] = true;  // latency_ms and fps: the fit's own time per frame on this machine
+      j["session"] = fs::absolute(in).string();
+      j["rig"] = {
+          {"motion", vrig->rig.motion},     {"nodes", vrig->rig.nodes},
+          {"cameras", 2 * vrig->rig.nodes}, {"size", fmt::format("{}x{}", vrig->rig.width, vrig->rig.height)},
+          {"grid", vrig->rig.grid},         {"noise", vrig->rig.noise},
+          {"rate_hz", vrig->rig.rate_hz},   {"appearance", vrig->rig.appearance},
+          {"room", vrig->rig.room}};
+      j["live"] = vrig->live;
+      nlohmann::json stages = nlohmann::json::object();
+      for (size_t i = 0; i < kStageNames.size(); ++i)
+        stages[kStageNames[i]] = {{"p50", stage_ns[i].percentile_ms(0.5)},
+                                  {"p99", stage_ns[i].percentile_ms(0.99)},
+                                  {"max", stage_ns[i].max_ms()}};
+      j["fit_stage_ms"] = stages;
+      fmt::print("{}\n", j.dump(2));
+    } else {
+      fmt::print("scored      {} against the virtual rig's truth (motion '{}'), offline\n", a.session,
+                 vrig->rig.motion);
+      print_pose_figures(acc, vrig->rig.rate_hz, "fit time");
+      std::string stages;
+      for (size_t i = 0; i < kStageNames.size(); ++i)
+        stages += fmt::format(" {} {:.3f}/{:.3f}/{:.3f}", kStageNames[i], stage_ns[i].percentile_ms(0.5),
+                              stage_ns[i].percentile_ms(0.99), stage_ns[i].max_ms());
+      fmt::print("fit stages {} ms (p50/p99/max)\n", stages);
+      if (vrig->live.contains("latency_ms"))
+        fmt::print("live run    trigger -> pose p50 {:.1f} ms, p99 {:.1f} ms; fitted_frames {} of {}\n",
+                   vrig->live["latency_ms"].value("p50", 0.0), vrig->live["latency_ms"].value("p99", 0.0),
+                   vrig->live.value("fitted_frames", 0), vrig->live.value("frames", 0));
+    }
+  }
+  if (!a.json)
+    fmt::print(
+        "{} frames re-fitted ({} initialization, {} with a pose; {} old poses replaced), {:.3f} ms a "
+        "frame{}\n",
+        frames, init, posed, old_poses, frames ? double(fit_ns) / double(frames) * 1e-6 : 0.0,
+        a.out.empty() ? std::string() : ", session " + a.out);
 }
 
 }  // namespace
@@ -180,7 +263,13 @@ void add_fit_commands(CLI::App& app) {
                          "reads it). Options not "
                          "given keep the session's rig.toml [fitting] values (host/config/README.md)");
   cmd->add_option("SESSION", a->session, "Session folder with merged hulls and 3D features")->required();
-  cmd->add_option("--out", a->out, "The new session folder (must not exist or be empty)")->required();
+  cmd->add_option("--out", a->out,
+                  "The new session folder (must not exist or be empty); required unless --score");
+  cmd->add_flag("--score", a->score,
+                "Score the new poses against the virtual rig's truth offline (a session of voxcap demo, "
+                "with its virtual_rig.json): the figures of voxcap eval; latency_ms and fps are then the "
+                "fit's own time per frame, `live` the recorded run's figures");
+  cmd->add_flag("--json", a->json, "With --score: the figures as one JSON object (voxcap eval's keys)");
   cmd->add_option("--samples", a->samples, "Cylinder samples per limb");
   cmd->add_option("--steps", a->steps, "The method's nu: angles tried per layer-2 search");
   cmd->add_option("--span-deg", a->span_deg, "The method's s: the search covers rho(t-1) +- s degrees");

@@ -2,7 +2,8 @@
 // loopback, the host with triangulation and the fit stage): eval's JSON has the documented keys and
 // every frame from the first pose on has one; demo writes take.bvh, joints.csv with the virtual rig's
 // frame numbers, and the session; re-fitting that session offline with the same parameters gives the
-// same poses, and with others a new pose stream that voxcap export reads.
+// same poses, and with others a new pose stream that voxcap export reads; `voxcap fit --score` scores the
+// session offline against the virtual rig's truth with the live run's figures.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -161,6 +162,36 @@ TEST(Demo, WritesTheTakeWithTheVirtualRigsFrameNumbersAndFitReFitsItsSession) {
   EXPECT_EQ(
       voxcap("fit '" + session.string() + "' --steps 0 --out '" + (tmp.p / "bad").string() + "'", tmp.p).code,
       2);
+
+  // Scored offline against the virtual rig's truth (virtual_rig.json): the same parameters give the live
+  // run's poses, so the live run's accuracy figures, with eval's keys.
+  ASSERT_TRUE(fs::exists(session / "virtual_rig.json"));
+  const nlohmann::json vr = nlohmann::json::parse(std::ifstream(session / "virtual_rig.json"));
+  EXPECT_EQ(vr["motion"], "wave");
+  EXPECT_EQ(vr["frames"], 120);
+  const Out sc = voxcap("fit '" + session.string() + "' --score --json", tmp.p);
+  ASSERT_EQ(sc.code, 0) << sc.err;
+  const nlohmann::json js = nlohmann::json::parse(sc.out);
+  const nlohmann::json& lv = vr["live"];
+  for (const char* key : {"mpjpe_mm", "per_joint_mm", "pa_mpjpe_mm", "frames", "fitted_frames", "fps",
+                          "latency_ms", "arm_in_torso_frames", "frames_outside_volume", "init_frames",
+                          "scored_frames", "fit_stage_ms", "live"})
+    EXPECT_TRUE(js.contains(key)) << key;
+  EXPECT_EQ(js["offline"], true);
+  EXPECT_EQ(js["frames"], lv["frames"]);
+  EXPECT_EQ(js["fitted_frames"], lv["fitted_frames"]);
+  EXPECT_EQ(js["scored_frames"], lv["scored_frames"]);
+  EXPECT_EQ(js["arm_in_torso_frames"], lv["arm_in_torso_frames"]);
+  EXPECT_NEAR(js["mpjpe_mm"].get<double>(), lv["mpjpe_mm"].get<double>(), 1e-6);
+  EXPECT_NEAR(js["pa_mpjpe_mm"].get<double>(), lv["pa_mpjpe_mm"].get<double>(), 1e-6);
+  EXPECT_NEAR(js["per_joint_mm"]["r_wrist"].get<double>(), lv["per_joint_mm"]["r_wrist"].get<double>(), 1e-6);
+  // Other parameters: other poses, scored too; a session without virtual_rig.json cannot be scored.
+  const Out sc2 = voxcap("fit '" + session.string() + "' --steps 9 --score --json", tmp.p);
+  ASSERT_EQ(sc2.code, 0) << sc2.err;
+  EXPECT_EQ(nlohmann::json::parse(sc2.out)["fitted_frames"], lv["fitted_frames"]);
+  const Out bad = voxcap("fit '" + same.string() + "' --score", tmp.p);
+  EXPECT_EQ(bad.code, 2);
+  EXPECT_THAT(bad.err, ::testing::HasSubstr("virtual_rig.json"));
 }
 
 }  // namespace

@@ -19,6 +19,13 @@ constexpr double kTorsoExclusion = 0.85;        // limb samples inside this much
 constexpr double kMaxTurnPerFrameDeg = 25;      // a larger jump of the torso's axes is not believed
 constexpr double kSlack = 0.03;                 // m: goals near full reach may be this much short
 constexpr int kStraightForgetFrames = 30;       // straight this long: rho(t-1) is no guide any more
+constexpr int kBelieveTurnFrames = 6;           // a larger turn the PCA insists on this long is believed
+constexpr double kSameCandidateDeg = 10;        // ... when its headings agree within this
+constexpr double kHintAgreeDeg = 45;            // ... and the hands and feet agree within this
+constexpr double kFeatureSupport = 0.5;         // a leg at its feature with fewer samples in the hull ...
+constexpr double kHullBeatsFeature = 1.5;  // ... takes the hull's end when that holds this many times more
+constexpr double kYawRateGain = 0.2;       // the turn rate's smoothing (a PCA is noisy by a few degrees)
+constexpr double kMaxTurnRateDeg = 4;      // the predicted turn per frame at most (240 deg/s at 60 Hz)
 
 struct OneEuro {
   bool init = false;
@@ -90,6 +97,15 @@ struct Fitter::State {
   Vec3 last_head{0.0};
   int failing = 0;
   bool reacquire_pending = false;  // re-initialized on a hull without a torso: the next torso decides
+  // The torso's turn about the vertical (radians per frame, smoothed): the next frame's cylinder and
+  // the PCA's reference are the last torso frame turned on by it (a turning performer is met, not
+  // chased: the cylinder placed at the last heading would bias the PCA toward it).
+  double yaw_rate = 0;
+  // A shoulder line the PCA gave that was turned too far from the reference to be believed at once:
+  // believed when the PCA keeps giving it (kBelieveTurnFrames frames, within kSameCandidateDeg).
+  Vec3 turn_candidate{0.0};
+  int turn_candidate_frames = 0;
+  bool heading_measured = false;  // the last pca() took its shoulder line from the voxels (else kept)
   StageTimes times;
   std::array<OneEuro, 3 * pipeline::kPoseJointCount> euro{};
   bool have_seq = false;
@@ -116,6 +132,8 @@ struct Fitter::State {
     failing = 0;
     euro = {};
     have_seq = false;
+    yaw_rate = 0;
+    turn_candidate_frames = 0;
   }
 
   // ---- Torso segmentation: the occupied voxels inside the cylinder placed at (neck, R). ----
@@ -170,7 +188,9 @@ struct Fitter::State {
 
   // ---- PCA: the torso frame from the moments (in the cylinder's frame R), with the components
   // ordered and signed by continuity with R (the previous torso frame). ----
-  Mat3 pca(const Moments& m, const Mat3& R, bool free = false) const {
+  // `right_hint`: the performer's right as the hands and feet say (level, zero when they do not): the
+  // sign of a large turn believed on persistence (the PCA's axis has no sign of its own).
+  Mat3 pca(const Moments& m, const Mat3& R, bool free = false, const Vec3& right_hint = Vec3(0.0)) {
     double C[3][3];
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) C[r][c] = m.cov[r][c];
@@ -188,15 +208,37 @@ struct Fitter::State {
     Vec3 x = v[xi].x < 0 ? -v[xi] : v[xi];
     const double lx = vals[xi], ly = vals[yi];
     if (free) {  // re-acquiring: R is only a hint; the shoulder line is the wider component
+      heading_measured = false;
       if (lx < ly) x = v[yi].x < 0 ? -v[yi] : v[yi];
       x = glm::normalize(x - glm::dot(x, z) * z);
       return R * Mat3(x, glm::cross(z, x), z);
     }
     // Cross-section too round to tell the shoulder line: keep the previous one.
-    if (lx < 1.15 * ly) x = Vec3(1, 0, 0);
+    heading_measured = lx >= 1.15 * ly;
+    if (!heading_measured) x = Vec3(1, 0, 0);
     if (angle_deg(z, Vec3(0, 0, 1)) > kMaxTurnPerFrameDeg) z = Vec3(0, 0, 1);
     x = glm::normalize(x - glm::dot(x, z) * z);
-    if (angle_deg(x, Vec3(1, 0, 0)) > kMaxTurnPerFrameDeg) x = glm::normalize(Vec3(1, 0, 0) - z.x * z);
+    if (angle_deg(x, Vec3(1, 0, 0)) > kMaxTurnPerFrameDeg) {
+      // Not believed at once (a lumpy hull, an arm across the chest); believed when it persists:
+      // the torso turned faster than the prediction, or the heading was lost.
+      const Vec3 xw = level(R * x);
+      const bool same = turn_candidate_frames > 0 && glm::length(xw) > 1e-6 &&
+                        angle_deg(xw, turn_candidate) < kSameCandidateDeg;
+      turn_candidate_frames = same ? turn_candidate_frames + 1 : 1;
+      turn_candidate = xw;
+      // Believed only with the hands and feet for a witness: the axis within kHintAgreeDeg of their
+      // right, its sign theirs (the PCA's axis has no sign of its own).
+      const bool witnessed = glm::length(right_hint) > 0.05 && glm::length(xw) > 1e-6 &&
+                             std::min(angle_deg(xw, right_hint), angle_deg(-xw, right_hint)) < kHintAgreeDeg;
+      if (turn_candidate_frames < kBelieveTurnFrames || !witnessed) {
+        x = glm::normalize(Vec3(1, 0, 0) - z.x * z);
+        heading_measured = false;
+      } else if (glm::dot(xw, right_hint) < 0) {
+        x = -x;
+      }
+    } else {
+      turn_candidate_frames = 0;
+    }
     const Vec3 y = glm::cross(z, x);
     return R * Mat3(x, y, z);
   }
@@ -399,6 +441,15 @@ struct Fitter::State {
       const double reach = 0.98 * (body.upper_m(limb) + body.lower_m(limb));
       local = Vec3(0, 0, -reach);  // never seen: arms hanging, legs standing
     }
+    return fit_end_to_hull(limb, root, root + F * local);
+  }
+
+  // The limb's end fitted to the hull from a guess: the layer-1 segment turned up to +-20 degrees
+  // about the root, then the lower segment +-45 degrees about its hinge; the most samples win.
+  Vec3 fit_end_to_hull(int limb, const Vec3& root, const Vec3& guess) const {
+    const size_t li = static_cast<size_t>(limb);
+    const Mat3& F = limb_frame(l1, limb);
+    const Vec3 local = glm::transpose(F) * (guess - root);
     const double len = glm::length(local);
     const Vec3 u0 = F * (local / std::max(len, 1e-9));
     const Vec3 any = std::abs(u0.z) < 0.9 ? Vec3(0, 0, 1) : Vec3(1, 0, 0);
@@ -485,6 +536,8 @@ struct Fitter::State {
     have_last = false;
     ++body_version;
     failing = 0;
+    yaw_rate = 0;
+    turn_candidate_frames = 0;
   }
 };
 
@@ -576,18 +629,35 @@ pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
   const BodyModel& b = s.body;
   const Vec3 shift = ok[0] && s.have_head ? f[0] - s.last_head : Vec3(0.0);
   const Vec3 neck_pred = l1.neck_world + shift;
-  const Moments mo = s.segment(neck_pred, l1.R_torso_world, 1.0);
+  // The torso frame as predicted for this frame: the last one turned on about the vertical.
+  const double cy = std::cos(s.yaw_rate), sy = std::sin(s.yaw_rate);
+  const Mat3 R_pred = Mat3(Vec3(cy, sy, 0), Vec3(-sy, cy, 0), Vec3(0, 0, 1)) * l1.R_torso_world;
+  const Moments mo = s.segment(neck_pred, R_pred, 1.0);
   const uint64_t t2 = monotonic_ns();
   s.times.segment_ns = t2 - t1;
   const bool torso_ok = mo.n >= std::max(30.0, 0.3 * s.init_torso_voxels);
-  const Mat3 R = torso_ok ? s.pca(mo, l1.R_torso_world, s.reacquire_pending) : l1.R_torso_world;
+  const Mat3 R =
+      torso_ok ? s.pca(mo, R_pred, s.reacquire_pending, State::feature_right(f, ok, true)) : R_pred;
+  {  // the turn rate: this frame's turn of the level heading, smoothed; bounded by what is believed
+    const Vec3 a = level(l1.R_torso_world[0]), c = level(R[0]);
+    const double turn = std::atan2(glm::cross(a, c).z, glm::dot(a, c));
+    const double lim = kMaxTurnRateDeg * M_PI / 180;
+    // Only a measured heading tells the rate (a kept one would only repeat the prediction): without one
+    // the rate fades.
+    if (!torso_ok || s.reacquire_pending)
+      s.yaw_rate = 0;
+    else if (s.heading_measured)
+      s.yaw_rate = std::clamp((1 - kYawRateGain) * s.yaw_rate + kYawRateGain * turn, -lim, lim);
+    else
+      s.yaw_rate *= 1 - kYawRateGain;
+  }
   if (torso_ok) s.reacquire_pending = false;
   const uint64_t t3 = monotonic_ns();
   s.times.pca_ns = t3 - t2;
 
   // ---- Layer 1 (8.3): the neck on the torso's axis below the head; ends from the features. ----
   const Vec3 z = R[2];
-  const Vec3 centroid = neck_pred + l1.R_torso_world * mo.mean_local;
+  const Vec3 centroid = neck_pred + R_pred * mo.mean_local;
   Vec3 neck;
   if (torso_ok) {
     const Vec3 axis_pt = centroid - R * Vec3(s.centroid_off_local.x, s.centroid_off_local.y, 0);
@@ -620,6 +690,16 @@ pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
       t.have = true;
       t.lost = 0;
       l1.end_world[li] = f[li + 1];
+      // A foot feature checked against the leg's hull: one off its leg (a drifting or mislabelled track)
+      // leaves the leg's samples outside the hull; when the leg fitted to the hull from it holds clearly
+      // more, that end is taken. Not the arms: near the torso or the other arm few of their samples
+      // count, and the check moved correct wrists (README).
+      const Vec3 bend = F * s.l2.bend_local[li];
+      const int n_feat = s.count_limb_at(limb, root, f[li + 1], bend);
+      if (!is_arm(limb) && n_feat < kFeatureSupport * static_cast<double>(s.samples.size())) {
+        const Vec3 e = s.fit_end_to_hull(limb, root, f[li + 1]);
+        if (s.count_limb_at(limb, root, e, bend) > kHullBeatsFeature * n_feat) l1.end_world[li] = e;
+      }
     } else {
       ++t.lost;
       predicted = true;

@@ -113,8 +113,9 @@ TEST(Fitter, BuiltinMotionsOnTrueHullsAndNoisyFeatures) {
 // The rig's kind of hull: carved from the true silhouettes of the default six cameras (640x480), so
 // with phantom volumes around the limbs; features 1.5 cm noisy.
 TEST(Fitter, CarvedHullsOfSixCameras) {
-  // By default the lead-in and 1.5 s of three motions (rendering six views is slow under the
-  // sanitizers); VOXCAP_FIT_LONG=1: every built-in motion whole.
+  // By default the lead-in and 1.5 s of arms-close and walk and the whole of turn (the check:
+  // no left/right swap through the whole turn; rendering six views is slow under the sanitizers);
+  // VOXCAP_FIT_LONG=1: every built-in motion whole.
   const bool long_run = std::getenv("VOXCAP_FIT_LONG") != nullptr;
   const int frames = long_run ? 100000 : 180;
   const char* only = std::getenv("VOXCAP_FIT_MOTION");
@@ -134,7 +135,7 @@ TEST(Fitter, CarvedHullsOfSixCameras) {
     double sum = 0;
     int fitted = 0, swaps = 0;
     std::array<double, pipeline::kPoseJointCount> per{};
-    const int n = std::min(frames, scene.motion().natural_frames());
+    const int n = std::min(std::string(motion) == "turn" ? 100000 : frames, scene.motion().natural_frames());
     for (int frame = 0; frame < n; ++frame) {
       const pipeline::Pose pose = fitter.fit(testing::carved_frame(scene, grid, frame, noise, rng, &masks));
       if (!pose.valid()) continue;
@@ -152,7 +153,7 @@ TEST(Fitter, CarvedHullsOfSixCameras) {
     for (int j = 0; j < pipeline::kPoseJointCount; ++j)
       std::printf(" %s %.0f", pipeline::pose_joint_name(j), 1000 * per[static_cast<size_t>(j)] / fitted);
     std::printf("\n");
-    // Measured on the default run (lead-in + 1.5 s): arms-close 23.9, turn 28.4, walk 27.5 mm.
+    // Measured on the default run (lead-in + 1.5 s): arms-close 23.9, walk 27.5 mm; the whole turn 29.3.
     const double bound_mm = std::string(motion) == "arms-close" ? 28 : 33;
     if (!long_run) EXPECT_LE(1000 * sum / fitted, bound_mm);
     EXPECT_EQ(swaps, 0);
@@ -188,6 +189,47 @@ TEST(Fitter, AHandLostForTenFramesIsPredictedAndStaysClose) {
   EXPECT_LE(100 * sum, 30);
 }
 
+// A foot feature off its leg (as a drifting or mislabelled colour track gives it): 25 cm to the
+// performer's outside and 10 cm up for 30 frames of walk. The leg at the feature holds few samples in
+// the hull; the leg fitted to the hull from it holds more and is taken: the ankle stays near the truth.
+TEST(Fitter, AFootFeatureOffItsLegIsCheckedAgainstTheHull) {
+  sim::SceneOptions so;
+  so.motion.source = "walk";
+  const sim::Scene scene(so);
+  const rig::VoxelGrid grid = *scene.calibration().grid;
+  Fitter fitter(grid, {}, 60);
+  std::mt19937_64 rng(14);
+  const int from = scene.motion().lead_in_frames() + 60, to = from + 30;
+  double sum_fit = 0, sum_feature = 0, worst = 0;
+  for (int frame = 0; frame < to; ++frame) {
+    pipeline::Frame f = testing::synthetic_frame(scene, grid, frame, {}, rng);
+    const auto truth = testing::true_pose(scene, frame);
+    if (frame >= from) {
+      const cv::Vec3d right = at(truth, J::r_hip) - at(truth, J::l_hip);
+      const cv::Vec3d out = -0.25 * right / cv::norm(right) + cv::Vec3d(0, 0, 0.10);  // left foot: outside
+      for (pipeline::Feature3D& ft : f.features3d)
+        if (ft.feature_id == VC_FEATURE_LEFT_FOOT)
+          for (int c = 0; c < 3; ++c) ft.p_world[static_cast<size_t>(c)] += out[c];
+    }
+    const pipeline::Pose pose = fitter.fit(f);
+    if (frame < from) continue;
+    ASSERT_TRUE(pose.valid()) << frame;
+    const double e = cv::norm(at(pose, J::l_ankle) - at(truth, J::l_ankle));
+    sum_fit += e;
+    worst = std::max(worst, e);
+    for (const pipeline::Feature3D& ft : f.features3d)
+      if (ft.feature_id == VC_FEATURE_LEFT_FOOT)
+        sum_feature +=
+            cv::norm(cv::Vec3d(ft.p_world[0], ft.p_world[1], ft.p_world[2]) - at(truth, J::l_ankle));
+  }
+  std::printf(
+      "left foot feature 27 cm off for 30 frames: its error %.0f mm, the fitted ankle's %.0f mm (worst "
+      "%.0f)\n",
+      1000 * sum_feature / 30, 1000 * sum_fit / 30, 1000 * worst);
+  EXPECT_GT(sum_feature / 30, 0.25);
+  EXPECT_LT(sum_fit / 30, 0.5 * sum_feature / 30);
+}
+
 TEST(Fitter, ReinitializesAfterTheHullIsLostAndFitsAgain) {
   sim::SceneOptions so;
   so.motion.source = "walk";
@@ -207,17 +249,52 @@ TEST(Fitter, ReinitializesAfterTheHullIsLostAndFitsAgain) {
   }
   int reinit = 0;
   uint32_t version_before = 0;
+  BodyModel body_before;
   double sum_after = 0;
   int n_after = 0;
+  // Re-initialization keeps the measured body: every length and radius as initialization measured it,
+  // bit for bit, at the re-initialized frame and to the end.
+  auto expect_same_body = [&body_before](const BodyModel& b, int frame) {
+    const std::array<double BodyModel::*, 17> fields = {&BodyModel::neck_to_head_m,
+                                                        &BodyModel::spine_m,
+                                                        &BodyModel::shoulder_half_width_m,
+                                                        &BodyModel::shoulder_drop_m,
+                                                        &BodyModel::hip_half_width_m,
+                                                        &BodyModel::pelvis_drop_m,
+                                                        &BodyModel::upper_arm_m,
+                                                        &BodyModel::forearm_m,
+                                                        &BodyModel::thigh_m,
+                                                        &BodyModel::shank_m,
+                                                        &BodyModel::upper_arm_radius_m,
+                                                        &BodyModel::forearm_radius_m,
+                                                        &BodyModel::thigh_radius_m,
+                                                        &BodyModel::shank_radius_m,
+                                                        &BodyModel::torso_half_width_m,
+                                                        &BodyModel::torso_half_depth_m,
+                                                        &BodyModel::head_to_top_m};
+    for (size_t i = 0; i < fields.size(); ++i)
+      EXPECT_EQ(b.*fields[i], body_before.*fields[i]) << frame << " " << i;
+  };
   for (int frame = 0; frame < 300; ++frame) {
     pipeline::Frame f = testing::synthetic_frame(scene, grid, frame, {}, rng);
     if (frame >= lost_from && frame < lost_to) f.rle = empty_rle;
     const pipeline::Pose pose = fitter.fit(f);
-    if (frame == lost_from - 1) version_before = pose.body_version;
+    if (frame == lost_from - 1) {
+      version_before = pose.body_version;
+      ASSERT_TRUE(fitter.initialized());
+      body_before = fitter.body();
+      // Measured, not the defaults: the test would not tell a reset to the defaults otherwise.
+      EXPECT_NE(body_before.upper_arm_m, BodyModel{}.upper_arm_m);
+      EXPECT_NE(body_before.thigh_m, BodyModel{}.thigh_m);
+    }
     if (pose.state == pipeline::PoseState::Reinitialized) {
       ++reinit;
       EXPECT_EQ(frame, lost_from + opt.reinit_after_frames - 1);
       EXPECT_EQ(pose.body_version, version_before + 1);
+    }
+    if (frame >= lost_from + opt.reinit_after_frames - 1) {
+      EXPECT_TRUE(fitter.initialized()) << frame;
+      expect_same_body(fitter.body(), frame);
     }
     if (frame >= lost_from && frame < lost_to) EXPECT_LT(pose.confidence, 0.6) << frame;
     if (frame >= lost_to + 10) {
