@@ -229,8 +229,12 @@ std::optional<InitMeasurement> measure_init_frame(const HullBits& hull, const Fe
       crotch_z = zz;
       break;
     }
-  const bool crotch_ok = crotch_z > ankle_z + 0.3 * (shoulder_z - ankle_z);
-  if (!crotch_ok) crotch_z = ankle_z + 0.47 * (top_z - ankle_z);  // legs touching all the way
+  // The gap between legs held together closes in a visual hull below the real crotch (the phantom
+  // volume of the few views that see through it): a crotch far from the usual 0.47 of the ankle ->
+  // head-top height is such an artefact, as for the elbow and knee steps, and the usual height is used.
+  const double usual_crotch_z = ankle_z + 0.47 * (top_z - ankle_z);
+  const bool crotch_ok = crotch_z > 0 && std::abs(crotch_z - usual_crotch_z) <= 0.05 * (top_z - ankle_z);
+  if (!crotch_ok) crotch_z = usual_crotch_z;  // legs touching all the way, or a phantom between them
   double leg_frac[2], t_up[2], t_lo[2];
   for (int s = 0; s < 2; ++s) {
     const Vec3 ankle = s == 0 ? la : ra;
