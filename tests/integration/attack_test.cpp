@@ -15,6 +15,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstring>
 #include <filesystem>
@@ -301,6 +302,7 @@ TEST(Attack, AHundredConnectionsOfEightMebibytesAreBounded) {
   }
   const long rss_before = live_rss_kb();
   const aggregator::Report before = rig.report();
+  const auto flood_start = Clock::now();
   std::vector<int> fds;
   std::vector<size_t> sent;
   for (int i = 0; i < 100; i++) {
@@ -335,6 +337,7 @@ TEST(Attack, AHundredConnectionsOfEightMebibytesAreBounded) {
   for (int& fd : fds)
     if (fd >= 0) close(fd);
   const aggregator::Report flood_end = rig.report();
+  const double flood_s = std::chrono::duration<double>(Clock::now() - flood_start).count();
   rig.run_seconds(1.5);
   const long rss_after = live_rss_kb();
   const aggregator::Report after = rig.report();
@@ -348,8 +351,15 @@ TEST(Attack, AHundredConnectionsOfEightMebibytesAreBounded) {
             100u)
       << "every stranger dropped for its oversize first message or evicted";
   // While it lasts, the flood (this process copying up to 800 MB into sockets) takes the cores the
-  // edges need: frames go on merging, some miss a node. After it, the rig is whole again.
-  expect_complete_since(before, flood_end, 30, "during the flood", 0.75);
+  // edges need: frames go on merging, some miss a node. After it, the rig is whole again. How long it
+  // lasts depends on how fast the host cuts the strangers (a few tenths of a second to several seconds
+  // here), so the frames expected during it are half of those pulsed meanwhile that can have left
+  // assembly (not the last 0.25 s: the 150 ms deadline and a frame); a fixed 30 failed whenever the
+  // host was quick (2 complete frames in a short flood).
+  RecordProperty("flood_seconds", fmt::format("{:.2f}", flood_s));
+  const double settled_s = std::max(0.0, flood_s - 0.25);
+  expect_complete_since(before, flood_end, static_cast<uint64_t>(0.5 * 60 * settled_s), "during the flood",
+                        0.75);
   expect_complete_since(flood_end, after, 60, "after the flood");
   for (const auto& n : after.nodes) EXPECT_EQ(n.joins, 1u) << n.name << " was disturbed";
 }
