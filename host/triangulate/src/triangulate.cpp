@@ -487,7 +487,11 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
       certain = !front_.empty() && cv::norm(left) > 1e-9 && std::abs(along) / cv::norm(left) > 0.1 &&
                 (found.size() == 2 || head.has_value());
     }
-    st.named = true;
+    // One point named by a guess (feet held together seen as one blob at start-up: the head rule cannot
+    // tell left from right) is reported, untrusted, but not followed: the pair is named afresh on the
+    // next frame, by the initialization rule once both points are seen. Following the guess kept a wrong
+    // naming for the whole take (live `walk` and `squat`), since continuity cannot repair it.
+    st.named = certain || found.size() == 2;
   }
   if (!found.empty()) {
     side[a_left ? 0 : 1] = 0;
