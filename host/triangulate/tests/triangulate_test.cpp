@@ -23,8 +23,12 @@ std::vector<View> project_all(const rig::Calibration& cal, const cv::Vec3d& p, d
                               std::mt19937_64& rng) {
   std::normal_distribution<double> n(0, sigma);
   std::vector<View> v;
-  for (size_t c = 0; c < cal.cameras.size(); ++c)
-    v.push_back({static_cast<int>(c), cal.cameras[c].project(p) + cv::Point2d(n(rng), n(rng)), 0.9});
+  for (size_t c = 0; c < cal.cameras.size(); ++c) {
+    // The draws sequenced: the order of a call's arguments is unspecified (gcc and clang differ).
+    const double nx = n(rng);
+    const double ny = n(rng);
+    v.push_back({static_cast<int>(c), cal.cameras[c].project(p) + cv::Point2d(nx, ny), 0.9});
+  }
   return v;
 }
 
@@ -48,11 +52,17 @@ TEST(TriangulatePoint, OutlierViewsAreVotedOut) {
   std::mt19937_64 rng(2);
   std::uniform_real_distribution<double> u(-1, 1);
   for (int trial = 0; trial < 50; ++trial) {
-    const cv::Vec3d p(0.8 * u(rng), 0.8 * u(rng), 1.0 + 0.8 * u(rng));
+    const double px = u(rng);
+    const double py = u(rng);
+    const double pz = u(rng);
+    const cv::Vec3d p(0.8 * px, 0.8 * py, 1.0 + 0.8 * pz);
     std::vector<View> v = project_all(cal, p, 1.0, rng);
     // Two of six views are confident outliers, 30..100 px off.
-    for (int k : {trial % 6, (trial + 3) % 6})
-      v[static_cast<size_t>(k)].uv_px += cv::Point2d(30 + 70 * std::abs(u(rng)), 40 * u(rng));
+    for (int k : {trial % 6, (trial + 3) % 6}) {
+      const double du = u(rng);
+      const double dv = u(rng);
+      v[static_cast<size_t>(k)].uv_px += cv::Point2d(30 + 70 * std::abs(du), 40 * dv);
+    }
     const PointResult r = triangulate_point(cal.cameras, v, Options{});
     ASSERT_TRUE(r.ok) << trial;
     EXPECT_LT(cv::norm(r.p_world - p), 0.025) << trial;  // four views, 1 px noise (~5 mm per pixel)
