@@ -761,14 +761,17 @@ cv::Matx33d nearest_rotation(const cv::Matx33d& R, const std::string& where, dou
     throw ImportError(where + ": R is not a rotation (|R^T R - I| = " + std::to_string(err) + ", over " +
                       std::to_string(kMaxRotationError) + ")");
   if (cv::determinant(R) < 0) throw ImportError(where + ": R is a reflection (det < 0)");
+  if (err <= 1e-12) {  // orthonormal to double precision: kept as given
+    if (change) *change = 0;
+    return R;
+  }
   cv::Matx33d U, Vt;
   cv::Matx31d w;
   cv::SVD::compute(R, w, U, Vt);
-  cv::Matx33d Rn = U * Vt;
+  const cv::Matx33d Rn = U * Vt;
   if (cv::determinant(Rn) < 0) throw ImportError(where + ": R is a reflection (det < 0)");
   double d = 0;
   for (int i = 0; i < 9; ++i) d = std::max(d, std::abs(Rn.val[i] - R.val[i]));
-  if (d == 0) Rn = R;
   if (change) *change = d;
   return Rn;
 }

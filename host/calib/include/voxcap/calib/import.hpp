@@ -8,8 +8,9 @@
 // and the transform into voxcap's world frame (metres, right-handed, z up) are in host/calib/README.md.
 //
 // Rotations: a source's R that is orthonormal only to its printed precision (Middlebury's deviate by
-// ~1e-6, over hw/rig's 1e-6 check) is replaced by the nearest rotation (SVD: U V^T) and the change is
-// reported (ImportReport::max_rotation_change); one further than kMaxRotationError from a rotation
+// ~1e-6, over hw/rig's 1e-6 check) is replaced by the nearest rotation (SVD: U V^T; one within 1e-12 is
+// kept as given) and the change is reported (ImportReport::max_rotation_change); one further than
+// kMaxRotationError from a rotation
 // (|R^T R - I|, max entry), or a reflection (det < 0), is refused.
 #pragma once
 
