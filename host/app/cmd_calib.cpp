@@ -92,7 +92,8 @@ void add_calib_commands(CLI::App& app) {
   imp->add_option("--image-size", a->image_size,
                   "W H: image size when the file has none (Middlebury: else read from the first listed "
                   "image beside the file or in its images/ folder)")
-      ->expected(2);
+      ->expected(2)
+      ->allow_extra_args(false);
   imp->callback([a] { run_import(*a); });
 }
 

@@ -125,9 +125,10 @@ void add_carve_commands(CLI::App& app) {
   cmd->add_option("--dilate", a->dilate, "With --threshold: dilate the mask by a disc of PX pixels");
   cmd->add_option("--erode", a->erode, "With --threshold: then erode it by a disc of PX pixels");
   cmd->add_option("--grid-min", a->grid_min, "X Y Z: the grid's min corner, metres (DESIGN.md's voxel grid)")
-      ->expected(3);
+      ->expected(3)
+      ->allow_extra_args(false);
   cmd->add_option("--voxel", a->voxel, "S: the voxel edge, metres");
-  cmd->add_option("--dims", a->dims, "NX NY NZ: voxels along x, y, z")->expected(3);
+  cmd->add_option("--dims", a->dims, "NX NY NZ: voxels along x, y, z")->expected(3)->allow_extra_args(false);
   cmd->add_option("--auto", a->auto_n,
                   "N: a grid of N voxels on its longest side around the region every matched camera sees "
                   "(found by sampling, host/calib/README.md); without a grid option the calibration's grid");
