@@ -42,8 +42,8 @@
  * float implementation of the rules above on those values gives the same mask (see the tests).
  *
  * Thread safety: a model may be used by one thread at a time. vc_subtract() keeps the texture
- * tests' candidates of 5 rows and its running column sums in the model (16 bytes per pixel of 5
- * rows + 48 per column: 82 KB at 640 wide, allocated by vc_bgmodel_set_params when a test is on),
+ * tests' candidates of 5 rows and its running column sums in the model (48 bytes per pixel of 5
+ * rows + 48 per column: 184 KB at 640 wide, allocated by vc_bgmodel_set_params when a test is on),
  * so one frame at a time per model, as the edge runs it (one model per camera); with
  * shadow_texture_k and shadow_flat_margin 0 it only reads the model.
  */
