@@ -573,7 +573,7 @@ static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, const uint16_t* s
   const uint64_t k2 = m->k2_q8, fl = m->floor_q8, flat = m->flat_q8;
   const uint32_t(*colsum)[VC_SUMS] = (const uint32_t(*)[VC_SUMS])m->colsum;
   uint32_t shadow = 0, last = UINT32_MAX - 1;
-  uint32_t s[VC_SUMS];
+  uint32_t s[VC_SUMS] = {0}; /* the window sums of the previous candidate (slid when x follows it) */
   for (int k = 0; k < count; k++) {
     const uint32_t x = cand[k].t[VC_S_X];
     if (x == last + 1) /* the window one column on: add column x + r, drop column x - r - 1 */
