@@ -79,6 +79,7 @@ config::FittingOptions fitting_options(const config::RigConfig& rig, const FitAr
 // Left/right swaps and per-frame errors of the fitted poses against the virtual rig's truth (the same
 // joints as the pose scorer: PoseJoints by hw/body's standard names). A pair is swapped in a frame when
 // its two fitted joints lie nearer the other side's true joints than their own (summed distances).
+// Frames with part of the body outside the volume are left out, as the pose scorer does.
 class SwapAudit {
  public:
   using J = pipeline::PoseJoint;
@@ -89,8 +90,9 @@ class SwapAudit {
                                                               {J::l_hip, J::r_hip}}};
   static constexpr std::array<const char*, 4> kPairNames = {"hands", "feet", "shoulders", "hips"};
 
-  SwapAudit(std::unique_ptr<sim::Scene> scene, uint64_t origin, const std::string& csv_path)
-      : scene_(std::move(scene)), origin_(origin) {
+  SwapAudit(std::unique_ptr<sim::Scene> scene, const rig::VoxelGrid& grid, uint64_t origin,
+            const std::string& csv_path)
+      : scene_(std::move(scene)), grid_(grid), origin_(origin) {
     if (csv_path.empty()) return;
     csv_.emplace(csv_path);
     if (!*csv_) throw UsageError(fmt::format("fit: --frames-csv {}: cannot write", csv_path));
@@ -104,6 +106,11 @@ class SwapAudit {
     if (seq < origin_ || !pose.valid()) return;
     const int frame = static_cast<int>(seq - origin_);
     const std::array<cv::Vec3d, body::kJointCount> truth = scene_->joints(frame);
+    // As the pose scorer: a frame with part of the body outside the volume is left out.
+    const cv::Vec3d lo = grid_.min_m, hi = lo + cv::Vec3d(grid_.nx, grid_.ny, grid_.nz) * grid_.voxel_m;
+    for (const cv::Vec3d& p : truth)
+      for (int a = 0; a < 3; ++a)
+        if (p[a] < lo[a] || p[a] > hi[a]) return;
     auto fit = [&pose](J j) {
       const auto& v = pose.p_world[static_cast<size_t>(j)];
       return cv::Vec3d(v[0], v[1], v[2]);
@@ -150,6 +157,7 @@ class SwapAudit {
 
  private:
   std::unique_ptr<sim::Scene> scene_;
+  rig::VoxelGrid grid_;
   uint64_t origin_;
   std::optional<std::ofstream> csv_;
   std::array<uint64_t, kPairs.size()> swaps_{};
@@ -196,8 +204,8 @@ void run_fit(const FitArgs& a) {
     scorer = std::make_unique<emulated::PoseScorer>(
         std::make_unique<sim::Scene>(emulated::truth_scene_options(vrig->rig, cal)), rig.grid, false);
     scorer->set_origin(vrig->origin);
-    audit.emplace(std::make_unique<sim::Scene>(emulated::truth_scene_options(vrig->rig, cal)), vrig->origin,
-                  a.frames_csv);
+    audit.emplace(std::make_unique<sim::Scene>(emulated::truth_scene_options(vrig->rig, cal)), rig.grid,
+                  vrig->origin, a.frames_csv);
   }
 
   record::Reader reader = record::Reader::open(in);
