@@ -7,10 +7,14 @@
 // `--score`: a session that voxcap demo recorded (it has virtual_rig.json) is also scored against the
 // virtual rig's truth, offline (host/emulated's pose scorer, the figures of voxcap eval; the latency is
 // then the fit's own time per frame, `live` holds the recorded run's figures). Without the real-time rig
-// the figures do not depend on the machine's load: the way to iterate on the fitter.
+// the figures do not depend on the machine's load: the way to iterate on the fitter. It also counts
+// the frames with a left/right swap (`lr_swap_frames`: a pair of fitted joints nearer the other side's
+// true joints than their own, per limb pair) and, with `--frames-csv FILE`, writes every scored frame's
+// per-joint errors: where in a take the error is.
 #include <array>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <optional>
 #include <string>
@@ -23,6 +27,7 @@
 #include "pose_figures.hpp"
 #include "voxcap/aggregator/aggregator.hpp"
 #include "voxcap/base/clock.hpp"
+#include "voxcap/body/joints.hpp"
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/emulated/pose_scorer.hpp"
 #include "voxcap/fit/fitter.hpp"
@@ -40,7 +45,7 @@ struct FitArgs {
   std::string session, out;
   std::optional<int> samples, steps, init_frames, reinit_after, predict_frames;
   std::optional<double> span_deg, k, straight_deg, min_cutoff, beta;
-  std::string smoothing, body;
+  std::string smoothing, body, frames_csv;
   bool score = false, json = false;
 };
 
@@ -71,6 +76,94 @@ config::FittingOptions fitting_options(const config::RigConfig& rig, const FitAr
   return o;
 }
 
+// Left/right swaps and per-frame errors of the fitted poses against the virtual rig's truth (the same
+// joints as the pose scorer: PoseJoints by hw/body's standard names). A pair is swapped in a frame when
+// its two fitted joints lie nearer the other side's true joints than their own (summed distances).
+// Frames with part of the body outside the volume are left out, as the pose scorer does.
+class SwapAudit {
+ public:
+  using J = pipeline::PoseJoint;
+  // The pairs: arms (wrist, elbow), legs (ankle, knee), shoulders, hips.
+  static constexpr std::array<std::array<J, 2>, 4> kPairs = {{{J::l_wrist, J::r_wrist},
+                                                              {J::l_ankle, J::r_ankle},
+                                                              {J::l_shoulder, J::r_shoulder},
+                                                              {J::l_hip, J::r_hip}}};
+  static constexpr std::array<const char*, 4> kPairNames = {"hands", "feet", "shoulders", "hips"};
+
+  SwapAudit(std::unique_ptr<sim::Scene> scene, const rig::VoxelGrid& grid, uint64_t origin,
+            const std::string& csv_path)
+      : scene_(std::move(scene)), grid_(grid), origin_(origin) {
+    if (csv_path.empty()) return;
+    csv_.emplace(csv_path);
+    if (!*csv_) throw UsageError(fmt::format("fit: --frames-csv {}: cannot write", csv_path));
+    *csv_ << "frame,state,mpjpe_mm";
+    for (int j = 0; j < pipeline::kPoseJointCount; ++j) *csv_ << "," << pipeline::pose_joint_name(j) << "_mm";
+    for (const char* n : kPairNames) *csv_ << ",swap_" << n;
+    *csv_ << "\n";
+  }
+
+  void add(uint64_t seq, const pipeline::Pose& pose) {
+    if (seq < origin_ || !pose.valid()) return;
+    const int frame = static_cast<int>(seq - origin_);
+    const std::array<cv::Vec3d, body::kJointCount> truth = scene_->joints(frame);
+    // As the pose scorer: a frame with part of the body outside the volume is left out.
+    const cv::Vec3d lo = grid_.min_m, hi = lo + cv::Vec3d(grid_.nx, grid_.ny, grid_.nz) * grid_.voxel_m;
+    for (const cv::Vec3d& p : truth)
+      for (int a = 0; a < 3; ++a)
+        if (p[a] < lo[a] || p[a] > hi[a]) return;
+    auto fit = [&pose](J j) {
+      const auto& v = pose.p_world[static_cast<size_t>(j)];
+      return cv::Vec3d(v[0], v[1], v[2]);
+    };
+    auto tru = [&truth](J j) {
+      return truth[static_cast<size_t>(
+          body::joint_from_name(pipeline::pose_joint_name(static_cast<int>(j))))];
+    };
+    std::array<bool, kPairs.size()> sw{};
+    bool any = false;
+    for (size_t i = 0; i < kPairs.size(); ++i) {
+      const J l = kPairs[i][0], r = kPairs[i][1];
+      const double own = cv::norm(fit(l) - tru(l)) + cv::norm(fit(r) - tru(r));
+      const double other = cv::norm(fit(l) - tru(r)) + cv::norm(fit(r) - tru(l));
+      sw[i] = other < own;
+      swaps_[i] += sw[i] ? 1 : 0;
+      any = any || sw[i];
+    }
+    any_ += any ? 1 : 0;
+    if (!csv_) return;
+    double sum = 0;
+    std::array<double, pipeline::kPoseJointCount> e{};
+    for (int j = 0; j < pipeline::kPoseJointCount; ++j) {
+      e[static_cast<size_t>(j)] = 1e3 * cv::norm(fit(static_cast<J>(j)) - tru(static_cast<J>(j)));
+      sum += e[static_cast<size_t>(j)];
+    }
+    *csv_ << frame << "," << static_cast<int>(pose.state) << ","
+          << fmt::format("{:.1f}", sum / pipeline::kPoseJointCount);
+    for (double v : e) *csv_ << "," << fmt::format("{:.1f}", v);
+    for (bool b : sw) *csv_ << "," << (b ? 1 : 0);
+    *csv_ << "\n";
+  }
+
+  nlohmann::json json() const {
+    nlohmann::json j = {{"any", any_}};
+    for (size_t i = 0; i < kPairs.size(); ++i) j[kPairNames[i]] = swaps_[i];
+    return j;
+  }
+  std::string line() const {
+    std::string s = fmt::format("{} frames", any_);
+    for (size_t i = 0; i < kPairs.size(); ++i) s += fmt::format(", {} {}", kPairNames[i], swaps_[i]);
+    return s;
+  }
+
+ private:
+  std::unique_ptr<sim::Scene> scene_;
+  rig::VoxelGrid grid_;
+  uint64_t origin_;
+  std::optional<std::ofstream> csv_;
+  std::array<uint64_t, kPairs.size()> swaps_{};
+  uint64_t any_ = 0;
+};
+
 void run_fit(const FitArgs& a) {
   const fs::path in(a.session);
   std::error_code ec;
@@ -78,6 +171,7 @@ void run_fit(const FitArgs& a) {
     throw UsageError(fmt::format("fit: {}: not a voxcap session (no records.vcr)", a.session));
   if (a.out.empty() && !a.score)
     throw UsageError("fit: --out DIR is required (a new session folder), unless --score");
+  if (!a.frames_csv.empty() && !a.score) throw UsageError("fit: --frames-csv needs --score");
   // The session's own rig.toml and calibration copies: the grid the hulls were carved on.
   config::RigConfig rig;
   try {
@@ -99,6 +193,7 @@ void run_fit(const FitArgs& a) {
   // The virtual rig's truth, when scoring: the same scene the edges rendered, on the session's calibration.
   std::optional<VirtualRig> vrig;
   std::unique_ptr<emulated::PoseScorer> scorer;
+  std::optional<SwapAudit> audit;
   if (a.score) {
     try {
       vrig = read_virtual_rig(in);
@@ -109,6 +204,8 @@ void run_fit(const FitArgs& a) {
     scorer = std::make_unique<emulated::PoseScorer>(
         std::make_unique<sim::Scene>(emulated::truth_scene_options(vrig->rig, cal)), rig.grid, false);
     scorer->set_origin(vrig->origin);
+    audit.emplace(std::make_unique<sim::Scene>(emulated::truth_scene_options(vrig->rig, cal)), rig.grid,
+                  vrig->origin, a.frames_csv);
   }
 
   record::Reader reader = record::Reader::open(in);
@@ -153,6 +250,7 @@ void run_fit(const FitArgs& a) {
       frame.t_trigger_ns = t0;
       frame.pose = pose;
       scorer->process(frame);
+      audit->add(frame.seq, pose);
     }
     record::to_record(frame.seq, pose, frames == 0, &pose_rec);
     append(pose_rec);
@@ -221,6 +319,8 @@ void run_fit(const FitArgs& a) {
           {"rate_hz", vrig->rig.rate_hz},   {"appearance", vrig->rig.appearance},
           {"room", vrig->rig.room}};
       j["live"] = vrig->live;
+      j["lr_swap_frames"] = audit->json();
+      j["fit_pair_swaps"] = {{"hands", fitter.pair_swaps()[0]}, {"feet", fitter.pair_swaps()[1]}};
       nlohmann::json stages = nlohmann::json::object();
       for (size_t i = 0; i < kStageNames.size(); ++i)
         stages[kStageNames[i]] = {{"p50", stage_ns[i].percentile_ms(0.5)},
@@ -232,6 +332,10 @@ void run_fit(const FitArgs& a) {
       fmt::print("scored      {} against the virtual rig's truth (motion '{}'), offline\n", a.session,
                  vrig->rig.motion);
       print_pose_figures(acc, vrig->rig.rate_hz, "fit time");
+      fmt::print(
+          "swaps       left/right swapped on {} (fitted pairs against the truth); the fit swapped the "
+          "hands' features {} times, the feet's {} times\n",
+          audit->line(), fitter.pair_swaps()[0], fitter.pair_swaps()[1]);
       std::string stages;
       for (size_t i = 0; i < kStageNames.size(); ++i)
         stages += fmt::format(" {} {:.3f}/{:.3f}/{:.3f}", kStageNames[i], stage_ns[i].percentile_ms(0.5),
@@ -269,7 +373,12 @@ void add_fit_commands(CLI::App& app) {
                 "Score the new poses against the virtual rig's truth offline (a session of voxcap demo, "
                 "with its virtual_rig.json): the figures of voxcap eval; latency_ms and fps are then the "
                 "fit's own time per frame, `live` the recorded run's figures");
-  cmd->add_flag("--json", a->json, "With --score: the figures as one JSON object (voxcap eval's keys)");
+  cmd->add_flag("--json", a->json,
+                "With --score: the figures as one JSON object (voxcap eval's keys, lr_swap_frames, "
+                "fit_pair_swaps)");
+  cmd->add_option("--frames-csv", a->frames_csv,
+                  "With --score: write every scored frame's per-joint errors (mm) and left/right swaps "
+                  "to this CSV");
   cmd->add_option("--samples", a->samples, "Cylinder samples per limb");
   cmd->add_option("--steps", a->steps, "The method's nu: angles tried per layer-2 search");
   cmd->add_option("--span-deg", a->span_deg, "The method's s: the search covers rho(t-1) +- s degrees");

@@ -26,6 +26,12 @@ constexpr double kFeatureSupport = 0.5;         // a leg at its feature with few
 constexpr double kHullBeatsFeature = 1.5;  // ... takes the hull's end when that holds this many times more
 constexpr double kYawRateGain = 0.2;       // the turn rate's smoothing (a PCA is noisy by a few degrees)
 constexpr double kMaxTurnRateDeg = 4;      // the predicted turn per frame at most (240 deg/s at 60 Hz)
+constexpr double kSwapMargin =
+    0.08;  // m: a pair's features taken crosswise fit their limbs' paths this much better
+constexpr double kDeepInTorso = 0.6;  // a hand feature this deep in the torso cylinder is not a wrist
+constexpr double kOnePointM = 0.06;   // m: a pair's two features this close are one point ...
+constexpr double kOnePointApartM =
+    0.2;  // ... that is wrong for one of them when their paths are this far apart
 
 struct OneEuro {
   bool init = false;
@@ -110,6 +116,10 @@ struct Fitter::State {
   std::array<OneEuro, 3 * pipeline::kPoseJointCount> euro{};
   bool have_seq = false;
   uint64_t last_seq = 0;
+  // The pairs' naming (hands, feet): taken crosswise while set; the number of changes.
+  std::array<bool, 2> swapped{};
+  std::array<uint64_t, 2> swaps{};
+  uint64_t one_point_frames = 0;  // a pair's features on one point, one of them taken as lost
 
   State(const rig::VoxelGrid& grid, const config::FittingOptions& o, double rate)
       : opt(o), rate_hz(rate > 0 ? rate : 60), hull(grid), pattern(cylinder_sample_pattern(o.samples)) {
@@ -134,6 +144,7 @@ struct Fitter::State {
     have_seq = false;
     yaw_rate = 0;
     turn_candidate_frames = 0;
+    swapped = {};
   }
 
   // ---- Torso segmentation: the occupied voxels inside the cylinder placed at (neck, R). ----
@@ -295,6 +306,15 @@ struct Fitter::State {
     const Vec3 q = glm::transpose(l1.R_torso_world) * (p - l1.neck_world);
     const double x = q.x / body.torso_half_width_m, y = q.y / body.torso_half_depth_m;
     return q.z < 0 && q.z > -body.spine_m && x * x + y * y < 1;
+  }
+
+  // Whether p lies deep inside the fitted torso: within kDeepInTorso of the cylinder's half width and
+  // depth, and 5 cm or more from its top and bottom.
+  bool deep_in_torso(const Vec3& p) const {
+    const Vec3 q = glm::transpose(l1.R_torso_world) * (p - l1.neck_world);
+    const double x = q.x / (kDeepInTorso * body.torso_half_width_m),
+                 y = q.y / (kDeepInTorso * body.torso_half_depth_m);
+    return q.z < -0.05 && q.z > -body.spine_m + 0.05 && x * x + y * y < 1;
   }
 
   // Whether p lies inside the other limb of the pair as fitted at t-1 (its own radii): hull there
@@ -567,6 +587,12 @@ const StageTimes& Fitter::times() const {
 int Fitter::failing_frames() const {
   return s_->failing;
 }
+const std::array<uint64_t, 2>& Fitter::pair_swaps() const {
+  return s_->swaps;
+}
+bool Fitter::pair_swapped(int pair) const {
+  return s_->swapped.at(static_cast<size_t>(pair));
+}
 
 pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
   State& s = *s_;
@@ -596,6 +622,17 @@ pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
     ok[ft.feature_id] = true;
     conf[ft.feature_id] = std::min(1.0, static_cast<double>(ft.confidence));
   }
+
+  // A pair taken crosswise (README: "A pair named the wrong way round"): the left limb gets the
+  // right feature and the other way round, until continuity says otherwise.
+  auto swap_pair = [&f, &ok, &conf](int pair) {
+    const size_t a = 1 + 2 * static_cast<size_t>(pair), b = a + 1;
+    std::swap(f[a], f[b]);
+    std::swap(ok[a], ok[b]);
+    std::swap(conf[a], conf[b]);
+  };
+  for (int pair = 0; pair < 2; ++pair)
+    if (s.swapped[static_cast<size_t>(pair)]) swap_pair(pair);
 
   pipeline::PoseState state = pipeline::PoseState::Fitted;
   if (!s.initialized) {
@@ -675,6 +712,32 @@ pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
     s.last_head = f[0];
     s.have_head = true;
   }
+  // Each pair's features against its limbs' paths: the ends predicted from the last frame (in the
+  // root's frame, so the body's own motion and turn are followed); when the features fit the two paths
+  // crosswise clearly better (kSwapMargin), the pair's naming changed (the triangulation named them the
+  // wrong way round, or stopped doing so): the assignment is swapped, and counted.
+  for (int pair = 0; pair < 2; ++pair) {
+    const int la = 2 * pair, lb = la + 1;
+    const size_t fa = static_cast<size_t>(la) + 1, fb = fa + 1;
+    const LimbTrack &ta = s.limbs[static_cast<size_t>(la)], &tb = s.limbs[static_cast<size_t>(lb)];
+    if (!ok[fa] || !ok[fb] || !ta.have || !tb.have) continue;
+    const Mat3& F = limb_frame(l1, la);
+    const Vec3 pa = limb_root(b, l1, la) + F * (ta.lost == 0 ? ta.last_local + ta.vel_local : ta.last_local);
+    const Vec3 pb = limb_root(b, l1, lb) + F * (tb.lost == 0 ? tb.last_local + tb.vel_local : tb.last_local);
+    const double keep = glm::length(f[fa] - pa) + glm::length(f[fb] - pb);
+    const double cross = glm::length(f[fa] - pb) + glm::length(f[fb] - pa);
+    if (ta.lost == 0 && tb.lost == 0 && cross + kSwapMargin < keep) {
+      swap_pair(pair);
+      s.swapped[static_cast<size_t>(pair)] = !s.swapped[static_cast<size_t>(pair)];
+      ++s.swaps[static_cast<size_t>(pair)];
+    } else if (glm::length(f[fa] - f[fb]) < kOnePointM && glm::length(pa - pb) > kOnePointApartM) {
+      // Both features on one point while the limbs' paths are apart: one of them took the other's
+      // hand (foot). The one further from its own path is wrong: taken as lost for this frame.
+      const size_t wrong = glm::length(f[fa] - pa) > glm::length(f[fb] - pb) ? fa : fb;
+      ok[wrong] = false;
+      ++s.one_point_frames;
+    }
+  }
   bool predicted = !ok[0];
   for (int limb = 0; limb < kLimbCount; ++limb) {
     const size_t li = static_cast<size_t>(limb);
@@ -682,7 +745,10 @@ pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
     const Mat3& F = limb_frame(l1, limb);
     const double reach = b.upper_m(limb) + b.lower_m(limb);
     LimbTrack& t = s.limbs[li];
-    const bool good = ok[li + 1] && glm::length(f[li + 1] - root) <= 1.3 * reach + 0.05;
+    // A hand feature deep inside the torso (a track on the shirt, or a point triangulated from two
+    // hands) is never a wrist: taken as lost.
+    const bool good = ok[li + 1] && glm::length(f[li + 1] - root) <= 1.3 * reach + 0.05 &&
+                      !(is_arm(limb) && s.deep_in_torso(f[li + 1]));
     if (good) {
       const Vec3 local = glm::transpose(F) * (f[li + 1] - root);
       t.vel_local = t.have && t.lost == 0 ? 0.5 * t.vel_local + 0.5 * (local - t.last_local) : Vec3(0.0);

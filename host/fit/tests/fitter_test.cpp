@@ -230,6 +230,138 @@ TEST(Fitter, AFootFeatureOffItsLegIsCheckedAgainstTheHull) {
   EXPECT_LT(sum_fit / 30, 0.5 * sum_feature / 30);
 }
 
+// The triangulation names a pair the wrong way round for a while (hands and feet of walk, 50 frames
+// from a stride with the feet apart): the fit takes the features crosswise from the first such frame
+// to the last (the limbs' paths say so), counts each change, and the wrists and ankles stay on their
+// own limbs.
+TEST(Fitter, APairNamedTheWrongWayRoundIsTakenCrosswise) {
+  sim::SceneOptions so;
+  so.motion.source = "walk";
+  const sim::Scene scene(so);
+  const rig::VoxelGrid grid = *scene.calibration().grid;
+  Fitter fitter(grid, {}, 60);
+  std::mt19937_64 rng(15);
+  auto feet_apart = [&scene](int frame) {
+    const auto t = testing::true_pose(scene, frame);
+    return cv::norm(at(t, J::l_ankle) - at(t, J::r_ankle)) > 0.3;
+  };
+  int from = scene.motion().lead_in_frames() + 60;
+  while (!feet_apart(from)) ++from;
+  int to = from + 50;
+  while (!feet_apart(to)) ++to;
+  double sum_swapped = 0, worst = 0;
+  int swapped_pose_frames = 0;
+  for (int frame = 0; frame < to + 20; ++frame) {
+    pipeline::Frame f = testing::synthetic_frame(scene, grid, frame, {}, rng);
+    if (frame >= from && frame < to)
+      for (pipeline::Feature3D& ft : f.features3d) {
+        // left <-> right of both pairs (ids 1/2 and 3/4)
+        if (ft.feature_id == VC_FEATURE_LEFT_HAND || ft.feature_id == VC_FEATURE_LEFT_FOOT)
+          ++ft.feature_id;
+        else if (ft.feature_id == VC_FEATURE_RIGHT_HAND || ft.feature_id == VC_FEATURE_RIGHT_FOOT)
+          --ft.feature_id;
+      }
+    const pipeline::Pose pose = fitter.fit(f);
+    if (frame < from) continue;
+    ASSERT_TRUE(pose.valid()) << frame;
+    const auto truth = testing::true_pose(scene, frame);
+    for (J j : {J::l_wrist, J::r_wrist, J::l_ankle, J::r_ankle}) {
+      const double e = cv::norm(at(pose, j) - at(truth, j));
+      worst = std::max(worst, e);
+      if (frame < to) sum_swapped += e / 4;
+    }
+    if (frame >= from && frame < to) swapped_pose_frames += fitter.pair_swapped(0) && fitter.pair_swapped(1);
+  }
+  std::printf(
+      "hands and feet named the wrong way round for %d frames: wrists and ankles %.0f mm (worst %.0f), "
+      "swaps hands %llu feet %llu\n",
+      to - from, 1000 * sum_swapped / (to - from), 1000 * worst,
+      static_cast<unsigned long long>(fitter.pair_swaps()[0]),
+      static_cast<unsigned long long>(fitter.pair_swaps()[1]));
+  EXPECT_EQ(swapped_pose_frames, to - from);
+  EXPECT_EQ(fitter.pair_swaps()[0], 2u);  // taken crosswise at `from`, straight again at `to`
+  EXPECT_EQ(fitter.pair_swaps()[1], 2u);
+  EXPECT_FALSE(fitter.pair_swapped(0));
+  EXPECT_FALSE(fitter.pair_swapped(1));
+  EXPECT_LT(sum_swapped / (to - from), 0.03);
+  EXPECT_LT(worst, 0.1);
+}
+
+// One hand's feature on the other hand (the right hand's track took the left hand) while the hands
+// are apart, for 20 frames of wave: that feature is not believed (the limb predicted and fitted to
+// the hull): the right wrist stays near its own hand.
+TEST(Fitter, BothFeaturesOfAPairOnOnePointLoseTheWrongOne) {
+  sim::SceneOptions so;
+  so.motion.source = "wave";
+  const sim::Scene scene(so);
+  const rig::VoxelGrid grid = *scene.calibration().grid;
+  Fitter fitter(grid, {}, 60);
+  std::mt19937_64 rng(16);
+  const int from = scene.motion().lead_in_frames() + 60, to = from + 20;
+  double sum_fit = 0, sum_feature = 0;
+  for (int frame = 0; frame < to; ++frame) {
+    pipeline::Frame f = testing::synthetic_frame(scene, grid, frame, {}, rng);
+    const auto truth = testing::true_pose(scene, frame);
+    if (frame >= from) {
+      std::array<double, 3> left{};
+      for (const pipeline::Feature3D& ft : f.features3d)
+        if (ft.feature_id == VC_FEATURE_LEFT_HAND) left = ft.p_world;
+      for (pipeline::Feature3D& ft : f.features3d)
+        if (ft.feature_id == VC_FEATURE_RIGHT_HAND) {
+          for (size_t c = 0; c < 3; ++c) ft.p_world[c] = left[c] + 0.01;
+          sum_feature +=
+              cv::norm(cv::Vec3d(ft.p_world[0], ft.p_world[1], ft.p_world[2]) - at(truth, J::r_wrist));
+        }
+    }
+    const pipeline::Pose pose = fitter.fit(f);
+    if (frame < from) continue;
+    ASSERT_TRUE(pose.valid()) << frame;
+    sum_fit += cv::norm(at(pose, J::r_wrist) - at(truth, J::r_wrist));
+  }
+  std::printf(
+      "right hand's feature on the left hand for 20 frames: its error %.0f mm, the fitted wrist's %.0f mm\n",
+      1000 * sum_feature / 20, 1000 * sum_fit / 20);
+  EXPECT_GT(sum_feature / 20, 0.3);
+  EXPECT_LT(sum_fit / 20, 0.1);
+}
+
+// A hand feature in the middle of the chest (a track on the shirt) for 20 frames of arms-close: never
+// taken for the wrist (the arm is predicted and fitted to the hull): no fitted wrist inside the true
+// torso, and the wrist stays near its hand.
+TEST(Fitter, AHandFeatureInsideTheTorsoIsNotAWrist) {
+  sim::SceneOptions so;
+  so.motion.source = "arms-close";
+  const sim::Scene scene(so);
+  const rig::VoxelGrid grid = *scene.calibration().grid;
+  Fitter fitter(grid, {}, 60);
+  std::mt19937_64 rng(17);
+  const int from = scene.motion().lead_in_frames() + 60, to = from + 20;
+  double sum_fit = 0;
+  int in_torso = 0;
+  for (int frame = 0; frame < to; ++frame) {
+    pipeline::Frame f = testing::synthetic_frame(scene, grid, frame, {}, rng);
+    const auto truth = testing::true_pose(scene, frame);
+    if (frame >= from) {
+      const cv::Vec3d chest = 0.5 * (at(truth, J::neck) + at(truth, J::hips));
+      for (pipeline::Feature3D& ft : f.features3d)
+        if (ft.feature_id == VC_FEATURE_RIGHT_HAND)
+          for (size_t c = 0; c < 3; ++c) ft.p_world[c] = chest[static_cast<int>(c)];
+    }
+    const pipeline::Pose pose = fitter.fit(f);
+    if (frame < from) continue;
+    ASSERT_TRUE(pose.valid()) << frame;
+    sum_fit += cv::norm(at(pose, J::r_wrist) - at(truth, J::r_wrist));
+    const std::vector<sim::Primitive> prims = scene.primitives(frame);
+    for (sim::Part part : {sim::Part::chest, sim::Part::abdomen, sim::Part::pelvis})
+      if (prims[static_cast<size_t>(part)].contains(at(pose, J::r_wrist))) ++in_torso;
+  }
+  std::printf(
+      "right hand's feature in the chest for 20 frames: the fitted wrist %.0f mm, %d frames in the torso\n",
+      1000 * sum_fit / 20, in_torso);
+  EXPECT_EQ(in_torso, 0);
+  EXPECT_LT(sum_fit / 20, 0.1);
+}
+
 TEST(Fitter, ReinitializesAfterTheHullIsLostAndFitsAgain) {
   sim::SceneOptions so;
   so.motion.source = "walk";

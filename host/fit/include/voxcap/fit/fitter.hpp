@@ -59,6 +59,11 @@ class Fitter {
   const StageTimes& times() const;
   // Frames the fit has failed in a row (README: "Re-initialization").
   int failing_frames() const;
+  // How often the fit swapped the assignment of a pair's features to its limbs (README: "A pair named
+  // the wrong way round"): [0] the hands, [1] the feet, since construction.
+  const std::array<uint64_t, 2>& pair_swaps() const;
+  // Whether the pair's features are taken the other way round now ([0] hands, [1] feet).
+  bool pair_swapped(int pair) const;
 
   struct State;
 
