@@ -47,6 +47,7 @@ struct FitArgs {
   std::optional<double> span_deg, k, straight_deg, min_cutoff, beta;
   std::string smoothing, body, frames_csv;
   bool score = false, json = false;
+  std::optional<bool> follow_pair_swaps;
 };
 
 config::FittingOptions fitting_options(const config::RigConfig& rig, const FitArgs& a) {
@@ -60,6 +61,7 @@ config::FittingOptions fitting_options(const config::RigConfig& rig, const FitAr
   if (a.init_frames) o.init_frames = *a.init_frames;
   if (a.reinit_after) o.reinit_after_frames = *a.reinit_after;
   if (a.predict_frames) o.predict_frames = *a.predict_frames;
+  if (a.follow_pair_swaps) o.follow_pair_swaps = *a.follow_pair_swaps;
   if (a.min_cutoff) o.one_euro_min_cutoff = *a.min_cutoff;
   if (a.beta) o.one_euro_beta = *a.beta;
   if (!a.smoothing.empty()) {
@@ -392,6 +394,9 @@ void add_fit_commands(CLI::App& app) {
   cmd->add_option("--reinit-after", a->reinit_after, "Frames the fit must fail in a row to re-initialize");
   cmd->add_option("--predict-frames", a->predict_frames,
                   "A lost feature is predicted for at most this many frames");
+  cmd->add_option("--follow-pair-swaps", a->follow_pair_swaps,
+                  "true/false: take a hand or foot pair crosswise when the limbs' paths say its names were "
+                  "swapped (rig.toml [fitting] follow_pair_swaps; off by default, host/fit/README.md)");
   cmd->callback([a] { run_fit(*a); });
 }
 

@@ -298,6 +298,7 @@ void read_fitting(Reader& r, FittingOptions* o, const std::filesystem::path& sou
   r.get_int("init_frames", &o->init_frames, 0, 10000000);
   r.get_int("reinit_after_frames", &o->reinit_after_frames, 0, 10000000);
   r.get_int("predict_frames", &o->predict_frames, 0, 10000000);
+  r.get("follow_pair_swaps", &o->follow_pair_swaps);
   r.finish();
 }
 

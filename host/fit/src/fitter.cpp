@@ -726,7 +726,7 @@ pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
     const Vec3 pb = limb_root(b, l1, lb) + F * (tb.lost == 0 ? tb.last_local + tb.vel_local : tb.last_local);
     const double keep = glm::length(f[fa] - pa) + glm::length(f[fb] - pb);
     const double cross = glm::length(f[fa] - pb) + glm::length(f[fb] - pa);
-    if (ta.lost == 0 && tb.lost == 0 && cross + kSwapMargin < keep) {
+    if (s.opt.follow_pair_swaps && ta.lost == 0 && tb.lost == 0 && cross + kSwapMargin < keep) {
       swap_pair(pair);
       s.swapped[static_cast<size_t>(pair)] = !s.swapped[static_cast<size_t>(pair)];
       ++s.swaps[static_cast<size_t>(pair)];

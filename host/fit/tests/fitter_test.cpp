@@ -239,7 +239,9 @@ TEST(Fitter, APairNamedTheWrongWayRoundIsTakenCrosswise) {
   so.motion.source = "walk";
   const sim::Scene scene(so);
   const rig::VoxelGrid grid = *scene.calibration().grid;
-  Fitter fitter(grid, {}, 60);
+  config::FittingOptions opt;
+  opt.follow_pair_swaps = true;  // off by default (README)
+  Fitter fitter(grid, opt, 60);
   std::mt19937_64 rng(15);
   auto feet_apart = [&scene](int frame) {
     const auto t = testing::true_pose(scene, frame);

@@ -68,8 +68,11 @@ struct FittingOptions {
   std::filesystem::path body;             // optional body.toml overriding the automatic body model (absolute,
                                           // resolved against the rig.toml's folder); empty: none
   int init_frames = 10;                   // initialization frames averaged for the body model, 1..600
-  int reinit_after_frames = 15;  // the fit failing this many frames in a row re-initializes, 1..100000
-  int predict_frames = 30;       // a lost feature is predicted for at most this many frames, 0..100000
+  int reinit_after_frames = 15;    // the fit failing this many frames in a row re-initializes, 1..100000
+  int predict_frames = 30;         // a lost feature is predicted for at most this many frames, 0..100000
+  bool follow_pair_swaps = false;  // take a hand/foot pair crosswise when its limbs' paths say the
+                                   // triangulation swapped the names (host/fit/README.md); off: it can
+                                   // lock in a wrong swap on long takes
 
   bool valid(std::string* why) const;
 };
