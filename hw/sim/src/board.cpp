@@ -154,7 +154,8 @@ BoardScene::BoardScene(const BoardCaptureOptions& options) : impl_(std::make_uni
   }
 
   // Held poses: the printed face turned towards directions spread evenly round the ring (with jitter), a
-  // little up or down, rolled in its plane, the centre anywhere inside the volume's inner part.
+  // little down or more up, rolled in its plane, the centre anywhere in the volume (so it reaches the images'
+  // edges).
   cv::RNG rng(options.seed * 0x9E3779B97F4A7C15ull + 0xB0A2Dull);
   const RigLayout& L = options.rig;
   const cv::Vec3d lo =
@@ -165,7 +166,7 @@ BoardScene::BoardScene(const BoardCaptureOptions& options) : impl_(std::make_uni
   const int n = options.held_poses;
   for (int i = 0; i < n; ++i) {
     const double yaw = 2 * kPi * (i + rng.uniform(0.0, 1.0)) / n;
-    const double el = rng.uniform(-10.0, 40.0) * kPi / 180;
+    const double el = rng.uniform(-20.0, 50.0) * kPi / 180;
     const cv::Vec3d face{std::cos(yaw) * std::cos(el), std::sin(yaw) * std::cos(el), std::sin(el)};
     const cv::Vec3d z_b = -face;
     cv::Vec3d x_b = unit(z_b.cross(cv::Vec3d(0, 0, 1)));
@@ -175,8 +176,8 @@ BoardScene::BoardScene(const BoardCaptureOptions& options) : impl_(std::make_uni
     const cv::Vec3d yr = z_b.cross(xr);
     const cv::Matx33d R(xr[0], yr[0], z_b[0], xr[1], yr[1], z_b[1], xr[2], yr[2], z_b[2]);
     const cv::Vec3d span = hi - lo;
-    const cv::Vec3d c{lo[0] + span[0] * rng.uniform(0.2, 0.8), lo[1] + span[1] * rng.uniform(0.2, 0.8),
-                      lo[2] + span[2] * rng.uniform(0.3, 0.75)};
+    const cv::Vec3d c{lo[0] + span[0] * rng.uniform(0.05, 0.95), lo[1] + span[1] * rng.uniform(0.05, 0.95),
+                      lo[2] + span[2] * rng.uniform(0.06, 0.9)};
     I.R.push_back(R);
     I.t.push_back(c - R * cv::Vec3d(w_m / 2, h_m / 2, 0));
   }

@@ -39,7 +39,7 @@ struct BoardCaptureOptions {
   RigLayout rig;                                // used when calibration is empty
   std::optional<rig::Calibration> calibration;  // the rig's cameras (their distortion is rendered)
   CharucoSpec board;
-  int held_poses = 36;                // poses in the volume; then one frame with the board on the floor
+  int held_poses = 80;                // poses in the volume; then one frame with the board on the floor
   cv::Vec3d floor_origin_m{0, 0, 0};  // where the floor board's origin lies (its axes: world x, -y, -z)
   std::string room = "default";       // room_presets()
   double noise_sigma = 2.0;           // Gaussian sensor noise, 8-bit levels
