@@ -195,7 +195,8 @@ void run_capture(const CaptureArgs& a) {
         for (const cv::Point2d& p : det[cu].image_px) {
           const int gx = std::clamp(static_cast<int>(p.x * kCells / cam.width), 0, kCells - 1);
           const int gy = std::clamp(static_cast<int>(p.y * kCells / cam.height), 0, kCells - 1);
-          cover[cu][static_cast<std::size_t>(gy * kCells + gx)] = true;
+          cover[cu][(static_cast<std::size_t>(gy) * std::size_t{kCells} + static_cast<std::size_t>(gx))] =
+              true;
         }
       }
     }
@@ -216,7 +217,10 @@ void run_capture(const CaptureArgs& a) {
     for (int c = 0; c < n_cam; ++c) {
       line += "  ";
       for (int col = 0; col < kCells; ++col)
-        line += cover[static_cast<std::size_t>(c)][static_cast<std::size_t>(row * kCells + col)] ? '#' : '.';
+        line += cover[static_cast<std::size_t>(c)]
+                     [(static_cast<std::size_t>(row) * std::size_t{kCells} + static_cast<std::size_t>(col))]
+                    ? '#'
+                    : '.';
       line += "  ";
     }
     fmt::print("{}\n", line);

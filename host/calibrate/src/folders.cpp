@@ -192,8 +192,8 @@ cv::Mat report_image(const Solution& s) {
     const int ax = 0, ay = panel == 0 ? 1 : 2;
     const double cx = (lo[ax] + hi[ax]) / 2, cy = (lo[ay] + hi[ay]) / 2;
     auto to_px = [&](const cv::Vec3d& p) {
-      return cv::Point(panel * kPanel + static_cast<int>(kPanel / 2 + (p[ax] - cx) / span * kPanel),
-                       40 + static_cast<int>(kPanel / 2 - (p[ay] - cy) / span * kPanel));
+      return cv::Point(panel * kPanel + static_cast<int>(kPanel / 2.0 + (p[ax] - cx) / span * kPanel),
+                       40 + static_cast<int>(kPanel / 2.0 - (p[ay] - cy) / span * kPanel));
     };
     cv::putText(img, panel == 0 ? "from above (x right, y up)" : "from the side (x right, z up)",
                 cv::Point(panel * kPanel + 10, 25), cv::FONT_HERSHEY_SIMPLEX, 0.6, black, 1, cv::LINE_AA);

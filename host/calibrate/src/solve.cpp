@@ -404,7 +404,7 @@ Solution solve(const Capture& cap, const SolveOptions& opt) {
         rep.max_px = std::max(rep.max_px, e);
         const int gx = std::clamp(static_cast<int>(v.det->image_px[k].x * kGrid / cam.width), 0, kGrid - 1);
         const int gy = std::clamp(static_cast<int>(v.det->image_px[k].y * kGrid / cam.height), 0, kGrid - 1);
-        cells[static_cast<std::size_t>(gy * kGrid + gx)] = true;
+        cells[(static_cast<std::size_t>(gy) * std::size_t{kGrid} + static_cast<std::size_t>(gx))] = true;
       }
     }
     rep.rms_px = std::sqrt(sum2 / std::max(1, n));
@@ -413,7 +413,10 @@ Solution solve(const Capture& cap, const SolveOptions& opt) {
     rep.coverage = static_cast<double>(std::count(cells.begin(), cells.end(), true)) / (kGrid * kGrid);
     for (int gy = 0; gy < kGrid; ++gy) {
       std::string row;
-      for (int gx = 0; gx < kGrid; ++gx) row += cells[static_cast<std::size_t>(gy * kGrid + gx)] ? '#' : '.';
+      for (int gx = 0; gx < kGrid; ++gx)
+        row += cells[(static_cast<std::size_t>(gy) * std::size_t{kGrid} + static_cast<std::size_t>(gx))]
+                   ? '#'
+                   : '.';
       rep.coverage_rows.push_back(row);
     }
     if (rep.views < opt.warn_views || rep.coverage < opt.warn_coverage) {
