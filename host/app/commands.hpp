@@ -24,6 +24,8 @@ void add_track_commands(CLI::App& app);      // cmd_track.cpp: voxcap track debu
 void add_export_commands(CLI::App& app);     // cmd_export.cpp: voxcap export (BVH, joints.csv)
 void add_demo_commands(CLI::App& app);       // cmd_demo.cpp: voxcap demo, voxcap eval
 void add_fit_commands(CLI::App& app);        // cmd_fit.cpp: voxcap fit (re-fit a session offline)
+void add_calib_commands(CLI::App& app);      // cmd_calib.cpp: voxcap calib import (host/calib)
+void add_carve_commands(CLI::App& app);      // cmd_carve.cpp: voxcap carve (offline hulls from image folders)
 void add_calibrate_commands(CLI::App& app);  // cmd_calibrate.cpp: voxcap calibrate solve|capture
 
 // `voxcap bench ...` (cmd_bench.cpp).
