@@ -33,6 +33,7 @@ set(VC_LAYERS
   "edge/daemon: vc_edge_daemon"
   "host/base: vc_host_base"             # the host's logger and clock, below every host library
   "host/calib: vc_host_calib"           # calib import, offline carving (hw/rig, edge/core)
+  "host/calibrate: vc_host_calibrate"   # rig calibration from board views (OpenCV aruco, Ceres)
   "host/config: vc_host_config"         # host/: in host/README.md's order
   "host/trigger: vc_host_trigger"
   "host/session: vc_host_session"

@@ -14,18 +14,19 @@ struct UsageError : std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-void add_config_commands(CLI::App& app);   // cmd_config.cpp: voxcap config check
-void add_trigger_commands(CLI::App& app);  // cmd_trigger.cpp: voxcap trigger test|listen
-void add_session_commands(CLI::App& app);  // cmd_session.cpp: voxcap session info|dump
-void add_proto_commands(CLI::App& app);    // cmd_proto.cpp: voxcap proto dump
-void add_rig_commands(CLI::App& app);      // cmd_rig.cpp: voxcap rig [--emulated]
-void add_sim_commands(CLI::App& app);      // cmd_sim.cpp: voxcap sim (the virtual rig, hw/sim)
-void add_track_commands(CLI::App& app);    // cmd_track.cpp: voxcap track debug (edge/segment)
-void add_export_commands(CLI::App& app);   // cmd_export.cpp: voxcap export (BVH, joints.csv)
-void add_demo_commands(CLI::App& app);     // cmd_demo.cpp: voxcap demo, voxcap eval
-void add_fit_commands(CLI::App& app);      // cmd_fit.cpp: voxcap fit (re-fit a session offline)
-void add_calib_commands(CLI::App& app);    // cmd_calib.cpp: voxcap calib import (host/calib)
-void add_carve_commands(CLI::App& app);    // cmd_carve.cpp: voxcap carve (offline hulls from image folders)
+void add_config_commands(CLI::App& app);     // cmd_config.cpp: voxcap config check
+void add_trigger_commands(CLI::App& app);    // cmd_trigger.cpp: voxcap trigger test|listen
+void add_session_commands(CLI::App& app);    // cmd_session.cpp: voxcap session info|dump
+void add_proto_commands(CLI::App& app);      // cmd_proto.cpp: voxcap proto dump
+void add_rig_commands(CLI::App& app);        // cmd_rig.cpp: voxcap rig [--emulated]
+void add_sim_commands(CLI::App& app);        // cmd_sim.cpp: voxcap sim (the virtual rig, hw/sim)
+void add_track_commands(CLI::App& app);      // cmd_track.cpp: voxcap track debug (edge/segment)
+void add_export_commands(CLI::App& app);     // cmd_export.cpp: voxcap export (BVH, joints.csv)
+void add_demo_commands(CLI::App& app);       // cmd_demo.cpp: voxcap demo, voxcap eval
+void add_fit_commands(CLI::App& app);        // cmd_fit.cpp: voxcap fit (re-fit a session offline)
+void add_calib_commands(CLI::App& app);      // cmd_calib.cpp: voxcap calib import (host/calib)
+void add_carve_commands(CLI::App& app);      // cmd_carve.cpp: voxcap carve (offline hulls from image folders)
+void add_calibrate_commands(CLI::App& app);  // cmd_calibrate.cpp: voxcap calibrate solve|capture
 
 // `voxcap bench ...` (cmd_bench.cpp).
 void add_bench_commands(CLI::App& app);
