@@ -24,6 +24,7 @@ void add_track_commands(CLI::App& app);    // cmd_track.cpp: voxcap track debug 
 void add_export_commands(CLI::App& app);   // cmd_export.cpp: voxcap export (BVH, joints.csv)
 void add_demo_commands(CLI::App& app);     // cmd_demo.cpp: voxcap demo, voxcap eval
 void add_fit_commands(CLI::App& app);      // cmd_fit.cpp: voxcap fit (re-fit a session offline)
+void add_key_commands(CLI::App& app);      // cmd_key.cpp: voxcap key new|check (the rig key)
 
 // `voxcap bench ...` (cmd_bench.cpp).
 void add_bench_commands(CLI::App& app);
