@@ -45,7 +45,10 @@ uint16_t free_tcp_port() {
   sockaddr_in a{};
   a.sin_family = AF_INET;
   a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
+  if (bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    close(fd);
+    return 0;
+  }
   socklen_t l = sizeof a;
   getsockname(fd, reinterpret_cast<sockaddr*>(&a), &l);
   close(fd);
@@ -119,6 +122,7 @@ TEST(OrphanAuth, EdgeObeysNoStrangerAfterItsHostIsKilled) {
     dup2(fd, 1);
     dup2(fd, 2);
     std::vector<char*> argv;
+    argv.reserve(args.size() + 1);
     for (auto& a : args) argv.push_back(a.data());
     argv.push_back(nullptr);
     execv(argv[0], argv.data());
