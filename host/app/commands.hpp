@@ -25,6 +25,8 @@ void add_export_commands(CLI::App& app);   // cmd_export.cpp: voxcap export (BVH
 void add_demo_commands(CLI::App& app);     // cmd_demo.cpp: voxcap demo, voxcap eval
 void add_fit_commands(CLI::App& app);      // cmd_fit.cpp: voxcap fit (re-fit a session offline)
 void add_key_commands(CLI::App& app);      // cmd_key.cpp: voxcap key new|check (the rig key)
+void add_calib_commands(CLI::App& app);    // cmd_calib.cpp: voxcap calib import (host/calib)
+void add_carve_commands(CLI::App& app);    // cmd_carve.cpp: voxcap carve (offline hulls from image folders)
 
 // `voxcap bench ...` (cmd_bench.cpp).
 void add_bench_commands(CLI::App& app);

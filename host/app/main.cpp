@@ -42,6 +42,8 @@ int main(int argc, char** argv) {
     vc::cli::add_demo_commands(app);
     vc::cli::add_fit_commands(app);
     vc::cli::add_key_commands(app);
+    vc::cli::add_calib_commands(app);
+    vc::cli::add_carve_commands(app);
     vc::cli::add_bench_commands(app);
     try {
       app.parse(argc, argv);

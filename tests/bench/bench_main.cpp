@@ -17,6 +17,7 @@
 #include "edge_bench.hpp"
 #include "host_bench.hpp"
 #include "silhouette_bench.hpp"
+#include "voxcap/edge/bgmodel.h"
 #include "voxcap/subtraction.h"
 
 namespace {
@@ -314,6 +315,10 @@ void add_silhouettes_command(CLI::App& app) {
   sil->add_option("--shadow-texture-k", opt->shadow_texture_k,
                   "The texture test's k (noise sigmas; 0 = off; default that of voxcap/subtraction.h)")
       ->check(CLI::Range(0.0, VC_SUBTRACT_SHADOW_TEXTURE_K_MAX));
+  sil->add_option("--shadow-flat-margin", opt->shadow_flat_margin,
+                  "The flat-patch test's margin (noise variances per pixel; 0 = off; default that of "
+                  "voxcap/edge/bgmodel.h)")
+      ->check(CLI::Range(0.0, VC_SUBTRACT_SHADOW_FLAT_MARGIN_MAX));
   sil->add_option("--nodes", opt->nodes,
                   "Score a rig of N nodes (2 cameras each, all of them): each node's hull carved from its "
                   "masks, merged, against the true occupancy (0 = masks only)")

@@ -48,7 +48,12 @@ struct Counts {
   uint64_t shadow = 0, shadow_kept = 0;
   uint64_t pixels = 0, band = 0, called_shadow = 0;
   uint64_t body_noise = 0;  // body pixels within the background's noise in every channel
+  // Where the body pixels the cleaned mask misses went: within the noise (pass A's background),
+  // called shadow by the per-pixel tests and the window's (the raw mask's 0 otherwise), or foreground
+  // in the raw mask and removed by the clean-up.
+  uint64_t lost_noise = 0, lost_shadow = 0, lost_cleanup = 0;
   std::array<uint64_t, vc::sim::kPartGroups> part{}, part_kept{}, part_noise{};
+  std::array<uint64_t, vc::sim::kPartGroups> part_lost_shadow{};
 
   void add(const Counts& o) {
     body += o.body;
@@ -60,7 +65,11 @@ struct Counts {
     band += o.band;
     called_shadow += o.called_shadow;
     body_noise += o.body_noise;
+    lost_noise += o.lost_noise;
+    lost_shadow += o.lost_shadow;
+    lost_cleanup += o.lost_cleanup;
     for (size_t g = 0; g < part.size(); g++) {
+      part_lost_shadow[g] += o.part_lost_shadow[g];
       part[g] += o.part[g];
       part_kept[g] += o.part_kept[g];
       part_noise[g] += o.part_noise[g];
@@ -82,12 +91,16 @@ nlohmann::json to_json(const Counts& c) {
   j["band_share"] = ratio(c.band, c.pixels);
   j["shadow_share"] = ratio(c.called_shadow, c.pixels);
   j["within_noise"] = ratio(c.body_noise, c.body);
+  j["lost"] = {{"within_noise", ratio(c.lost_noise, c.body)},
+               {"called_shadow", ratio(c.lost_shadow, c.body)},
+               {"cleanup", ratio(c.lost_cleanup, c.body)}};
   uint64_t hf = 0, hf_kept = 0;
   nlohmann::json parts = nlohmann::json::object();
   for (size_t g = 0; g < kGroups.size(); g++) {
     parts[std::string(kGroups[g])] = {{"pixels", c.part[g]},
                                       {"recall", ratio(c.part_kept[g], c.part[g])},
-                                      {"within_noise", ratio(c.part_noise[g], c.part[g])}};
+                                      {"within_noise", ratio(c.part_noise[g], c.part[g])},
+                                      {"lost_called_shadow", ratio(c.part_lost_shadow[g], c.part[g])}};
     if (hand_or_foot(g)) {
       hf += c.part[g];
       hf_kept += c.part_kept[g];
@@ -325,6 +338,7 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
   vc_subtract_params params;
   vc_subtract_params_default(&params);
   if (opt.shadow_texture_k >= 0) params.shadow_texture_k = opt.shadow_texture_k;
+  if (opt.shadow_flat_margin >= 0) params.shadow_flat_margin = opt.shadow_flat_margin;
   char bad[160];
   if (vc_subtract_params_check(&params, bad, sizeof bad) != 0) throw std::invalid_argument(bad);
 
@@ -363,7 +377,7 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
     s.mask.resize(static_cast<size_t>(c.width) * c.height);
     scratch_bytes = std::max(scratch_bytes, vc_cleanup_radius_scratch_size(c.width, VC_CLEANUP_RADIUS_PX));
   }
-  std::vector<uint8_t> scratch(scratch_bytes), label;
+  std::vector<uint8_t> scratch(scratch_bytes), label, raw;
   std::unique_ptr<HullScorer> hull;
   if (opt.nodes > 0) hull = std::make_unique<HullScorer>(scene, opt);
 
@@ -371,10 +385,12 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
     for (Camera& s : cam_state) {
       scene.render(f, s.index, rgb, &sil, &shadow);
       vc_subtract_stats st{};
-      if (vc_subtract(s.model.get(), rgb.data, rgb.step, s.mask.data(), &st) != 0 ||
-          vc_cleanup_radius(s.mask.data(), s.width, s.height, VC_CLEANUP_RADIUS_PX, scratch.data(),
+      if (vc_subtract(s.model.get(), rgb.data, rgb.step, s.mask.data(), &st) != 0)
+        throw std::runtime_error("vc_subtract failed");
+      raw = s.mask;  // before the clean-up, for the lost pixels' causes
+      if (vc_cleanup_radius(s.mask.data(), s.width, s.height, VC_CLEANUP_RADIUS_PX, scratch.data(),
                             scratch.size()) != 0)
-        throw std::runtime_error("vc_subtract/vc_cleanup_radius failed");
+        throw std::runtime_error("vc_cleanup_radius failed");
       label_parts(scene, f, s.index, sil, &label);
       Counts fc;
       const size_t n = s.mask.size();
@@ -392,7 +408,14 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
           fc.body_kept += e;
           const bool noise = within_noise(rgb.data + 3 * i, mean + 3 * i, sigma + 3 * i, params);
           fc.body_noise += noise;
+          const bool called_shadow = !e && !noise && raw[i] == 0;
+          if (!e) {
+            fc.lost_noise += noise;
+            fc.lost_shadow += called_shadow;
+            fc.lost_cleanup += raw[i] != 0;
+          }
           if (label[i] != kUnlabelled) {
+            fc.part_lost_shadow[label[i]] += called_shadow;
             fc.part[label[i]]++;
             fc.part_kept[label[i]] += e;
             fc.part_noise[label[i]] += noise;
@@ -443,6 +466,7 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
   out["kernel"] = vc_edge_kernel_name();
   out["cleanup_radius_px"] = VC_CLEANUP_RADIUS_PX;
   out["shadow_texture_k"] = params.shadow_texture_k;
+  out["shadow_flat_margin"] = params.shadow_flat_margin;
   out["cameras"] = per_camera;
   out["overall"] = to_json(all);
   if (hull) out["hull"] = hull->json();

@@ -31,6 +31,7 @@ struct SilhouetteBenchOptions {
   int width = 640, height = 480;
   int bg_frames = 30;              // empty-room frames learnt (VC_BACKGROUND_FRAMES)
   double shadow_texture_k = -1;    // < 0: the default of voxcap/subtraction.h; 0 = texture test off
+  double shadow_flat_margin = -1;  // < 0: the default of voxcap/edge/bgmodel.h; 0 = flat-patch test off
   std::string png_dir;             // when set: the worst frame of each camera as a PNG here
   int nodes = 0;                   // > 0: a rig of this many nodes (rig_cameras = 2 * nodes, all cameras) ...
   int grid = 128;                  // ... carved into a grid^3 over the emulated rig's volume ...

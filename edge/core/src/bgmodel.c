@@ -37,7 +37,7 @@
  *     column sums (count and three sums per column over the window's rows); a row leaves the sums
  *     when the windows below no longer reach it. A window's sums are then those of its 5 columns,
  *     so the work is a few dozen operations per candidate and nothing per other pixel. Ring and
- *     sums live in the model (16 bytes per pixel of 5 rows + 16 per column: 61 KB at 640 wide),
+ *     sums live in the model (48 bytes per pixel of 5 rows + 48 per column: 184 KB at 640 wide),
  *     allocated once by set_params; no allocation per frame. Exact integers (64-bit, the last
  *     comparison 128-bit).
  * Model data per pixel for pass A: blo, flo, fhi = 9 bytes, planar by role, interleaved by channel
@@ -66,9 +66,15 @@
 #define VC_TEXTURE_RADIUS 2     /* the texture test's window is (2r+1)^2 pixels */
 #define VC_TEXTURE_MIN_PIXELS 3 /* fewer candidates in the window: the per-pixel tests decide */
 
-/* A shadow candidate as pass B found it: its column and the terms of eq. 2 (< 2^18 each). */
+/* The terms the window tests sum over a window's candidates, one uint32 lane each (enum VC_S_*):
+ * the count (1 per candidate), |p|^2, and per channel p_c, p_c mu_c and mu_c^2; the last lane holds
+ * a candidate's column (its sum in colsum is never read). 48 bytes, so that adding a candidate to
+ * the column sums, and the window's sums, are a few whole-vector operations. */
+enum { VC_S_N, VC_S_PP, VC_S_P, VC_S_PM = VC_S_P + 3, VC_S_MM = VC_S_PM + 3, VC_S_X = VC_S_MM + 3, VC_SUMS };
+
+/* A shadow candidate as pass B found it: its terms and its column (t[VC_S_X]). */
 struct vc_cand {
-  uint32_t x, pp, pm, mm;
+  uint32_t t[VC_SUMS];
 };
 
 struct vc_bgmodel {
@@ -88,10 +94,11 @@ struct vc_bgmodel {
   uint64_t glo_q16;  /* Q16.16 lowest brightness ratio of a shadow */
   uint64_t ghi_q16;  /* Q16.16 highest brightness ratio of a shadow */
   uint64_t k2_q8;    /* Q8.8 k^2 of the texture test; 0 = test off */
+  uint64_t flat_q8;  /* Q8.8 the flat-patch test's margin, noise variances per pixel; 0 = test off */
   uint16_t floor_q8; /* Q8.8 sigma floor (rounded), grey levels: the texture test's noise floor */
   /* Scratch of vc_subtract's texture test (allocated by set_params when it is on): */
-  struct vc_cand* cand;  /* [5][w] the candidates of row y (slot y mod 5) with their terms */
-  uint32_t (*colsum)[4]; /* [w + 4] per column: the candidates' count and term sums over the window's rows */
+  struct vc_cand* cand;        /* [5][w] the candidates of row y (slot y mod 5) with their terms */
+  uint32_t (*colsum)[VC_SUMS]; /* [w + 4] per column: the candidates' count and sums over the window's rows */
 };
 
 void vc_subtract_params_default(vc_subtract_params* params) {
@@ -104,6 +111,7 @@ void vc_subtract_params_default(vc_subtract_params* params) {
   params->shadow_max_gain = VC_SUBTRACT_SHADOW_MAX_GAIN;
   params->sigma_floor = VC_SUBTRACT_SIGMA_FLOOR;
   params->shadow_texture_k = VC_SUBTRACT_SHADOW_TEXTURE_K;
+  params->shadow_flat_margin = VC_SUBTRACT_SHADOW_FLAT_MARGIN;
 }
 
 int vc_subtract_params_check(const vc_subtract_params* p, char* why, size_t why_len) {
@@ -134,6 +142,9 @@ int vc_subtract_params_check(const vc_subtract_params* p, char* why, size_t why_
   } else if (!(p->shadow_texture_k >= 0.0 && p->shadow_texture_k <= VC_SUBTRACT_SHADOW_TEXTURE_K_MAX)) {
     bad = "shadow_texture_k must be in [0, 16] (0 = off)";
     got = p->shadow_texture_k;
+  } else if (!(p->shadow_flat_margin >= 0.0 && p->shadow_flat_margin <= VC_SUBTRACT_SHADOW_FLAT_MARGIN_MAX)) {
+    bad = "shadow_flat_margin must be in [0, 16] (0 = off)";
+    got = p->shadow_flat_margin;
   }
   if (bad == NULL) {
     vc_why_clear(why, why_len);
@@ -281,7 +292,8 @@ int vc_bgmodel_set_params(vc_bgmodel* m, const vc_subtract_params* p) {
   }
   m->floor_q8 = floor_q8;
   m->k2_q8 = (uint64_t)llround(p->shadow_texture_k * p->shadow_texture_k * 256.0);
-  if (m->k2_q8 != 0 && m->cand == NULL) {
+  m->flat_q8 = (uint64_t)llround(p->shadow_flat_margin * 256.0);
+  if ((m->k2_q8 != 0 || m->flat_q8 != 0) && m->cand == NULL) {
     m->cand = malloc((size_t)(2 * VC_TEXTURE_RADIUS + 1) * (size_t)m->width * sizeof(*m->cand));
     m->colsum = malloc((size_t)(m->width + 2 * VC_TEXTURE_RADIUS) * sizeof(*m->colsum));
     if (m->cand == NULL || m->colsum == NULL) {
@@ -455,9 +467,14 @@ static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mea
     for (uint64_t b = bits[wi]; b != 0; b &= b - 1) {
       const int i = wi * 64 + __builtin_ctzll(b);
       const uint8_t *p = px + 3 * i, *mu = mean + 3 * i;
-      const uint64_t dot = (uint64_t)p[0] * mu[0] + (uint64_t)p[1] * mu[1] + (uint64_t)p[2] * mu[2];
+      uint32_t pm_c[3], mm_c[3];
+      for (int ch = 0; ch < 3; ch++) {
+        pm_c[ch] = (uint32_t)p[ch] * mu[ch];
+        mm_c[ch] = (uint32_t)mu[ch] * mu[ch];
+      }
+      const uint64_t dot = (uint64_t)pm_c[0] + pm_c[1] + pm_c[2];
       const uint64_t pp = (uint64_t)p[0] * p[0] + (uint64_t)p[1] * p[1] + (uint64_t)p[2] * p[2];
-      const uint64_t mm = (uint64_t)mu[0] * mu[0] + (uint64_t)mu[1] * mu[1] + (uint64_t)mu[2] * mu[2];
+      const uint64_t mm = (uint64_t)mm_c[0] + mm_c[1] + mm_c[2];
       /* dot, pp, mm < 2^18: dot^2 * 2^24 < 2^60 and c2 * pp * mm <= 2^24 * 2^36 = 2^60. */
       const uint64_t dot16 = dot << 16;
       const unsigned is_shadow =
@@ -465,10 +482,15 @@ static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mea
       out[i] = (uint8_t)(is_shadow - 1u); /* shadow -> 0 (background, or a candidate), else 0xFF */
       band++;
       if (cand != NULL && is_shadow) {
-        cand[k].x = (uint32_t)i;
-        cand[k].pp = (uint32_t)pp;
-        cand[k].pm = (uint32_t)dot;
-        cand[k].mm = (uint32_t)mm;
+        uint32_t* t = cand[k].t;
+        t[VC_S_N] = 1;
+        t[VC_S_PP] = (uint32_t)pp;
+        for (int ch = 0; ch < 3; ch++) {
+          t[VC_S_P + ch] = p[ch];
+          t[VC_S_PM + ch] = pm_c[ch];
+          t[VC_S_MM + ch] = mm_c[ch];
+        }
+        t[VC_S_X] = (uint32_t)i;
         k++;
       } else {
         k += (int)is_shadow; /* counted as shadows when the texture test is off */
@@ -479,44 +501,88 @@ static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mea
   return k;
 }
 
-/* Adds (sign +1) or removes (-1) a row's candidates to the column sums: colsum[x + r] holds, for
- * column x, the count and the sums of |p|^2, p.mu, |mu|^2 over the candidates of the rows in the
- * texture window (< 5 * 3 * 255^2 < 2^20 each). The r columns of zeros on either side make the
- * window's horizontal sum branch-free at the image's edges. */
-static void colsum_update(uint32_t (*colsum)[4], const struct vc_cand* cand, int count, uint32_t sign) {
+/* Adds or removes a row's candidates to the column sums: colsum[x + r] holds, for column x, the
+ * sums of the terms (enum VC_S_*) over the candidates of the rows in the texture window (< 5 * 3 *
+ * 255^2 < 2^20 each). The r columns of zeros on either side make the window's horizontal sum
+ * branch-free at the image's edges. */
+static void colsum_update(uint32_t (*colsum)[VC_SUMS], const struct vc_cand* cand, int count, bool add) {
   for (int k = 0; k < count; k++) {
-    uint32_t* c = colsum[cand[k].x + VC_TEXTURE_RADIUS];
-    c[0] += sign;
-    c[1] += sign * cand[k].pp;
-    c[2] += sign * cand[k].pm;
-    c[3] += sign * cand[k].mm;
+    uint32_t* restrict c = colsum[cand[k].t[VC_S_X] + VC_TEXTURE_RADIUS];
+    const uint32_t* restrict t = cand[k].t;
+    if (add)
+      for (int j = 0; j < VC_SUMS; j++) c[j] += t[j];
+    else
+      for (int j = 0; j < VC_SUMS; j++) c[j] -= t[j];
   }
 }
 
-/* The texture test for the candidates of row t (their list from shadow_row), with colsum holding
- * rows t - r .. t + r: over the (2r+1)^2 window, the candidates' frame colours P (each channel of
- * each pixel: 3n values) must be one scaled copy of the background's M (through the origin: P = a*M,
- * a = sum PM / sum MM) up to the noise:
+/* The flat-patch test of a window's sums s (enum VC_S_*, n >= 1 candidates, v the noise as in
+ * texture_row): whether a flat patch (P_c = b_c, the window's mean colour) explains the candidates'
+ * colours better than the background's texture, scaled per channel (P_c = a_c * M_c), by more than
+ * the margin (Q8.8 noise variances per pixel):
+ *     E_flat - E_gain > margin * n * sum_c s_c^2,   E_flat = sum_c S_c^2 / n,
+ *                                                   E_gain = sum_c SPM_c^2 / SMM_c
+ * (both are the energy the model explains, so their difference is the gain model's residual minus
+ * the flat model's; both have three parameters). A shadow over a floor with any texture is a scaled
+ * copy of it, E_gain wins; skin or cloth over it is smoother than the floor's texture, E_flat wins;
+ * over a flat background the two agree within the noise and the margin keeps it a shadow. Exact in
+ * 128 bits with Q = SMM_0 SMM_1 SMM_2 (each < 2^21, SMM_c = 0 taken as 1: then SPM_c = 0 too):
+ *     (sum_c S_c^2 * Q - n * sum_c SPM_c^2 * Q / SMM_c) * 2^24 > margin_q8 * n^2 * v_q16 * Q
+ * (S_c < 2^13, SPM_c < 2^21: the left terms < 2^115, the right < 2^12 * 2^10 * 2^34 * 2^63). */
+static unsigned flat_beats_texture(const uint32_t* s, uint64_t spm, uint64_t smm, uint64_t v,
+                                   uint64_t margin_q8) {
+  typedef unsigned __int128 u128;
+  const uint64_t n = s[VC_S_N];
+  uint64_t ss = 0;
+  for (int ch = 0; ch < 3; ch++) ss += (uint64_t)s[VC_S_P + ch] * s[VC_S_P + ch];
+  /* First a bound: one gain for all channels explains no more than one per channel, so E_flat -
+   * (sum PM)^2 / sum MM >= E_flat - E_gain; when the bound is within the margin, so is the test
+   * (a shadow over a texture: the common case, three divisions' worth of products saved).
+   * (sum_c S_c^2 * SMM - n * SPM^2) * 2^24 <= margin_q8 * n^2 * v_q16 * SMM, SMM = sum MM < 2^23. */
+  const u128 smm1 = smm != 0 ? smm : 1;
+  if (((u128)ss * smm1 << 24) <= ((u128)(spm * spm) * n << 24) + (u128)(margin_q8 * n * n * v) * smm1)
+    return 0;
+  uint64_t b[3], a[3];
+  for (int ch = 0; ch < 3; ch++) {
+    b[ch] = s[VC_S_MM + ch] != 0 ? s[VC_S_MM + ch] : 1;
+    a[ch] = (uint64_t)s[VC_S_PM + ch] * s[VC_S_PM + ch];
+  }
+  const uint64_t q = b[0] * b[1] * b[2];
+  const u128 gain = (u128)a[0] * (b[1] * b[2]) + (u128)a[1] * (b[0] * b[2]) + (u128)a[2] * (b[0] * b[1]);
+  const u128 flat = (u128)ss * q;
+  return (flat << 24) > ((gain * n) << 24) + (u128)(margin_q8 * n * n * v) * q;
+}
+
+/* The texture tests for the candidates of row t (their list from shadow_row), with colsum holding
+ * rows t - r .. t + r. First (k2 != 0): over the (2r+1)^2 window, the candidates' frame colours P
+ * (each channel of each pixel: 3n values) must be one scaled copy of the background's M (through
+ * the origin: P = a*M, a = sum PM / sum MM) up to the noise:
  *     SS = sum PP - (sum PM)^2 / sum MM  <=  k^2 * n * sum_c max(sigma_c, floor)^2
  * (n candidates in the window, sigma of the candidate at the centre: the window's noise is taken as
  * its own), i.e. (sum PP * sum MM - (sum PM)^2) * 2^24 <= k2_q8 * n * V_q16 * sum MM, in 128-bit
  * integers: P, M <= 255 and 3n <= 75 values, so the sums are < 2^23, their products < 2^46,
  * n * V_q16 < 2^38 and k2_q8 <= 2^16. One scale for all channels makes the test see both the
  * background's texture (missing under skin over wood grain) and a colour bias that is below the
- * per-pixel angle but consistent over the window. With fewer than VC_TEXTURE_MIN_PIXELS candidates
- * in the window the per-pixel tests decide (shadow). A candidate that fails becomes foreground.
- * Returns the number of shadows. */
+ * per-pixel angle but consistent over the window. Second (flat_q8 != 0), for those that pass: the
+ * flat-patch test (flat_beats_texture): a texture the noise hides from the first test still tells
+ * a shadow, which copies it, from a body, which is smoother than it. With fewer than
+ * VC_TEXTURE_MIN_PIXELS candidates in the window the per-pixel tests decide (shadow). A candidate
+ * that fails becomes foreground. Returns the number of shadows. */
 static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, const uint16_t* sigma_row,
                             const struct vc_cand* cand, int count) {
-  const uint64_t k2 = m->k2_q8, fl = m->floor_q8;
-  const uint32_t(*colsum)[4] = (const uint32_t(*)[4])m->colsum;
-  uint32_t shadow = 0;
+  const uint64_t k2 = m->k2_q8, fl = m->floor_q8, flat = m->flat_q8;
+  const uint32_t(*colsum)[VC_SUMS] = (const uint32_t(*)[VC_SUMS])m->colsum;
+  uint32_t shadow = 0, last = UINT32_MAX - 1;
+  uint32_t s[VC_SUMS] = {0}; /* the window sums of the previous candidate (slid when x follows it) */
   for (int k = 0; k < count; k++) {
-    const uint32_t x = cand[k].x;
-    uint32_t s[4];
-    for (int j = 0; j < 4; j++) /* columns x - r .. x + r: colsum[x] .. colsum[x + 2r] */
-      s[j] = colsum[x][j] + colsum[x + 1][j] + colsum[x + 2][j] + colsum[x + 3][j] + colsum[x + 4][j];
-    const uint64_t n = s[0], spp = s[1], spm = s[2], smm = s[3];
+    const uint32_t x = cand[k].t[VC_S_X];
+    if (x == last + 1) /* the window one column on: add column x + r, drop column x - r - 1 */
+      for (int j = 0; j < VC_SUMS; j++) s[j] += colsum[x + 4][j] - colsum[x - 1][j];
+    else /* columns x - r .. x + r: colsum[x] .. colsum[x + 2r] */
+      for (int j = 0; j < VC_SUMS; j++)
+        s[j] = colsum[x][j] + colsum[x + 1][j] + colsum[x + 2][j] + colsum[x + 3][j] + colsum[x + 4][j];
+    last = x;
+    const uint64_t n = s[VC_S_N];
     unsigned is_shadow = 1;
     if (n >= VC_TEXTURE_MIN_PIXELS) {
       uint64_t v = 0; /* the noise: sum_c max(sigma_c, floor)^2 of the candidate (Q16.16) */
@@ -524,8 +590,13 @@ static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, const uint16_t* s
         const uint64_t sg = sigma_row[3 * x + ch] > fl ? sigma_row[3 * x + ch] : fl;
         v += sg * sg;
       }
-      const unsigned __int128 lhs = (unsigned __int128)(spp * smm - spm * spm) << 24;
-      is_shadow = lhs <= (unsigned __int128)(k2 * n * v) * smm;
+      const uint64_t spp = s[VC_S_PP], spm = (uint64_t)s[VC_S_PM] + s[VC_S_PM + 1] + s[VC_S_PM + 2],
+                     smm = (uint64_t)s[VC_S_MM] + s[VC_S_MM + 1] + s[VC_S_MM + 2];
+      if (k2 != 0) {
+        const unsigned __int128 lhs = (unsigned __int128)(spp * smm - spm * spm) << 24;
+        is_shadow = lhs <= (unsigned __int128)(k2 * n * v) * smm;
+      }
+      if (is_shadow && flat != 0) is_shadow = !flat_beats_texture(s, spm, smm, v, flat);
     }
     out[x] = (uint8_t)(is_shadow - 1u);
     shadow += is_shadow;
@@ -544,7 +615,7 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
 #endif
   const int w = m->width, h = m->height, r = VC_TEXTURE_RADIUS, rows = 2 * VC_TEXTURE_RADIUS + 1;
   const size_t row = (size_t)w * 3;
-  const bool texture = m->k2_q8 != 0;
+  const bool texture = m->k2_q8 != 0 || m->flat_q8 != 0;
   uint64_t bits[VC_MAX_DIM / 64] = {0}; /* the band pixels of the row in pass A and B; pass A
                                          * writes the words of the row, zeroed for the analyser */
   uint32_t band = 0, shadow = 0;
@@ -566,7 +637,7 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
         continue;
       }
       count[y % rows] = k;
-      colsum_update(m->colsum, cand, k, 1u);
+      colsum_update(m->colsum, cand, k, true);
     }
     const int t = y - r;
     if (t < 0) continue;
@@ -575,7 +646,7 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
         texture_row(m, mask + (size_t)t * (size_t)w, m->sigma_q8 + (size_t)t * row, cand_t, count[t % rows]);
     const int gone = t - r; /* the windows of rows after t no longer reach row t - r */
     if (gone >= 0) {
-      colsum_update(m->colsum, m->cand + (size_t)(gone % rows) * (size_t)w, count[gone % rows], 0u - 1u);
+      colsum_update(m->colsum, m->cand + (size_t)(gone % rows) * (size_t)w, count[gone % rows], false);
       count[gone % rows] = 0;
     }
   }

@@ -510,11 +510,12 @@ TEST(Footprint, KeepsEveryVoxelThatHoldsTheBody) {
     // The body: a few spheres and boxes near the grid's centre, sampled densely (volume and surface).
     std::vector<cv::Point3d> pts;
     for (int s = 0; s < 6; s++) {
-      cv::Point3d c(0.5 * (u(rng) - 0.5), 0.5 * (u(rng) - 0.5), 0.4 + 1.2 * u(rng));
+      cv::Point3d c{0.5 * (u(rng) - 0.5), 0.5 * (u(rng) - 0.5),
+                    0.4 + 1.2 * u(rng)};  // braced: drawn in order
       double r = 0.03 + 0.15 * u(rng);
       bool box = s % 2 == 1;
       for (int n = 0; n < 60000; n++) {
-        cv::Point3d d(2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1);
+        cv::Point3d d{2 * u(rng) - 1, 2 * u(rng) - 1, 2 * u(rng) - 1};
         if (!box && d.dot(d) > 1) continue;
         pts.push_back(c + r * d);
       }
@@ -761,8 +762,8 @@ TEST(Subpixel, KeepsEveryVoxelWhoseCentreIsInTheBody) {
     std::vector<cv::Vec4d> spheres;  // centre, radius: limbs of 3-12 cm, like hands to a torso
     spheres.reserve(8);
     for (int s = 0; s < 8; s++)
-      spheres.emplace_back(0.9 * (u(rng) - 0.5), 0.9 * (u(rng) - 0.5), 0.9 + 0.8 * (u(rng) - 0.5),
-                           0.03 + 0.09 * u(rng));
+      spheres.push_back(cv::Vec4d{0.9 * (u(rng) - 0.5), 0.9 * (u(rng) - 0.5), 0.9 + 0.8 * (u(rng) - 0.5),
+                                  0.03 + 0.09 * u(rng)});  // braced: drawn in order
     std::vector<uint8_t> mask[2];
     for (int c = 0; c < 2; c++) {
       const vc_camera& cam = rig.cam[c];

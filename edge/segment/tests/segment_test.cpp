@@ -137,8 +137,12 @@ TEST(Segment, NoisyMaskStillSegments) {
   std::mt19937 rng(7);
   std::uniform_int_distribution<int> ux(0, f.mask.cols - 1), uy(0, f.mask.rows - 1);
   cv::Mat1b m = f.mask.clone();
-  for (int i = 0; i < 150; i++) m(uy(rng), ux(rng)) = 255;  // speckles outside
-  for (int i = 0; i < 150; i++) {                           // holes inside
+  for (int i = 0; i < 150; i++) {  // speckles outside (the draws sequenced: argument order is unspecified)
+    const int y = uy(rng);
+    const int x = ux(rng);
+    m(y, x) = 255;
+  }
+  for (int i = 0; i < 150; i++) {  // holes inside
     const int x = ux(rng), y = uy(rng);
     if (f.mask(y, x)) m(y, x) = 0;
   }

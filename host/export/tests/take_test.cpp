@@ -74,8 +74,10 @@ TEST(Take, ReproducesARigidBodyExactlyWhateverItsRotations) {
   std::vector<PosedFrame> frames;
   for (int f = 0; f < 40; ++f) {
     body::Pose bp = body::rest_pose(sk, {0.1 * f, -0.05 * f, 0.95});
-    for (size_t j = 0; j < sk.joints.size(); ++j)
-      bp.local[j] = body::rot_z(ang(rng)) * body::rot_y(ang(rng)) * body::rot_x(ang(rng));
+    for (size_t j = 0; j < sk.joints.size(); ++j) {
+      const double z = ang(rng), y = ang(rng), x = ang(rng);  // in order: a product's operands are not
+      bp.local[j] = body::rot_z(z) * body::rot_y(y) * body::rot_x(x);
+    }
     std::vector<glm::dvec3> p;
     body::forward_kinematics(sk, bp, &p);
     frames.push_back({f, pose_of(p)});

@@ -49,7 +49,7 @@ TEST(BodyRotations, EulerRoundTripInEveryTaitBryanOrder) {
   std::uniform_real_distribution<double> u(-179, 179), v(-89, 89);
   for (const char* order : {"XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"}) {
     for (int i = 0; i < 200; ++i) {
-      const glm::dvec3 deg(u(rng), v(rng), u(rng));
+      const glm::dvec3 deg{u(rng), v(rng), u(rng)};  // braced: drawn in order
       const glm::dmat3 R = matrix_from_euler(order, deg);
       const glm::dvec3 back = euler_from_matrix(order, R);
       EXPECT_LT(rot_err(matrix_from_euler(order, back), R), 1e-10) << order;

@@ -48,7 +48,11 @@ inline std::vector<CameraObservations> observe(const sim::Scene& scene, int fram
           o.state = VC_FEATURE_PREDICTED;
           s += 2;
         }
-        o.uv_px = t.uv + cv::Point2d(s * n01(rng), s * n01(rng));
+        // Draws in separate statements: the order of a call's arguments is unspecified (gcc evaluates
+        // them right to left, clang left to right), which gave the two builds different noise.
+        const double nx = n01(rng);
+        const double ny = n01(rng);
+        o.uv_px = t.uv + cv::Point2d(s * nx, s * ny);
         if (u01(rng) < noise.outlier) {
           const double r = 25 + 125 * u01(rng), a = 6.283185307 * u01(rng);
           o.uv_px += cv::Point2d(r * std::cos(a), r * std::sin(a));
