@@ -156,14 +156,14 @@ static void* cam_main(void* arg) {
 static void log_trigger_drops(vc_capture* cap, uint64_t* logged, uint64_t* last_ns) {
   vc_trigger_stats st;
   vc_trigger_get_stats(cap->trig, &st);
-  uint64_t n = st.jumps + st.foreign, now = vc_clock_monotonic_ns();
+  uint64_t n = st.jumps + st.foreign + st.forged, now = vc_clock_monotonic_ns();
   if (n == *logged || (*last_ns && now - *last_ns < 1000000000ull)) return;
   vc_log(
       VC_LOG_WARN,
       "trigger: dropped %llu datagrams so far: %llu with a seq jump beyond %u pulses (last seq %llu), %llu "
-      "from another sender than the host",
+      "from another sender than the host, %llu without a valid MAC or replayed (forged)",
       (unsigned long long)n, (unsigned long long)st.jumps, VC_SEQ_MAX_JUMP,
-      (unsigned long long)st.last_jump_seq, (unsigned long long)st.foreign);
+      (unsigned long long)st.last_jump_seq, (unsigned long long)st.foreign, (unsigned long long)st.forged);
   *logged = n;
   *last_ns = now;
 }

@@ -1,5 +1,9 @@
 #include "config.hpp"
 
+#include <filesystem>
+
+#include "voxcap/auth.h"
+
 #include <fmt/core.h>
 
 #include <toml++/toml.h>
@@ -89,8 +93,15 @@ void parse_edge_toml(const std::string& text, const std::string& path, EdgeSetti
     throw ConfigError(fmt::format("{}:{}:{}: {}", path, e.source().begin.line, e.source().begin.column,
                                   one_line(std::string(e.description()))));
   }
-  r.check_keys(root, "", {"node_id", "state_dir", "host", "cameras", "trigger", "link", "log"});
+  r.check_keys(root, "", {"node_id", "state_dir", "key", "host", "cameras", "trigger", "link", "log"});
   r.get(root, "", "node_id", s.node_id);
+  if (root.contains("key")) {
+    std::string key;
+    r.get(root, "", "key", key);
+    std::filesystem::path kp(key);
+    if (!key.empty() && kp.is_relative()) kp = std::filesystem::path(path).parent_path() / kp;
+    s.key = key.empty() ? std::string() : kp.string();
+  }
   r.get(root, "", "state_dir", s.state_dir);
   if (auto* h = r.table(root, "host")) {
     r.check_keys(*h, "host.", {"address", "port"});
@@ -158,8 +169,8 @@ void parse_edge_toml(const std::string& text, const std::string& path, EdgeSetti
 }
 
 void EdgeSettings::validate() const {
-  auto bad = [](const std::string& key, const std::string& what) {
-    throw ConfigError(fmt::format("{}: {}", key, what));
+  auto bad = [](const std::string& name, const std::string& what) {
+    throw ConfigError(fmt::format("{}: {}", name, what));
   };
   if (node_id < 0 || node_id > 65535) bad("node_id", fmt::format("must be in 0..65535, got {}", node_id));
   if (host.empty()) bad("host.address", "must not be empty");
@@ -207,6 +218,15 @@ void EdgeSettings::validate() const {
   if (camera_timeout_ms < 1 || camera_timeout_ms > 600'000)
     bad("link.camera_timeout_ms", "must be in 1..600000");
   if (verbosity < 0 || verbosity > 2) bad("log.verbosity", "must be 0, 1 or 2");
+}
+
+void load_key(EdgeSettings& s) {
+  s.key_bytes.clear();
+  if (s.key.empty()) return;
+  std::vector<uint8_t> k(VC_AUTH_KEY_SIZE);
+  char why[512];
+  if (vc_key_load(s.key.c_str(), k.data(), why, sizeof why) < 0) throw ConfigError(why);
+  s.key_bytes = std::move(k);
 }
 
 vc_edged_options to_options(const EdgeSettings& s) {
@@ -259,6 +279,8 @@ vc_edged_options to_options(const EdgeSettings& s) {
   o.link.host_timeout_ms = s.host_timeout_ms;
   o.link.reconnect_min_ms = s.reconnect_min_ms;
   o.link.reconnect_max_ms = s.reconnect_max_ms;
+  o.link.key = s.key_bytes.empty() ? nullptr : s.key_bytes.data();
+  o.trigger.key = o.link.key;
   o.stats_ms = s.stats_ms;
   o.camera_timeout_ms = s.camera_timeout_ms;
   o.verbosity = s.verbosity;

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "edged.h"
 
@@ -57,6 +58,8 @@ struct EdgeSettings {
   int camera_timeout_ms = 2000;
   int verbosity = 1;
   std::string state_dir;  // where the learnt background model is kept across restarts ("" = not kept)
+  std::string key;        // the rig key file (`key`, relative to edge.toml's folder); "" = keyless
+  std::vector<uint8_t> key_bytes;  // the key read from it (load_key), VC_AUTH_KEY_SIZE bytes or empty
 
   // Throws ConfigError naming the key.
   void validate() const;
@@ -71,6 +74,10 @@ inline constexpr std::size_t kMaxEdgeTomlBytes = std::size_t{1} << 20;
 void load_edge_toml(const std::string& path, EdgeSettings& s);
 // The same over a file's text in memory (`path` names it in messages): tests and fuzzing.
 void parse_edge_toml(const std::string& text, const std::string& path, EdgeSettings& s);
+
+// Reads s.key into s.key_bytes (nothing without a key file). Throws ConfigError with the one-line
+// reason: a missing file, one that group or others may read, not one line of 64 hex digits.
+void load_key(EdgeSettings& s);
 
 // The daemon's options; strings point into s, which must outlive them.
 vc_edged_options to_options(const EdgeSettings& s);

@@ -366,6 +366,7 @@ static int setup(edged* d) {
   uint32_t caps =
       VC_CAP_HULL | (strcmp(opt->trigger.backend, "udp") == 0 ? VC_CAP_UDP_TRIGGER : VC_CAP_GPIO_TRIGGER);
   if (opt->features) caps |= VC_CAP_FEATURES;
+  if (opt->link.key) caps |= VC_CAP_AUTH;
   if ((rc = vc_node_hello(d->node, caps, hello, sizeof(hello), &hello_len)) < 0) return rc;
   vc_link_config lc = opt->link;
   lc.node_id = opt->node_id;

@@ -9,6 +9,7 @@
 #include <netinet/tcp.h>
 #include <poll.h>
 #include <pthread.h>
+#include <sodium.h>
 #include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -19,6 +20,7 @@
 
 #include "log.h"
 #include "sendq.h"
+#include "voxcap/auth.h"
 #include "voxcap/edge/clock.h"
 #include "voxcap/why.h"
 
@@ -35,6 +37,11 @@ struct vc_link {
   atomic_bool connected;
   pthread_mutex_t mu; /* guards st */
   vc_link_stats st;
+  bool keyed;
+  uint8_t key[VC_AUTH_KEY_SIZE];
+  vc_mac tx;     /* node -> host of the current connection (link thread only) */
+  uint8_t* seal; /* the message being written, sealed (grown to the largest message, then reused) */
+  size_t seal_cap;
 };
 
 static uint64_t mono_ms(void) {
@@ -129,21 +136,80 @@ static void send_protocol_error(vc_link* l, int fd, const vc_proto_diag* d, uint
   (void)fd;
 }
 
-/* One connection, until it fails or stop() is called. */
-static void run_connection(vc_link* l, int fd) {
+static int write_auth(vc_link* l, int fd, uint16_t step, const uint8_t* nonce, const uint8_t* proof) {
+  uint8_t buf[VC_PROTO_HEADER_SIZE + 128];
+  size_t len = 0;
+  vc_header hdr = {.node_id = l->cfg.node_id};
+  vc_auth_msg a = {.step = step};
+  if (nonce) memcpy(a.nonce, nonce, VC_AUTH_NONCE_SIZE);
+  if (proof) memcpy(a.proof, proof, VC_AUTH_PROOF_SIZE);
+  int rc = vc_encode_auth(buf, sizeof buf, &len, &hdr, &a);
+  return rc < 0 ? rc : write_all(l, fd, buf, len);
+}
+
+/* The host's AUTH response: checks its proof, proves ours, keys both directions. 0, or -EACCES with
+ * the reason logged. */
+static int finish_auth(vc_link* l, int fd, vc_decoder* dec, const vc_msg* m, const uint8_t* nonce_node) {
+  if (m->hdr.type != VC_MSG_AUTH || m->u.auth.step != VC_AUTH_RESPONSE) {
+    const char* name = vc_msg_type_name(m->hdr.type);
+    vc_log(VC_LOG_WARN, "link: %s:%u did not prove the rig key (it sent %s first): not obeying it", l->host,
+           l->cfg.port, name ? name : "an unknown message");
+    return -EACCES;
+  }
+  const uint8_t* nonce_host = m->u.auth.nonce;
+  if (!vc_auth_verify(m->u.auth.proof, l->key, VC_AUTH_ROLE_HOST, l->cfg.node_id, nonce_node, nonce_host)) {
+    vc_log(VC_LOG_WARN, "link: %s:%u answered with a wrong proof of the rig key: not obeying it", l->host,
+           l->cfg.port);
+    return -EACCES;
+  }
+  uint8_t proof[VC_AUTH_PROOF_SIZE];
+  vc_auth_prove(proof, l->key, VC_AUTH_ROLE_NODE, l->cfg.node_id, nonce_node, nonce_host);
+  vc_mac rx;
+  vc_auth_session(l->key, l->cfg.node_id, nonce_node, nonce_host, &l->tx, &rx);
+  vc_decoder_set_mac(dec, &rx);
+  sodium_memzero(&rx, sizeof rx);
+  if (write_auth(l, fd, VC_AUTH_PROOF, NULL, proof) < 0) return -EIO;
+  return 0;
+}
+
+/* The message at out[0..len) as it goes on the wire: sealed when the connection is authenticated. */
+static const uint8_t* wire_bytes(vc_link* l, bool authed, const uint8_t* out, size_t* len) {
+  if (!authed) return out;
+  size_t need = *len + VC_AUTH_TRAILER_SIZE;
+  if (need > l->seal_cap) {
+    uint8_t* nb = realloc(l->seal, need);
+    if (!nb) return NULL;
+    l->seal = nb;
+    l->seal_cap = need;
+  }
+  memcpy(l->seal, out, *len);
+  if (vc_mac_seal(&l->tx, l->seal, *len, l->seal_cap, len) < 0) return NULL;
+  return l->seal;
+}
+
+/* One connection, until it fails or stop() is called. Returns true when the host proved the key (or
+ * the rig is keyless): a session happened and the backoff starts again from its minimum. */
+static bool run_connection(vc_link* l, int fd) {
   vc_decoder* dec = NULL;
   char dec_why[128];
   if (vc_decoder_new(0, &dec, dec_why, sizeof(dec_why)) < 0) {
     vc_log(VC_LOG_ERROR, "link: %s", dec_why);
-    return;
+    return false;
   }
-  if (write_all(l, fd, l->hello, l->hello_len) < 0) {
+  uint8_t nonce_node[VC_AUTH_NONCE_SIZE];
+  vc_auth_random(nonce_node, sizeof nonce_node);
+  if (write_all(l, fd, l->hello, l->hello_len) < 0 ||
+      (l->keyed && write_auth(l, fd, VC_AUTH_CHALLENGE, nonce_node, NULL) < 0)) {
     vc_log(VC_LOG_WARN, "link: sending HELLO to %s:%u failed", l->host, l->cfg.port);
     vc_decoder_free(dec);
-    return;
+    return false;
   }
-  atomic_store(&l->connected, true);
-  if (l->cb.on_connection) l->cb.on_connection(l->cb.user, true);
+  bool authed = !l->keyed, mac_on = false;
+  uint64_t mac_rejects = 0;
+  if (authed) {
+    atomic_store(&l->connected, true);
+    if (l->cb.on_connection) l->cb.on_connection(l->cb.user, true);
+  }
   uint64_t last_rx = mono_ms(), last_hb = 0;
   const uint8_t* out = NULL;
   size_t out_len = 0, out_off = 0;
@@ -151,7 +217,7 @@ static void run_connection(vc_link* l, int fd) {
   const char* why = "stopped";
   while (atomic_load(&l->running)) {
     uint64_t now = mono_ms();
-    if (now - last_hb >= (uint64_t)l->cfg.heartbeat_ms) {
+    if (authed && now - last_hb >= (uint64_t)l->cfg.heartbeat_ms) {
       send_heartbeat(l);
       last_hb = now;
     }
@@ -159,7 +225,13 @@ static void run_connection(vc_link* l, int fd) {
       why = "host silent for too long";
       break;
     }
-    if (!out && vc_sendq_peek(l->q, &out, &out_len)) out_off = 0;
+    if (!out && vc_sendq_peek(l->q, &out, &out_len)) {
+      out_off = 0;
+      if (!(out = wire_bytes(l, mac_on, out, &out_len))) {
+        why = "out of memory sealing a message";
+        break;
+      }
+    }
     struct pollfd p[2] = {{.fd = fd, .events = (short)(POLLIN | (out ? POLLOUT : 0))},
                           {.fd = l->wake_fd, .events = POLLIN}};
     int timeout = l->cfg.heartbeat_ms;
@@ -198,6 +270,19 @@ static void run_connection(vc_link* l, int fd) {
           vc_msg msg;
           int rc;
           while ((rc = vc_decoder_next(dec, &msg)) != 0) {
+            if (rc > 0 && !authed) { /* the first message of a keyed link must be the host's proof */
+              if (finish_auth(l, fd, dec, &msg, nonce_node) < 0) {
+                stat_add(l, &l->st.auth_failures, 1);
+                why = "the host did not prove the rig key";
+                fatal = true;
+                break;
+              }
+              authed = mac_on = true;
+              vc_log(VC_LOG_INFO, "link: %s:%u proved the rig key", l->host, l->cfg.port);
+              atomic_store(&l->connected, true);
+              if (l->cb.on_connection) l->cb.on_connection(l->cb.user, true);
+              continue;
+            }
             if (rc > 0) {
               stat_add(l, &l->st.messages_received, 1);
               if (l->cb.on_message) l->cb.on_message(l->cb.user, &msg);
@@ -205,6 +290,17 @@ static void run_connection(vc_link* l, int fd) {
             }
             const vc_proto_diag* d = vc_decoder_diag(dec);
             stat_add(l, &l->st.rejected, 1);
+            if (rc == VC_PROTO_EMAC || rc == VC_PROTO_EREPLAY || rc == VC_PROTO_EORDER) {
+              stat_add(l, &l->st.mac_rejected, 1);
+              vc_log(VC_LOG_WARN, "link: dropped a message from the host: %s (%s)", vc_proto_error_name(rc),
+                     d->detail);
+              if (++mac_rejects >= VC_AUTH_MAX_REJECTS) {
+                why = "too many messages failed their MAC";
+                fatal = true;
+                break;
+              }
+              continue;
+            }
             vc_log(VC_LOG_WARN, "link: rejected a message from the host: %s (%s)", vc_proto_error_name(rc),
                    d->detail);
             if (vc_proto_error_is_fatal(rc)) {
@@ -215,7 +311,7 @@ static void run_connection(vc_link* l, int fd) {
           }
         }
         if (fatal) {
-          why = "undecodable bytes from the host";
+          if (strcmp(why, "stopped") == 0) why = "undecodable bytes from the host";
           break;
         }
       }
@@ -236,12 +332,14 @@ static void run_connection(vc_link* l, int fd) {
       }
     }
   }
-  atomic_store(&l->connected, false);
+  bool was_up = atomic_exchange(&l->connected, false);
   vc_sendq_clear(l->q);
   vc_decoder_free(dec);
+  sodium_memzero(&l->tx, sizeof l->tx);
   if (atomic_load(&l->running))
     vc_log(VC_LOG_WARN, "link: disconnected from %s:%u: %s", l->host, l->cfg.port, why);
-  if (l->cb.on_connection) l->cb.on_connection(l->cb.user, false);
+  if (was_up && l->cb.on_connection) l->cb.on_connection(l->cb.user, false);
+  return authed;
 }
 
 static void* link_main(void* arg) {
@@ -258,13 +356,16 @@ static void* link_main(void* arg) {
       continue;
     }
     warned = false;
-    backoff = l->cfg.reconnect_min_ms;
     stat_add(l, &l->st.connects, 1);
     vc_log(VC_LOG_INFO, "link: connected to %s:%u", l->host, l->cfg.port);
-    run_connection(l, fd);
+    bool session = run_connection(l, fd);
     close(fd);
     stat_add(l, &l->st.disconnects, 1);
-    if (atomic_load(&l->running)) sleep_interruptible(l, l->cfg.reconnect_min_ms);
+    /* A real session starts the backoff again; a peer that never proved the key makes it grow, so an
+     * orphan does not hammer a stranger on its host's port. */
+    if (session) backoff = l->cfg.reconnect_min_ms;
+    if (atomic_load(&l->running)) sleep_interruptible(l, session ? l->cfg.reconnect_min_ms : backoff);
+    if (!session) backoff = backoff * 2 > l->cfg.reconnect_max_ms ? l->cfg.reconnect_max_ms : backoff * 2;
   }
   return NULL;
 }
@@ -295,6 +396,16 @@ int vc_link_new(const vc_link_config* cfg, const vc_link_callbacks* cb, const ui
   if (!l->cfg.heartbeat_ms) l->cfg.heartbeat_ms = 250;
   if (!l->cfg.host_timeout_ms) l->cfg.host_timeout_ms = 3000;
   if (cb) l->cb = *cb;
+  l->cfg.key = NULL;
+  if (cfg->key) {
+    if (vc_auth_init() < 0) {
+      vc_why(why, why_len, "link: libsodium failed to start");
+      free(l);
+      return -EIO;
+    }
+    memcpy(l->key, cfg->key, VC_AUTH_KEY_SIZE);
+    l->keyed = true;
+  }
   int rc = -ENOMEM;
   char qwhy[128] = "out of memory";
   l->hello = malloc(hello_len);
@@ -341,6 +452,8 @@ void vc_link_free(vc_link* l) {
   vc_sendq_free(l->q);
   pthread_mutex_destroy(&l->mu);
   free(l->hello);
+  free(l->seal);
+  sodium_memzero(l->key, sizeof l->key);
   free(l);
 }
 

@@ -7,6 +7,12 @@
  * host_timeout_ms, after a decoding error (the reason is logged and, when the framing is still intact,
  * sent as ERROR), or when the host closes. It then reconnects with exponential backoff (min..max ms);
  * messages queued for a lost connection are dropped and counted (stale frames are worthless).
+ *
+ * With the rig key (cfg.key, protocol 2.3) the link sends its AUTH challenge after HELLO and obeys the
+ * host only once the host has proved the key (AUTH response over both nonces); it then proves the key
+ * itself and seals every message it sends and checks the MAC of every message it receives. A peer that
+ * answers anything else (an orphan's host gone and a stranger listening on its port) is never obeyed:
+ * the reason is logged, the connection dropped, and the link retries with growing backoff.
  */
 #ifndef VOXCAP_EDGE_LINK_H
 #define VOXCAP_EDGE_LINK_H
@@ -33,6 +39,7 @@ typedef struct vc_link_config {
   int reconnect_max_ms; /* 0 = 5000 */
   int heartbeat_ms;     /* 0 = 250 */
   int host_timeout_ms;  /* 0 = 3000 */
+  const uint8_t* key;   /* the rig key, VC_AUTH_KEY_SIZE bytes (copied), or NULL: keyless (loopback) */
 } vc_link_config;
 
 typedef struct vc_link_callbacks {
@@ -50,7 +57,9 @@ typedef struct vc_link_stats {
   uint64_t disconnects;
   uint64_t bytes_sent, bytes_received;
   uint64_t messages_received;
-  uint64_t rejected; /* host messages the decoder rejected */
+  uint64_t rejected;      /* host messages the decoder rejected */
+  uint64_t auth_failures; /* connections whose peer did not prove the key (2.3) */
+  uint64_t mac_rejected;  /* host messages dropped by their MAC: forged, replayed, reordered (2.3) */
   uint64_t queue_pushed, queue_dropped, queue_sent;
   bool connected;
 } vc_link_stats;

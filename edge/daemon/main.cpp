@@ -65,7 +65,7 @@ int run(int argc, char** argv) {
   std::string config_path;
   bool check = false, no_tracking = false;
   int node_id = -1, port = -1, trigger_port = -1, gpio_line = -1, verbosity = -1;
-  std::string host, trigger, gpio_chip, camera0, camera1, size, state_dir;
+  std::string host, trigger, gpio_chip, camera0, camera1, size, state_dir, key;
   app.add_option("-c,--config", config_path, "edge.toml to read (keys not given keep their defaults)");
   app.add_option("--node-id", node_id, "this node's id, 0..65535 (overrides node_id)")
       ->check(CLI::Range(0, 65535));
@@ -87,6 +87,10 @@ int run(int argc, char** argv) {
   app.add_option(
       "--state-dir", state_dir,
       "keep the learnt background model here and restore it after a restart (overrides state_dir)");
+  app.add_option(
+      "--key", key,
+      "the rig key file (overrides key; made by `voxcap key new`, mode 0600): prove it to the host "
+      "and obey only a host that proves it");
   app.add_flag("--no-tracking", no_tracking,
                "do not offer feature tracking to the host (by default the node tracks head, hands and feet "
                "when the host's rig.toml gives it the tracking role)");
@@ -124,7 +128,9 @@ int run(int argc, char** argv) {
     }
     if (verbosity >= 0) s.verbosity = verbosity;
     if (!state_dir.empty()) s.state_dir = state_dir;
+    if (!key.empty()) s.key = key;
     s.validate();
+    vc::edge::load_key(s);
   } catch (const std::exception& e) {
     vc_log(VC_LOG_ERROR, "%s", e.what());
     return 2;

@@ -5,7 +5,9 @@
  * host restarting its count). A jump ahead by more than VC_SEQ_MAX_JUMP is dropped unless the next
  * datagram confirms it, and a sender other than the host's address (when known) is dropped: one
  * forged datagram cannot move the edge's seq. The datagram's t_ns is the host's CLOCK_MONOTONIC: in
- * the emulated rig host and edges share one machine, so it needs no conversion. */
+ * the emulated rig host and edges share one machine, so it needs no conversion. With the rig key
+ * (protocol 2.3) only version-2 datagrams are taken, whose MAC verifies under the trigger key and
+ * whose counter is past the last one taken: a stranger can neither forge nor replay a pulse. */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
 #include <errno.h>
@@ -18,10 +20,13 @@
 #include <unistd.h>
 
 #include "trigger_backend.h"
+#include "voxcap/auth.h"
 #include "voxcap/proto.h"
 
 struct udp_priv {
   int fd;
+  bool keyed;
+  vc_mac mac; /* with keyed: the trigger key and the next counter taken */
   vc_seq_window window;
   bool check_source;
   struct in_addr source; /* with check_source: the only sender taken */
@@ -31,6 +36,7 @@ static void udp_free(void* p) {
   struct udp_priv* u = p;
   if (!u) return;
   if (u->fd >= 0) close(u->fd);
+  memset(&u->mac, 0, sizeof u->mac);
   free(u);
 }
 
@@ -62,6 +68,14 @@ static int udp_open(vc_trigger* trig, const vc_trigger_config* cfg, vc_trigger_i
   if (getsockname(u->fd, (struct sockaddr*)&sa, &salen) != 0) {
     rc = vc_trigger_set_error(trig, -errno, "getsockname: %s", strerror(errno));
     goto err;
+  }
+  if (cfg->key) {
+    if (vc_auth_init() < 0) {
+      rc = vc_trigger_set_error(trig, -EIO, "libsodium failed to start");
+      goto err;
+    }
+    vc_auth_trigger_key(cfg->key, &u->mac);
+    u->keyed = true;
   }
   if (cfg->source_address && cfg->source_address[0]) {
     const char* src_addr = strcmp(cfg->source_address, "localhost") == 0 ? "127.0.0.1" : cfg->source_address;
@@ -106,7 +120,13 @@ static int udp_wait(vc_trigger* trig, void* p, int timeout_ms, vc_pulse* pulse, 
       st->foreign++;
       continue;
     }
-    if (vc_trigger_dgram_decode(buf, (size_t)n, &seq, &t_ns) != 0) {
+    if (u->keyed) {
+      int mrc = vc_trigger_dgram_decode_mac(buf, (size_t)n, &u->mac, &seq, &t_ns);
+      if (mrc != 0) {
+        st->forged++;
+        continue;
+      }
+    } else if (vc_trigger_dgram_decode(buf, (size_t)n, &seq, &t_ns) != 0) {
       st->invalid++;
       continue;
     }

@@ -297,6 +297,10 @@ void add_rig_commands(CLI::App& app) {
   cmd->add_flag(
       "--verbose", [opt](int64_t) { opt->quiet = false; }, "emulated: info logs from host and edges");
   cmd->add_flag(
+      "--keyless", [opt](int64_t) { opt->keyed = false; },
+      "emulated: run without a rig key (control not authenticated; loopback only). By default the emulated "
+      "rig makes a fresh key (rig.key, mode 0600) in its workdir and host and edges prove it");
+  cmd->add_flag(
       "--json", *json,
       "print the figures as JSON: emulated {nodes, motion, appearance, room, carve, grid, size, rate_hz, "
       "truth_every}, frames, complete, degraded, dropped, pulses, fps, last_pulse, unmerged_pulses, "

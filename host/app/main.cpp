@@ -41,6 +41,7 @@ int main(int argc, char** argv) {
     vc::cli::add_export_commands(app);
     vc::cli::add_demo_commands(app);
     vc::cli::add_fit_commands(app);
+    vc::cli::add_key_commands(app);
     vc::cli::add_calib_commands(app);
     vc::cli::add_carve_commands(app);
     vc::cli::add_calibrate_commands(app);

@@ -141,6 +141,16 @@ void put_runs(Json& j, const uint8_t* rle, uint32_t len, uint64_t run_count, con
   if (runs.size() < run_count) j["runs_truncated"] = true;
 }
 
+Json auth_json(const vc_auth_msg& m) {
+  static const char* const steps[] = {nullptr, "challenge", "response", "proof"};
+  Json j;
+  j["step"] = m.step;
+  if (m.step < 4) j["step_name"] = steps[m.step];
+  j["nonce"] = hex(m.nonce, sizeof m.nonce);
+  j["proof"] = hex(m.proof, sizeof m.proof);
+  return j;
+}
+
 Json silhouette_json(const vc_silhouette& m, const JsonOptions& opt) {
   Json j;
   j["camera"] = m.camera;
@@ -291,6 +301,9 @@ Json msg_to_json(const vc_msg& msg, const JsonOptions& opt) {
         break;
       case VC_MSG_SILHOUETTE:
         body = silhouette_json(msg.u.silhouette, opt);
+        break;
+      case VC_MSG_AUTH:
+        body = auth_json(msg.u.auth);
         break;
       default:
         break;  // START, STOP: no fields

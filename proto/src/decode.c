@@ -10,6 +10,7 @@
 #include <string.h>
 
 #include "internal.h"
+#include "voxcap/auth.h"
 #include "voxcap/crc32c.h"
 #include "wire.h"
 
@@ -245,6 +246,19 @@ static int parse_silhouette(reader* r, vc_silhouette* m) {
   return vc_check_silhouette(m, &m->run_count, r->diag);
 }
 
+static int parse_auth(reader* r, vc_auth_msg* m) {
+  int rc = need(r, VC_AUTH_MSG_SIZE, "the fields");
+  if (rc) return rc;
+  const uint8_t* p = r->p;
+  m->step = vc_ld16(p + 0);
+  uint16_t reserved = vc_ld16(p + 2);
+  memcpy(m->nonce, p + 4, sizeof m->nonce);
+  memcpy(m->proof, p + 36, sizeof m->proof);
+  r->off = VC_AUTH_MSG_SIZE;
+  if ((rc = finish(r))) return rc;
+  return vc_check_auth(m, reserved, r->diag);
+}
+
 static int parse_body(vc_msg* m, vc_proto_diag* diag) {
   reader r = {m->payload,
               m->hdr.payload_len,
@@ -286,6 +300,9 @@ static int parse_body(vc_msg* m, vc_proto_diag* diag) {
     case VC_MSG_SILHOUETTE:
       rc = parse_silhouette(&r, &m->u.silhouette);
       break;
+    case VC_MSG_AUTH:
+      rc = parse_auth(&r, &m->u.auth);
+      break;
     default:
       return 0; /* unknown type: reported with known = false, body left unset */
   }
@@ -295,6 +312,11 @@ static int parse_body(vc_msg* m, vc_proto_diag* diag) {
 
 int vc_msg_decode(const uint8_t* buf, size_t len, size_t max_payload, vc_msg* out, size_t* consumed,
                   vc_proto_diag* diag) {
+  return vc_msg_decode_mac(buf, len, max_payload, NULL, out, consumed, diag);
+}
+
+int vc_msg_decode_mac(const uint8_t* buf, size_t len, size_t max_payload, struct vc_mac* rx, vc_msg* out,
+                      size_t* consumed, vc_proto_diag* diag) {
   if ((len && !buf) || !out || !consumed) return -EINVAL;
   if (max_payload == 0) max_payload = VC_PROTO_MAX_PAYLOAD;
   if (max_payload > VC_PROTO_MAX_PAYLOAD) return -EINVAL;
@@ -341,6 +363,11 @@ int vc_msg_decode(const uint8_t* buf, size_t len, size_t max_payload, vc_msg* ou
                        h->payload_crc, h->payload_len, crc);
   /* From here on the frame is sound: whatever the payload holds, the message is consumed. */
   *consumed = VC_PROTO_HEADER_SIZE + (size_t)h->payload_len;
+  if (rx) { /* 2.3: the MAC before anything reads the payload; the trailer is not the message's */
+    int mrc = vc_mac_open(rx, buf, *consumed, diag);
+    if (mrc) return mrc;
+    h->payload_len -= VC_AUTH_TRAILER_SIZE;
+  }
   out->known = vc_msg_type_name(h->type) != NULL;
   int rc = parse_body(out, diag);
   return rc ? rc : 1;

@@ -13,7 +13,10 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <sodium.h>
+
 #include "internal.h"
+#include "voxcap/auth.h"
 #include "voxcap/why.h"
 
 #define DECODER_INITIAL_CAP (64u * 1024u)
@@ -26,6 +29,8 @@ struct vc_decoder {
   size_t rd, wr;      /* unread bytes are buf[rd..wr) */
   uint64_t stream_rd; /* stream offset of buf[rd] */
   int fatal;          /* sticky fatal error, 0 if none */
+  bool mac_on;        /* 2.3: every message must carry a valid MAC for mac */
+  vc_mac mac;
   vc_proto_diag diag;
 };
 
@@ -62,6 +67,7 @@ err_alloc:
 void vc_decoder_free(vc_decoder* dec) {
   if (!dec) return;
   free(dec->buf);
+  sodium_memzero(&dec->mac, sizeof dec->mac);
   free(dec);
 }
 
@@ -71,6 +77,16 @@ int vc_decoder_set_max_payload(vc_decoder* dec, size_t max_payload) {
   if (max_payload > VC_PROTO_MAX_PAYLOAD) return -EINVAL;
   dec->max_payload = max_payload;
   dec->cap_max = VC_PROTO_HEADER_SIZE + max_payload;
+  return 0;
+}
+
+int vc_decoder_set_mac(vc_decoder* dec, const vc_mac* rx) {
+  if (!dec) return -EINVAL;
+  dec->mac_on = rx != NULL;
+  if (rx)
+    dec->mac = *rx;
+  else
+    sodium_memzero(&dec->mac, sizeof dec->mac);
   return 0;
 }
 
@@ -105,7 +121,8 @@ int vc_decoder_next(vc_decoder* dec, vc_msg* out) {
   if (dec->fatal) return dec->fatal;
   size_t used = 0;
   vc_proto_diag diag;
-  int rc = vc_msg_decode(dec->buf + dec->rd, dec->wr - dec->rd, dec->max_payload, out, &used, &diag);
+  int rc = vc_msg_decode_mac(dec->buf + dec->rd, dec->wr - dec->rd, dec->max_payload,
+                             dec->mac_on ? &dec->mac : NULL, out, &used, &diag);
   if (rc < 0) {
     diag.offset = dec->stream_rd;
     dec->diag = diag;

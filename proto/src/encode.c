@@ -300,6 +300,20 @@ int vc_encode_silhouette_bits(uint8_t* buf, size_t cap, size_t* len, const vc_he
   return 0;
 }
 
+int vc_encode_auth(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_auth_msg* m) {
+  if (!m || !hdr) return -EINVAL;
+  int rc = vc_check_auth(m, 0, NULL);
+  if (rc) return rc;
+  if ((rc = frame_begin(buf, cap, len, hdr, VC_AUTH_MSG_SIZE))) return rc;
+  uint8_t* p = buf + VC_PROTO_HEADER_SIZE;
+  vc_st16(p + 0, m->step);
+  vc_st16(p + 2, 0);
+  memcpy(p + 4, m->nonce, sizeof m->nonce);
+  memcpy(p + 36, m->proof, sizeof m->proof);
+  seal(buf, hdr, VC_MSG_AUTH, VC_AUTH_MSG_SIZE);
+  return 0;
+}
+
 int vc_msg_encode(uint8_t* buf, size_t cap, size_t* len, const vc_msg* msg) {
   if (!msg) return -EINVAL;
   const vc_header* h = &msg->hdr;
@@ -326,6 +340,8 @@ int vc_msg_encode(uint8_t* buf, size_t cap, size_t* len, const vc_msg* msg) {
       return vc_encode_error(buf, cap, len, h, &msg->u.error);
     case VC_MSG_SILHOUETTE:
       return vc_encode_silhouette(buf, cap, len, h, &msg->u.silhouette);
+    case VC_MSG_AUTH:
+      return vc_encode_auth(buf, cap, len, h, &msg->u.auth);
     default:
       return -EINVAL;
   }

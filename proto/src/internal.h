@@ -20,6 +20,7 @@
 #define VC_HEARTBEAT_SIZE 12
 #define VC_ERROR_FIXED 10
 #define VC_SILHOUETTE_FIXED 16 /* 2.1 */
+#define VC_AUTH_MSG_SIZE 68    /* 2.3 */
 
 #if defined(__GNUC__) || defined(__clang__)
 #define VC_PRINTF(fmt_idx, arg_idx) __attribute__((format(printf, fmt_idx, arg_idx)))
@@ -38,6 +39,7 @@ int vc_check_features(const vc_features* m, vc_proto_diag* diag);
 int vc_check_stats(const vc_stats* m, vc_proto_diag* diag);
 int vc_check_heartbeat(const vc_heartbeat* m, vc_proto_diag* diag);
 int vc_check_error(const vc_error* m, vc_proto_diag* diag);
+int vc_check_auth(const vc_auth_msg* m, uint16_t reserved, vc_proto_diag* diag);
 /* Sizes, then the RLE against them; *runs (may be NULL) receives the number of runs. */
 int vc_check_silhouette(const vc_silhouette* m, uint64_t* runs, vc_proto_diag* diag);
 /* The fields of a SILHOUETTE that do not depend on its RLE. */

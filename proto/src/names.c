@@ -37,6 +37,12 @@ const char* vc_proto_strerror(int code) {
       return "count over a protocol limit";
     case VC_PROTO_EFIELD:
       return "field value out of range";
+    case VC_PROTO_EMAC:
+      return "missing or wrong MAC (forged)";
+    case VC_PROTO_EREPLAY:
+      return "MAC counter already used (replayed)";
+    case VC_PROTO_EORDER:
+      return "MAC counter ahead of the next (reordered)";
     case -EINVAL:
       return "invalid argument";
     case -ENOSPC:
@@ -78,6 +84,12 @@ const char* vc_proto_error_name(int code) {
       return "VC_PROTO_ELIMIT";
     case VC_PROTO_EFIELD:
       return "VC_PROTO_EFIELD";
+    case VC_PROTO_EMAC:
+      return "VC_PROTO_EMAC";
+    case VC_PROTO_EREPLAY:
+      return "VC_PROTO_EREPLAY";
+    case VC_PROTO_EORDER:
+      return "VC_PROTO_EORDER";
     case -EINVAL:
       return "EINVAL";
     case -ENOSPC:
@@ -106,8 +118,9 @@ bool vc_proto_error_is_fatal(int code) {
 }
 
 const char* vc_msg_type_name(uint16_t type) {
-  static const char* const names[] = {NULL,   "HELLO",    "CONFIG", "BACKGROUND", "START", "STOP",
-                                      "HULL", "FEATURES", "STATS",  "HEARTBEAT",  "ERROR", "SILHOUETTE"};
+  static const char* const names[] = {NULL,    "HELLO",      "CONFIG",   "BACKGROUND", "START",
+                                      "STOP",  "HULL",       "FEATURES", "STATS",      "HEARTBEAT",
+                                      "ERROR", "SILHOUETTE", "AUTH"};
   return lookup(names, ARRAY_LEN(names), type);
 }
 
@@ -150,8 +163,8 @@ const char* vc_carve_rule_name(uint32_t rule) {
 }
 
 const char* vc_error_code_name(uint32_t code) {
-  static const char* const names[] = {NULL,     "protocol", "version",  "state",   "config",
-                                      "camera", "trigger",  "overload", "internal"};
+  static const char* const names[] = {NULL,     "protocol", "version",  "state",    "config",
+                                      "camera", "trigger",  "overload", "internal", "auth"};
   return lookup(names, ARRAY_LEN(names), code);
 }
 

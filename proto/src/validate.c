@@ -220,6 +220,13 @@ int vc_check_error(const vc_error* m, vc_proto_diag* diag) {
   return 0;
 }
 
+int vc_check_auth(const vc_auth_msg* m, uint16_t reserved, vc_proto_diag* diag) {
+  if (m->step < VC_AUTH_CHALLENGE || m->step > VC_AUTH_PROOF)
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "AUTH: unknown step %u", m->step);
+  if (reserved != 0) return vc_diag_set(diag, VC_PROTO_EFIELD, "AUTH: reserved is %u, not 0", reserved);
+  return 0;
+}
+
 int vc_check_silhouette_fields(uint16_t camera, uint16_t scale, uint16_t width, uint16_t height,
                                vc_proto_diag* diag) {
   if (camera >= VC_PROTO_MAX_CAMERAS)

@@ -26,6 +26,7 @@
 #include <thread>
 #include <vector>
 
+#include "voxcap/auth.h"
 #include "voxcap/base/clock.hpp"
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/crc32c.h"
@@ -57,6 +58,15 @@ Options options() {
   o.missing_policy = "degraded";
   o.truth_every = 0;
   o.edge_binary = VOXCAP_EDGE_BINARY;
+  // The attacks below run against the keyless loopback rig: the seq checks must hold without crypto.
+  // The keyed rig (the emulated rig's default) has its own tests at the end (KeyedRig...).
+  o.keyed = false;
+  return o;
+}
+
+Options keyed_options() {
+  Options o = options();
+  o.keyed = true;
   return o;
 }
 
@@ -433,6 +443,76 @@ TEST(Attack, KillNineOfTheHostLeavesNoEdge) {
   EXPECT_TRUE(left.empty()) << left.size() << " edges outlived their host";
   kill(-host, SIGKILL);  // whatever is left of the group
   fs::remove_all(dir);
+}
+
+// The keyed rig (authenticated control): forged trigger datagrams, version 1 with seq 100000 and
+// version 2 signed with a stranger's key, are dropped as forged by every edge before the seq checks
+// (and logged with the count); frames keep merging.
+TEST(Attack, KeyedRigDropsForgedTriggerDatagrams) {
+  EmulatedRig rig(keyed_options());
+  rig.start(60);
+  rig.run_frames(60, 30);
+  config::RigConfig cfg = config::load_rig_config(rig.workdir() / "rig.toml");
+  ASSERT_FALSE(cfg.key_path.empty());
+  ASSERT_EQ(cfg.trigger.udp.targets.size(), 3u);
+  const aggregator::Report before = rig.report();
+  vc_mac stranger{};
+  vc_auth_random(stranger.key, sizeof stranger.key);
+  stranger.counter = UINT64_MAX / 2;
+  for (const config::Endpoint& t : cfg.trigger.udp.targets) {
+    send_datagram(t.port, 100000);
+    int fd = socket(AF_INET, SOCK_DGRAM, 0);
+    ASSERT_GE(fd, 0);
+    sockaddr_in to{};
+    to.sin_family = AF_INET;
+    to.sin_port = htons(t.port);
+    to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    uint8_t d[VC_TRIGGER_DGRAM_MAC_SIZE];
+    ASSERT_EQ(vc_trigger_dgram_encode_mac(d, 100001, vc::monotonic_ns(), &stranger), 0);
+    EXPECT_EQ(sendto(fd, d, sizeof d, 0, reinterpret_cast<sockaddr*>(&to), sizeof to), (ssize_t)sizeof d);
+    close(fd);
+  }
+  rig.run_seconds(2.0);
+  const aggregator::Report after = rig.report();
+  rig.stop();
+  expect_complete_since(before, after, 60, "after the forged datagrams");
+  EXPECT_LT(after.last_seq, 100000u);
+  for (int k = 0; k < 3; k++) {
+    const std::string log = read_file(rig.workdir() / fmt::format("edge{}.log", k));
+    EXPECT_NE(log.find("2 without a valid MAC or replayed (forged)"), std::string::npos)
+        << "edge " << k << " did not log the forged datagrams:\n"
+        << log;
+  }
+}
+
+// The keyed rig: an impostor's HELLO for a live node (no key) and the HULL with seq 2^62 after it are
+// refused before the node's handler sees them (ERROR auth, counted), the impostor never gets a CONFIG,
+// the live node stays, and frames keep merging.
+TEST(Attack, KeyedRigRefusesAnImpostorWithoutTheKey) {
+  EmulatedRig rig(keyed_options());
+  rig.start(60);
+  rig.run_frames(60, 30);
+  const aggregator::Report before = rig.report();
+  const uint64_t huge = uint64_t{1} << 62;
+  for (int round = 0; round < 5; round++) {
+    int fd = connect_host(rig.host_port());
+    std::vector<uint8_t> msgs = hello(1);
+    for (const auto& m : {heartbeat(1, VC_STATE_RUNNING), hull(1, huge)})
+      msgs.insert(msgs.end(), m.begin(), m.end());
+    ASSERT_TRUE(send_all(fd, msgs.data(), msgs.size()));
+    int configs = 0;
+    EXPECT_TRUE(closed_within(fd, 3000, &configs));
+    EXPECT_EQ(configs, 0) << "the impostor got node 1's calibration";
+    close(fd);
+  }
+  rig.run_seconds(2.0);
+  const aggregator::Report after = rig.report();
+  rig.stop();
+  expect_complete_since(before, after, 60, "after the impostor");
+  EXPECT_GE(after.server.auth_refused - before.server.auth_refused, 5u);
+  EXPECT_EQ(after.nodes[1].joins, 1u);
+  EXPECT_TRUE(after.nodes[1].connected);
+  EXPECT_LT(after.last_seq, huge);
 }
 
 }  // namespace

@@ -1,5 +1,8 @@
 #include "voxcap/aggregator/aggregator.hpp"
 
+#include "voxcap/auth.h"
+#include "voxcap/base/clock.hpp"
+
 #include <arpa/inet.h>
 #include <fmt/core.h>
 #include <netdb.h>
@@ -207,6 +210,21 @@ Aggregator::Aggregator(config::RigConfig rig, Options options)
   session::ServerOptions so;
   so.listen = rig_.network.listen;
   so.port = rig_.network.port;
+  // The rig key (proto/SPEC.md "Authentication"): the sessions prove it and seal every message, the
+  // udp trigger signs its datagrams. Without one the rig is loopback-only (RigConfig::valid) and says so.
+  if (!rig_.key_path.empty()) {
+    so.key.resize(VC_AUTH_KEY_SIZE);
+    char key_why[512] = "";
+    if (vc_auth_init() < 0 ||
+        vc_key_load(rig_.key_path.string().c_str(), so.key.data(), key_why, sizeof key_why) < 0)
+      throw std::runtime_error(key_why[0] ? key_why : "libsodium failed to start");
+    rig_.trigger.udp.key = so.key;
+    log(log::Level::info, fmt::format("authenticated control: rig key {}", rig_.key_path.string()));
+  } else {
+    log(log::Level::warn,
+        "no rig key: control is not authenticated (allowed because every address is loopback)");
+  }
+  server_options_ = so;
   server_ = std::make_unique<session::Server>(so, *this, log_);
   if (opt_.start_trigger) {
     trigger_ = trigger::make_generator(rig_.trigger);
@@ -334,6 +352,21 @@ std::string Aggregator::on_hello(session::ConnId conn, const vc_msg& m, const st
   // duplicate HELLO replaced the real node and took its calibration). An edge that restarted before
   // its old connection was seen to die gets in once that connection is dropped (closed or silent for
   // the heartbeat timeout); edges retry with backoff.
+  // On a keyed rig a HELLO whose sender proved the key replaces a connection that has gone silent for
+  // more than half the heartbeat timeout (an edge that restarted while its old connection was not yet
+  // seen to die): that connection is closed and this one takes the node. A live one always stays.
+  if (n->connected && server_->authenticated(conn)) {
+    const uint64_t silent = server_->silent_ns(n->conn, monotonic_ns());
+    const uint64_t dead_after = static_cast<uint64_t>(server_options_.heartbeat_timeout_ms) * 500'000u;
+    if (silent > dead_after) {
+      log(log::Level::warn,
+          fmt::format("node {} ({}) proved the key from {}; its old connection {} ({}) has been "
+                      "silent for {} ms: closing it",
+                      n->id, n->cfg->id, peer, n->conn, n->peer, silent / 1'000'000u));
+      server_->close(n->conn, "replaced by a new connection that proved the rig key");
+      n->connected = false;
+    }
+  }
   if (n->connected) {
     n->rep.hellos_refused++;
     std::string why = fmt::format("node {} ({}) is already connected (connection {} from {})", n->id,

@@ -477,6 +477,12 @@ RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::pa
   c.calibration_path = std::filesystem::path(calibration);
   if (c.calibration_path.is_relative()) c.calibration_path = source.parent_path() / c.calibration_path;
   c.calibration_path = std::filesystem::absolute(c.calibration_path).lexically_normal();
+  std::string key_file;  // the rig key file (`voxcap key new`), relative to this file; none: loopback only
+  if (top.get("key", &key_file) && !key_file.empty()) {
+    c.key_path = std::filesystem::path(key_file);
+    if (c.key_path.is_relative()) c.key_path = source.parent_path() / c.key_path;
+    c.key_path = std::filesystem::absolute(c.key_path).lexically_normal();
+  }
 
   bool have_grid = false;
   if (const toml::table* t = top.table("grid")) {

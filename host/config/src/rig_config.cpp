@@ -83,6 +83,14 @@ std::vector<const NodeConfig*> RigConfig::tracking_nodes() const {
   return out;
 }
 
+bool RigConfig::loopback_only() const {
+  auto loopback = [](const std::string& a) { return a == "localhost" || a.rfind("127.", 0) == 0; };
+  if (!loopback(network.listen)) return false;
+  for (const NodeConfig& n : nodes)
+    if (n.address != "any" && !loopback(n.address)) return false;
+  return true;
+}
+
 bool RigConfig::valid(std::string* why) const {
   std::string sub;
   if (!grid.valid(&sub)) return fail(why, "grid: " + sub);
@@ -91,6 +99,10 @@ bool RigConfig::valid(std::string* why) const {
     return fail(why, fmt::format("grid: {}x{}x{} = {} voxels is over the protocol's limit of {} (512^3)",
                                  grid.nx, grid.ny, grid.nz, grid.count(), VC_PROTO_MAX_VOXELS));
   if (nodes.empty()) return fail(why, "nodes: at least one [[nodes]] table is needed");
+  if (key_path.empty() && !loopback_only())
+    return fail(why,
+                "key: a rig without a key may only use loopback addresses (network.listen, nodes[].address); "
+                "make one with `voxcap key new rig.key` and add key = \"rig.key\"");
 
   const bool have_cameras = !calibration.cameras.empty();
   std::vector<std::string> driver(calibration.cameras.size());

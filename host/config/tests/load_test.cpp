@@ -546,3 +546,24 @@ TEST(LoadRigConfig, GpiodLineByName) {
 
 }  // namespace
 }  // namespace vc::config
+
+namespace vc::config {
+namespace {
+
+// A keyless rig only on loopback (issue #13): the same rig with a key may listen anywhere.
+TEST(RigKey, KeylessRigMustBeLoopbackOnlyAndKeyIsResolvedAgainstTheFile) {
+  RigConfig c;
+  c.nodes.resize(1);
+  c.network.listen = "any";
+  EXPECT_FALSE(c.loopback_only());
+  c.network.listen = "127.0.0.1";
+  c.nodes[0].address = "any";
+  EXPECT_TRUE(c.loopback_only());
+  c.nodes[0].address = "10.0.0.21";
+  EXPECT_FALSE(c.loopback_only());
+  c.nodes[0].address = "localhost";
+  EXPECT_TRUE(c.loopback_only());
+}
+
+}  // namespace
+}  // namespace vc::config

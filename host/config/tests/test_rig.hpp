@@ -56,6 +56,7 @@ inline std::string valid_toml() {
 version = 1
 name = "test"
 calibration = "rig.yaml"
+key = "rig.key"
 
 [grid]
 min_m = [-1.0, -1.0, 0.0]

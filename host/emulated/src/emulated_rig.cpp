@@ -1,5 +1,7 @@
 #include "voxcap/emulated/emulated_rig.hpp"
 
+#include "voxcap/auth.h"
+
 #include <arpa/inet.h>
 #include <fcntl.h>
 #include <fmt/core.h>
@@ -537,6 +539,7 @@ void write_rig_toml(const config::RigConfig& c, const fs::path& path) {
   t.insert("version", 1);
   t.insert("name", c.name);
   t.insert("calibration", c.calibration_path.string());
+  if (!c.key_path.empty()) t.insert("key", c.key_path.string());
   t.insert("grid", toml::table{{"min_m", toml::array{c.grid.min_m[0], c.grid.min_m[1], c.grid.min_m[2]}},
                                {"voxel_m", c.grid.voxel_m},
                                {"nx", c.grid.nx},
@@ -600,6 +603,7 @@ struct EmulatedRig::Impl {
   fs::path dir;
   bool own_dir = false;
   fs::path edge_bin;
+  fs::path key_path;  // the run's rig key (keyed rigs)
   std::string sim_spec;
   int host_port = 0;
   std::vector<int> trigger_ports;
@@ -635,6 +639,10 @@ struct EmulatedRig::Impl {
                                      opt.quiet ? "0" : "1",
                                      "--state-dir",
                                      (dir / fmt::format("node{}", k)).string()};
+    if (!key_path.empty()) {
+      args.emplace_back("--key");
+      args.push_back(key_path.string());
+    }
     fs::create_directories(dir / fmt::format("node{}", k));
     std::vector<char*> argv;
     argv.reserve(args.size() + 1);
@@ -753,6 +761,13 @@ void EmulatedRig::start(double timeout_s) {
   m.trigger_ports.clear();
   for (int k = 0; k < o.nodes; k++) m.trigger_ports.push_back(free_port(SOCK_DGRAM));
   config::RigConfig rig = rig_config(o, cal, cal_path, m.dir / "rig.toml", m.trigger_ports, m.host_port);
+  if (o.keyed) {  // a fresh key per run, beside rig.toml
+    m.key_path = fs::absolute(m.dir / "rig.key");
+    char why[512];
+    if (vc_auth_init() < 0 || vc_key_write(m.key_path.string().c_str(), true, nullptr, why, sizeof why) < 0)
+      throw std::runtime_error(fmt::format("emulated rig: cannot make its key: {}", why));
+    rig.key_path = m.key_path;
+  }
   write_rig_toml(rig, rig.source);  // for the workdir and the session recording's copy
 
   // What the edges' sim cameras render: the scorer's scene, to the last option.

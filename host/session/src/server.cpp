@@ -15,6 +15,8 @@
 #include <cstring>
 #include <stdexcept>
 
+#include <sodium.h>
+
 #include "voxcap/base/clock.hpp"
 
 namespace vc::session {
@@ -33,6 +35,7 @@ bool ServerOptions::valid(std::string* why) const {
   if (max_prehello_payload < 128 || max_prehello_payload > VC_PROTO_MAX_PAYLOAD)
     return fail("max_prehello_payload: must be in 128..VC_PROTO_MAX_PAYLOAD");
   if (poll_interval_ms < 1 || poll_interval_ms > 1000) return fail("poll_interval_ms: must be in 1..1000");
+  if (!key.empty() && key.size() != VC_AUTH_KEY_SIZE) return fail("key: must be 32 bytes (or none)");
   return true;
 }
 
@@ -49,7 +52,13 @@ struct Server::Conn {
   bool overflow = false;                 // under mu_
   std::string closing;                   // under mu_: close after flushing
   ConnectionStats st;
+  // 2.3, keyed rigs: HELLO (kept until the proof) -> AUTH challenge -> our response -> AUTH proof.
+  enum class Auth { none, wait_challenge, wait_proof, done } auth = Auth::none;
+  std::vector<uint8_t> hello_raw;
+  uint8_t nonce_node[VC_AUTH_NONCE_SIZE] = {}, nonce_host[VC_AUTH_NONCE_SIZE] = {};
+  vc_mac tx{};  // host -> node, under mu_
   ~Conn() {
+    sodium_memzero(&tx, sizeof tx);
     vc_decoder_free(dec);
     if (fd >= 0) ::close(fd);
   }
@@ -59,6 +68,8 @@ Server::Server(ServerOptions options, Handler& handler, log::Fn log)
     : opt_(std::move(options)), handler_(handler), log_(log::or_spdlog(std::move(log), "voxcap-host")) {
   std::string why;
   if (!opt_.valid(&why)) throw std::invalid_argument("session server: " + why);
+  if (!opt_.key.empty() && vc_auth_init() < 0)
+    throw std::runtime_error("session server: libsodium failed to start");
 }
 
 Server::~Server() {
@@ -111,12 +122,7 @@ bool Server::send(ConnId id, const uint8_t* data, size_t len) {
   auto it = conns_.find(id);
   if (it == conns_.end() || !it->second->closing.empty()) return false;
   Conn& c = *it->second;
-  if (c.out_bytes + len > opt_.max_out_bytes) {
-    c.overflow = true;
-  } else {
-    c.out.emplace_back(data, data + len);
-    c.out_bytes += len;
-  }
+  queue_locked(c, data, len);
   uint64_t one = 1;
   if (write(wake_fd_, &one, sizeof(one)) < 0) {
   }
@@ -145,6 +151,40 @@ void Server::close(ConnId id, const std::string& reason) {
   uint64_t one = 1;
   if (write(wake_fd_, &one, sizeof(one)) < 0) {
   }
+}
+
+void Server::queue_locked(Conn& c, const uint8_t* data, size_t len) {
+  size_t sealed_len = c.st.authenticated ? len + VC_AUTH_TRAILER_SIZE : len;
+  if (c.out_bytes + sealed_len > opt_.max_out_bytes) {
+    c.overflow = true;  // nothing sealed: the counter moves only with what is sent
+    return;
+  }
+  std::vector<uint8_t>& b = c.out.emplace_back(data, data + len);
+  if (c.st.authenticated) {
+    b.resize(sealed_len);
+    size_t out = 0;
+    if (vc_mac_seal(&c.tx, b.data(), len, b.size(), &out) < 0) {  // not one whole message: a caller bug
+      c.out.pop_back();
+      log(log::Level::err,
+          fmt::format("connection {}: refusing to send {} bytes that are not one message", c.id, len));
+      return;
+    }
+  }
+  c.out_bytes += sealed_len;
+}
+
+bool Server::authenticated(ConnId id) const {
+  std::lock_guard<std::mutex> g(mu_);
+  auto it = conns_.find(id);
+  return it != conns_.end() && it->second->st.authenticated;
+}
+
+uint64_t Server::silent_ns(ConnId id, uint64_t now_ns) const {
+  std::lock_guard<std::mutex> g(mu_);
+  auto it = conns_.find(id);
+  if (it == conns_.end()) return 0;
+  uint64_t last = it->second->last_rx_ns;
+  return now_ns > last ? now_ns - last : 0;
 }
 
 std::vector<ConnectionStats> Server::connections() const {
@@ -182,6 +222,102 @@ static void send_error_now(int fd, uint16_t code, uint16_t severity, const std::
     if (::send(fd, buf.data(), len, MSG_NOSIGNAL | MSG_DONTWAIT) < 0) {
     }
   }
+}
+
+void Server::error_to(Conn& c, uint16_t code, uint16_t severity, const std::string& text) {
+  if (!c.st.authenticated) {
+    send_error_now(c.fd, code, severity, text);
+    return;
+  }
+  std::vector<uint8_t> buf(VC_PROTO_HEADER_SIZE + 32 + text.size());
+  size_t len = 0;
+  vc_header hdr{};
+  hdr.node_id = c.node_id;
+  vc_error e{};
+  e.code = code;
+  e.severity = severity;
+  e.text_len = static_cast<uint16_t>(std::min<size_t>(text.size(), VC_PROTO_MAX_ERROR_TEXT));
+  e.text = text.data();
+  if (vc_encode_error(buf.data(), buf.size(), &len, &hdr, &e) == 0) {
+    std::lock_guard<std::mutex> g(mu_);
+    queue_locked(c, buf.data(), len);
+  }
+}
+
+bool Server::refuse_auth(Conn& c, const std::string& why) {
+  log(log::Level::warn, fmt::format("connection {} ({}): refused: {}", c.id, c.peer, why));
+  send_error_now(c.fd, VC_ERR_AUTH, VC_SEVERITY_FATAL, why);
+  std::lock_guard<std::mutex> g(mu_);
+  stats_.auth_refused++;
+  stats_.hello_rejected++;
+  c.closing = "authentication: " + why;
+  return false;
+}
+
+bool Server::accept_hello(Conn& c, const vc_msg& m) {
+  std::string why = handler_.on_hello(c.id, m, c.peer);
+  if (!why.empty()) {
+    error_to(c, VC_ERR_STATE, VC_SEVERITY_FATAL, why);
+    std::lock_guard<std::mutex> g(mu_);
+    stats_.hello_rejected++;
+    c.closing = "HELLO rejected: " + why;
+    return false;
+  }
+  c.hello = true;
+  vc_decoder_set_max_payload(c.dec, 0);  // a node now: the protocol's maximum
+  c.node_id = m.u.hello.node_id;
+  std::lock_guard<std::mutex> g(mu_);
+  c.st.hello = true;
+  c.st.node_id = c.node_id;
+  return true;
+}
+
+bool Server::handle_auth(Conn& c, const vc_msg& m) {
+  const uint8_t* key = opt_.key.data();
+  if (m.hdr.type != VC_MSG_AUTH)
+    return refuse_auth(
+        c, fmt::format("node {} sent {} before proving the key", c.node_id,
+                       vc_msg_type_name(m.hdr.type) ? vc_msg_type_name(m.hdr.type) : "an unknown type"));
+  const vc_auth_msg& a = m.u.auth;
+  if (c.auth == Conn::Auth::wait_challenge) {
+    if (a.step != VC_AUTH_CHALLENGE) return refuse_auth(c, "the node's first AUTH was not its challenge");
+    std::memcpy(c.nonce_node, a.nonce, VC_AUTH_NONCE_SIZE);
+    vc_auth_random(c.nonce_host, VC_AUTH_NONCE_SIZE);
+    vc_auth_msg r{};
+    r.step = VC_AUTH_RESPONSE;
+    std::memcpy(r.nonce, c.nonce_host, VC_AUTH_NONCE_SIZE);
+    vc_auth_prove(r.proof, key, VC_AUTH_ROLE_HOST, c.node_id, c.nonce_node, c.nonce_host);
+    uint8_t buf[VC_PROTO_HEADER_SIZE + 128];
+    size_t len = 0;
+    vc_header hdr{};
+    hdr.node_id = c.node_id;
+    if (vc_encode_auth(buf, sizeof buf, &len, &hdr, &r) < 0) return refuse_auth(c, "cannot encode AUTH");
+    std::lock_guard<std::mutex> g(mu_);
+    queue_locked(c, buf, len);
+    c.auth = Conn::Auth::wait_proof;
+    return true;
+  }
+  if (a.step != VC_AUTH_PROOF ||
+      !vc_auth_verify(a.proof, key, VC_AUTH_ROLE_NODE, c.node_id, c.nonce_node, c.nonce_host))
+    return refuse_auth(c, fmt::format("node {} did not prove the rig key", c.node_id));
+  vc_mac n2h{}, h2n{};
+  vc_auth_session(key, c.node_id, c.nonce_node, c.nonce_host, &n2h, &h2n);
+  vc_decoder_set_mac(c.dec, &n2h);  // from the next message on
+  sodium_memzero(&n2h, sizeof n2h);
+  {
+    std::lock_guard<std::mutex> g(mu_);
+    c.tx = h2n;
+    c.st.authenticated = true;
+  }
+  sodium_memzero(&h2n, sizeof h2n);
+  c.auth = Conn::Auth::done;
+  vc_msg hello{};
+  size_t used = 0;
+  if (vc_msg_decode(c.hello_raw.data(), c.hello_raw.size(), 0, &hello, &used, nullptr) != 1)
+    return refuse_auth(c, "the kept HELLO no longer decodes");
+  log(log::Level::info,
+      fmt::format("connection {} ({}): node {} proved the rig key", c.id, c.peer, c.node_id));
+  return accept_hello(c, hello);
 }
 
 void Server::handle_readable(Conn& c, uint64_t now_ns) {
@@ -222,12 +358,35 @@ void Server::handle_readable(Conn& c, uint64_t now_ns) {
             c.closing = why;
             return;
           }
+          if (rc == VC_PROTO_EMAC || rc == VC_PROTO_EREPLAY || rc == VC_PROTO_EORDER) {
+            std::lock_guard<std::mutex> g(mu_);
+            uint64_t& count = rc == VC_PROTO_EMAC      ? c.st.forged
+                              : rc == VC_PROTO_EREPLAY ? c.st.replayed
+                                                       : c.st.reordered;
+            count++;
+            stats_.mac_rejected++;
+            uint64_t total = c.st.forged + c.st.replayed + c.st.reordered;
+            log(log::Level::warn, fmt::format("connection {} (node {}): dropped a message: {} ({} {} so far)",
+                                              c.id, c.node_id, why, count,
+                                              rc == VC_PROTO_EMAC      ? "forged"
+                                              : rc == VC_PROTO_EREPLAY ? "replayed"
+                                                                       : "reordered"));
+            if (total >= VC_AUTH_MAX_REJECTS) {
+              c.closing = fmt::format("{} messages failed their MAC", total);
+              return;
+            }
+            continue;
+          }
           log(log::Level::warn, fmt::format("connection {}: rejected a message: {}", c.id, why));
-          send_error_now(c.fd, VC_ERR_PROTOCOL, VC_SEVERITY_ERROR, why);
+          error_to(c, VC_ERR_PROTOCOL, VC_SEVERITY_ERROR, why);
           continue;
         }
         c.st.messages_in++;
         if (!c.hello) {
+          if (c.auth != Conn::Auth::none) {
+            if (!handle_auth(c, m)) return;
+            continue;
+          }
           if (m.hdr.type != VC_MSG_HELLO) {
             std::string why =
                 fmt::format("first message was {} instead of HELLO",
@@ -238,19 +397,25 @@ void Server::handle_readable(Conn& c, uint64_t now_ns) {
             c.closing = why;
             return;
           }
-          std::string why = handler_.on_hello(c.id, m, c.peer);
-          if (!why.empty()) {
-            send_error_now(c.fd, VC_ERR_STATE, VC_SEVERITY_FATAL, why);
-            std::lock_guard<std::mutex> g(mu_);
-            stats_.hello_rejected++;
-            c.closing = "HELLO rejected: " + why;
-            return;
+          const bool offers_key = (m.u.hello.capabilities & VC_CAP_AUTH) != 0;
+          if (opt_.key.empty() != !offers_key) {
+            if (!refuse_auth(c,
+                             opt_.key.empty()
+                                 ? fmt::format("node {} holds a key but this rig has none: name the same key "
+                                               "file in rig.toml (key = ...)",
+                                               m.u.hello.node_id)
+                                 : fmt::format("this rig is keyed and node {} offers no key (a keyless or "
+                                               "pre-2.3 voxcap-edge): give it the rig's key file",
+                                               m.u.hello.node_id)))
+              return;
           }
-          c.hello = true;
-          vc_decoder_set_max_payload(c.dec, 0);  // a node now: the protocol's maximum
-          c.node_id = m.u.hello.node_id;
-          c.st.hello = true;
-          c.st.node_id = c.node_id;
+          if (offers_key) {  // the HELLO waits for the proof; the handler sees it only then
+            c.hello_raw.assign(m.payload - VC_PROTO_HEADER_SIZE, m.payload + m.hdr.payload_len);
+            c.node_id = m.u.hello.node_id;
+            c.auth = Conn::Auth::wait_challenge;
+            continue;
+          }
+          if (!accept_hello(c, m)) return;
           continue;
         }
         handler_.on_message(c.id, m, now_ns);
@@ -394,10 +559,7 @@ void Server::run() {
         vc_heartbeat h{now, VC_STATE_HOST};
         if (vc_encode_heartbeat(buf, sizeof(buf), &len, &hdr, &h) == 0) {
           std::lock_guard<std::mutex> g(mu_);
-          if (c->out_bytes + len <= opt_.max_out_bytes) {
-            c->out.emplace_back(buf, buf + len);
-            c->out_bytes += len;
-          }
+          if (c->out_bytes + len + VC_AUTH_TRAILER_SIZE <= opt_.max_out_bytes) queue_locked(*c, buf, len);
         }
       }
       flush(*c);

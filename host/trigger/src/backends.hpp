@@ -2,6 +2,8 @@
 // everyone else holds a vc::trigger::Generator. Each device API appears only in its backend's file.
 #pragma once
 
+#include "voxcap/auth.h"
+
 #include <netinet/in.h>
 
 #include <cstdint>
@@ -34,6 +36,8 @@ class UdpGenerator final : public ScheduledGenerator {
   std::vector<config::Endpoint> targets_;
   std::vector<sockaddr_in> addrs_;
   std::vector<bool> warned_;
+  bool keyed_ = false;  // the rig key is set: version-2 datagrams with MAC and counter
+  vc_mac mac_{};
   int fd_ = -1;
 };
 

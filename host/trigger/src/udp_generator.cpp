@@ -9,19 +9,34 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <array>
 #include <cerrno>
+#include <chrono>
 #include <cstring>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include "voxcap/auth.h"
 #include "voxcap/base/clock.hpp"
 #include "voxcap/proto.hpp"
 
 namespace vc::trigger::detail {
 
 UdpGenerator::UdpGenerator(const config::TriggerOptions& options)
-    : ScheduledGenerator(options), targets_(options.udp.targets) {}
+    : ScheduledGenerator(options), targets_(options.udp.targets) {
+  if (!options.udp.key.empty()) {
+    if (options.udp.key.size() != VC_AUTH_KEY_SIZE || vc_auth_init() < 0)
+      throw TriggerError("udp: the rig key must be 32 bytes and libsodium must start");
+    vc_auth_trigger_key(options.udp.key.data(), &mac_);
+    // The counter starts at the wall clock in ns: a restarted host is still ahead of what every edge
+    // took from its previous run, so its first datagrams are not taken for replays.
+    mac_.counter = static_cast<uint64_t>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                             std::chrono::system_clock::now().time_since_epoch())
+                                             .count());
+    keyed_ = true;
+  }
+}
 
 UdpGenerator::~UdpGenerator() {
   stop();
@@ -59,12 +74,19 @@ void UdpGenerator::prepare(const PulseTrain& /*train*/) {
 
 void UdpGenerator::leading_edge(Pulse& pulse) {
   pulse.t_ns = static_cast<int64_t>(vc::monotonic_ns());
-  const proto::TriggerDatagram dgram = proto::encode_trigger(pulse.seq, static_cast<uint64_t>(pulse.t_ns));
+  std::array<uint8_t, VC_TRIGGER_DGRAM_MAC_SIZE> dgram{};
+  size_t dgram_size = VC_TRIGGER_DGRAM_SIZE;
+  if (keyed_) {  // version 2: MAC and counter (proto/SPEC.md "Trigger datagram")
+    vc_trigger_dgram_encode_mac(dgram.data(), pulse.seq, static_cast<uint64_t>(pulse.t_ns), &mac_);
+    dgram_size = VC_TRIGGER_DGRAM_MAC_SIZE;
+  } else {
+    vc_trigger_dgram_encode(dgram.data(), pulse.seq, static_cast<uint64_t>(pulse.t_ns));
+  }
   uint64_t failed = 0;
   for (size_t i = 0; i < addrs_.size(); ++i) {
-    const ssize_t n = sendto(fd_, dgram.data(), dgram.size(), 0,
-                             reinterpret_cast<const sockaddr*>(&addrs_[i]), sizeof addrs_[i]);
-    if (n == static_cast<ssize_t>(dgram.size())) continue;
+    const ssize_t n = sendto(fd_, dgram.data(), dgram_size, 0, reinterpret_cast<const sockaddr*>(&addrs_[i]),
+                             sizeof addrs_[i]);
+    if (n == static_cast<ssize_t>(dgram_size)) continue;
     const int err = n < 0 ? errno : EMSGSIZE;
     if (err == EBADF || err == ENOTSOCK)
       throw TriggerError(fmt::format("udp: socket lost: {}", std::strerror(err)));

@@ -29,7 +29,7 @@ extern "C" {
 
 #define VC_PROTO_MAGIC 0x50435856u /* "VXCP" in memory */
 #define VC_PROTO_VERSION_MAJOR 2
-#define VC_PROTO_VERSION_MINOR 2
+#define VC_PROTO_VERSION_MINOR 3
 #define VC_PROTO_HEADER_SIZE 40
 
 #define VC_PROTO_MAX_PAYLOAD (8u * 1024u * 1024u) /* bytes after the header, any type */
@@ -61,6 +61,9 @@ enum vc_proto_err {
   VC_PROTO_ERLE = -1010,          /* malformed RLE in a HULL or SILHOUETTE */
   VC_PROTO_ELIMIT = -1011,        /* a count over one of the VC_PROTO_MAX_* limits */
   VC_PROTO_EFIELD = -1012,        /* a field value outside its documented range */
+  VC_PROTO_EMAC = -1013,          /* 2.3: no MAC, or a MAC that does not verify (forged) */
+  VC_PROTO_EREPLAY = -1014,       /* 2.3: a valid MAC on a counter already used (replayed) */
+  VC_PROTO_EORDER = -1015,        /* 2.3: a valid MAC on a counter ahead of the next (reordered) */
 };
 
 /* Short description of any code returned here ("bad magic", "no space", ...). Static string. */
@@ -80,17 +83,18 @@ typedef struct vc_proto_diag {
 /* ---- Message types and enumerations (SPEC.md "Messages") ----------------------------------------- */
 
 enum vc_msg_type {
-  VC_MSG_HELLO = 1,      /* node -> host, first message of a session */
-  VC_MSG_CONFIG = 2,     /* host -> node */
-  VC_MSG_BACKGROUND = 3, /* host -> node: learn the background */
-  VC_MSG_START = 4,      /* host -> node: stream frames */
-  VC_MSG_STOP = 5,       /* host -> node: stop streaming */
-  VC_MSG_HULL = 6,       /* node -> host, per frame */
-  VC_MSG_FEATURES = 7,   /* node -> host, per frame and camera (front nodes) */
-  VC_MSG_STATS = 8,      /* node -> host, periodic */
-  VC_MSG_HEARTBEAT = 9,  /* both ways, periodic */
-  VC_MSG_ERROR = 10,     /* both ways */
-  VC_MSG_SILHOUETTE = 11 /* node -> host, per camera every silhouette_every-th frame (2.1) */
+  VC_MSG_HELLO = 1,       /* node -> host, first message of a session */
+  VC_MSG_CONFIG = 2,      /* host -> node */
+  VC_MSG_BACKGROUND = 3,  /* host -> node: learn the background */
+  VC_MSG_START = 4,       /* host -> node: stream frames */
+  VC_MSG_STOP = 5,        /* host -> node: stop streaming */
+  VC_MSG_HULL = 6,        /* node -> host, per frame */
+  VC_MSG_FEATURES = 7,    /* node -> host, per frame and camera (front nodes) */
+  VC_MSG_STATS = 8,       /* node -> host, periodic */
+  VC_MSG_HEARTBEAT = 9,   /* both ways, periodic */
+  VC_MSG_ERROR = 10,      /* both ways */
+  VC_MSG_SILHOUETTE = 11, /* node -> host, per camera every silhouette_every-th frame (2.1) */
+  VC_MSG_AUTH = 12        /* both ways, the key's challenge-response on connect (2.3, auth.h) */
 };
 /* "HELLO", ... for known types, NULL otherwise. */
 const char* vc_msg_type_name(uint16_t type);
@@ -100,6 +104,10 @@ const char* vc_msg_type_name(uint16_t type);
 #define VC_CAP_FEATURES (1u << 1)     /* can track features (role FRONT) */
 #define VC_CAP_GPIO_TRIGGER (1u << 2) /* trigger input on a GPIO line */
 #define VC_CAP_UDP_TRIGGER (1u << 3)  /* emulated trigger input (trigger datagram) */
+#define VC_CAP_AUTH (1u << 4)         /* holds the rig key: AUTH follows HELLO (2.3) */
+
+/* Header flags (2.3). */
+#define VC_FLAG_MAC 0x0001u /* the payload ends with the MAC trailer (auth.h, SPEC.md "Authentication") */
 
 /* V4L2-style FourCC of a pixel format, e.g. VC_FOURCC('R','G','B','3'). */
 #define VC_FOURCC(a, b, c, d) \
@@ -175,6 +183,7 @@ enum vc_error_code {
   VC_ERR_TRIGGER = 6,
   VC_ERR_OVERLOAD = 7, /* cannot keep up; data dropped */
   VC_ERR_INTERNAL = 8,
+  VC_ERR_AUTH = 9, /* the peer did not prove the rig key, or a message failed its MAC (2.3) */
 };
 enum vc_error_severity {
   VC_SEVERITY_WARNING = 0, /* informational; nothing was rejected */
@@ -191,7 +200,7 @@ typedef struct vc_header {
   uint8_t version_major;
   uint8_t version_minor;
   uint16_t type;
-  uint16_t flags; /* none defined: sent as 0, ignored on receipt */
+  uint16_t flags; /* VC_FLAG_MAC (2.3); other bits sent as 0, ignored on receipt */
   uint16_t node_id;
   uint32_t payload_len;
   uint64_t seq;          /* trigger pulse counter of the frame (0 if the message is not about one) */
@@ -303,6 +312,18 @@ typedef struct vc_error {
   const char* text; /* text_len bytes of UTF-8, no NUL; not NUL-terminated */
 } vc_error;
 
+enum vc_auth_step {                        /* AUTH (2.3) */
+                    VC_AUTH_CHALLENGE = 1, /* node -> host: the node's nonce */
+                    VC_AUTH_RESPONSE = 2,  /* host -> node: the host's nonce and proof */
+                    VC_AUTH_PROOF = 3      /* node -> host: the node's proof */
+};
+
+typedef struct vc_auth_msg {
+  uint16_t step;     /* vc_auth_step */
+  uint8_t nonce[32]; /* CHALLENGE: the node's, RESPONSE: the host's; zero in PROOF */
+  uint8_t proof[32]; /* RESPONSE, PROOF: vc_auth_prove (auth.h); zero in CHALLENGE */
+} vc_auth_msg;
+
 typedef struct vc_msg {
   vc_header hdr;
   const uint8_t* payload; /* view of hdr.payload_len bytes (decoded messages only) */
@@ -318,6 +339,7 @@ typedef struct vc_msg {
     vc_heartbeat heartbeat;
     vc_error error;
     vc_silhouette silhouette;
+    vc_auth_msg auth;
   } u;
 } vc_msg;
 
@@ -353,6 +375,8 @@ int vc_encode_silhouette(uint8_t* buf, size_t cap, size_t* len, const vc_header*
  * VC_PROTO_EFIELD / VC_PROTO_ELIMIT for a camera, scale or size out of range or too many runs. */
 int vc_encode_silhouette_bits(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, uint16_t camera,
                               uint16_t scale, uint16_t width, uint16_t height, const uint8_t* bits);
+
+int vc_encode_auth(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_auth_msg* m);
 
 /* Dispatches on msg->hdr.type to the encoder above (msg->known types only; -EINVAL otherwise). */
 int vc_msg_encode(uint8_t* buf, size_t cap, size_t* len, const vc_msg* msg);
@@ -392,6 +416,13 @@ int vc_msg_decode(const uint8_t* buf, size_t len, size_t max_payload, vc_msg* ou
  * Not thread-safe per decoder; separate decoders are independent. */
 typedef struct vc_decoder vc_decoder;
 
+/* Low level: as vc_msg_decode, and when rx is not NULL the message must carry a valid MAC trailer
+ * for rx (vc_mac_open, auth.h): VC_PROTO_EMAC, EREPLAY or EORDER otherwise (non-fatal, the message is
+ * consumed). The trailer is not part of the decoded message: out->hdr.payload_len excludes it. */
+struct vc_mac;
+int vc_msg_decode_mac(const uint8_t* buf, size_t len, size_t max_payload, struct vc_mac* rx, vc_msg* out,
+                      size_t* consumed, vc_proto_diag* diag);
+
 /* A decoder accepting payloads up to max_payload bytes (0: VC_PROTO_MAX_PAYLOAD) into *out. Returns 0,
  * -EINVAL (max_payload > VC_PROTO_MAX_PAYLOAD, or no out) or -ENOMEM, with *out NULL and a one-line
  * reason in why when given (NULL/0 when not wanted; "" on success): the edge's constructor shape
@@ -404,6 +435,11 @@ void vc_decoder_free(vc_decoder* dec); /* NULL is a no-op */
  * first message must be a HELLO) and raises it once the HELLO was accepted, so a stranger cannot make
  * it buffer megabytes (SPEC.md "Limits"). The buffer already grown is kept. */
 int vc_decoder_set_max_payload(vc_decoder* dec, size_t max_payload);
+
+/* From the next message on, every message must carry a valid MAC for rx (copied; its counter is the
+ * next expected), checked before its payload is parsed: see vc_msg_decode_mac. NULL turns the check
+ * off. 0 or -EINVAL. */
+int vc_decoder_set_mac(vc_decoder* dec, const struct vc_mac* rx);
 
 /* Copies up to len bytes into the decoder; *consumed = how many. It takes fewer (possibly 0) only when
  * its buffer holds a whole message or an error that vc_decoder_next has not yet returned, so

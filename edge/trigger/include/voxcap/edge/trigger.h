@@ -57,6 +57,10 @@ typedef struct vc_trigger_config {
    * sender are dropped (counted in foreign). NULL: any sender. */
   const char* source_address;
   uint16_t port; /* 0 = any free port (see vc_trigger_info.port) */
+  /* udp: the rig key (VC_AUTH_KEY_SIZE bytes, copied at open) or NULL. With a key only version-2
+   * datagrams whose MAC verifies, with a counter past the last one taken, are pulses (proto/SPEC.md
+   * "Trigger datagram"); anything else is counted in forged. */
+  const uint8_t* key;
 } vc_trigger_config;
 
 /* All zero except event_clock = MONOTONIC (which is zero). */
@@ -80,6 +84,7 @@ typedef struct vc_trigger_stats {
   uint64_t invalid;   /* udp: datagrams that failed to decode (dropped); gpiod: unexpected events */
   uint64_t jumps;     /* udp: datagrams whose seq jumped implausibly far ahead (dropped; VC_SEQ_MAX_JUMP) */
   uint64_t foreign;   /* udp: datagrams from another sender than source_address (dropped) */
+  uint64_t forged;    /* udp with a key: datagrams without a valid MAC, or replayed (dropped) */
   uint64_t last_jump_seq; /* udp: the seq of the last datagram dropped as a jump */
 } vc_trigger_stats;
 

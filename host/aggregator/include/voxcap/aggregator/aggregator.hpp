@@ -169,6 +169,7 @@ class Aggregator : public session::Handler {
   Figures* figures_ = nullptr;  // owned by pipeline_
   std::unique_ptr<AssemblyStage> assembly_;
   std::unique_ptr<session::Server> server_;
+  session::ServerOptions server_options_;  // as the server was made (its key included)
   std::unique_ptr<trigger::Generator> trigger_;
   mutable std::mutex mu_;
   std::vector<std::unique_ptr<Node>> nodes_;

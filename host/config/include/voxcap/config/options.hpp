@@ -50,6 +50,9 @@ struct UdpTriggerOptions {
   // One datagram per pulse to each target: one per edge in node order; extra targets are extra
   // listeners (e.g. `voxcap trigger listen`). Loopback only: t_ns is this host's CLOCK_MONOTONIC.
   std::vector<Endpoint> targets;
+  // The rig key (VC_AUTH_KEY_SIZE bytes), filled by the host from RigConfig::key_path, not from the
+  // file: with it every datagram carries a MAC and a counter (version 2, proto/SPEC.md).
+  std::vector<uint8_t> key;
 
   bool valid(std::string* why) const;
 };

@@ -83,7 +83,10 @@ struct RigConfig {
   std::filesystem::path source;            // the rig.toml as given
   std::string name;                        // [rig] name; default: the file's stem
   std::filesystem::path calibration_path;  // absolute, resolved against the rig.toml's folder
-  rig::Calibration calibration;            // loaded from calibration_path
+  // The rig key file (`key`, made by `voxcap key new`), absolute; empty: a keyless rig, which is valid
+  // only when every address is loopback (network.listen, nodes[].address).
+  std::filesystem::path key_path;
+  rig::Calibration calibration;  // loaded from calibration_path
   rig::VoxelGrid grid;
   GridSource grid_source = GridSource::Config;
   std::vector<NodeConfig> nodes;
@@ -104,6 +107,8 @@ struct RigConfig {
   // against the calibration, tracking nodes for features, trigger targets against nodes.
   bool valid(std::string* why) const;
   const NodeConfig* node(std::string_view id) const;  // nullptr if absent
+  // Whether every address of the rig is loopback (network.listen; nodes[].address "any" or loopback).
+  bool loopback_only() const;
   std::vector<const NodeConfig*> front_nodes() const;
   // Whether `node` tracks head, hands and feet: features enabled, and its `track` key, else
   // [tracking] nodes ("all", or "front": its role). What the host puts in CONFIG's feature_role.

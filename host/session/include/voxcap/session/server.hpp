@@ -27,6 +27,7 @@
 #include <thread>
 #include <vector>
 
+#include "voxcap/auth.h"
 #include "voxcap/base/log.hpp"
 #include "voxcap/proto.h"
 
@@ -57,6 +58,7 @@ struct ServerOptions {
   size_t max_prehello_payload = VC_PROTO_MAX_HELLO_PAYLOAD;  // bytes of the first message's payload
   size_t max_out_bytes = 16u << 20;                          // per-connection outgoing queue
   int poll_interval_ms = 5;
+  std::vector<uint8_t> key;  // the rig key (VC_AUTH_KEY_SIZE bytes) or empty: keyless (loopback rigs only)
 
   bool valid(std::string* why) const;
 };
@@ -67,12 +69,16 @@ struct ConnectionStats {
   std::string peer;
   bool hello = false;
   uint64_t bytes_in = 0, bytes_out = 0, messages_in = 0, rejected = 0;
+  bool authenticated = false;                        // proved the rig key (2.3)
+  uint64_t forged = 0, replayed = 0, reordered = 0;  // messages dropped by their MAC (2.3)
 };
 
 struct ServerStats {
   uint64_t accepted = 0, closed = 0, hello_rejected = 0, decode_drops = 0, timeouts = 0, overflow_drops = 0;
   uint64_t prehello_evicted = 0;   // connections without HELLO closed to make room (max_prehello_connections)
   uint64_t prehello_timeouts = 0;  // connections without HELLO in hello_timeout_ms
+  uint64_t auth_refused = 0;       // keyless HELLOs on a keyed rig, failed or missing proofs
+  uint64_t mac_rejected = 0;       // messages dropped by their MAC (all connections)
 };
 
 class Server {
@@ -96,6 +102,10 @@ class Server {
   // Closes a connection after flushing what is queued (thread-safe).
   void close(ConnId conn, const std::string& reason);
 
+  // Whether conn proved the rig key, and how long ago it last sent anything (ns); false / 0 if gone.
+  bool authenticated(ConnId conn) const;
+  uint64_t silent_ns(ConnId conn, uint64_t now_ns) const;
+
   std::vector<ConnectionStats> connections() const;
   ServerStats stats() const;
 
@@ -105,6 +115,11 @@ class Server {
   void drop(Conn& c, const std::string& reason, bool notify);
   void handle_readable(Conn& c, uint64_t now_ns);
   void flush(Conn& c);
+  void queue_locked(Conn& c, const uint8_t* data, size_t len);  // seals when authenticated; mu_ held
+  bool handle_auth(Conn& c, const vc_msg& m);                   // false: the connection is closing
+  bool accept_hello(Conn& c, const vc_msg& hello);              // false: refused, closing
+  bool refuse_auth(Conn& c, const std::string& why);            // always false
+  void error_to(Conn& c, uint16_t code, uint16_t severity, const std::string& text);
   void log(log::Level level, const std::string& line) const { log_(level, line); }
 
   ServerOptions opt_;
