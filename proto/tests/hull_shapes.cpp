@@ -95,11 +95,17 @@ Bitset human_hull(int n, uint64_t seed) {
   caps.push_back({neck + Vec3{0, 0, 0.18}, neck + Vec3{0, 0, 0.22}, 0.11});  // head
   for (int side : {-1, 1}) {
     Vec3 shoulder = neck + Vec3{0.2 * side, 0, -0.05};
-    add_limb(caps, shoulder, 0.3, 0.28, 0.05, side * (0.3 + 1.2 * (u(rng) + 1) / 2), 0.4 * u(rng),
-             side * 0.6 * (u(rng) + 1) / 2);
+    // One draw per statement, last argument first: the order gcc gave the old call's arguments (it is
+    // unspecified there, and clang drew them the other way), so release figures stay as recorded.
+    const double arm_c = side * 0.6 * (u(rng) + 1) / 2;
+    const double arm_b = 0.4 * u(rng);
+    const double arm_a = side * (0.3 + 1.2 * (u(rng) + 1) / 2);
+    add_limb(caps, shoulder, 0.3, 0.28, 0.05, arm_a, arm_b, arm_c);
     Vec3 hip_joint = hip + Vec3{0.1 * side, 0, -0.05};
-    add_limb(caps, hip_joint, 0.43, 0.42, 0.075, side * 0.25 * (u(rng) + 1) / 2, 0.3 * u(rng),
-             -side * 0.4 * (u(rng) + 1) / 2);
+    const double leg_c = -side * 0.4 * (u(rng) + 1) / 2;
+    const double leg_b = 0.3 * u(rng);
+    const double leg_a = side * 0.25 * (u(rng) + 1) / 2;
+    add_limb(caps, hip_joint, 0.43, 0.42, 0.075, leg_a, leg_b, leg_c);
   }
   Bitset b(static_cast<size_t>(n) * n * n);
   for (const Capsule& c : caps) {

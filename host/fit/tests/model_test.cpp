@@ -63,10 +63,11 @@ TEST(FitModel, TheHingeKeepsBothSegmentLengthsAndTheBendDirection) {
   std::mt19937_64 rng(5);
   std::uniform_real_distribution<double> u(-1, 1);
   for (int i = 0; i < 200; ++i) {
-    const Vec3 root(u(rng), u(rng), 1 + u(rng));
-    const Vec3 dir = glm::normalize(Vec3(u(rng), u(rng), u(rng)));
+    // Braced lists: drawn in order (a call's arguments are not, and gcc and clang differed).
+    const Vec3 root{u(rng), u(rng), 1 + u(rng)};
+    const Vec3 dir = glm::normalize(Vec3{u(rng), u(rng), u(rng)});
     const double d = 0.1 + 0.45 * (u(rng) + 1) / 2;  // within reach of 0.30 + 0.26
-    const Vec3 bend(u(rng), u(rng), u(rng));
+    const Vec3 bend{u(rng), u(rng), u(rng)};
     const LimbPose p = solve_limb(root, root + d * dir, 0.30, 0.26, bend);
     EXPECT_NEAR(glm::length(p.hinge - root), 0.30, 1e-9);
     EXPECT_NEAR(glm::length(p.end - p.hinge), 0.26, 1e-9);
