@@ -18,12 +18,10 @@
 // the pair are unlabelled candidates. Point A is the hypothesis (a pair of cameras, one candidate of
 // each) that the most cameras agree with; its candidates are taken out and point B is found the same
 // way among the rest. A and B are then named in 3D:
-//   - while the pair is followed, by continuity of each side's own 3D track (constant-velocity
-//     prediction, a gate on how far it can have moved): the cheaper assignment of A, B to the
-//     predictions, distances capped at the gate (a ghost then leaves the naming to the other point).
-//     The cameras' labels never overrule a clear continuity (kept swaps go stale as the performer
-//     turns); on an ambiguous frame recent swaps decide, else the guess is untrusted and the tracks
-//     coast; an untrusted naming is trusted again when recent swaps agree with continuity;
+//   - while the pair is followed, by continuity: the assignment of A, B to the last left and right
+//     positions (extrapolated at constant velocity over one frame) with the smaller summed distance;
+//     when both assignments cost about the same while A and B are far apart (or the naming is not
+//     trusted), the cameras' kept swaps vote (confirm or correct), and without a vote it is untrusted;
 //   - when the pair is named afresh (the first frame, or both sides unseen for identity_gap_frames),
 //     by the cameras' kept swaps when at least two cameras whose swap is decided agree, else by the
 //     initialization rule: the performer faces the front cameras, left = up x facing, so the point
@@ -52,19 +50,6 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kUncertainCap = 0.45;  // confidence of a point whose left/right naming is not trusted
-constexpr double kGhostGate_m = 0.35;   // a followed pair's point this far from both predictions: a ghost
-constexpr uint64_t kSwapFreshFrames =
-    10;                             // a camera's kept swap votes for this many frames after it was decided
-constexpr int kMaxCoastFrames = 3;  // ambiguous frames in a row the tracks coast over
-// A followed feature is expected within kGateBase_m + kGatePerFrame_m x (frames since seen) of its
-// prediction (a hand moves at most ~5 m/s: 8 cm a frame at 60 Hz, 25 cm at 20 Hz); beyond it, kGatePenalty_m
-// is added.
-constexpr double kGateBase_m = 0.15;
-constexpr double kGatePerFrame_m = 0.08;
-constexpr double kGatePenalty_m = 1.0;
-constexpr double kMaxSpeedPerFrame_m = 0.4;  // a track's velocity is capped at this (a foot at 20 Hz: ~0.3 m)
-constexpr uint64_t kVelocityGapFrames =
-    5;  // a velocity is measured, and extrapolated, over at most this many frames
 
 struct Prepared {
   const rig::Camera* cam = nullptr;
@@ -273,7 +258,6 @@ FeatureTriangulator::FeatureTriangulator(std::vector<rig::Camera> cameras, std::
     if (c < 0 || static_cast<size_t>(c) >= cameras_.size())
       throw std::invalid_argument("triangulation: front camera " + std::to_string(c) + " is not in the rig");
   swap_.assign(cameras_.size(), {-1, -1});
-  swap_frame_.assign(cameras_.size(), {0, 0});
 }
 
 int FeatureTriangulator::swapped(int camera, Pair pair) const {
@@ -434,10 +418,8 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
   const bool follow = st.named && !(stale(st.side[0]) && stale(st.side[1]));
   auto predicted = [&](const Track& t) -> std::optional<cv::Vec3d> {
     if (!t.last || stale(t)) return std::nullopt;
-    // Constant velocity over the frames since it was seen (a coasted or briefly lost feature).
-    // Held where it was after kVelocityGapFrames (a lost feature's speed does not last).
-    return *t.last +
-           static_cast<double>(std::min<uint64_t>(now - t.last_frame, kVelocityGapFrames)) * t.velocity;
+    if (t.before && now - t.last_frame == 1) return *t.last + (*t.last - *t.before);
+    return t.last;
   };
   // The cameras' kept swaps on found[0]: +1 it is the left, -1 the right (two or more decided cameras
   // agree and none disagrees), 0 no clear vote.
@@ -446,91 +428,42 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
     for (int i : found[0].cand) {
       const Cand& c = cands[static_cast<size_t>(i)];
       const int s = swap_[static_cast<size_t>(c.view.camera)][static_cast<size_t>(pair)];
-      const uint64_t at = swap_frame_[static_cast<size_t>(c.view.camera)][static_cast<size_t>(pair)];
-      // A swap decided long ago may be stale: a camera's image-side labels flip as the performer turns.
-      if (s >= 0 && now - at <= kSwapFreshFrames) votes[c.label ^ s]++;
+      if (s >= 0) votes[c.label ^ s]++;
     }
     if (votes[0] >= 2 && votes[1] == 0) return 1;
     if (votes[1] >= 2 && votes[0] == 0) return -1;
     return 0;
   };
   bool a_left = true;
-  bool coast = false;
   if (!found.empty() && follow) {
     const std::optional<cv::Vec3d> pl = predicted(st.side[0]), pr = predicted(st.side[1]);
-    // The cost of naming point `a` as side `t`: its distance from the side's prediction, plus a
-    // penalty beyond the distance the feature can have moved since it was last seen (a body part does
-    // not jump 40 cm in a frame: that is the other one, or a ghost).
-    auto gate = [&](const Track& t) {
-      return kGateBase_m + kGatePerFrame_m * static_cast<double>(now - t.last_frame);
+    auto dist = [](const cv::Vec3d& a, const std::optional<cv::Vec3d>& b) {
+      return b ? cv::norm(a - *b) : 0.5;  // an unknown side costs a fixed 0.5 m
     };
-    auto dist = [&](const cv::Vec3d& a, const std::optional<cv::Vec3d>& b, const Track& t) {
-      if (!b) return 0.5;  // an unknown side costs a fixed 0.5 m
-      const double d = cv::norm(a - *b);
-      return d > gate(t) ? d + kGatePenalty_m : d;
-    };
-    // For a pair of points, a distance beyond the gate counts as the gate: a point that fits neither
-    // side (a ghost) then leaves the naming to the other point.
-    auto capped = [&](const cv::Vec3d& a, const std::optional<cv::Vec3d>& b, const Track& t) {
-      if (!b) return 0.5;
-      return std::min(cv::norm(a - *b), gate(t));
-    };
-    // A ghost (candidates of the two points mixed, which a few cameras can agree with): with both sides
-    // followed, a second point far from both predictions while the first is near one is dropped, not
-    // named (it would make the naming look ambiguous, or take a side's name).
-    if (found.size() == 2 && pl && pr) {
-      auto near = [&](const cv::Vec3d& p) { return std::min(cv::norm(p - *pl), cv::norm(p - *pr)); };
-      const double g0 = near(found[0].r.p_world), g1 = near(found[1].r.p_world);
-      if (g1 > kGhostGate_m && g0 < kGhostGate_m) {
-        found.pop_back();
-      } else if (g0 > kGhostGate_m && g1 < kGhostGate_m) {
-        found.erase(found.begin());
-      }
-    }
     bool clear = true;
-    if (found.size() == 2 && (pl.has_value() != pr.has_value())) {
-      // One side followed: the point nearer its prediction takes it when clearly nearer and within
-      // the gate.
-      const cv::Vec3d& P = pl ? *pl : *pr;
-      const double g = gate(pl ? st.side[0] : st.side[1]);
-      const double dA = cv::norm(found[0].r.p_world - P), dB = cv::norm(found[1].r.p_world - P);
-      const double apart = cv::norm(found[0].r.p_world - found[1].r.p_world);
-      a_left = pl ? dA <= dB : dA > dB;
-      clear = std::min(dA, dB) <= g && (std::abs(dA - dB) >= 0.5 * std::min(apart, g) || apart <= 0.1);
-    } else if (found.size() == 2) {
+    if (found.size() == 2) {
       const cv::Vec3d& A = found[0].r.p_world;
       const cv::Vec3d& B = found[1].r.p_world;
-      const double keep = capped(A, pl, st.side[0]) + capped(B, pr, st.side[1]),
-                   swap = capped(A, pr, st.side[1]) + capped(B, pl, st.side[0]);
+      const double keep = dist(A, pl) + dist(B, pr), swap = dist(A, pr) + dist(B, pl);
       a_left = keep <= swap;
       // Far apart but no clear winner: continuity cannot say which is which.
       const double apart = cv::norm(A - B);
-      clear =
-          std::abs(keep - swap) >= 0.5 * std::min(apart, gate(st.side[0]) + gate(st.side[1])) || apart <= 0.1;
+      clear = std::abs(keep - swap) >= 0.5 * apart || apart <= 0.1;
     } else {
-      const double dl = dist(found[0].r.p_world, pl, st.side[0]),
-                   dr = dist(found[0].r.p_world, pr, st.side[1]);
+      const double dl = dist(found[0].r.p_world, pl), dr = dist(found[0].r.p_world, pr);
       a_left = dl <= dr;
       clear = !(pl && pr) || std::abs(dl - dr) >= 0.05;
-      if (pl && pr && dl > kGatePenalty_m && dr > kGatePenalty_m) {
-        // Beyond both gates: most likely the side unseen the longer (coming back), but not known.
-        a_left = st.side[0].last_frame < st.side[1].last_frame;
-        clear = false;
-      }
     }
-    // Continuity names the points: the cameras' labels never overrule a clear continuity (their kept
-    // swaps go stale as the performer turns, and image-side labels flip when limbs cross in a view).
-    // An ambiguous frame: recent swaps decide (trusted), else continuity's guess (untrusted), and the
-    // tracks coast over it (a wrong point must not steer the next predictions). A clear frame after
-    // an untrusted one is trusted again when recent swaps agree with it.
-    coast = !clear && st.coasted < kMaxCoastFrames;
-    if (!clear) {
+    if (!clear || !certain) {
+      // Re-check against the cameras' kept swaps: they confirm or correct; without them the naming
+      // stays untrusted (continuity alone cannot repair a wrong naming).
       const int v = vote();
-      if (v != 0) a_left = v > 0;
-      certain = v != 0;
-    } else if (!certain) {
-      const int v = vote();
-      certain = v != 0 && (v > 0) == a_left;
+      if (v != 0) {
+        a_left = v > 0;
+        certain = true;
+      } else {
+        certain = false;
+      }
     }
   } else if (!found.empty()) {
     // Named afresh: the cameras' kept swaps vote, else the initialization rule.
@@ -565,7 +498,6 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
     if (found.size() == 2) side[a_left ? 1 : 0] = 1;
   }
   st.certain = certain;
-  st.coasted = coast ? st.coasted + 1 : 0;
 
   // Results.
   for (int s = 0; s < 2; ++s) {
@@ -597,24 +529,9 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
         confidence(wsum / static_cast<double>(fd.r.inliers.size()), static_cast<int>(fd.r.inliers.size()),
                    reporting, fd.r.rms_px, widest_angle(prepared, fd.r.inliers, fd.r.p_world), opt_);
     if (!certain) conf = std::min(conf, kUncertainCap);
-    // A followed point far beyond where its own track can have gone (a jump: a ghost or a mix of the
-    // two features' views) is not trusted either, whatever its views say.
-    if (follow) {
-      const Track& tr = st.side[s];
-      if (const std::optional<cv::Vec3d> pp = predicted(tr);
-          pp && cv::norm(fd.r.p_world - *pp) >
-                    kGateBase_m + kGatePerFrame_m * static_cast<double>(now - tr.last_frame))
-        conf = std::min(conf, kUncertainCap);
-    }
     f.confidence = static_cast<float>(conf);
-    if (coast) continue;
     Track& t = st.side[s];
-    const uint64_t gap = t.last ? now - t.last_frame : 0;
-    t.velocity = (gap >= 1 && gap <= kVelocityGapFrames) ? (fd.r.p_world - *t.last) / static_cast<double>(gap)
-                                                         : cv::Vec3d(0, 0, 0);
-    // Bounded (a wrong point must not throw the prediction metres away).
-    if (const double speed = cv::norm(t.velocity); speed > kMaxSpeedPerFrame_m)
-      t.velocity *= kMaxSpeedPerFrame_m / speed;
+    t.before = (t.last && now - t.last_frame == 1) ? t.last : std::nullopt;
     t.last = fd.r.p_world;
     t.last_frame = now;
   }
@@ -645,14 +562,10 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
     if (!have) continue;
     const double direct = err[0][0] + err[1][1], crossed = err[0][1] + err[1][0];
     int& s = swap_[static_cast<size_t>(c.camera)][static_cast<size_t>(pair)];
-    uint64_t& at = swap_frame_[static_cast<size_t>(c.camera)][static_cast<size_t>(pair)];
-    if (direct < opt_.swap_ratio * crossed) {
+    if (direct < opt_.swap_ratio * crossed)
       s = 0;
-      at = now;
-    } else if (crossed < opt_.swap_ratio * direct) {
+    else if (crossed < opt_.swap_ratio * direct)
       s = 1;
-      at = now;
-    }
   }
 }
 

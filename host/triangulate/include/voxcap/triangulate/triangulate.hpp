@@ -85,15 +85,13 @@ class FeatureTriangulator {
 
  private:
   struct Track {
-    std::optional<cv::Vec3d> last;  // the last position
-    cv::Vec3d velocity{0, 0, 0};    // per frame, from the last two positions (0 when unknown)
-    uint64_t last_frame = 0;        // frame index of `last`
+    std::optional<cv::Vec3d> last, before;  // the last two positions (before: the frame before last)
+    uint64_t last_frame = 0;                // frame index of `last`
   };
   struct PairState {
     Track side[2];         // 0: the performer's left, 1: right
     bool named = false;    // left/right have been named (init rule or swap votes) and are followed
     bool certain = false;  // the naming is trusted (confidence not capped)
-    int coasted = 0;       // ambiguous frames in a row over which the tracks were not updated
   };
 
   void solve_pair(const std::vector<CameraObservations>& frame, Pair pair,
@@ -106,8 +104,7 @@ class FeatureTriangulator {
   std::vector<int> front_;
   Options opt_;
   std::array<PairState, 2> pairs_{};
-  std::vector<std::array<int, 2>> swap_;             // per rig camera, per pair: -1, 0, 1
-  std::vector<std::array<uint64_t, 2>> swap_frame_;  // per rig camera, per pair: frame it was last decided
+  std::vector<std::array<int, 2>> swap_;  // per rig camera, per pair: -1, 0, 1
   uint64_t frames_ = 0;
 };
 
