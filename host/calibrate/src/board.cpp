@@ -12,34 +12,10 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "voxcap/rig/aruco_dictionary.hpp"
+
 namespace vc::calibrate {
 namespace {
-
-int dictionary_id(const std::string& name) {
-  static const std::array<std::pair<const char*, int>, 17> kNames{{
-      {"DICT_4X4_50", cv::aruco::DICT_4X4_50},
-      {"DICT_4X4_100", cv::aruco::DICT_4X4_100},
-      {"DICT_4X4_250", cv::aruco::DICT_4X4_250},
-      {"DICT_4X4_1000", cv::aruco::DICT_4X4_1000},
-      {"DICT_5X5_50", cv::aruco::DICT_5X5_50},
-      {"DICT_5X5_100", cv::aruco::DICT_5X5_100},
-      {"DICT_5X5_250", cv::aruco::DICT_5X5_250},
-      {"DICT_5X5_1000", cv::aruco::DICT_5X5_1000},
-      {"DICT_6X6_50", cv::aruco::DICT_6X6_50},
-      {"DICT_6X6_100", cv::aruco::DICT_6X6_100},
-      {"DICT_6X6_250", cv::aruco::DICT_6X6_250},
-      {"DICT_6X6_1000", cv::aruco::DICT_6X6_1000},
-      {"DICT_7X7_50", cv::aruco::DICT_7X7_50},
-      {"DICT_7X7_100", cv::aruco::DICT_7X7_100},
-      {"DICT_7X7_250", cv::aruco::DICT_7X7_250},
-      {"DICT_7X7_1000", cv::aruco::DICT_7X7_1000},
-      {"DICT_ARUCO_ORIGINAL", cv::aruco::DICT_ARUCO_ORIGINAL},
-  }};
-  for (const auto& [n, id] : kNames) {
-    if (name == n) return id;
-  }
-  throw std::invalid_argument("unknown aruco dictionary '" + name + "' (DICT_4X4_50 ... DICT_7X7_1000)");
-}
 
 std::vector<std::string> split(const std::string& s, char sep) {
   std::vector<std::string> out(1);
@@ -77,7 +53,7 @@ bool BoardSpec::valid(std::string* why) const {
   if (kind == Kind::charuco) {
     if (!(marker_m > 0 && marker_m < square_m)) return fail("marker side must be > 0 and < the square side");
     try {
-      const int id = dictionary_id(dictionary);
+      const int id = rig::aruco_dictionary_id(dictionary);
       const auto dict = cv::aruco::getPredefinedDictionary(id);
       const int markers = (squares_x * squares_y) / 2;
       if (dict->bytesList.rows < markers) {
@@ -153,7 +129,7 @@ Detection detect_board(const cv::Mat& image, const BoardSpec& board) {
   std::vector<cv::Point2f> pts;
   std::vector<int> ids;
   if (board.kind == BoardSpec::Kind::charuco) {
-    const auto dict = cv::aruco::getPredefinedDictionary(dictionary_id(board.dictionary));
+    const auto dict = cv::aruco::getPredefinedDictionary(rig::aruco_dictionary_id(board.dictionary));
     const auto cb =
         cv::aruco::CharucoBoard::create(board.squares_x, board.squares_y, static_cast<float>(board.square_m),
                                         static_cast<float>(board.marker_m), dict);

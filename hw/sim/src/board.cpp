@@ -17,6 +17,7 @@
 #include <opencv2/aruco/charuco.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "voxcap/rig/aruco_dictionary.hpp"
 #include "voxcap/sim/scene.hpp"
 
 namespace vc::sim {
@@ -44,41 +45,11 @@ bool CharucoSpec::valid(std::string* why) const {
   if (!(marker_m > 0 && marker_m < square_m)) return fail("board marker_m must be in (0, square_m)");
   if (!(margin_m >= 0 && margin_m < 1.0)) return fail("board margin_m must be in [0, 1) m");
   try {
-    (void)cv::aruco::getPredefinedDictionary(dictionary_id(dictionary));
+    (void)cv::aruco::getPredefinedDictionary(rig::aruco_dictionary_id(dictionary));
   } catch (const std::invalid_argument& e) {
     return fail(e.what());
   }
   return true;
-}
-
-int dictionary_id(const std::string& name) {
-  static const std::array<std::pair<const char*, int>, 21> kNames{{
-      {"DICT_4X4_50", cv::aruco::DICT_4X4_50},
-      {"DICT_4X4_100", cv::aruco::DICT_4X4_100},
-      {"DICT_4X4_250", cv::aruco::DICT_4X4_250},
-      {"DICT_4X4_1000", cv::aruco::DICT_4X4_1000},
-      {"DICT_5X5_50", cv::aruco::DICT_5X5_50},
-      {"DICT_5X5_100", cv::aruco::DICT_5X5_100},
-      {"DICT_5X5_250", cv::aruco::DICT_5X5_250},
-      {"DICT_5X5_1000", cv::aruco::DICT_5X5_1000},
-      {"DICT_6X6_50", cv::aruco::DICT_6X6_50},
-      {"DICT_6X6_100", cv::aruco::DICT_6X6_100},
-      {"DICT_6X6_250", cv::aruco::DICT_6X6_250},
-      {"DICT_6X6_1000", cv::aruco::DICT_6X6_1000},
-      {"DICT_7X7_50", cv::aruco::DICT_7X7_50},
-      {"DICT_7X7_100", cv::aruco::DICT_7X7_100},
-      {"DICT_7X7_250", cv::aruco::DICT_7X7_250},
-      {"DICT_7X7_1000", cv::aruco::DICT_7X7_1000},
-      {"DICT_ARUCO_ORIGINAL", cv::aruco::DICT_ARUCO_ORIGINAL},
-      {"DICT_APRILTAG_16h5", cv::aruco::DICT_APRILTAG_16h5},
-      {"DICT_APRILTAG_25h9", cv::aruco::DICT_APRILTAG_25h9},
-      {"DICT_APRILTAG_36h10", cv::aruco::DICT_APRILTAG_36h10},
-      {"DICT_APRILTAG_36h11", cv::aruco::DICT_APRILTAG_36h11},
-  }};
-  for (const auto& [n, id] : kNames) {
-    if (name == n) return id;
-  }
-  throw std::invalid_argument("unknown aruco dictionary '" + name + "' (e.g. DICT_4X4_50, DICT_5X5_100)");
 }
 
 bool BoardCaptureOptions::valid(std::string* why) const {
@@ -142,7 +113,7 @@ BoardScene::BoardScene(const BoardCaptureOptions& options) : impl_(std::make_uni
   const CharucoSpec& b = options.board;
   auto board = cv::aruco::CharucoBoard::create(
       b.squares_x, b.squares_y, static_cast<float>(b.square_m), static_cast<float>(b.marker_m),
-      cv::aruco::getPredefinedDictionary(dictionary_id(b.dictionary)));
+      cv::aruco::getPredefinedDictionary(rig::aruco_dictionary_id(b.dictionary)));
   I.px_per_m = kSquarePx / b.square_m;
   const int margin_px = static_cast<int>(std::lround(b.margin_m * I.px_per_m));
   I.opt.board.margin_m = margin_px / I.px_per_m;  // what is printed

@@ -10,6 +10,8 @@
 #include <opencv2/aruco/charuco.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "voxcap/rig/aruco_dictionary.hpp"
+
 namespace vc::sim {
 namespace {
 
@@ -28,7 +30,7 @@ struct Found {
 
 Found detect(const BoardScene& scene, const cv::Mat& rgb) {
   const CharucoSpec& b = scene.options().board;
-  auto dict = cv::aruco::getPredefinedDictionary(dictionary_id(b.dictionary));
+  auto dict = cv::aruco::getPredefinedDictionary(rig::aruco_dictionary_id(b.dictionary));
   auto board = cv::aruco::CharucoBoard::create(b.squares_x, b.squares_y, static_cast<float>(b.square_m),
                                                static_cast<float>(b.marker_m), dict);
   cv::Mat grey;

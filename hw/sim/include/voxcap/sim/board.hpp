@@ -32,9 +32,6 @@ struct CharucoSpec {
   bool valid(std::string* why) const;
 };
 
-// OpenCV's predefined aruco dictionary of that name ("DICT_4X4_50" ...); throws std::invalid_argument.
-int dictionary_id(const std::string& name);
-
 struct BoardCaptureOptions {
   RigLayout rig;                                // used when calibration is empty
   std::optional<rig::Calibration> calibration;  // the rig's cameras (their distortion is rendered)
