@@ -32,6 +32,7 @@ set(VC_LAYERS
   "edge/track: vc_edge_track"           # head, hands, feet tracking (C++17 over OpenCV)
   "edge/daemon: vc_edge_daemon"
   "host/base: vc_host_base"             # the host's logger and clock, below every host library
+  "host/hil: vc_host_hil"               # the hardware-in-loop figures from timestamp streams (no devices)
   "host/calib: vc_host_calib"           # calib import, offline carving (hw/rig, edge/core)
   "host/calibrate: vc_host_calibrate"   # rig calibration from board views (OpenCV aruco, Ceres)
   "host/config: vc_host_config"         # host/: in host/README.md's order
