@@ -417,6 +417,67 @@ bool read_grid(Reader& r, rig::VoxelGrid* g) {
   return true;
 }
 
+// [hil.loopback], [hil.edge_input]: a GPIO input line, by offset or by name (as [trigger.gpiod]).
+void read_hil_line(Reader& r, HilLine* l) {
+  r.get("chip", &l->chip);
+  if (l->chip.empty()) r.ctx().fail(r.key("chip"), "missing (the input's GPIO chip, e.g. \"gpiochip0\")");
+  const toml::node* line = r.find("line");
+  if (!line) r.ctx().fail(r.key("line"), "missing (the input line's offset or name, e.g. 17 or \"GPIO17\")");
+  if (line->is_integer()) {
+    l->line_offset = static_cast<int>(r.integer(*line, r.key("line"), 0, 1023));
+  } else if (line->is_string() && !line->as_string()->get().empty()) {
+    l->line_name = line->as_string()->get();
+  } else {
+    r.ctx().fail(r.key("line"), "expected a line offset (integer) or a line name (string), got " + type_name(*line));
+  }
+  bool active_low = false;
+  if (r.get("active_low", &active_low)) l->active_low = active_low;
+  r.get_int("debounce_us", &l->debounce_us, 0, 100000);
+  r.finish();
+}
+
+void read_hil(Reader& r, HilOptions* o) {
+  o->present = true;
+  if (const toml::table* t = r.table("loopback")) {
+    Reader l(*t, r.key("loopback"), r.ctx());
+    read_hil_line(l, &o->loopback);
+  }
+  if (const toml::table* t = r.table("edge_input")) {
+    Reader l(*t, r.key("edge_input"), r.ctx());
+    read_hil_line(l, &o->edge_input);
+  }
+  if (const toml::array* cams = r.array("cameras")) {
+    if (cams->size() > 16) r.ctx().fail(r.key("cameras"), fmt::format("at most 16 cameras, got {}", cams->size()));
+    for (size_t i = 0; i < cams->size(); ++i) {
+      const std::string key = fmt::format("{}[{}]", r.key("cameras"), i);
+      const toml::node& n = *cams->get(i);
+      r.ctx().note(key, n);
+      if (!n.is_table()) r.ctx().fail(key, "expected a table ([[hil.cameras]]), got " + type_name(n));
+      Reader c(*n.as_table(), key, r.ctx());
+      HilCamera cam;
+      c.get("backend", &cam.backend);
+      c.get("device", &cam.device);
+      c.get("format", &cam.format);
+      c.get_int("width", &cam.width, 0, 16384);
+      c.get_int("height", &cam.height, 0, 16384);
+      c.get_int("exposure_us", &cam.exposure_us, 0, 10000000);
+      c.get("latency_us", &cam.latency_us);
+      c.finish();
+      o->cameras.push_back(std::move(cam));
+    }
+  }
+  r.get_int("pulses", &o->pulses, 1, 1000000);
+  if (const toml::array* rates = r.array("rates_hz")) {
+    o->rates_hz.clear();
+    for (size_t i = 0; i < rates->size() && i < 9; ++i)
+      o->rates_hz.push_back(r.number(*rates->get(i), fmt::format("{}[{}]", r.key("rates_hz"), i)));
+  }
+  r.get("smoke_seconds", &o->smoke_seconds);
+  r.get("max_jitter_us", &o->max_jitter_us);
+  r.get("max_offset_us", &o->max_offset_us);
+  r.finish();
+}
+
 // The checks that need nothing but this file (RigConfig::valid() repeats them with the cross-checks).
 void check_sections(const RigConfig& c, const Context& ctx) {
   std::string why;
@@ -431,6 +492,7 @@ void check_sections(const RigConfig& c, const Context& ctx) {
   if (!c.assembly.valid(&why)) fail_validation(ctx, "assembly", why);
   if (!c.recording.valid(&why)) fail_validation(ctx, "recording", why);
   if (!c.network.valid(&why)) fail_validation(ctx, "network", why);
+  if (!c.hil.valid(&why)) fail_validation(ctx, "hil", why);
 }
 
 void collect_warnings(RigConfig* c) {
@@ -558,6 +620,10 @@ RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::pa
     r.get("listen", &c.network.listen);
     r.get_int("port", &c.network.port, 1, 65535);
     r.finish();
+  }
+  if (const toml::table* t = top.table("hil")) {
+    Reader r(*t, "hil", ctx);
+    read_hil(r, &c.hil);
   }
   top.finish();
 

@@ -313,4 +313,47 @@ bool NodeConfig::valid(std::string* why) const {
   return true;
 }
 
+bool HilLine::valid(std::string* why) const {
+  if (!configured()) return true;
+  if ((line_offset >= 0) == !line_name.empty())
+    return fail(why, "line: give the input line by offset (17) or by name (\"GPIO17\")");
+  if (debounce_us < 0 || debounce_us > 100000)
+    return fail(why, fmt::format("debounce_us: must be in [0, 100000], got {}", debounce_us));
+  return true;
+}
+
+std::string HilLine::line_str() const {
+  return line_name.empty() ? std::to_string(line_offset) : line_name;
+}
+
+bool HilCamera::valid(std::string* why) const {
+  if (backend != "libcamera" && backend != "v4l2")
+    return fail(why, fmt::format("backend: must be \"libcamera\" or \"v4l2\", got \"{}\"", backend));
+  if (device.empty()) return fail(why, "device: missing (libcamera: an id or index; v4l2: /dev/videoN)");
+  if (width < 0 || height < 0 || width > 16384 || height > 16384)
+    return fail(why, fmt::format("width, height: must be in [0, 16384], got {}x{}", width, height));
+  if (exposure_us < 0 || exposure_us > 10000000)
+    return fail(why, fmt::format("exposure_us: must be in [0, 10000000], got {}", exposure_us));
+  if (std::fabs(latency_us) > 1e6) return fail(why, fmt::format("latency_us: must be within ±1 s, got {}", latency_us));
+  return true;
+}
+
+bool HilOptions::valid(std::string* why) const {
+  std::string sub;
+  if (!loopback.valid(&sub)) return fail(why, "loopback." + sub);
+  if (!edge_input.valid(&sub)) return fail(why, "edge_input." + sub);
+  for (size_t i = 0; i < cameras.size(); ++i)
+    if (!cameras[i].valid(&sub)) return fail(why, fmt::format("cameras[{}].{}", i, sub));
+  if (cameras.size() > 16) return fail(why, fmt::format("cameras: at most 16, got {}", cameras.size()));
+  if (pulses < 1 || pulses > 1000000) return fail(why, fmt::format("pulses: must be in [1, 1000000], got {}", pulses));
+  if (rates_hz.empty() || rates_hz.size() > 8) return fail(why, "rates_hz: give 1 to 8 rates");
+  for (double r : rates_hz)
+    if (!(r > 0 && r <= 1000)) return fail(why, fmt::format("rates_hz: each must be in (0, 1000], got {}", r));
+  if (!(smoke_seconds >= 0 && smoke_seconds <= 86400))
+    return fail(why, fmt::format("smoke_seconds: must be in [0, 86400], got {}", smoke_seconds));
+  if (!(max_jitter_us >= 0)) return fail(why, fmt::format("max_jitter_us: must be >= 0, got {}", max_jitter_us));
+  if (!(max_offset_us >= 0)) return fail(why, fmt::format("max_offset_us: must be >= 0, got {}", max_offset_us));
+  return true;
+}
+
 }  // namespace vc::config
