@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
     vc::cli::add_carve_commands(app);
     vc::cli::add_calibrate_commands(app);
     vc::cli::add_bench_commands(app);
+    vc::cli::add_hil_commands(app);
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
