@@ -13,13 +13,13 @@
 
 namespace {
 
-struct Run {
+struct CommandRun {
   std::string out;
   int exit_code = -1;
 };
 
-Run run(const std::string& command) {
-  Run r;
+CommandRun run(const std::string& command) {
+  CommandRun r;
   FILE* p = popen(command.c_str(), "r");
   if (!p) return r;
   char buf[4096];
@@ -65,7 +65,7 @@ void expect_every_pulse_seen(const nlohmann::json& f, uint64_t pulses) {
 
 TEST(HilEmulated, EveryTestPassesWithItsFigures) {
   const uint64_t pulses = 120;
-  const Run r = run(std::string(VOXCAP_BINARY) + " hil --emulated --json --pulses 120 --seconds 3");
+  const CommandRun r = run(std::string(VOXCAP_BINARY) + " hil --emulated --json --pulses 120 --seconds 3");
   nlohmann::json j;
   ASSERT_NO_THROW(j = nlohmann::json::parse(r.out)) << r.out;
   EXPECT_EQ(r.exit_code, 0) << r.out;
@@ -108,7 +108,7 @@ TEST(HilEmulated, EveryTestPassesWithItsFigures) {
 }
 
 TEST(HilEmulated, PrintsTheFiguresAndAVerdictPerTest) {
-  const Run r = run(std::string(VOXCAP_BINARY) + " hil --emulated --tests loopback,edge-input --pulses 30 --rate 120");
+  const CommandRun r = run(std::string(VOXCAP_BINARY) + " hil --emulated --tests loopback,edge-input --pulses 30 --rate 120");
   EXPECT_EQ(r.exit_code, 0) << r.out;
   for (const char* line : {"[loopback] 30 pulses at 120 Hz -> input udp 127.0.0.1:",
                            "sent 30, seen 30, matched 30, missed 0, extra 0, input counter gaps 0",
