@@ -74,8 +74,12 @@ json number(double x) {
 }
 
 json percentiles_json(const hil::Percentiles& p) {
-  return {{"n", p.n},           {"min", number(p.min)}, {"p50", number(p.p50)},
-          {"p95", number(p.p95)}, {"p99", number(p.p99)}, {"max", number(p.max)}};
+  return {{"n", p.n},
+          {"min", number(p.min)},
+          {"p50", number(p.p50)},
+          {"p95", number(p.p95)},
+          {"p99", number(p.p99)},
+          {"max", number(p.max)}};
 }
 
 std::string fmt_us(double x) {
@@ -209,7 +213,8 @@ TrainRun run_train(const Rig& rig, Input& in, double rate_hz, uint64_t n,
   });
   try {
     gen->start(trigger::PulseTrain{o.rate_hz, o.pulse_width_us, n, 0});
-    const auto budget = std::chrono::milliseconds(static_cast<long>(3000 + 2000.0 * static_cast<double>(n) / rate_hz));
+    const auto budget =
+        std::chrono::milliseconds(static_cast<long>(3000 + 2000.0 * static_cast<double>(n) / rate_hz));
     if (!gen->wait_done(budget)) run.error = "the output did not finish its train in time";
     gen->stop();
   } catch (const std::exception& e) {
@@ -262,12 +267,12 @@ json train_json(const TrainRun& run, const hil::TrainResult& r, const std::strin
 }
 
 void print_train(const Rig& rig, const TrainRun& run, const hil::TrainResult& r) {
-  say(rig, fmt::format("  sent {}, seen {}, matched {}, missed {}, extra {}, input counter gaps {}", r.sent, r.seen,
-                       r.matched, r.missed, r.extra, r.seq_gaps));
+  say(rig, fmt::format("  sent {}, seen {}, matched {}, missed {}, extra {}, input counter gaps {}", r.sent,
+                       r.seen, r.matched, r.missed, r.extra, r.seq_gaps));
   say(rig, fmt::format("  period {} us; jitter {}; offset {} us (spread p99 {} us)", fmt_us(r.period_us),
                        percentiles_line(r.jitter_us), fmt_us(r.offset_us), fmt_us(r.spread_us.p99)));
-  say(rig, fmt::format("  output: late {}, missed slots {}, max lateness {:.1f} us{}", run.out.late, run.out.missed,
-                       static_cast<double>(run.out.max_lateness_ns) / 1e3,
+  say(rig, fmt::format("  output: late {}, missed slots {}, max lateness {:.1f} us{}", run.out.late,
+                       run.out.missed, static_cast<double>(run.out.max_lateness_ns) / 1e3,
                        run.error.empty() ? "" : ", error: " + run.error));
 }
 
@@ -289,12 +294,14 @@ Outcome test_loopback(const Rig& rig) {
   const config::HilLine& line = rig.config.hil.loopback;
   if (!rig.emulated && !line.configured()) {
     out.verdict = skip(
-        "no loopback line configured: wire the trigger output ([trigger]) to a free GPIO input and name it in "
+        "no loopback line configured: wire the trigger output ([trigger]) to a free GPIO input and name it "
+        "in "
         "the rig file as [hil.loopback] chip = \"gpiochip0\", line = 17");
     return out;
   }
   if (!rig.emulated && rig.config.trigger.backend == config::TriggerBackend::Udp) {
-    out.verdict = skip("[trigger] backend is udp: a loopback needs a wire ([trigger] backend = \"gpiod\" or \"ftdi\")");
+    out.verdict =
+        skip("[trigger] backend is udp: a loopback needs a wire ([trigger] backend = \"gpiod\" or \"ftdi\")");
     return out;
   }
   auto in = open_input(rig, &line);
@@ -319,7 +326,9 @@ Outcome test_edge_input(const Rig& rig) {
     return out;
   }
   if (!rig.emulated && rig.config.trigger.backend == config::TriggerBackend::Udp) {
-    out.verdict = skip("[trigger] backend is udp: the edge input test needs a wire ([trigger] backend = \"gpiod\" or \"ftdi\")");
+    out.verdict = skip(
+        "[trigger] backend is udp: the edge input test needs a wire ([trigger] backend = \"gpiod\" or "
+        "\"ftdi\")");
     return out;
   }
   out.figures["rates"] = json::array();
@@ -331,7 +340,8 @@ Outcome test_edge_input(const Rig& rig) {
     const TrainRun run = run_train(rig, *in, rate, rig.pulses);
     const hil::TrainResult r = hil::match_train(run.sent, run.seen, {rate});
     print_train(rig, run, r);
-    const hil::Verdict v = with_output_error(hil::judge_train(r, rig.pulses, rig.config.hil.max_jitter_us), run);
+    const hil::Verdict v =
+        with_output_error(hil::judge_train(r, rig.pulses, rig.config.hil.max_jitter_us), run);
     json f = train_json(run, r, in->describe);
     f["status"] = hil::to_string(v.status);
     f["reason"] = v.reason;
@@ -343,8 +353,8 @@ Outcome test_edge_input(const Rig& rig) {
   if (failed.empty()) {
     std::string rates;
     for (double r : rig.edge_rates_hz) rates += (rates.empty() ? "" : " and ") + fmt::format("{}", r);
-    out.verdict = {hil::Status::Pass, fmt::format("{} pulses -> {} events at each of {} Hz, none missed", rig.pulses,
-                                                  rig.pulses, rates)};
+    out.verdict = {hil::Status::Pass, fmt::format("{} pulses -> {} events at each of {} Hz, none missed",
+                                                  rig.pulses, rig.pulses, rates)};
   } else {
     std::string reason;
     for (const std::string& f : failed) reason += (reason.empty() ? "" : "; ") + f;
@@ -414,24 +424,29 @@ Outcome test_alignment(const Rig& rig) {
   const config::HilOptions& h = rig.config.hil;
   if (!rig.emulated && (h.cameras.empty() || !h.edge_input.configured())) {
     out.verdict = skip(
-        "no triggered cameras configured: name them as [[hil.cameras]] backend = \"libcamera\", device = \"0\" "
-        "(their trigger inputs on the trigger wire, external trigger on) and the line that times the pulses as "
+        "no triggered cameras configured: name them as [[hil.cameras]] backend = \"libcamera\", device = "
+        "\"0\" "
+        "(their trigger inputs on the trigger wire, external trigger on) and the line that times the pulses "
+        "as "
         "[hil.edge_input]");
     return out;
   }
   if (!rig.emulated && rig.config.trigger.backend == config::TriggerBackend::Udp) {
-    out.verdict = skip("[trigger] backend is udp: real cameras need a trigger wire ([trigger] backend = \"gpiod\" or \"ftdi\")");
+    out.verdict = skip(
+        "[trigger] backend is udp: real cameras need a trigger wire ([trigger] backend = \"gpiod\" or "
+        "\"ftdi\")");
     return out;
   }
   auto in = open_input(rig, &h.edge_input);
   auto cams = open_cameras(rig, rig.rate_hz);
   std::string names;
   for (const auto& c : cams) names += (names.empty() ? "" : ", ") + c->backend + " " + c->device;
-  say(rig, fmt::format("[alignment] {} pulses at {} Hz -> input {}, cameras: {}", rig.pulses, rig.rate_hz, in->describe,
-                       names));
+  say(rig, fmt::format("[alignment] {} pulses at {} Hz -> input {}, cameras: {}", rig.pulses, rig.rate_hz,
+                       in->describe, names));
   for (const auto& c : cams)
     if (vc_camera_start(c->cam) != 0)
-      throw std::runtime_error(fmt::format("camera {} {}: {}", c->backend, c->device, vc_camera_last_error(c->cam)));
+      throw std::runtime_error(
+          fmt::format("camera {} {}: {}", c->backend, c->device, vc_camera_last_error(c->cam)));
 
   std::mutex mu;
   std::vector<hil::FrameStamp> frames;
@@ -485,7 +500,7 @@ Outcome test_alignment(const Rig& rig) {
   // Each camera may have its own latency: each camera's frames are paired alone.
   hil::AlignOptions ao;
   ao.rate_hz = rig.rate_hz;
-  out.figures = {{"output", run.output}, {"input", in->describe}, {"rate_hz", rig.rate_hz},
+  out.figures = {{"output", run.output}, {"input", in->describe},          {"rate_hz", rig.rate_hz},
                  {"pulses", rig.pulses}, {"pulses_seen", run.seen.size()}, {"cameras", json::array()}};
   std::vector<std::string> wrong;
   uint64_t paired = 0, total = 0;
@@ -515,12 +530,14 @@ Outcome test_alignment(const Rig& rig) {
                                       {"driver_dropped", st.dropped},
                                       {"offset_us", percentiles_json(c.offset_us)},
                                       {"error", errors[k]}});
-    say(rig, fmt::format("  camera {} ({} {}): frames {}, paired {}, unpaired {}, pulses without frame {}, driver "
-                         "dropped {}",
-                         k, cams[k]->backend, cams[k]->device, c.frames, c.paired, c.unpaired, c.pulses_without_frame,
-                         st.dropped));
-    say(rig, fmt::format("    frame - pulse offset min {} / {} (expected latency {} us)", fmt_us(c.offset_us.min),
-                         percentiles_line(c.offset_us), fmt_us(cams[k]->latency_us)));
+    say(rig,
+        fmt::format("  camera {} ({} {}): frames {}, paired {}, unpaired {}, pulses without frame {}, driver "
+                    "dropped {}",
+                    k, cams[k]->backend, cams[k]->device, c.frames, c.paired, c.unpaired,
+                    c.pulses_without_frame, st.dropped));
+    say(rig,
+        fmt::format("    frame - pulse offset min {} / {} (expected latency {} us)", fmt_us(c.offset_us.min),
+                    percentiles_line(c.offset_us), fmt_us(cams[k]->latency_us)));
     if (v.status == hil::Status::Fail) {
       std::string reason = v.reason;  // judged as camera 0 of one: named by its index here
       for (size_t at = 0; (at = reason.find("camera 0", at)) != std::string::npos; at += 6)
@@ -532,8 +549,8 @@ Outcome test_alignment(const Rig& rig) {
   if (run.seen.empty()) wrong.insert(wrong.begin(), "no pulse seen on the input line");
   if (!run.error.empty()) wrong.insert(wrong.begin(), "output: " + run.error);
   if (wrong.empty()) {
-    out.verdict = {hil::Status::Pass, fmt::format("{} of {} frames paired with their pulse on {} camera(s)", paired,
-                                                  total, cams.size())};
+    out.verdict = {hil::Status::Pass, fmt::format("{} of {} frames paired with their pulse on {} camera(s)",
+                                                  paired, total, cams.size())};
   } else {
     std::string reason;
     for (const std::string& w : wrong) reason += (reason.empty() ? "" : "; ") + w;
@@ -606,8 +623,8 @@ Outcome test_smoke(const Rig& rig) {
     rep = er.stop().report;
   } else {
     nodes = rig.config.nodes.size();
-    say(rig, fmt::format("[smoke] rig \"{}\": {} nodes, {} s after every node is running", rig.config.name, nodes,
-                         rig.smoke_seconds));
+    say(rig, fmt::format("[smoke] rig \"{}\": {} nodes, {} s after every node is running", rig.config.name,
+                         nodes, rig.smoke_seconds));
     aggregator::Options ao;
     ao.log_every_s = 0;
     aggregator::Aggregator agg(rig.config, ao);
@@ -623,25 +640,29 @@ Outcome test_smoke(const Rig& rig) {
   const hil::SmokeFigures f = smoke_figures(rep, nodes, rep.seconds);
   json missing = json::array();
   for (const std::string& id : f.nodes_missing) missing.push_back(id);
-  out.figures = {{"seconds", rig.smoke_seconds},
-                 {"nodes", f.nodes},
-                 {"nodes_connected", f.nodes_connected},
-                 {"nodes_missing", missing},
-                 {"running", f.running},
-                 {"pulses", f.pulses},
-                 {"frames", f.frames},
-                 {"complete", f.complete},
-                 {"degraded", f.degraded},
-                 {"dropped", f.dropped},
-                 {"fps", number(f.fps)},
-                 {"merged_seconds", number(rep.seconds)},
-                 {"trigger_to_merged_ms", {{"p50", number(f.merged_p50_ms)}, {"p99", number(f.merged_p99_ms)}}},
-                 {"merging_stopped", f.merging_stopped}};
-  say(rig, fmt::format("  nodes {} of {} connected{}, pulses {}, frames {} (complete {}, degraded {}, dropped {}), "
-                       "{:.1f} fps",
-                       f.nodes_connected, f.nodes,
-                       f.nodes_missing.empty() ? std::string() : " (missing: " + fmt::format("{}", fmt::join(f.nodes_missing, ", ")) + ")",
-                       f.pulses, f.frames, f.complete, f.degraded, f.dropped, f.fps));
+  out.figures = {
+      {"seconds", rig.smoke_seconds},
+      {"nodes", f.nodes},
+      {"nodes_connected", f.nodes_connected},
+      {"nodes_missing", missing},
+      {"running", f.running},
+      {"pulses", f.pulses},
+      {"frames", f.frames},
+      {"complete", f.complete},
+      {"degraded", f.degraded},
+      {"dropped", f.dropped},
+      {"fps", number(f.fps)},
+      {"merged_seconds", number(rep.seconds)},
+      {"trigger_to_merged_ms", {{"p50", number(f.merged_p50_ms)}, {"p99", number(f.merged_p99_ms)}}},
+      {"merging_stopped", f.merging_stopped}};
+  say(rig,
+      fmt::format(
+          "  nodes {} of {} connected{}, pulses {}, frames {} (complete {}, degraded {}, dropped {}), "
+          "{:.1f} fps",
+          f.nodes_connected, f.nodes,
+          f.nodes_missing.empty() ? std::string()
+                                  : " (missing: " + fmt::format("{}", fmt::join(f.nodes_missing, ", ")) + ")",
+          f.pulses, f.frames, f.complete, f.degraded, f.dropped, f.fps));
   say(rig, fmt::format("  trigger -> merged p50 {:.1f} / p99 {:.1f} ms{}", f.merged_p50_ms, f.merged_p99_ms,
                        f.merging_stopped ? ", merging STOPPED" : ""));
   out.verdict = hil::judge_smoke(f);
@@ -655,7 +676,8 @@ std::vector<std::string> parse_tests(const std::string& list) {
   for (std::string t; std::getline(ss, t, ',');) {
     if (t.empty()) continue;
     if (std::find(kTests.begin(), kTests.end(), t) == kTests.end())
-      throw UsageError(fmt::format("--tests: unknown test \"{}\" (loopback, edge-input, alignment, smoke)", t));
+      throw UsageError(
+          fmt::format("--tests: unknown test \"{}\" (loopback, edge-input, alignment, smoke)", t));
     if (std::find(out.begin(), out.end(), t) == out.end()) out.push_back(t);
   }
   if (out.empty()) throw UsageError("--tests: name at least one test");
@@ -667,7 +689,8 @@ Rig make_rig(const HilArgs& a) {
   rig.emulated = a.emulated;
   rig.json = a.json;
   if (!a.config.empty() || !a.emulated) {
-    const std::filesystem::path path = a.config.empty() ? config::default_rig_config_path() : std::filesystem::path(a.config);
+    const std::filesystem::path path =
+        a.config.empty() ? config::default_rig_config_path() : std::filesystem::path(a.config);
     try {
       rig.config = config::load_rig_config(path);
     } catch (const config::ConfigError& e) {
@@ -695,13 +718,15 @@ void run_hil(const HilArgs& a) {
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
   if (!rig.emulated && !rig.config.hil.present)
-    say(rig, fmt::format("voxcap hil: {} has no [hil] section: every test is skipped (tests/hil/README.md says "
-                         "what to wire and configure)",
-                         rig.config.source.string()));
-  say(rig, rig.emulated ? std::string("voxcap hil: the emulated twin (udp trigger on loopback, sim cameras, the "
-                                      "emulated rig)")
-                        : fmt::format("voxcap hil: rig \"{}\" ({}), trigger {}", rig.config.name,
-                                      rig.config.source.string(), config::to_string(rig.config.trigger.backend)));
+    say(rig,
+        fmt::format("voxcap hil: {} has no [hil] section: every test is skipped (tests/hil/README.md says "
+                    "what to wire and configure)",
+                    rig.config.source.string()));
+  say(rig, rig.emulated
+               ? std::string("voxcap hil: the emulated twin (udp trigger on loopback, sim cameras, the "
+                             "emulated rig)")
+               : fmt::format("voxcap hil: rig \"{}\" ({}), trigger {}", rig.config.name,
+                             rig.config.source.string(), config::to_string(rig.config.trigger.backend)));
   std::vector<Outcome> outcomes;
   for (const std::string& t : tests) {
     if (g_interrupted) break;
@@ -761,7 +786,8 @@ void add_hil_commands(CLI::App& app) {
       "hil",
       "Hardware-in-loop tests of a real rig, from its rig.toml's [hil] section (tests/hil/README.md): "
       "loopback (trigger output wired to an input: every pulse seen, period jitter p50/p95/p99/max from the "
-      "kernel's edge timestamps, missed and extra pulses), edge-input (N pulses -> N events at [hil] rates_hz, "
+      "kernel's edge timestamps, missed and extra pulses), edge-input (N pulses -> N events at [hil] "
+      "rates_hz, "
       "60 and 120 Hz), alignment (triggered cameras: each frame paired with its pulse, offset percentiles, "
       "unpaired frames), smoke (the whole rig for [hil] smoke_seconds: every node connects, frames merge). "
       "A test whose lines are not configured is SKIPPED with the keys to set. --emulated runs the twin: udp "
@@ -779,17 +805,18 @@ void add_hil_commands(CLI::App& app) {
                   "[hil] rates_hz for edge-input)");
   cmd->add_option("--seconds", a->seconds,
                   "smoke run length after every node is running (default [hil] smoke_seconds; emulated 4)");
-  cmd->add_flag("--json", a->json,
-                "print JSON: {mode, rig, config, passed, failed, skipped, tests[] {name, status (PASS|FAIL|"
-                "SKIPPED), reason, figures}}; loopback figures {output, input, rate_hz, pulses, sent, seen, "
-                "matched, missed, extra, seq_gaps, input_lost, period_us, offset_us, jitter_us {n, min, p50, p95, "
-                "p99, max}, spread_us {...}, missed_seqs, extra_at_us, output_late, output_missed_slots, "
-                "output_max_lateness_us, output_error}; edge-input {rates[] {the same, status, reason}}; "
-                "alignment {output, input, rate_hz, pulses, pulses_seen, cameras[] {camera, backend, device, "
-                "latency_us, frames, paired, unpaired, duplicate, pulses_without_frame, driver_dropped, offset_us "
-                "{...}, error}}; smoke {seconds, nodes, nodes_connected, nodes_missing, running, pulses, frames, "
-                "complete, degraded, dropped, fps, merged_seconds, trigger_to_merged_ms {p50, p99}, "
-                "merging_stopped}; a figure not measured is null");
+  cmd->add_flag(
+      "--json", a->json,
+      "print JSON: {mode, rig, config, passed, failed, skipped, tests[] {name, status (PASS|FAIL|"
+      "SKIPPED), reason, figures}}; loopback figures {output, input, rate_hz, pulses, sent, seen, "
+      "matched, missed, extra, seq_gaps, input_lost, period_us, offset_us, jitter_us {n, min, p50, p95, "
+      "p99, max}, spread_us {...}, missed_seqs, extra_at_us, output_late, output_missed_slots, "
+      "output_max_lateness_us, output_error}; edge-input {rates[] {the same, status, reason}}; "
+      "alignment {output, input, rate_hz, pulses, pulses_seen, cameras[] {camera, backend, device, "
+      "latency_us, frames, paired, unpaired, duplicate, pulses_without_frame, driver_dropped, offset_us "
+      "{...}, error}}; smoke {seconds, nodes, nodes_connected, nodes_missing, running, pulses, frames, "
+      "complete, degraded, dropped, fps, merged_seconds, trigger_to_merged_ms {p50, p99}, "
+      "merging_stopped}; a figure not measured is null");
   cmd->callback([a] { run_hil(*a); });
 }
 

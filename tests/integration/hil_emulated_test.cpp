@@ -108,7 +108,8 @@ TEST(HilEmulated, EveryTestPassesWithItsFigures) {
 }
 
 TEST(HilEmulated, PrintsTheFiguresAndAVerdictPerTest) {
-  const CommandRun r = run(std::string(VOXCAP_BINARY) + " hil --emulated --tests loopback,edge-input --pulses 30 --rate 120");
+  const CommandRun r =
+      run(std::string(VOXCAP_BINARY) + " hil --emulated --tests loopback,edge-input --pulses 30 --rate 120");
   EXPECT_EQ(r.exit_code, 0) << r.out;
   for (const char* line : {"[loopback] 30 pulses at 120 Hz -> input udp 127.0.0.1:",
                            "sent 30, seen 30, matched 30, missed 0, extra 0, input counter gaps 0",

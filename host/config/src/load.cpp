@@ -428,7 +428,8 @@ void read_hil_line(Reader& r, HilLine* l) {
   } else if (line->is_string() && !line->as_string()->get().empty()) {
     l->line_name = line->as_string()->get();
   } else {
-    r.ctx().fail(r.key("line"), "expected a line offset (integer) or a line name (string), got " + type_name(*line));
+    r.ctx().fail(r.key("line"),
+                 "expected a line offset (integer) or a line name (string), got " + type_name(*line));
   }
   bool active_low = false;
   if (r.get("active_low", &active_low)) l->active_low = active_low;
@@ -447,7 +448,8 @@ void read_hil(Reader& r, HilOptions* o) {
     read_hil_line(l, &o->edge_input);
   }
   if (const toml::array* cams = r.array("cameras")) {
-    if (cams->size() > 16) r.ctx().fail(r.key("cameras"), fmt::format("at most 16 cameras, got {}", cams->size()));
+    if (cams->size() > 16)
+      r.ctx().fail(r.key("cameras"), fmt::format("at most 16 cameras, got {}", cams->size()));
     for (size_t i = 0; i < cams->size(); ++i) {
       const std::string key = fmt::format("{}[{}]", r.key("cameras"), i);
       const toml::node& n = *cams->get(i);

@@ -334,7 +334,8 @@ bool HilCamera::valid(std::string* why) const {
     return fail(why, fmt::format("width, height: must be in [0, 16384], got {}x{}", width, height));
   if (exposure_us < 0 || exposure_us > 10000000)
     return fail(why, fmt::format("exposure_us: must be in [0, 10000000], got {}", exposure_us));
-  if (std::fabs(latency_us) > 1e6) return fail(why, fmt::format("latency_us: must be within ±1 s, got {}", latency_us));
+  if (std::fabs(latency_us) > 1e6)
+    return fail(why, fmt::format("latency_us: must be within ±1 s, got {}", latency_us));
   return true;
 }
 
@@ -345,14 +346,18 @@ bool HilOptions::valid(std::string* why) const {
   for (size_t i = 0; i < cameras.size(); ++i)
     if (!cameras[i].valid(&sub)) return fail(why, fmt::format("cameras[{}].{}", i, sub));
   if (cameras.size() > 16) return fail(why, fmt::format("cameras: at most 16, got {}", cameras.size()));
-  if (pulses < 1 || pulses > 1000000) return fail(why, fmt::format("pulses: must be in [1, 1000000], got {}", pulses));
+  if (pulses < 1 || pulses > 1000000)
+    return fail(why, fmt::format("pulses: must be in [1, 1000000], got {}", pulses));
   if (rates_hz.empty() || rates_hz.size() > 8) return fail(why, "rates_hz: give 1 to 8 rates");
   for (double r : rates_hz)
-    if (!(r > 0 && r <= 1000)) return fail(why, fmt::format("rates_hz: each must be in (0, 1000], got {}", r));
+    if (!(r > 0 && r <= 1000))
+      return fail(why, fmt::format("rates_hz: each must be in (0, 1000], got {}", r));
   if (!(smoke_seconds >= 0 && smoke_seconds <= 86400))
     return fail(why, fmt::format("smoke_seconds: must be in [0, 86400], got {}", smoke_seconds));
-  if (!(max_jitter_us >= 0)) return fail(why, fmt::format("max_jitter_us: must be >= 0, got {}", max_jitter_us));
-  if (!(max_offset_us >= 0)) return fail(why, fmt::format("max_offset_us: must be >= 0, got {}", max_offset_us));
+  if (!(max_jitter_us >= 0))
+    return fail(why, fmt::format("max_jitter_us: must be >= 0, got {}", max_jitter_us));
+  if (!(max_offset_us >= 0))
+    return fail(why, fmt::format("max_offset_us: must be >= 0, got {}", max_offset_us));
   return true;
 }
 

@@ -29,7 +29,8 @@ size_t nearest(const std::vector<Stamp>& sorted, double t) {
   if (it == sorted.end()) return sorted.size() - 1;
   const size_t i = static_cast<size_t>(it - sorted.begin());
   if (i == 0) return 0;
-  return std::fabs(static_cast<double>(sorted[i].t_ns) - t) < std::fabs(static_cast<double>(sorted[i - 1].t_ns) - t)
+  return std::fabs(static_cast<double>(sorted[i].t_ns) - t) <
+                 std::fabs(static_cast<double>(sorted[i - 1].t_ns) - t)
              ? i
              : i - 1;
 }
@@ -164,7 +165,8 @@ TrainResult match_train(std::vector<Stamp> sent, std::vector<Stamp> seen, const 
   }
   if (matched_t.size() >= 2 && sent.size() >= 2) {
     // Mean period over the whole span, in the slots the pulses' own times say they spanned.
-    const double slots = std::max(1.0, std::round(static_cast<double>(matched_t.back() - matched_t.front()) / period));
+    const double slots =
+        std::max(1.0, std::round(static_cast<double>(matched_t.back() - matched_t.front()) / period));
     r.period_us = static_cast<double>(matched_t.back() - matched_t.front()) / slots / 1e3;
   }
   r.jitter_us = percentiles(std::move(jitter));
@@ -185,7 +187,8 @@ bool AlignOptions::valid(std::string* why) const {
   return true;
 }
 
-AlignResult align_frames(std::vector<Stamp> pulses, std::vector<FrameStamp> frames, const AlignOptions& options) {
+AlignResult align_frames(std::vector<Stamp> pulses, std::vector<FrameStamp> frames,
+                         const AlignOptions& options) {
   std::string why;
   if (!options.valid(&why)) throw std::invalid_argument("hil::align_frames: " + why);
   std::sort(pulses.begin(), pulses.end(), by_time);
@@ -193,8 +196,8 @@ AlignResult align_frames(std::vector<Stamp> pulses, std::vector<FrameStamp> fram
                    [](const FrameStamp& a, const FrameStamp& b) { return a.t_ns < b.t_ns; });
   for (const FrameStamp& f : frames)
     if (f.camera < 0 || f.camera >= options.cameras)
-      throw std::invalid_argument(fmt::format("hil::align_frames: frame of camera {} (cameras: {})", f.camera,
-                                              options.cameras));
+      throw std::invalid_argument(
+          fmt::format("hil::align_frames: frame of camera {} (cameras: {})", f.camera, options.cameras));
   AlignResult r;
   r.pulses = pulses.size();
   const double period = 1e9 / options.rate_hz;
@@ -235,7 +238,7 @@ AlignResult align_frames(std::vector<Stamp> pulses, std::vector<FrameStamp> fram
       for (size_t i = first; i <= last; ++i)
         if (!taken[i]) ++a.pulses_without_frame;
     a.offset_us = percentiles(std::move(offsets));
-    r.cameras.push_back(std::move(a));
+    r.cameras.push_back(a);
   }
   return r;
 }
@@ -258,14 +261,20 @@ Verdict judge_train(const TrainResult& r, uint64_t expected, double max_jitter_u
   if (r.missed > 0) {
     std::string seqs;
     for (uint64_t s : r.missed_seqs) seqs += (seqs.empty() ? "" : ", ") + std::to_string(s);
-    wrong.push_back(fmt::format("{} missed (seq {}{})", r.missed, seqs, r.missed > r.missed_seqs.size() ? ", ..." : ""));
+    wrong.push_back(
+        fmt::format("{} missed (seq {}{})", r.missed, seqs, r.missed > r.missed_seqs.size() ? ", ..." : ""));
   }
-  if (r.extra > 0) wrong.push_back(fmt::format("{} extra edges (glitches or a second edge per pulse)", r.extra));
-  if (r.seq_gaps > 0) wrong.push_back(fmt::format("the input's counter skipped {} (its event queue overflowed)", r.seq_gaps));
+  if (r.extra > 0)
+    wrong.push_back(fmt::format("{} extra edges (glitches or a second edge per pulse)", r.extra));
+  if (r.seq_gaps > 0)
+    wrong.push_back(fmt::format("the input's counter skipped {} (its event queue overflowed)", r.seq_gaps));
   if (max_jitter_us > 0 && r.jitter_us.n > 0 && r.jitter_us.max > max_jitter_us)
-    wrong.push_back(fmt::format("jitter max {:.1f} us over the limit {:.1f} us", r.jitter_us.max, max_jitter_us));
-  if (expected > 0 && r.seen == 0) wrong.insert(wrong.begin(), "no edge seen: is the output wired to the input?");
-  if (wrong.empty()) return {Status::Pass, fmt::format("{} of {} pulses seen, 0 missed, 0 extra", r.matched, expected)};
+    wrong.push_back(
+        fmt::format("jitter max {:.1f} us over the limit {:.1f} us", r.jitter_us.max, max_jitter_us));
+  if (expected > 0 && r.seen == 0)
+    wrong.insert(wrong.begin(), "no edge seen: is the output wired to the input?");
+  if (wrong.empty())
+    return {Status::Pass, fmt::format("{} of {} pulses seen, 0 missed, 0 extra", r.matched, expected)};
   std::string reason;
   for (const std::string& w : wrong) reason += (reason.empty() ? "" : "; ") + w;
   return {Status::Fail, reason};
@@ -279,23 +288,26 @@ Verdict judge_alignment(const AlignResult& r, const AlignOptions& options, doubl
     paired += c.paired;
     frames += c.frames;
     if (c.frames == 0) {
-      wrong.push_back(fmt::format("camera {}: no frame (is its trigger input wired and external trigger on?)", c.camera));
+      wrong.push_back(
+          fmt::format("camera {}: no frame (is its trigger input wired and external trigger on?)", c.camera));
       continue;
     }
     if (c.unpaired > 0)
-      wrong.push_back(fmt::format("camera {}: {} of {} frames without a pulse{}", c.camera, c.unpaired, c.frames,
-                                  c.duplicate ? fmt::format(" ({} a second frame on one pulse)", c.duplicate) : ""));
+      wrong.push_back(
+          fmt::format("camera {}: {} of {} frames without a pulse{}", c.camera, c.unpaired, c.frames,
+                      c.duplicate ? fmt::format(" ({} a second frame on one pulse)", c.duplicate) : ""));
     if (c.pulses_without_frame > 0)
       wrong.push_back(fmt::format("camera {}: {} pulses without a frame", c.camera, c.pulses_without_frame));
     if (max_offset_us > 0 && c.offset_us.n > 0 &&
-        std::max(std::fabs(c.offset_us.max - options.latency_us), std::fabs(c.offset_us.min - options.latency_us)) >
-            max_offset_us)
-      wrong.push_back(fmt::format("camera {}: offset {:.1f}..{:.1f} us strays more than {:.1f} us from the latency {:.1f} us",
-                                  c.camera, c.offset_us.min, c.offset_us.max, max_offset_us, options.latency_us));
+        std::max(std::fabs(c.offset_us.max - options.latency_us),
+                 std::fabs(c.offset_us.min - options.latency_us)) > max_offset_us)
+      wrong.push_back(fmt::format(
+          "camera {}: offset {:.1f}..{:.1f} us strays more than {:.1f} us from the latency {:.1f} us",
+          c.camera, c.offset_us.min, c.offset_us.max, max_offset_us, options.latency_us));
   }
   if (wrong.empty())
-    return {Status::Pass, fmt::format("{} of {} frames paired with their pulse on {} camera(s)", paired, frames,
-                                      r.cameras.size())};
+    return {Status::Pass, fmt::format("{} of {} frames paired with their pulse on {} camera(s)", paired,
+                                      frames, r.cameras.size())};
   std::string reason;
   for (const std::string& w : wrong) reason += (reason.empty() ? "" : "; ") + w;
   return {Status::Fail, reason};
@@ -312,7 +324,8 @@ Verdict judge_smoke(const SmokeFigures& f) {
   if (f.frames == 0) wrong.push_back("no frame merged");
   if (f.merging_stopped) wrong.push_back("frames stopped merging");
   if (wrong.empty())
-    return {Status::Pass, fmt::format("{} nodes connected, {} frames merged ({} complete)", f.nodes, f.frames, f.complete)};
+    return {Status::Pass,
+            fmt::format("{} nodes connected, {} frames merged ({} complete)", f.nodes, f.frames, f.complete)};
   std::string reason;
   for (const std::string& w : wrong) reason += (reason.empty() ? "" : "; ") + w;
   return {Status::Fail, reason};

@@ -182,8 +182,8 @@ TEST(AlignFrames, DroppedFrameSpuriousFrameAndDoubleFrame) {
   std::vector<FrameStamp> frames;
   for (const Stamp& p : pulses)
     if (p.seq != 20) frames.push_back({0, p.seq, p.t_ns + 1'000'000});  // pulse 20: no frame
-  frames.push_back({0, 100, pulses[30].t_ns + kPeriod / 2});             // a free-running frame
-  frames.push_back({0, 101, pulses[40].t_ns + 1'200'000});               // a second frame on pulse 40
+  frames.push_back({0, 100, pulses[30].t_ns + kPeriod / 2});            // a free-running frame
+  frames.push_back({0, 101, pulses[40].t_ns + 1'200'000});              // a second frame on pulse 40
   AlignOptions o{kRate, 1000, 0.25, 1};
   const AlignResult r = align_frames(pulses, frames, o);
   const CameraAlignment& c = r.cameras.at(0);

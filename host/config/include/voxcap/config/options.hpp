@@ -183,10 +183,10 @@ struct SilhouetteOptions {
 
 // [hil]: what `voxcap hil` tests on a real rig (tests/hil/README.md). A test whose lines or cameras
 // are not named here is skipped with a message naming the keys; no [hil] at all: every test skips.
-struct HilLine {  // [hil.loopback], [hil.edge_input]: a GPIO input on the machine running `voxcap hil`
-  std::string chip;       // "gpiochip0" or a path; empty: the line is not configured
-  int line_offset = -1;   // by offset ...
-  std::string line_name;  // ... or by name ("GPIO17")
+struct HilLine {         // [hil.loopback], [hil.edge_input]: a GPIO input on the machine running `voxcap hil`
+  std::string chip;      // "gpiochip0" or a path; empty: the line is not configured
+  int line_offset = -1;  // by offset ...
+  std::string line_name;           // ... or by name ("GPIO17")
   std::optional<bool> active_low;  // unset: [trigger] active_low (the wire's polarity)
   int debounce_us = 0;             // the kernel's debounce, 0 = off, 0..100000
 
@@ -195,7 +195,7 @@ struct HilLine {  // [hil.loopback], [hil.edge_input]: a GPIO input on the machi
   std::string line_str() const;  // "17" or "GPIO17", for messages
 };
 
-struct HilCamera {  // [[hil.cameras]]: an externally triggered camera on this machine
+struct HilCamera {                    // [[hil.cameras]]: an externally triggered camera on this machine
   std::string backend = "libcamera";  // "libcamera" | "v4l2"
   std::string device;                 // libcamera: id or index ("0"); v4l2: "/dev/video0"
   std::string format = "yuyv";        // v4l2 pixel format
@@ -207,15 +207,15 @@ struct HilCamera {  // [[hil.cameras]]: an externally triggered camera on this m
 };
 
 struct HilOptions {
-  bool present = false;             // the file has a [hil] table
-  HilLine loopback;                 // test 1: an input wired to [trigger]'s output
-  HilLine edge_input;               // tests 2, 3: the edge's trigger input, fed by [trigger]'s output
-  std::vector<HilCamera> cameras;   // test 3: their trigger inputs on the same wire
-  uint64_t pulses = 600;            // pulses per train, 1..1000000
+  bool present = false;            // the file has a [hil] table
+  HilLine loopback;                // test 1: an input wired to [trigger]'s output
+  HilLine edge_input;              // tests 2, 3: the edge's trigger input, fed by [trigger]'s output
+  std::vector<HilCamera> cameras;  // test 3: their trigger inputs on the same wire
+  uint64_t pulses = 600;           // pulses per train, 1..1000000
   std::vector<double> rates_hz = {60, 120};  // test 2's rates, each (0, 1000]
-  double smoke_seconds = 0;         // test 4: the rig runs this long; 0: not configured
-  double max_jitter_us = 0;         // tests 1, 2 fail above it; 0: reported only
-  double max_offset_us = 0;         // test 3 fails when a frame strays more from its latency; 0: reported only
+  double smoke_seconds = 0;                  // test 4: the rig runs this long; 0: not configured
+  double max_jitter_us = 0;                  // tests 1, 2 fail above it; 0: reported only
+  double max_offset_us = 0;  // test 3 fails when a frame strays more from its latency; 0: reported only
 
   bool valid(std::string* why) const;
 };

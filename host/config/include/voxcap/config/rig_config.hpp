@@ -101,7 +101,7 @@ struct RigConfig {
   AssemblyOptions assembly;
   RecordingOptions recording;
   NetworkOptions network;
-  HilOptions hil;  // [hil]: what `voxcap hil` tests (tests/hil/README.md)
+  HilOptions hil;                     // [hil]: what `voxcap hil` tests (tests/hil/README.md)
   std::vector<std::string> warnings;  // legal but suspicious ("3 udp targets for 2 nodes")
 
   // Cross-section checks (each section's own valid() included): node ids and camera assignments

@@ -94,10 +94,10 @@ struct CameraAlignment {
   int camera = 0;
   uint64_t frames = 0;
   uint64_t paired = 0;
-  uint64_t unpaired = 0;    // frames with no pulse within the tolerance
-  uint64_t duplicate = 0;   // a second frame on a pulse already paired (counted in unpaired too)
+  uint64_t unpaired = 0;              // frames with no pulse within the tolerance
+  uint64_t duplicate = 0;             // a second frame on a pulse already paired (counted in unpaired too)
   uint64_t pulses_without_frame = 0;  // pulses between this camera's first and last paired pulse
-  Percentiles offset_us;    // frame − pulse of the paired frames (signed), µs
+  Percentiles offset_us;              // frame − pulse of the paired frames (signed), µs
 };
 
 struct AlignResult {
@@ -105,19 +105,20 @@ struct AlignResult {
   std::vector<CameraAlignment> cameras;
 };
 
-AlignResult align_frames(std::vector<Stamp> pulses, std::vector<FrameStamp> frames, const AlignOptions& options);
+AlignResult align_frames(std::vector<Stamp> pulses, std::vector<FrameStamp> frames,
+                         const AlignOptions& options);
 
 // The figures of a full-rig smoke run (filled from the aggregator's report).
 struct SmokeFigures {
-  size_t nodes = 0;            // in the rig file
-  size_t nodes_connected = 0;  // connected and running at the end
+  size_t nodes = 0;                        // in the rig file
+  size_t nodes_connected = 0;              // connected and running at the end
   std::vector<std::string> nodes_missing;  // ids of the others
   uint64_t pulses = 0;
   uint64_t frames = 0, complete = 0, degraded = 0, dropped = 0;
   double seconds = 0, fps = 0;
   double merged_p50_ms = 0, merged_p99_ms = 0;  // trigger → merged
-  bool running = false;          // every node was READY once and the run started
-  bool merging_stopped = false;  // aggregator::Report::merging_stopped()
+  bool running = false;                         // every node was READY once and the run started
+  bool merging_stopped = false;                 // aggregator::Report::merging_stopped()
 };
 
 enum class Status { Pass, Fail, Skip };
