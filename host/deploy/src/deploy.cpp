@@ -128,7 +128,10 @@ std::string install_script(const BoardSettings& s, const Payload& p, const std::
   o += "mv -f \"$ETC/.edge.toml.new\" \"$ETC/edge.toml\"\necho step=config\n";
   if (!p.deb.empty()) {
     o += "base64 -d > \"$STATE/new.deb\" <<'" + eof + "'\n" + base64(p.deb) + eof + "\n";
-    o += "if ! $DPKG -i \"$STATE/new.deb\" > \"$STATE/dpkg.log\" 2>&1; then\n"
+    // --force-confold: an edge.toml the package ships as a conffile stays the one written above,
+    // without a question no one is there to answer.
+    o += "export DEBIAN_FRONTEND=noninteractive\n";
+    o += "if ! $DPKG --force-confold -i \"$STATE/new.deb\" > \"$STATE/dpkg.log\" 2>&1; then\n"
          "  tail -n 3 \"$STATE/dpkg.log\" | sed 's/^/dpkg: /'; echo fail=install; exit 10\nfi\n"
          "mv -f \"$STATE/new.deb\" \"$STATE/current.deb\"\necho step=installed\n";
   }
@@ -140,9 +143,10 @@ std::string rollback_script(const BoardSettings& s, bool package) {
   std::string o = prelude(s) + "umask 077\n";
   if (package)
     o += "if [ -f \"$STATE/previous.deb\" ]; then\n"
-         "  if $DPKG -i \"$STATE/previous.deb\" > \"$STATE/dpkg.log\" 2>&1; then cp -p \"$STATE/previous.deb\" "
+         "  if DEBIAN_FRONTEND=noninteractive $DPKG --force-confold -i \"$STATE/previous.deb\" > \"$STATE/dpkg.log\" 2>&1; then cp -p \"$STATE/previous.deb\" "
          "\"$STATE/current.deb\"; echo package=restored; else echo package=failed; fi\n"
          "else echo package=none-kept; fi\n";
+  o += "rm -f \"$ETC/.edge.toml.new\" \"$ETC/.rig.key.new\"\n";
   o += "[ ! -f \"$STATE/edge.toml.prev\" ] || cp -p \"$STATE/edge.toml.prev\" \"$ETC/edge.toml\"\n"
        "[ ! -f \"$STATE/rig.key.prev\" ] || cp -p \"$STATE/rig.key.prev\" \"$ETC/rig.key\"\n"
        "echo config=restored\n"
@@ -383,6 +387,7 @@ DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& 
       return;
     }
     if (rf["package"] == "none-kept") say("no previous package was kept on the board: only its configuration restored");
+    if (rf["package"] == "failed") say("reinstalling the previous package failed (see /var/lib/voxcap/deploy/dpkg.log)");
     const Verified v = verify(remote, b, key_old.empty() ? key_now : key_old, key_now, false);
     res.after = v.version;
     // After a rollback of a rotation, "current" means the old key and "old" the new one.
