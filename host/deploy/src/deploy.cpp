@@ -94,7 +94,8 @@ std::string prelude(const BoardSettings& s) {
 
 std::string probe_script(const BoardSettings& s) {
   return prelude(s) +
-         "if [ -x \"$BIN\" ]; then v=$(\"$BIN\" --version 2>/dev/null | head -n 1); echo \"version=${v##* }\";"
+         "if [ -x \"$BIN\" ]; then v=$(\"$BIN\" --version 2>/dev/null | head -n 1); echo \"version=${v##* "
+         "}\";"
          " else echo version=none; fi\n"
          "echo \"active=$($SYSTEMCTL is-active \"$SVC\" 2>/dev/null | head -n 1)\"\n"
          "[ -f \"$STATE/current.deb\" ] && echo kept=yes || echo kept=no\n";
@@ -102,8 +103,8 @@ std::string probe_script(const BoardSettings& s) {
 
 struct Payload {
   std::string edge_toml;
-  std::string key_hex;   // "" = keyless rig
-  std::string deb;       // "" = no package this run
+  std::string key_hex;  // "" = keyless rig
+  std::string deb;      // "" = no package this run
 };
 
 std::string install_script(const BoardSettings& s, const Payload& p, const std::string& eof) {
@@ -113,14 +114,17 @@ std::string install_script(const BoardSettings& s, const Payload& p, const std::
        "[ ! -f \"$ETC/edge.toml\" ] || cp -p \"$ETC/edge.toml\" \"$STATE/edge.toml.prev\"\n"
        "[ ! -f \"$ETC/rig.key\" ] || cp -p \"$ETC/rig.key\" \"$STATE/rig.key.prev\"\n";
   if (!p.deb.empty())
-    o += "rm -f \"$STATE/previous.deb\"\n[ ! -f \"$STATE/current.deb\" ] || cp -p \"$STATE/current.deb\" \"$STATE/previous.deb\"\n";
+    o += "rm -f \"$STATE/previous.deb\"\n[ ! -f \"$STATE/current.deb\" ] || cp -p \"$STATE/current.deb\" "
+         "\"$STATE/previous.deb\"\n";
   o += "echo step=saved\n";
   // The new files under temporary names, then renamed: the board never holds half a file, and the key
   // file is never absent or open to others (umask 077, 0600, the service user's).
-  o += "cat > \"$ETC/.edge.toml.new\" <<'" + eof + "'\n" + p.edge_toml + (p.edge_toml.empty() || p.edge_toml.back() == '\n' ? "" : "\n") + eof + "\n";
+  o += "cat > \"$ETC/.edge.toml.new\" <<'" + eof + "'\n" + p.edge_toml +
+       (p.edge_toml.empty() || p.edge_toml.back() == '\n' ? "" : "\n") + eof + "\n";
   o += "chmod 644 \"$ETC/.edge.toml.new\"\n";
   if (!p.key_hex.empty()) {
-    o += "printf '%s\\n' " + q(p.key_hex) + " > \"$ETC/.rig.key.new\"\n"
+    o += "printf '%s\\n' " + q(p.key_hex) +
+         " > \"$ETC/.rig.key.new\"\n"
          "chmod 600 \"$ETC/.rig.key.new\"\n"
          "chown \"$SU\" \"$ETC/.rig.key.new\" || { echo fail=key-owner; exit 12; }\n"
          "mv -f \"$ETC/.rig.key.new\" \"$ETC/rig.key\"\n";
@@ -143,7 +147,8 @@ std::string rollback_script(const BoardSettings& s, bool package) {
   std::string o = prelude(s) + "umask 077\n";
   if (package)
     o += "if [ -f \"$STATE/previous.deb\" ]; then\n"
-         "  if DEBIAN_FRONTEND=noninteractive $DPKG --force-confold -i \"$STATE/previous.deb\" > \"$STATE/dpkg.log\" 2>&1; then cp -p \"$STATE/previous.deb\" "
+         "  if DEBIAN_FRONTEND=noninteractive $DPKG --force-confold -i \"$STATE/previous.deb\" > "
+         "\"$STATE/dpkg.log\" 2>&1; then cp -p \"$STATE/previous.deb\" "
          "\"$STATE/current.deb\"; echo package=restored; else echo package=failed; fi\n"
          "else echo package=none-kept; fi\n";
   o += "rm -f \"$ETC/.edge.toml.new\" \"$ETC/.rig.key.new\"\n";
@@ -157,7 +162,8 @@ std::string rollback_script(const BoardSettings& s, bool package) {
 std::string verify_script(const BoardSettings& s, const std::string& nonce_hex) {
   return prelude(s) + fmt::format("sleep {}\n", s.settle_s) +
          "echo \"active=$($SYSTEMCTL is-active \"$SVC\" 2>/dev/null | head -n 1)\"\n"
-         "if [ -x \"$BIN\" ]; then v=$(\"$BIN\" --version 2>/dev/null | head -n 1); echo \"version=${v##* }\";"
+         "if [ -x \"$BIN\" ]; then v=$(\"$BIN\" --version 2>/dev/null | head -n 1); echo \"version=${v##* "
+         "}\";"
          " else echo version=none; fi\n"
          "p=$(\"$BIN\" --config \"$ETC/edge.toml\" --prove-key " +
          nonce_hex +
@@ -201,7 +207,8 @@ Verified verify(Remote& remote, const Board& b, const std::vector<uint8_t>& key_
       v.why = "no key proof: " + (f["proof_line"].empty() ? std::string("(nothing)") : f["proof_line"]);
     } else if (vc_auth_verify(proof, key_now.data(), kDeployProofRole, b.number, theirs, nonce)) {
       v.key = rotating ? KeyState::New : KeyState::Current;
-    } else if (!key_old.empty() && vc_auth_verify(proof, key_old.data(), kDeployProofRole, b.number, theirs, nonce)) {
+    } else if (!key_old.empty() &&
+               vc_auth_verify(proof, key_old.data(), kDeployProofRole, b.number, theirs, nonce)) {
       v.key = KeyState::Old;
     } else {
       v.why = "it proves another rig key";
@@ -249,11 +256,12 @@ std::string upstream_version(const std::string& v) {
 
 PackageInfo read_package(const std::filesystem::path& deb) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(deb, ec)) throw InventoryError(fmt::format("{}: no such package file", deb.string()));
+  if (!std::filesystem::is_regular_file(deb, ec))
+    throw InventoryError(fmt::format("{}: no such package file", deb.string()));
   const ProcessResult r = run_process({"dpkg-deb", "-f", deb.string(), "Package", "Version"}, "", 60);
   if (r.exit_code != 0)
-    throw InventoryError(fmt::format("{}: not a Debian package ({})", deb.string(),
-                                     r.why.empty() ? last_line(r.err) : r.why));
+    throw InventoryError(
+        fmt::format("{}: not a Debian package ({})", deb.string(), r.why.empty() ? last_line(r.err) : r.why));
   PackageInfo p;
   std::istringstream is(r.out);
   std::string line;
@@ -268,7 +276,8 @@ PackageInfo read_package(const std::filesystem::path& deb) {
   return p;
 }
 
-DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& remote, const Progress& progress) {
+DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& remote,
+                        const Progress& progress) {
   std::string why;
   if (!opt.valid(&why)) throw InventoryError(why);
   if (vc_auth_init() < 0) throw std::runtime_error("libsodium failed to start");
@@ -279,7 +288,8 @@ DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& 
     if (opt.nodes.empty() || std::find(opt.nodes.begin(), opt.nodes.end(), b.id) != opt.nodes.end())
       boards.push_back(&b);
   for (const std::string& n : opt.nodes)
-    if (!inv.board(n)) throw InventoryError(fmt::format("--node {}: no such node in {}", n, inv.rig.source.string()));
+    if (!inv.board(n))
+      throw InventoryError(fmt::format("--node {}: no such node in {}", n, inv.rig.source.string()));
 
   const std::filesystem::path package = opt.package.empty() ? inv.package : opt.package;
   Payload base;
@@ -295,7 +305,8 @@ DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& 
   std::vector<uint8_t> key_now, key_old;
   if (!inv.rig.key_path.empty()) key_now = load_key(inv.rig.key_path);
   if (opt.rotate_key) {
-    if (inv.rig.key_path.empty()) throw InventoryError(inv.rig.source.string() + ": key: --rotate-key needs a keyed rig");
+    if (inv.rig.key_path.empty())
+      throw InventoryError(inv.rig.source.string() + ": key: --rotate-key needs a keyed rig");
     report.key_next = inv.rig.key_path;
     report.key_next += ".next";
     key_old = key_now;
@@ -306,7 +317,8 @@ DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& 
     } else if (!opt.dry_run) {
       key_now.assign(VC_AUTH_KEY_SIZE, 0);
       char w[512];
-      if (vc_key_write(report.key_next.c_str(), false, key_now.data(), w, sizeof w) < 0) throw InventoryError(w);
+      if (vc_key_write(report.key_next.c_str(), false, key_now.data(), w, sizeof w) < 0)
+        throw InventoryError(w);
       progress("", fmt::format("new rig key written to {} (mode 0600)", report.key_next.string()));
     }
   }
@@ -328,7 +340,8 @@ DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& 
     }
     auto pf = fields(pr.out);
     res.before = pf["version"].empty() ? "none" : pf["version"];
-    say(fmt::format("runs voxcap-edge {} (service {}){}", res.before, pf["active"].empty() ? "unknown" : pf["active"],
+    say(fmt::format("runs voxcap-edge {} (service {}){}", res.before,
+                    pf["active"].empty() ? "unknown" : pf["active"],
                     pf["kept"] == "yes" ? "" : ", no package kept for a rollback"));
     const std::string want = report.package_version.empty() ? res.before : report.package_version;
     if (opt.dry_run) {
@@ -356,8 +369,9 @@ DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& 
       for (std::string line; std::getline(is, line);)
         if (line.rfind("dpkg: ", 0) == 0) detail = line;
       res.why = !ir.why.empty() ? ir.why
-                : f.count("fail") ? fmt::format("{} failed{}", f["fail"], detail.empty() ? "" : " (" + detail + ")")
-                                  : "install: " + last_line(ir.err + ir.out);
+                : f.count("fail")
+                    ? fmt::format("{} failed{}", f["fail"], detail.empty() ? "" : " (" + detail + ")")
+                    : "install: " + last_line(ir.err + ir.out);
     } else {
       const Verified v = verify(remote, b, key_now, key_old, opt.rotate_key);
       res.after = v.version;
@@ -367,7 +381,8 @@ DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& 
       else if (!v.active)
         res.why = "the service is not active after the restart", failed = true;
       else if (v.version != want)
-        res.why = fmt::format("it runs {} after the restart, not {}", v.version.empty() ? "nothing" : v.version, want),
+        res.why = fmt::format("it runs {} after the restart, not {}",
+                              v.version.empty() ? "nothing" : v.version, want),
         failed = true;
       else if (v.key == KeyState::Old)
         res.why = "it still proves the old key", failed = true;
@@ -375,7 +390,9 @@ DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& 
     if (!failed) {
       res.ok = true;
       say(fmt::format("ok: voxcap-edge {} active{}", res.after,
-                      key_now.empty() ? "" : opt.rotate_key ? ", proved the NEW key" : ", proved the rig key"));
+                      key_now.empty()  ? ""
+                      : opt.rotate_key ? ", proved the NEW key"
+                                       : ", proved the rig key"));
       return;
     }
     say("FAILED: " + res.why + "; rolling back");
@@ -386,15 +403,25 @@ DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& 
       say("rollback failed: " + (rr.why.empty() ? last_line(rr.err + rr.out) : rr.why));
       return;
     }
-    if (rf["package"] == "none-kept") say("no previous package was kept on the board: only its configuration restored");
-    if (rf["package"] == "failed") say("reinstalling the previous package failed (see /var/lib/voxcap/deploy/dpkg.log)");
+    if (rf["package"] == "none-kept")
+      say("no previous package was kept on the board: only its configuration restored");
+    if (rf["package"] == "failed")
+      say("reinstalling the previous package failed (see /var/lib/voxcap/deploy/dpkg.log)");
     const Verified v = verify(remote, b, key_old.empty() ? key_now : key_old, key_now, false);
     res.after = v.version;
     // After a rollback of a rotation, "current" means the old key and "old" the new one.
-    res.key = !opt.rotate_key ? v.key : v.key == KeyState::Current ? KeyState::Old : v.key == KeyState::Old ? KeyState::New : v.key;
+    res.key = !opt.rotate_key              ? v.key
+              : v.key == KeyState::Current ? KeyState::Old
+              : v.key == KeyState::Old     ? KeyState::New
+                                           : v.key;
     res.rollback_ok = v.active && v.version == res.before && v.why.empty();
-    say(fmt::format("rolled back: voxcap-edge {} {}", v.version.empty() ? "none" : v.version,
-                    res.rollback_ok ? "active again" : "NOT back as before (" + (v.why.empty() ? "service " + std::string(v.active ? "active" : "inactive") : v.why) + ")"));
+    say(fmt::format(
+        "rolled back: voxcap-edge {} {}", v.version.empty() ? "none" : v.version,
+        res.rollback_ok
+            ? "active again"
+            : "NOT back as before (" +
+                  (v.why.empty() ? "service " + std::string(v.active ? "active" : "inactive") : v.why) +
+                  ")"));
   };
   const size_t n_threads = std::min<size_t>(static_cast<size_t>(inv.parallel), boards.size());
   std::vector<std::thread> pool;
@@ -412,13 +439,19 @@ DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& 
       std::filesystem::path old = inv.rig.key_path;
       old += ".old";
       std::error_code ec;
-      std::filesystem::copy_file(inv.rig.key_path, old, std::filesystem::copy_options::overwrite_existing, ec);
-      if (!ec) std::filesystem::permissions(old, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write, ec);
+      std::filesystem::copy_file(inv.rig.key_path, old, std::filesystem::copy_options::overwrite_existing,
+                                 ec);
+      if (!ec)
+        std::filesystem::permissions(
+            old, std::filesystem::perms::owner_read | std::filesystem::perms::owner_write, ec);
       std::filesystem::rename(report.key_next, inv.rig.key_path, ec);
-      if (ec) throw std::runtime_error(fmt::format("{}: cannot take the new key: {}", inv.rig.key_path.string(), ec.message()));
+      if (ec)
+        throw std::runtime_error(
+            fmt::format("{}: cannot take the new key: {}", inv.rig.key_path.string(), ec.message()));
       report.key_switched = true;
       progress("", fmt::format("every board proved the new key: {} now holds it (the old one in {}); restart "
-                               "voxcap-host so it uses it", inv.rig.key_path.string(), old.string()));
+                               "voxcap-host so it uses it",
+                               inv.rig.key_path.string(), old.string()));
     } else if (report.left_with_old_key.empty()) {
       progress("", "--node chose some boards: the host keeps its key; rotate every board to switch it");
     }
@@ -430,8 +463,14 @@ std::string format_summary(const DeployReport& r, bool rotate_key) {
   std::string o = fmt::format("{:<16} {:<10} {:<10} {:<6} {}\n", "board", "before", "after", "key", "result");
   size_t good = 0;
   for (const BoardResult& b : r.boards) {
-    const char* key = b.key == KeyState::New ? "new" : b.key == KeyState::Old ? "OLD" : b.key == KeyState::Current ? "ok" : "?";
-    std::string result = b.ok ? "ok" : b.rolled_back ? (b.rollback_ok ? "FAILED, rolled back" : "FAILED, rollback incomplete") : "FAILED";
+    const char* key = b.key == KeyState::New       ? "new"
+                      : b.key == KeyState::Old     ? "OLD"
+                      : b.key == KeyState::Current ? "ok"
+                                                   : "?";
+    std::string result = b.ok ? "ok"
+                         : b.rolled_back
+                             ? (b.rollback_ok ? "FAILED, rolled back" : "FAILED, rollback incomplete")
+                             : "FAILED";
     if (!b.ok) result += ": " + b.why;
     o += fmt::format("{:<16} {:<10} {:<10} {:<6} {}\n", b.id, b.before.empty() ? "?" : b.before,
                      b.after.empty() ? "?" : b.after, key, result);
@@ -446,7 +485,8 @@ std::string format_summary(const DeployReport& r, bool rotate_key) {
     else if (!r.left_with_old_key.empty()) {
       o += "rig key NOT rotated on the host; boards without the new key:";
       for (const auto& id : r.left_with_old_key) o += " " + id;
-      o += fmt::format("\n(the new key waits in {}; fix them and run voxcap deploy --rotate-key again)\n", r.key_next.string());
+      o += fmt::format("\n(the new key waits in {}; fix them and run voxcap deploy --rotate-key again)\n",
+                       r.key_next.string());
     }
   }
   return o;

@@ -77,7 +77,8 @@ bool FlashOptions::valid(std::string* why) const {
 }
 
 std::string camera_config_txt() {
-  return "# voxcap: two Raspberry Pi Global Shutter cameras (Sony IMX296) on a Raspberry Pi 5, hardware-triggered\n"
+  return "# voxcap: two Raspberry Pi Global Shutter cameras (Sony IMX296) on a Raspberry Pi 5, "
+         "hardware-triggered\n"
          "# through their XTR pads (hw/rigs/README.md, \"The reference rig\"). Included from config.txt.\n"
          "camera_auto_detect=0\n"
          "dtoverlay=imx296,cam0\n"
@@ -91,19 +92,22 @@ FlashResult write_flash_config(const Inventory& inv, const FlashOptions& opt) {
   if (!b) {
     std::string ids;
     for (const Board& x : inv.boards) ids += (ids.empty() ? "" : ", ") + x.id;
-    throw InventoryError(fmt::format("--node {}: no such node in {} (nodes: {})", opt.node, inv.rig.source.string(), ids));
+    throw InventoryError(
+        fmt::format("--node {}: no such node in {} (nodes: {})", opt.node, inv.rig.source.string(), ids));
   }
   const std::filesystem::path key_file = opt.ssh_key.empty() ? inv.flash.authorized_key : opt.ssh_key;
   if (key_file.empty())
-    throw InventoryError("no ssh public key for the login user: give --ssh-key FILE.pub or [deploy] authorized_key");
+    throw InventoryError(
+        "no ssh public key for the login user: give --ssh-key FILE.pub or [deploy] authorized_key");
   const std::string pubkey = read_small(key_file, "the ssh public key");
   if (pubkey.rfind("ssh-", 0) != 0 && pubkey.rfind("ecdsa-", 0) != 0 && pubkey.rfind("sk-", 0) != 0)
-    throw InventoryError(fmt::format("{}: not an OpenSSH public key (one line, \"ssh-ed25519 AAAA... comment\")",
-                                     key_file.string()));
+    throw InventoryError(fmt::format(
+        "{}: not an OpenSSH public key (one line, \"ssh-ed25519 AAAA... comment\")", key_file.string()));
   const std::filesystem::path package = opt.package.empty() ? inv.package : opt.package;
   const bool from_repo = opt.package.empty() && !inv.flash.package_repo.empty();
   if (!from_repo && package.empty())
-    throw InventoryError("no voxcap-edge package: give --package FILE.deb, [deploy] package or [deploy] package_repo");
+    throw InventoryError(
+        "no voxcap-edge package: give --package FILE.deb, [deploy] package or [deploy] package_repo");
   const std::string admin = inv.flash.admin_user;
   const std::string svc_user = b->settings.service_user;
   FlashResult res;
@@ -140,16 +144,19 @@ FlashResult write_flash_config(const Inventory& inv, const FlashOptions& opt) {
   std::string nonce;
   for (uint8_t c : r) nonce += fmt::format("{:02x}", c);
   write(opt.out / "meta-data",
-        fmt::format("instance-id: {}\nlocal-hostname: {}\n", yaml_quote("voxcap-" + b->id + "-" + nonce), yaml_quote(b->id)),
+        fmt::format("instance-id: {}\nlocal-hostname: {}\n", yaml_quote("voxcap-" + b->id + "-" + nonce),
+                    yaml_quote(b->id)),
         pub);
   res.files.push_back("meta-data");
 
   // network-config (v2): the node's address on eth0 when the rig names one, else DHCP.
   std::string net = "network:\n  version: 2\n  ethernets:\n    eth0:\n";
   if (is_ipv4(b->address)) {
-    net += fmt::format("      dhcp4: false\n      addresses: [{}]\n", yaml_quote(fmt::format("{}/{}", b->address, inv.flash.network_prefix)));
+    net += fmt::format("      dhcp4: false\n      addresses: [{}]\n",
+                       yaml_quote(fmt::format("{}/{}", b->address, inv.flash.network_prefix)));
     if (!inv.flash.gateway.empty())
-      net += fmt::format("      routes:\n        - to: default\n          via: {}\n", yaml_quote(inv.flash.gateway));
+      net += fmt::format("      routes:\n        - to: default\n          via: {}\n",
+                         yaml_quote(inv.flash.gateway));
     if (!inv.flash.dns.empty()) {
       net += "      nameservers:\n        addresses: [";
       for (size_t i = 0; i < inv.flash.dns.size(); ++i) net += (i ? ", " : "") + yaml_quote(inv.flash.dns[i]);
@@ -163,33 +170,41 @@ FlashResult write_flash_config(const Inventory& inv, const FlashOptions& opt) {
 
   // user-data (#cloud-config).
   std::string u = "#cloud-config\n";
-  u += fmt::format("# voxcap edge node {} of rig {}: written by voxcap deploy flash-config (host/deploy/README.md).\n",
-                   b->id, inv.rig.name);
+  u += fmt::format(
+      "# voxcap edge node {} of rig {}: written by voxcap deploy flash-config (host/deploy/README.md).\n",
+      b->id, inv.rig.name);
   u += fmt::format("hostname: {}\nmanage_etc_hosts: true\n", yaml_quote(b->id));
   if (!inv.flash.timezone.empty()) u += fmt::format("timezone: {}\n", yaml_quote(inv.flash.timezone));
   u += "ssh_pwauth: false\n";
   u += "users:\n";
-  u += fmt::format("  - name: {}\n    groups: [sudo, video, gpio, plugdev]\n    shell: /bin/bash\n    lock_passwd: true\n"
-                   "    sudo: \"ALL=(ALL) NOPASSWD:ALL\"\n    ssh_authorized_keys:\n      - {}\n",
-                   yaml_quote(admin), yaml_quote(pubkey));
-  u += fmt::format("  - name: {}\n    system: true\n    groups: [video, gpio, plugdev]\n    homedir: /var/lib/voxcap\n"
-                   "    shell: /usr/sbin/nologin\n    lock_passwd: true\n",
-                   yaml_quote(svc_user));
+  u += fmt::format(
+      "  - name: {}\n    groups: [sudo, video, gpio, plugdev]\n    shell: /bin/bash\n    lock_passwd: true\n"
+      "    sudo: \"ALL=(ALL) NOPASSWD:ALL\"\n    ssh_authorized_keys:\n      - {}\n",
+      yaml_quote(admin), yaml_quote(pubkey));
+  u += fmt::format(
+      "  - name: {}\n    system: true\n    groups: [video, gpio, plugdev]\n    homedir: /var/lib/voxcap\n"
+      "    shell: /usr/sbin/nologin\n    lock_passwd: true\n",
+      yaml_quote(svc_user));
   if (from_repo) {
     u += "apt:\n  sources:\n    voxcap.list:\n";
     u += fmt::format("      source: {}\n", yaml_quote("deb [trusted=yes] " + inv.flash.package_repo + " ./"));
     u += "package_update: true\npackages:\n  - voxcap-edge\n";
   }
   u += "write_files:\n";
-  u += "  - path: /etc/voxcap/edge.toml\n    permissions: \"0644\"\n    owner: \"root:root\"\n    content: |\n" +
+  u += "  - path: /etc/voxcap/edge.toml\n    permissions: \"0644\"\n    owner: \"root:root\"\n    content: "
+       "|\n" +
        indent(b->edge_toml, "      ");
   u += "  - path: /etc/modprobe.d/voxcap-imx296.conf\n    permissions: \"0644\"\n    content: |\n"
-       "      # The Global Shutter camera waits for its XTR pulse (Raspberry Pi's documentation: trigger_mode 1)\n"
+       "      # The Global Shutter camera waits for its XTR pulse (Raspberry Pi's documentation: "
+       "trigger_mode 1)\n"
        "      options imx296 trigger_mode=1\n";
   u += "runcmd:\n";
   auto cmd = [&](const std::string& c) { u += "  - " + yaml_quote(c) + "\n"; };
   cmd("systemctl enable --now ssh");
-  cmd(fmt::format("grep -qx 'include voxcap-camera.txt' {0}/config.txt || printf '\\ninclude voxcap-camera.txt\\n' >> {0}/config.txt", kBoot));
+  cmd(
+      fmt::format("grep -qx 'include voxcap-camera.txt' {0}/config.txt || printf '\\ninclude "
+                  "voxcap-camera.txt\\n' >> {0}/config.txt",
+                  kBoot));
   cmd("mkdir -p /etc/voxcap /var/lib/voxcap/deploy");
   if (!from_repo) {
     cmd(fmt::format("apt-get install -y {}/voxcap/voxcap-edge.deb", kBoot));
@@ -201,7 +216,8 @@ FlashResult write_flash_config(const Inventory& inv, const FlashOptions& opt) {
   }
   cmd(fmt::format("chown -R {} /var/lib/voxcap", svc_user));
   cmd("systemctl enable voxcap-edge.service");
-  u += "power_state:\n  mode: reboot\n  message: \"voxcap: rebooting so config.txt's camera overlays and the trigger mode apply\"\n"
+  u += "power_state:\n  mode: reboot\n  message: \"voxcap: rebooting so config.txt's camera overlays and the "
+       "trigger mode apply\"\n"
        "  condition: true\n";
   write(opt.out / "user-data", u, pub);
   res.files.push_back("user-data");

@@ -39,7 +39,8 @@ struct Reader {
       if (c == '\n' || c == '\r' || c == '\0') fail(prefix + key, "must be one line");
     return true;
   }
-  bool integer(const toml::table& t, const std::string& prefix, const char* key, int& out, int lo, int hi) const {
+  bool integer(const toml::table& t, const std::string& prefix, const char* key, int& out, int lo,
+               int hi) const {
     const toml::node* n = t.get(key);
     if (!n) return false;
     if (!n->is_integer()) fail(prefix + key, "expected an integer");
@@ -58,16 +59,30 @@ struct Reader {
       out = **n->as_floating_point();
     else
       fail(prefix + key, "expected a number");
-    if (!(out >= lo && out <= hi)) fail(prefix + key, fmt::format("must be in [{}, {}], got {}", lo, hi, out));
+    if (!(out >= lo && out <= hi))
+      fail(prefix + key, fmt::format("must be in [{}, {}], got {}", lo, hi, out));
     return true;
   }
 };
 
-const std::set<std::string> kBoardKeys = {"ssh_user", "ssh_port", "identity", "known_hosts", "host_key_checking",
-                                          "connect_timeout_s", "step_timeout_s", "sudo", "dpkg", "systemctl",
-                                          "root", "service_user", "service", "settle_s", "edge"};
-const std::set<std::string> kGlobalKeys = {"host_address", "parallel", "package", "admin_user", "authorized_key",
-                                           "package_repo", "network_prefix", "gateway", "dns", "timezone"};
+const std::set<std::string> kBoardKeys = {"ssh_user",
+                                          "ssh_port",
+                                          "identity",
+                                          "known_hosts",
+                                          "host_key_checking",
+                                          "connect_timeout_s",
+                                          "step_timeout_s",
+                                          "sudo",
+                                          "dpkg",
+                                          "systemctl",
+                                          "root",
+                                          "service_user",
+                                          "service",
+                                          "settle_s",
+                                          "edge"};
+const std::set<std::string> kGlobalKeys = {
+    "host_address", "parallel",       "package", "admin_user", "authorized_key",
+    "package_repo", "network_prefix", "gateway", "dns",        "timezone"};
 
 std::filesystem::path relative_to(const std::filesystem::path& base, const std::string& p) {
   std::filesystem::path out(p);
@@ -76,8 +91,8 @@ std::filesystem::path relative_to(const std::filesystem::path& base, const std::
 }
 
 // The keys one board may have in [deploy] or [nodes.deploy].
-void read_board(const Reader& r, const toml::table& t, const std::string& prefix, const std::filesystem::path& dir,
-                BoardSettings& b) {
+void read_board(const Reader& r, const toml::table& t, const std::string& prefix,
+                const std::filesystem::path& dir, BoardSettings& b) {
   std::string s;
   r.str(t, prefix, "ssh_user", b.ssh_user);
   r.integer(t, prefix, "ssh_port", b.ssh_port, 1, 65535);
@@ -152,7 +167,8 @@ bool BoardSettings::valid(std::string* why) const {
     return false;
   };
   if (host_key_checking != "yes" && host_key_checking != "accept-new")
-    return bad(fmt::format("host_key_checking: must be \"yes\" or \"accept-new\", got \"{}\"", host_key_checking));
+    return bad(
+        fmt::format("host_key_checking: must be \"yes\" or \"accept-new\", got \"{}\"", host_key_checking));
   if (service.empty() || service.find_first_of(" ;&|$`'\"\\") != std::string::npos)
     return bad("service: must be one unit name");
   if (service_user.empty() || service_user.find_first_of(" ;&|$`'\"\\/:") != std::string::npos)
@@ -191,7 +207,8 @@ std::string make_edge_toml(const config::RigConfig& rig, size_t node_index, cons
   } catch (const toml::parse_error& e) {
     throw InventoryError(fmt::format("{}: deploy.edge: {}", rig.source.string(), e.description()));
   }
-  t.insert_or_assign("node_id", static_cast<int64_t>(config::node_number(node, node_index, rig.source.string())));
+  t.insert_or_assign("node_id",
+                     static_cast<int64_t>(config::node_number(node, node_index, rig.source.string())));
   if (!rig.key_path.empty())
     t.insert_or_assign("key", "rig.key");  // beside edge.toml: /etc/voxcap/rig.key
   else
@@ -203,7 +220,8 @@ std::string make_edge_toml(const config::RigConfig& rig, size_t node_index, cons
   host.insert_or_assign("port", static_cast<int64_t>(rig.network.port));
 
   if (!t.contains("cameras")) t.insert("cameras", toml::array{});
-  if (!t.get("cameras")->is_array()) throw InventoryError(rig.source.string() + ": deploy.edge.cameras: expected [[cameras]] tables");
+  if (!t.get("cameras")->is_array())
+    throw InventoryError(rig.source.string() + ": deploy.edge.cameras: expected [[cameras]] tables");
   toml::array& cams = *t.get("cameras")->as_array();
   while (cams.size() < 2) cams.push_back(toml::table{});
   for (size_t k = 0; k < 2; ++k) {
@@ -227,14 +245,15 @@ std::string make_edge_toml(const config::RigConfig& rig, size_t node_index, cons
   trig.insert_or_assign("active_low", rig.trigger.active_low);  // the edge stamps the host's leading edge
 
   std::ostringstream os;
-  os << "# edge.toml of node " << node.id << " (node_id " << *t.get("node_id")->value<int64_t>() << ") of rig "
-     << rig.name << ", written by voxcap deploy from " << rig.source.filename().string()
+  os << "# edge.toml of node " << node.id << " (node_id " << *t.get("node_id")->value<int64_t>()
+     << ") of rig " << rig.name << ", written by voxcap deploy from " << rig.source.filename().string()
      << ".\n# Keys: edge/daemon/README.md. Change the rig file and deploy again rather than this file.\n"
      << t << "\n";
-  const std::string text = os.str();
+  std::string text = os.str();
   const std::string why = check_edge_toml(text, node.id + "/edge.toml");
-  if (!why.empty()) throw InventoryError(fmt::format("{}: the edge.toml made for node {} is refused by voxcap-edge: {}",
-                                                     rig.source.string(), node.id, why));
+  if (!why.empty())
+    throw InventoryError(fmt::format("{}: the edge.toml made for node {} is refused by voxcap-edge: {}",
+                                     rig.source.string(), node.id, why));
   return text;
 }
 
@@ -282,9 +301,11 @@ Inventory load_inventory(const std::filesystem::path& rig_toml) {
       inv.flash.dns.push_back(**e.as_string());
     }
   }
-  if (inv.flash.admin_user.empty()) inv.flash.admin_user = base.ssh_user.empty() ? "voxcap-admin" : base.ssh_user;
+  if (inv.flash.admin_user.empty())
+    inv.flash.admin_user = base.ssh_user.empty() ? "voxcap-admin" : base.ssh_user;
   if (inv.host_address.empty())
-    r.fail("deploy.host_address", "missing: network.listen is \"any\", so name the address the boards reach the host at");
+    r.fail("deploy.host_address",
+           "missing: network.listen is \"any\", so name the address the boards reach the host at");
   const std::string edge_template = table_text(dep->get("edge") ? dep->get("edge")->as_table() : nullptr);
 
   const toml::array* nodes = top.get("nodes") ? top.get("nodes")->as_array() : nullptr;

@@ -30,7 +30,8 @@ std::string shell_words(const std::string& sudo, bool as_root) {
 ProcessResult run_process(const std::vector<std::string>& argv, const std::string& input, double timeout_s) {
   ProcessResult r;
   int in[2] = {-1, -1}, out[2] = {-1, -1}, err[2] = {-1, -1};
-  if (argv.empty() || ::pipe2(in, O_CLOEXEC) < 0 || ::pipe2(out, O_CLOEXEC) < 0 || ::pipe2(err, O_CLOEXEC) < 0) {
+  if (argv.empty() || ::pipe2(in, O_CLOEXEC) < 0 || ::pipe2(out, O_CLOEXEC) < 0 ||
+      ::pipe2(err, O_CLOEXEC) < 0) {
     r.why = fmt::format("cannot start {}: {}", argv.empty() ? "" : argv[0], std::strerror(errno));
     for (int* p : {in, out, err}) close_fd(p[0]), close_fd(p[1]);
     return r;
@@ -86,7 +87,8 @@ ProcessResult run_process(const std::vector<std::string>& argv, const std::strin
         continue;
       }
       std::string& dst = k == 0 ? r.out : r.err;
-      dst.append(buf, std::min(static_cast<size_t>(n), kMaxOutputBytes - std::min(kMaxOutputBytes, dst.size())));
+      dst.append(buf,
+                 std::min(static_cast<size_t>(n), kMaxOutputBytes - std::min(kMaxOutputBytes, dst.size())));
     }
     if (in[1] >= 0 && (fds[2].revents & (POLLOUT | POLLERR | POLLHUP))) {
       const ssize_t n = ::write(in[1], input.data() + written, input.size() - written);
@@ -105,11 +107,14 @@ ProcessResult run_process(const std::vector<std::string>& argv, const std::strin
 
 std::vector<std::string> SshRemote::command(const Board& board, bool as_root) {
   const BoardSettings& s = board.settings;
-  std::vector<std::string> a = {"ssh", "-T", "-o", "BatchMode=yes", "-o", "LogLevel=ERROR",
-                                "-o", fmt::format("ConnectTimeout={}", s.connect_timeout_s),
-                                "-o", "ServerAliveInterval=5", "-o", "ServerAliveCountMax=3",
-                                "-o", "StrictHostKeyChecking=" + s.host_key_checking,
-                                "-p", std::to_string(s.ssh_port)};
+  std::vector<std::string> a = {"ssh", "-T",
+                                "-o",  "BatchMode=yes",
+                                "-o",  "LogLevel=ERROR",
+                                "-o",  fmt::format("ConnectTimeout={}", s.connect_timeout_s),
+                                "-o",  "ServerAliveInterval=5",
+                                "-o",  "ServerAliveCountMax=3",
+                                "-o",  "StrictHostKeyChecking=" + s.host_key_checking,
+                                "-p",  std::to_string(s.ssh_port)};
   if (!s.known_hosts.empty()) a.insert(a.end(), {"-o", "UserKnownHostsFile=" + s.known_hosts.string()});
   if (!s.identity.empty()) a.insert(a.end(), {"-i", s.identity.string(), "-o", "IdentitiesOnly=yes"});
   a.insert(a.end(), {s.ssh, "--", shell_words(s.sudo, as_root)});

@@ -29,11 +29,13 @@ struct FlashTest : ::testing::Test {
   void SetUp() override {
     std::filesystem::remove_all(dir);
     std::filesystem::create_directories(dir);
-    for (const char* f : {"pi5-reference.toml", "pi5-reference.yaml"}) std::filesystem::copy_file(kRigs / f, dir / f);
+    for (const char* f : {"pi5-reference.toml", "pi5-reference.yaml"})
+      std::filesystem::copy_file(kRigs / f, dir / f);
     ASSERT_EQ(vc_auth_init(), 0);
     char why[256];
     ASSERT_EQ(vc_key_write((dir / "rig.key").c_str(), false, nullptr, why, sizeof why), 0) << why;
-    std::ofstream(dir / "id.pub") << "ssh-ed25519 AAAAC3NzaC1lZDI1NTE5AAAAIJtestkeytestkeytestkeytestkeytestkeytestkey lab@host\n";
+    std::ofstream(dir / "id.pub")
+        << "ssh-ed25519 AAAAC3NzaC1lZDI1NTE5AAAAIJtestkeytestkeytestkeytestkeytestkeytestkey lab@host\n";
     std::ofstream(dir / "voxcap-edge_0.1.0_arm64.deb") << "not really a package";
   }
 };
@@ -56,7 +58,8 @@ TEST_F(FlashTest, FilesAreWhatAFirstBootNeeds) {
   const YAML::Node users = u["users"];
   ASSERT_EQ(users.size(), 2u);
   EXPECT_EQ(users[0]["name"].as<std::string>(), "voxcap-admin");
-  EXPECT_EQ(users[0]["ssh_authorized_keys"][0].as<std::string>(), slurp(dir / "id.pub").substr(0, slurp(dir / "id.pub").size() - 1));
+  EXPECT_EQ(users[0]["ssh_authorized_keys"][0].as<std::string>(),
+            slurp(dir / "id.pub").substr(0, slurp(dir / "id.pub").size() - 1));
   EXPECT_EQ(users[0]["sudo"].as<std::string>(), "ALL=(ALL) NOPASSWD:ALL");  // voxcap deploy runs sudo -n
   EXPECT_EQ(users[1]["name"].as<std::string>(), "voxcap");
   EXPECT_TRUE(users[1]["system"].as<bool>());
@@ -87,9 +90,11 @@ TEST_F(FlashTest, FilesAreWhatAFirstBootNeeds) {
   // runcmd: the package, the key 0600 for the service user, the config.txt include.
   std::string runcmd;
   for (const auto& c : u["runcmd"]) runcmd += c.as<std::string>() + "\n";
-  EXPECT_NE(runcmd.find("apt-get install -y /boot/firmware/voxcap/voxcap-edge.deb"), std::string::npos) << runcmd;
+  EXPECT_NE(runcmd.find("apt-get install -y /boot/firmware/voxcap/voxcap-edge.deb"), std::string::npos)
+      << runcmd;
   EXPECT_NE(runcmd.find("install -m 0600 -o voxcap /boot/firmware/voxcap/rig.key /etc/voxcap/rig.key"),
-            std::string::npos) << runcmd;
+            std::string::npos)
+      << runcmd;
   EXPECT_NE(runcmd.find("shred -u /boot/firmware/voxcap/rig.key"), std::string::npos);
   EXPECT_NE(runcmd.find("include voxcap-camera.txt"), std::string::npos);
   EXPECT_NE(runcmd.find("systemctl enable voxcap-edge.service"), std::string::npos);
@@ -125,7 +130,8 @@ TEST_F(FlashTest, FilesAreWhatAFirstBootNeeds) {
 
 TEST_F(FlashTest, FromARepositoryAndDhcp) {
   std::string text = slurp(dir / "pi5-reference.toml");
-  text.replace(text.find("network_prefix = 24"), 19, "network_prefix = 24\npackage_repo = \"http://192.168.50.1/voxcap\"");
+  text.replace(text.find("network_prefix = 24"), 19,
+               "network_prefix = 24\npackage_repo = \"http://192.168.50.1/voxcap\"");
   text.replace(text.find("address = \"192.168.50.13\""), 25, "address = \"pi-c.lab\"");
   std::ofstream(dir / "pi5-reference.toml") << text;
   const Inventory inv = load_inventory(dir / "pi5-reference.toml");

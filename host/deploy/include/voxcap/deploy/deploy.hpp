@@ -18,10 +18,11 @@
 namespace vc::deploy {
 
 struct DeployOptions {
-  std::filesystem::path package;    // the voxcap-edge .deb ("" = Inventory::package, or none: config and key only)
-  bool rotate_key = false;          // a new rig key for every board, then for the host (README "Keys")
-  bool dry_run = false;             // probe every board and print the plan; change nothing
-  std::vector<std::string> nodes;   // only these boards (empty: all)
+  std::filesystem::path
+      package;              // the voxcap-edge .deb ("" = Inventory::package, or none: config and key only)
+  bool rotate_key = false;  // a new rig key for every board, then for the host (README "Keys")
+  bool dry_run = false;     // probe every board and print the plan; change nothing
+  std::vector<std::string> nodes;  // only these boards (empty: all)
 
   bool valid(std::string* why) const;
 };
@@ -30,20 +31,20 @@ enum class KeyState { Unknown, Current, New, Old };  // what the board proved af
 
 struct BoardResult {
   std::string id;
-  bool ok = false;            // the board runs what was asked for
-  bool rolled_back = false;   // it failed and was put back
-  bool rollback_ok = false;   // ... and came back with its previous version
-  std::string before;         // version found before ("none" if no voxcap-edge)
-  std::string after;          // version running at the end
+  bool ok = false;           // the board runs what was asked for
+  bool rolled_back = false;  // it failed and was put back
+  bool rollback_ok = false;  // ... and came back with its previous version
+  std::string before;        // version found before ("none" if no voxcap-edge)
+  std::string after;         // version running at the end
   KeyState key = KeyState::Unknown;
-  std::string why;            // the failure, one line
+  std::string why;  // the failure, one line
 };
 
 struct DeployReport {
-  std::string package_version;       // the package's upstream version ("" without a package)
+  std::string package_version;  // the package's upstream version ("" without a package)
   std::vector<BoardResult> boards;
-  bool key_switched = false;         // --rotate-key: the host's key file now holds the new key
-  std::filesystem::path key_next;    // --rotate-key: the pending new key, while not every board proved it
+  bool key_switched = false;       // --rotate-key: the host's key file now holds the new key
+  std::filesystem::path key_next;  // --rotate-key: the pending new key, while not every board proved it
   std::vector<std::string> left_with_old_key;  // --rotate-key: boards that did not prove the new key
   bool ok() const;
 };
@@ -61,7 +62,8 @@ using Progress = std::function<void(const std::string& board, const std::string&
 
 // Runs the deploy; throws InventoryError or std::runtime_error for what stops it before any board is
 // touched (bad package, unreadable key). Board failures are in the report.
-DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& remote, const Progress& progress);
+DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& remote,
+                        const Progress& progress);
 
 // The summary table printed at the end.
 std::string format_summary(const DeployReport& r, bool rotate_key);

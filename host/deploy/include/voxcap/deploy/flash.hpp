@@ -14,10 +14,11 @@
 namespace vc::deploy {
 
 struct FlashOptions {
-  std::string node;                    // the rig node this card becomes
-  std::filesystem::path out;           // folder to write (its contents go on the boot partition)
-  std::filesystem::path ssh_key;       // public key for the login user ("" = [deploy] authorized_key)
-  std::filesystem::path package;       // a voxcap-edge .deb to copy onto the card ("" = [deploy] package_repo, or package)
+  std::string node;               // the rig node this card becomes
+  std::filesystem::path out;      // folder to write (its contents go on the boot partition)
+  std::filesystem::path ssh_key;  // public key for the login user ("" = [deploy] authorized_key)
+  std::filesystem::path
+      package;  // a voxcap-edge .deb to copy onto the card ("" = [deploy] package_repo, or package)
 
   bool valid(std::string* why) const;
 };

@@ -22,21 +22,21 @@ struct InventoryError : std::runtime_error {
 
 // How to reach one board and what it looks like inside: [deploy], then the node's [nodes.deploy].
 struct BoardSettings {
-  std::string ssh;                   // ssh target "user@host" or "host" (nodes[].ssh; default ssh_user@address)
-  std::string ssh_user;              // login for nodes without `ssh` ("" = ssh's default)
+  std::string ssh;       // ssh target "user@host" or "host" (nodes[].ssh; default ssh_user@address)
+  std::string ssh_user;  // login for nodes without `ssh` ("" = ssh's default)
   int ssh_port = 22;
-  std::filesystem::path identity;    // ssh -i (absolute; empty: ssh's default keys)
-  std::filesystem::path known_hosts; // UserKnownHostsFile (absolute; empty: ~/.ssh/known_hosts)
+  std::filesystem::path identity;         // ssh -i (absolute; empty: ssh's default keys)
+  std::filesystem::path known_hosts;      // UserKnownHostsFile (absolute; empty: ~/.ssh/known_hosts)
   std::string host_key_checking = "yes";  // StrictHostKeyChecking: "yes" | "accept-new"
-  int connect_timeout_s = 10;        // ssh ConnectTimeout
-  int step_timeout_s = 300;          // one step on a board (copy + install) at most
-  std::string sudo = "sudo -n";      // how root commands run on the board ("" = already root)
-  std::string dpkg = "dpkg";         // installer: `$dpkg -i FILE.deb`
+  int connect_timeout_s = 10;             // ssh ConnectTimeout
+  int step_timeout_s = 300;               // one step on a board (copy + install) at most
+  std::string sudo = "sudo -n";           // how root commands run on the board ("" = already root)
+  std::string dpkg = "dpkg";              // installer: `$dpkg -i FILE.deb`
   std::string systemctl = "systemctl";
-  std::string root;                  // prefix of every path on the board ("" = /): staging and tests
+  std::string root;                     // prefix of every path on the board ("" = /): staging and tests
   std::string service_user = "voxcap";  // owns the rig key on the board
   std::string service = "voxcap-edge.service";
-  double settle_s = 3;               // after a restart, wait this long before checking the service
+  double settle_s = 3;  // after a restart, wait this long before checking the service
 
   bool valid(std::string* why) const;
 };
@@ -52,22 +52,23 @@ struct Board {
 
 // What flash-config needs besides the board ([deploy] keys only it reads).
 struct FlashSettings {
-  std::string admin_user;               // the login user created on first boot (default: ssh_user or "voxcap-admin")
-  std::filesystem::path authorized_key; // public key file for admin_user (absolute; or --ssh-key)
-  std::string package_repo;             // apt line's URL of a local repo holding voxcap-edge ("" = a .deb on the boot partition)
-  int network_prefix = 24;              // the board's static address: nodes[].address/prefix on eth0
-  std::string gateway;                  // optional
-  std::vector<std::string> dns;         // optional
-  std::string timezone;                 // optional, e.g. "Europe/Berlin"
+  std::string admin_user;  // the login user created on first boot (default: ssh_user or "voxcap-admin")
+  std::filesystem::path authorized_key;  // public key file for admin_user (absolute; or --ssh-key)
+  std::string
+      package_repo;  // apt line's URL of a local repo holding voxcap-edge ("" = a .deb on the boot partition)
+  int network_prefix = 24;       // the board's static address: nodes[].address/prefix on eth0
+  std::string gateway;           // optional
+  std::vector<std::string> dns;  // optional
+  std::string timezone;          // optional, e.g. "Europe/Berlin"
 };
 
 struct Inventory {
   config::RigConfig rig;
-  std::string host_address;           // what the boards connect to ([deploy] host_address, or network.listen)
-  int parallel = 4;                   // boards worked on at once
-  std::filesystem::path package;      // [deploy] package (absolute), the default of --package
+  std::string host_address;       // what the boards connect to ([deploy] host_address, or network.listen)
+  int parallel = 4;               // boards worked on at once
+  std::filesystem::path package;  // [deploy] package (absolute), the default of --package
   FlashSettings flash;
-  std::vector<Board> boards;          // in rig node order
+  std::vector<Board> boards;  // in rig node order
 
   const Board* board(const std::string& id) const;  // nullptr if absent
 };

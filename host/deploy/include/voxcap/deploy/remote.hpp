@@ -13,10 +13,10 @@
 namespace vc::deploy {
 
 struct ProcessResult {
-  int exit_code = -1;     // the process's exit code; -1 when it did not exit (killed, timed out, not started)
+  int exit_code = -1;  // the process's exit code; -1 when it did not exit (killed, timed out, not started)
   bool timed_out = false;
-  std::string out, err;   // each bounded to kMaxOutputBytes (the rest dropped)
-  std::string why;        // a one-line reason when it could not run
+  std::string out, err;  // each bounded to kMaxOutputBytes (the rest dropped)
+  std::string why;       // a one-line reason when it could not run
 };
 
 inline constexpr std::size_t kMaxOutputBytes = std::size_t{1} << 20;
