@@ -195,8 +195,9 @@ class DeploySsh : public ::testing::Test {
     if (!says.empty()) bin += "[ \"$1\" = --version ] && { echo \"voxcap-edge " + says + "\"; exit 0; }\n";
     bin += std::string("exec ") + VOXCAP_EDGE_BINARY + " \"$@\"\n";
     put(stage / "usr" / "bin" / "voxcap-edge", bin, kExec);
-    const fs::path deb = dir / ("voxcap-edge_" + version + "_all.deb");
-    const CmdResult r = sh("dpkg-deb --root-owner-group -Zgzip --build " + stage.string() + " " + deb.string());
+    fs::path deb = dir / ("voxcap-edge_" + version + "_all.deb");
+    const CmdResult r =
+        sh("dpkg-deb --root-owner-group -Zgzip --build " + stage.string() + " " + deb.string());
     EXPECT_EQ(r.code, 0) << r.out;
     return deb;
   }
@@ -227,7 +228,8 @@ class DeploySsh : public ::testing::Test {
            (i < service_user.size() ? ", service_user = \"" + service_user[i] + "\"" : "") + " }\n";
     }
     t += "[trigger]\nbackend = \"udp\"\n[trigger.udp]\ntargets = [";
-    for (size_t i = 0; i < ids.size(); ++i) t += (i ? ", \"" : "\"") + std::string("127.0.0.1:") + std::to_string(47001 + i) + "\"";
+    for (size_t i = 0; i < ids.size(); ++i)
+      t += (i ? ", \"" : "\"") + std::string("127.0.0.1:") + std::to_string(47001 + i) + "\"";
     t += "]\n[network]\nlisten = \"127.0.0.1\"\nport = 7600\n";
     t += "[deploy]\nssh_port = " + std::to_string(port) +
          "\nidentity = \"userkey\"\nknown_hosts = \"known_hosts\"\n"
