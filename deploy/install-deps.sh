@@ -41,6 +41,9 @@ pkgs+=(libsodium-dev)
 pkgs+=(qemu-system-x86 busybox-static cpio xz-utils zstd kmod)
 # The client test (label client): the exported BVH in Blender, headless, with its stock importer.
 pkgs+=(blender)
+# voxcap deploy's tests: an OpenSSH server on loopback stands in for a board; the flash config's
+# cloud-init YAML read back with yaml-cpp.
+pkgs+=(openssh-server openssh-client libyaml-cpp-dev)
 # From bookworm-backports (pinned to that suite explicitly).
 bp_pkgs=(libcamera-dev libgpiod-dev)
 

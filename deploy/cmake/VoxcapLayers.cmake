@@ -46,6 +46,7 @@ set(VC_LAYERS
   "host/export: vc_host_export"         # fitted poses -> BVH and joints.csv (hw/body's standard humanoid)
   "host/aggregator: vc_host_aggregator"
   "host/emulated: vc_host_emulated"
+  "host/deploy: vc_host_deploy"         # voxcap deploy: boards over ssh, flash-config (edge.toml via the edge's reader)
   "apps: voxcap voxcap-host voxcap-edge voxcap-edge-nosim"
   "tests/bench: vc_bench_edge vc_bench_host voxcap-bench")
 

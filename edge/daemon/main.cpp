@@ -13,6 +13,7 @@
 #include "config.hpp"
 #include "edged.h"
 #include "log.h"
+#include "voxcap/auth.h"
 #include "voxcap/edge/track/producer.hpp"
 
 namespace {
@@ -44,6 +45,55 @@ bool parse_size(const std::string& s, int* w, int* h) {
     return v >= 1 && v <= 16384;
   };
   return side(std::string_view(s).substr(0, x), w) && side(std::string_view(s).substr(x + 1), h);
+}
+
+// --prove-key HEX: the proof voxcap deploy asks for over ssh (host/deploy/README.md, "Keys"), made
+// with the key this configuration names: BLAKE2b over a nonce of ours and deploy's, for the proof role
+// 3, which neither side of a rig connection ever accepts (node 1, host 2), so the answer cannot stand
+// in for a node's proof on the wire. Prints "node_id=N nonce=HEX proof=HEX". 0, or 2 (bad nonce).
+constexpr uint16_t kDeployProofRole = 3;
+
+int hex_digit(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+std::string to_hex(const uint8_t* p, std::size_t n) {
+  static const char* digits = "0123456789abcdef";
+  std::string out;
+  for (std::size_t i = 0; i < n; ++i) {
+    out += digits[p[i] >> 4];
+    out += digits[p[i] & 15];
+  }
+  return out;
+}
+
+int prove_key(const vc::edge::EdgeSettings& s, const std::string& nonce_hex) {
+  uint8_t theirs[VC_AUTH_NONCE_SIZE], ours[VC_AUTH_NONCE_SIZE], proof[VC_AUTH_PROOF_SIZE];
+  if (nonce_hex.size() != 2 * VC_AUTH_NONCE_SIZE) {
+    vc_log(VC_LOG_ERROR, "--prove-key: expected %d hex digits", 2 * VC_AUTH_NONCE_SIZE);
+    return 2;
+  }
+  for (std::size_t i = 0; i < VC_AUTH_NONCE_SIZE; ++i) {
+    const int hi = hex_digit(nonce_hex[2 * i]), lo = hex_digit(nonce_hex[2 * i + 1]);
+    if (hi < 0 || lo < 0) {
+      vc_log(VC_LOG_ERROR, "--prove-key: not a hex nonce");
+      return 2;
+    }
+    theirs[i] = static_cast<uint8_t>(hi * 16 + lo);
+  }
+  if (s.key_bytes.size() != VC_AUTH_KEY_SIZE) {
+    vc_log(VC_LOG_ERROR, "--prove-key: the configuration names no rig key (keyless node)");
+    return 2;
+  }
+  if (vc_auth_init() < 0) return 1;
+  vc_auth_random(ours, sizeof ours);
+  vc_auth_prove(proof, s.key_bytes.data(), kDeployProofRole, static_cast<uint16_t>(s.node_id), ours, theirs);
+  std::printf("node_id=%d nonce=%s proof=%s\n", s.node_id, to_hex(ours, sizeof ours).c_str(),
+              to_hex(proof, sizeof proof).c_str());
+  return 0;
 }
 
 void on_signal(int) {
@@ -96,6 +146,11 @@ int run(int argc, char** argv) {
                "when the host's rig.toml gives it the tracking role)");
   app.add_flag("--check", check,
                "validate the configuration, open the cameras and the trigger, report, and exit");
+  std::string prove_nonce;
+  app.add_option("--prove-key", prove_nonce,
+                 "print a proof that this configuration's rig key is the one voxcap deploy holds, over "
+                 "deploy's 64-hex-digit nonce and one of ours (a role no rig connection accepts), and exit");
+  app.set_version_flag("--version", "voxcap-edge " VOXCAP_VERSION, "print the release and exit");
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -135,6 +190,7 @@ int run(int argc, char** argv) {
     vc_log(VC_LOG_ERROR, "%s", e.what());
     return 2;
   }
+  if (!prove_nonce.empty()) return prove_key(s, prove_nonce);
   vc_edged_options opt = vc::edge::to_options(s);
   if (check) return vc_edged_check(&opt) == 0 ? 0 : 1;
   std::optional<vc::track::Producer> tracker;

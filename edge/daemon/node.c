@@ -128,9 +128,9 @@ int vc_node_hello(const vc_node* n, uint32_t capabilities, uint8_t* buf, size_t 
   vc_hello h;
   memset(&h, 0, sizeof(h));
   h.node_id = n->id;
-  h.sw_major = 0;
-  h.sw_minor = 1;
-  h.sw_patch = 0;
+  h.sw_major = VOXCAP_VERSION_MAJOR; /* the release (CMake's project version): voxcap deploy checks it */
+  h.sw_minor = VOXCAP_VERSION_MINOR;
+  h.sw_patch = VOXCAP_VERSION_PATCH;
   h.capabilities = capabilities;
   h.camera_count = VC_NODE_CAMS;
   for (int c = 0; c < VC_NODE_CAMS; c++) {

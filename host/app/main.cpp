@@ -45,6 +45,7 @@ int main(int argc, char** argv) {
     vc::cli::add_calib_commands(app);
     vc::cli::add_carve_commands(app);
     vc::cli::add_calibrate_commands(app);
+    vc::cli::add_deploy_commands(app);
     vc::cli::add_bench_commands(app);
     vc::cli::add_hil_commands(app);
     try {

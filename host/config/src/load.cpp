@@ -398,6 +398,8 @@ void read_node(Reader& r, NodeConfig* n) {
   }
   bool track = false;
   if (r.get("track", &track)) n->track = track;
+  r.find("ssh");     // the board's ssh target and its own [deploy] overrides: read by host/deploy
+  r.find("deploy");  // (voxcap deploy), which checks them; the host itself never uses them
   r.finish();
 }
 
@@ -627,6 +629,7 @@ RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::pa
     Reader r(*t, "hil", ctx);
     read_hil(r, &c.hil);
   }
+  top.find("deploy");  // [deploy]: how voxcap deploy reaches and sets up the boards (host/deploy checks it)
   top.finish();
 
   // Errors in this file first, then those that need the calibration file.
