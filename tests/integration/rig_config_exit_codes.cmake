@@ -78,7 +78,11 @@ file(WRITE ${WORK}/keyless_name.toml "${text}")
 
 set(bad_inputs unknown_subcommand unknown_option bench_repeats_0 grid600 nan_toml fifo_toml wide_yaml
     nested_yaml fifo_session edge_node_id edge_port edge_size bvh_1e308 rig_bvh_scale key_missing key_open
-    key_malformed rig_key_open host_key_open keyless_any keyless_name)
+    key_malformed rig_key_open host_key_open keyless_any keyless_name key_new_exists key_check_open)
+set(cmd_key_new_exists ${VOXCAP} key new ${WORK}/bad.key)
+set(expect_key_new_exists "bad.key: File exists \\(use --force to replace it\\)")
+set(cmd_key_check_open ${VOXCAP} key check ${WORK}/open.key)
+set(expect_key_check_open "open.key: mode 644 lets group or others at it")
 set(cmd_key_missing ${VOXCAP} config check ${WORK}/key_missing.toml)
 set(expect_key_missing "key_missing.toml: key: key file .*missing.key: No such file")
 set(cmd_key_open ${VOXCAP} config check ${WORK}/key_open.toml)
@@ -138,6 +142,21 @@ foreach(c ${bad_inputs})
   message(STATUS "${c}: 2, ${err}")
 endforeach()
 file(REMOVE ${WORK}/fifo-session/records.vcr ${WORK}/fifo.toml)
+
+# `voxcap key new` writes a key only its owner may read, which `config check` then takes.
+file(REMOVE ${WORK}/new.key)
+execute_process(COMMAND ${VOXCAP} key new ${WORK}/new.key RESULT_VARIABLE rc OUTPUT_QUIET ERROR_VARIABLE err TIMEOUT 60)
+execute_process(COMMAND stat -c %a ${WORK}/new.key OUTPUT_VARIABLE mode OUTPUT_STRIP_TRAILING_WHITESPACE)
+if(NOT rc EQUAL 0 OR NOT mode STREQUAL "600")
+  message(FATAL_ERROR "voxcap key new: exit ${rc}, mode ${mode}: ${err}")
+endif()
+string(REPLACE "name = \"emulated\"" "name = \"emulated\"\nkey = \"${WORK}/new.key\"" text "${good}")
+file(WRITE ${WORK}/key_new.toml "${text}")
+execute_process(COMMAND ${VOXCAP} config check ${WORK}/key_new.toml RESULT_VARIABLE rc OUTPUT_VARIABLE out
+                ERROR_VARIABLE err TIMEOUT 60)
+if(NOT rc EQUAL 0 OR NOT out MATCHES "key +.*new.key \\(a valid rig key")
+  message(FATAL_ERROR "config check with a fresh key: exit ${rc}\n${out}${err}")
+endif()
 
 # The keys of `voxcap rig --json` that issue #13 added are documented in its --help.
 execute_process(COMMAND ${VOXCAP} rig --help OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc TIMEOUT 60)
