@@ -74,6 +74,7 @@ nlohmann::json to_json(const RigConfig& c) {
         {"missing_node_policy", to_string(c.assembly.missing_node_policy)}}},
       {"recording", {{"dir", c.recording.dir.string()}}},
       {"network", {{"listen", c.network.listen}, {"port", c.network.port}}},
+      {"key", c.key_path.empty() ? json(nullptr) : json(c.key_path.string())},
       {"warnings", c.warnings},
   };
 }
@@ -129,11 +130,26 @@ void print_summary(const RigConfig& c) {
              to_string(c.assembly.missing_node_policy));
   fmt::print("  recording    {}\n", c.recording.dir.string());
   fmt::print("  network      listen {}:{}\n", c.network.listen, c.network.port);
+  if (c.key_path.empty())
+    fmt::print("  key          none: control not authenticated (every address is loopback)\n");
+  else
+    fmt::print("  key          {} (a valid rig key, mode 0600)\n", c.key_path.string());
 }
 
 // What host/aggregator's constructor does with the configuration before the rig starts: a CONFIG
 // message per node and protocol minor, encoded with the protocol's own checks (vc_encode_config).
 void check_like_the_host(const RigConfig& c) {
+  try {
+    aggregator::load_rig_key(c);  // the key file named by `key =`: missing, too open, malformed
+  } catch (const config::ConfigError& e) {
+    throw UsageError(e.what());
+  }
+  // nodes[].address: resolved at start, and a HELLO from elsewhere is refused; one that does not
+  // resolve stops the host.
+  for (size_t k = 0; k < c.nodes.size(); ++k)
+    if (c.nodes[k].address != "any" && aggregator::resolve_ipv4(c.nodes[k].address).empty())
+      throw UsageError(fmt::format("{}: nodes[{}].address: \"{}\" does not resolve to an IPv4 address",
+                                   c.source.string(), k, c.nodes[k].address));
   const uint32_t gid = aggregator::grid_id(c.grid);
   std::vector<uint8_t> msg(VC_PROTO_HEADER_SIZE + 4096);
   for (size_t k = 0; k < c.nodes.size(); ++k) {

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include <fmt/format.h>
@@ -16,6 +17,7 @@
 #include "commands.hpp"
 #include "export_report.hpp"
 #include "pose_figures.hpp"
+#include "run_recording.hpp"
 #include "voxcap/emulated/emulated_rig.hpp"
 #include "voxcap/export/take.hpp"
 
@@ -115,9 +117,14 @@ void run_demo(DemoArgs& a) {
   rig.run_frames(a.frames, double(a.frames) / a.rig.rate_hz * 20 + 30);  // generous on a loaded machine
   emulated::Result r = rig.stop();
   if (r.report.frames == 0) throw std::runtime_error("no frame was merged");
-  if (a.json)
-    fmt::print("{}\n", figures_json(a, r).dump(2));
-  else {
+  // demo: the session as it is on disk (read back once closed): the summary counts what it holds.
+  std::optional<record::RunRecording> rec;
+  if (!r.session_dir.empty()) rec = record::read_back(r.session_dir, r.report.frames);
+  if (a.json) {
+    nlohmann::json j = figures_json(a, r);
+    if (rec) j["session"] = run_recording_json(*rec);
+    fmt::print("{}\n", j.dump(2));
+  } else {
     print_pose_figures(r.poses, a.rig.rate_hz);
     const aggregator::Latency& m = r.report.merged;
     std::string stages;
@@ -128,6 +135,7 @@ void run_demo(DemoArgs& a) {
         "stages      trigger -> merged p50 {:.1f} ms, p99 {:.1f} ms;{} (mean/max in process(), most "
         "queued)\n",
         m.percentile_ms(0.5), m.percentile_ms(0.99), stages);
+    if (rec) fmt::print("{}\n", record::run_recording_line(*rec));
   }
   if (a.eval) return;
   if (!r.session_dir.empty()) {  // what voxcap fit SESSION --score needs to score it again offline
@@ -170,7 +178,10 @@ void add_demo_commands(CLI::App& app) {
                          "virtual_rig.json: voxcap fit SESSION --score re-fits and scores it offline)");
   add_rig_options(d, *demo);
   d->add_option("--out", demo->out, "Output folder (default ./voxcap-demo)");
-  d->add_flag("--json", demo->json, "Print the figures as JSON (the keys of voxcap eval --json)");
+  d->add_flag("--json", demo->json,
+              "Print the figures as JSON (the keys of voxcap eval --json, and session {dir, frames, "
+              "merged_frames, frames_not_recorded, records, skipped_records, skipped_bytes, truncated_bytes, "
+              "closed_cleanly, stop, damage[]}: the recorded session read back once closed)");
   d->callback([demo] { run_demo(*demo); });
 
   auto eval = std::make_shared<DemoArgs>();

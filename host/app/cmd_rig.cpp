@@ -4,12 +4,14 @@
 // until Ctrl-C or --seconds.
 #include <cmath>
 #include <csignal>
+#include <optional>
 #include <thread>
 
 #include <fmt/core.h>
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "run_recording.hpp"
 #include "voxcap/aggregator/aggregator.hpp"
 #include "voxcap/aggregator/record_stage.hpp"
 #include "voxcap/config/rig_config.hpp"
@@ -65,10 +67,29 @@ nlohmann::json report_json(const aggregator::Report& r) {
          {"features_late", n.features_late},
          {"refused", n.refused},
          {"unpulsed", n.unpulsed},
+         {"mac_rejected",
+          {{"forged", n.mac_rejected.forged},
+           {"replayed", n.mac_rejected.replayed},
+           {"reordered", n.mac_rejected.reordered}}},
          {"edge_stage_ms", s},
          {"trigger_to_received_ms",
           {{"mean", n.rx.mean_ms()}, {"p50", n.rx.percentile_ms(0.5)}, {"p99", n.rx.percentile_ms(0.99)}}}});
   }
+  const session::ServerStats& sv = r.server;
+  j["server"] = {{"accepted", sv.accepted},
+                 {"closed", sv.closed},
+                 {"hello_rejected", sv.hello_rejected},
+                 {"decode_drops", sv.decode_drops},
+                 {"timeouts", sv.timeouts},
+                 {"overflow_drops", sv.overflow_drops},
+                 {"prehello_evicted", sv.prehello_evicted},
+                 {"prehello_timeouts", sv.prehello_timeouts},
+                 {"auth_refused", sv.auth_refused},
+                 {"mac_rejected",
+                  {{"forged", sv.mac_forged},
+                   {"replayed", sv.mac_replayed},
+                   {"reordered", sv.mac_reordered},
+                   {"unidentified", sv.mac_unidentified}}}};
   for (const auto& s : r.pipeline.stages)
     j["stages"].push_back({{"name", s.name},
                            {"overflow", pipeline::overflow_name(s.overflow)},
@@ -99,7 +120,20 @@ void print_report(const aggregator::Report& r) {
     for (const auto& [reason, count] : n.refused) refused += fmt::format("  {} {}", reason, count);
     if (n.unpulsed) refused += fmt::format("  unpulsed (assembler) {}", n.unpulsed);
     if (!refused.empty()) fmt::print("  {:<8} refused:{}\n", n.name, refused);
+    if (n.mac_rejected.total())
+      fmt::print("  {:<8} MAC rejected: forged {}  replayed {}  reordered {}\n", n.name,
+                 n.mac_rejected.forged, n.mac_rejected.replayed, n.mac_rejected.reordered);
   }
+  const session::ServerStats& sv = r.server;
+  if (sv.auth_refused || sv.mac_rejected || sv.hello_rejected || sv.decode_drops || sv.prehello_evicted ||
+      sv.prehello_timeouts)
+    fmt::print(
+        "connections: {} accepted; refused: {} HELLOs ({} without the key), {} undecodable, {} evicted and "
+        "{} "
+        "timed out before HELLO; MAC rejected: forged {}  replayed {}  reordered {} ({} on no node's "
+        "connection)\n",
+        sv.accepted, sv.hello_rejected, sv.auth_refused, sv.decode_drops, sv.prehello_evicted,
+        sv.prehello_timeouts, sv.mac_forged, sv.mac_replayed, sv.mac_reordered, sv.mac_unidentified);
   fmt::print("frames: {} merged ({} complete, {} degraded, {} dropped) of {} pulses, seq {}..{}\n", r.frames,
              r.complete, r.degraded, r.dropped, r.pulses, r.first_seq, r.last_seq);
   if (r.merging_stopped())
@@ -305,8 +339,12 @@ void add_rig_commands(CLI::App& app) {
       "print the figures as JSON: emulated {nodes, motion, appearance, room, carve, grid, size, rate_hz, "
       "truth_every}, frames, complete, degraded, dropped, pulses, fps, last_pulse, unmerged_pulses, "
       "merging_stopped, trigger_to_merged_ms {mean,p50,p99}, nodes[] {id, name, hulls, late, missing, "
-      "host_queue_drops, refused {not_running, unpulsed}, unpulsed, hellos_refused, edge_stage_ms, "
-      "trigger_to_received_ms, ...}, "
+      "host_queue_drops, refused {not_running, unpulsed}, unpulsed, hellos_refused, mac_rejected {forged, "
+      "replayed, reordered}, edge_stage_ms, trigger_to_received_ms, ...}, server {accepted, closed, "
+      "hello_rejected, decode_drops, timeouts, overflow_drops, prehello_evicted, prehello_timeouts, "
+      "auth_refused, mac_rejected {forged, replayed, reordered, unidentified}}, session {dir, frames, "
+      "merged_frames, frames_not_recorded, records, skipped_records, skipped_bytes, truncated_bytes, "
+      "closed_cleanly, stop, damage[]} (with --record, or a real rig: the recorded session read back), "
       "stages[] {name, overflow, processed, dropped, errors, queue_max, queue_capacity, busy_ms {mean,max}}, "
       "accuracy {frames, agree, min_agree, iou_silhouette_hull, body_recall, hull_precision, "
       "reference_carve, "
@@ -356,8 +394,12 @@ void add_rig_commands(CLI::App& app) {
         }
       }
       emulated::Result r = rig.stop();
+      // The session as it is on disk (read back once closed): the summary counts what it holds.
+      std::optional<record::RunRecording> rec;
+      if (!r.session_dir.empty()) rec = record::read_back(r.session_dir, r.report.frames);
       if (*json) {
         nlohmann::json j = report_json(r.report);
+        if (rec) j["session"] = run_recording_json(*rec);
         j["accuracy"] = accuracy_json(r.accuracy);
         j["emulated"] = {{"nodes", opt->nodes}, {"motion", opt->motion},   {"appearance", opt->appearance},
                          {"room", opt->room},   {"carve", opt->carve},     {"grid", opt->grid},
@@ -368,6 +410,7 @@ void add_rig_commands(CLI::App& app) {
         fmt::print("{}\n", j.dump(2));
       } else {
         print_report(r.report);
+        if (rec) fmt::print("{}\n", record::run_recording_line(*rec));
         print_accuracy(r.accuracy);
       }
       if (r.report.frames == 0) throw std::runtime_error("no frame was merged");
@@ -401,10 +444,15 @@ void add_rig_commands(CLI::App& app) {
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     agg.stop();
     const aggregator::Report rep = agg.report();
-    if (*json)
-      fmt::print("{}\n", report_json(rep).dump(2));
-    else
+    const record::RunRecording rec = record::read_back(recording.dir(), rep.frames);
+    if (*json) {
+      nlohmann::json j = report_json(rep);
+      j["session"] = run_recording_json(rec);
+      fmt::print("{}\n", j.dump(2));
+    } else {
       print_report(rep);
+      fmt::print("{}\n", record::run_recording_line(rec));
+    }
     if (rep.merging_stopped())
       throw std::runtime_error(fmt::format("frames stopped merging after seq {}: {} pulses never merged",
                                            rep.last_seq, rep.unmerged_pulses()));

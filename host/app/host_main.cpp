@@ -16,6 +16,7 @@
 #include "voxcap/aggregator/record_stage.hpp"
 #include "voxcap/base/log.hpp"
 #include "voxcap/config/rig_config.hpp"
+#include "voxcap/record/session_info.hpp"
 
 namespace {
 std::atomic<bool> g_stop{false};
@@ -58,6 +59,9 @@ int main(int argc, char** argv) {
     auto r = agg.report();
     fmt::print("voxcap-host: {} frames merged ({} complete, {} degraded, {} dropped), {:.1f} fps\n", r.frames,
                r.complete, r.degraded, r.dropped, r.fps);
+    // The session as it is on disk, read back once closed: what it holds, damage skipped included.
+    fmt::print("voxcap-host: {}\n",
+               vc::record::run_recording_line(vc::record::read_back(recording.dir(), r.frames)));
   } catch (const vc::config::ConfigError& e) {
     std::fprintf(stderr, "voxcap-host: %s\n", e.what());
     return 2;

@@ -5,14 +5,17 @@
 #include <gtest/gtest.h>
 
 #include <unistd.h>
+#include <algorithm>
 #include <cerrno>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <random>
 #include <set>
 #include <sstream>
 
 #include "vectors.hpp"
+#include "voxcap/auth.h"
 #include "voxcap/proto.h"
 #include "voxcap/proto_json.hpp"
 #include "voxcap/rle.h"
@@ -55,6 +58,71 @@ std::vector<std::string> stream_vectors() {
   return names;
 }
 
+// A stream's receiver-side MAC state from its "mac" object (authenticated vectors, 2.3): derived from
+// the rig key, node id and nonces as a receiver derives it, and checked against the key written down.
+vc_mac mac_state(const Json& m) {
+  EXPECT_EQ(vc_auth_init(), 0);
+  const Bytes key = unhex(m["rig_key"]), nn = unhex(m["nonce_node"]), nh = unhex(m["nonce_host"]);
+  EXPECT_EQ(key.size(), size_t{VC_AUTH_KEY_SIZE});
+  EXPECT_EQ(nn.size(), size_t{VC_AUTH_NONCE_SIZE});
+  EXPECT_EQ(nh.size(), size_t{VC_AUTH_NONCE_SIZE});
+  vc_mac n2h{}, h2n{};
+  vc_auth_session(key.data(), m["node_id"].get<uint16_t>(), nn.data(), nh.data(), &n2h, &h2n);
+  const vc_mac& rx = m["direction"] == "node_to_host" ? n2h : h2n;
+  EXPECT_EQ(Bytes(rx.key, rx.key + VC_AUTH_KEY_SIZE), unhex(m["mac_key"]));
+  vc_mac out = rx;
+  out.counter = m["counter"].get<uint64_t>();
+  return out;
+}
+
+// decode_events with the decoder checking MACs (vc_decoder_set_mac) from the first message on: the
+// same events (offsets, messages, errors with the rejected message's type).
+Json decode_events_mac(const Bytes& bytes, size_t max_payload, const vc_mac& rx,
+                       const std::function<size_t(size_t)>& chunker) {
+  vc_decoder* dec = nullptr;
+  EXPECT_EQ(vc_decoder_new(max_payload, &dec, nullptr, 0), 0);
+  EXPECT_EQ(vc_decoder_set_mac(dec, &rx), 0);
+  Json events = Json::array();
+  vc_msg msg{};
+  bool fatal = false;
+  auto drain = [&] {
+    for (;;) {
+      const uint64_t offset = vc_decoder_offset(dec);
+      const int rc = vc_decoder_next(dec, &msg);
+      if (rc == 0) return;
+      Json e;
+      e["offset"] = offset;
+      if (rc > 0) {
+        e["message"] = vc::proto::msg_to_json(msg);
+      } else {
+        e["error"] = vc::proto::error_to_json(*vc_decoder_diag(dec), false);
+        if (!vc_proto_error_is_fatal(rc)) {
+          const char* name = vc_msg_type_name(msg.hdr.type);
+          e["type"] = name ? Json(name) : Json(msg.hdr.type);
+        }
+      }
+      events.push_back(e);
+      if (rc < 0 && vc_proto_error_is_fatal(rc)) {
+        fatal = true;
+        return;
+      }
+    }
+  };
+  size_t pos = 0;
+  while (pos < bytes.size() && !fatal) {
+    const size_t left = bytes.size() - pos;
+    const size_t chunk = chunker ? std::clamp<size_t>(chunker(left), 1, left) : left;
+    for (size_t off = 0, used = 0; off < chunk && !fatal; off += used) {
+      if (vc_decoder_feed(dec, bytes.data() + pos + off, chunk - off, &used) < 0) fatal = true;
+      drain();
+    }
+    pos += chunk;
+  }
+  EXPECT_EQ(vc_decoder_finish(dec), 0);
+  vc_decoder_free(dec);
+  return events;
+}
+
 TEST(Vectors, ThereAreVectors) {
   EXPECT_GE(stream_vectors().size(), 30u);
 }
@@ -75,7 +143,9 @@ TEST(Vectors, EveryStreamDecodesToItsEventsInAnyChunking) {
     };
     for (const auto& [what, chunker] : chunkers) {
       SCOPED_TRACE(what);
-      const Json events = vc::proto::decode_events(bytes, max_payload, chunker);
+      const Json events = expected.contains("mac")
+                              ? decode_events_mac(bytes, max_payload, mac_state(expected["mac"]), chunker)
+                              : vc::proto::decode_events(bytes, max_payload, chunker);
       EXPECT_EQ(events, expected["events"]) << "got:\n" << events.dump(2);
     }
   }
@@ -90,9 +160,9 @@ TEST(Vectors, CoverEveryMessageTypeAndEveryErrorCode) {
       if (e.contains("error")) codes.insert(e["error"]["code"].get<std::string>());
     }
   }
-  for (uint16_t t = VC_MSG_HELLO; t <= VC_MSG_ERROR; t++) EXPECT_TRUE(types.count(vc_msg_type_name(t))) << t;
+  for (uint16_t t = VC_MSG_HELLO; t <= VC_MSG_AUTH; t++) EXPECT_TRUE(types.count(vc_msg_type_name(t))) << t;
   EXPECT_TRUE(types.count("UNKNOWN"));
-  for (int code = VC_PROTO_EFIELD; code <= VC_PROTO_EMAGIC; code++)
+  for (int code = VC_PROTO_EORDER; code <= VC_PROTO_EMAGIC; code++)
     EXPECT_TRUE(codes.count(vc_proto_error_name(code))) << vc_proto_error_name(code);
 }
 
@@ -161,6 +231,69 @@ TEST(Vectors, TriggerDatagram) {
   const Json bj = Json::parse(read_text(kVectors / "trigger_bad_version.json"));
   const Bytes bad = read_bytes(kVectors / "trigger_bad_version.bin");
   EXPECT_EQ(vc_trigger_dgram_decode(bad.data(), bad.size(), &seq, &t), errno_code(bj["error"]));
+}
+
+// The handshake (2.3): each proof is the one the key, node id and nonces give, and only for its own
+// role (a reflected proof fails); the MAC'd streams decode only with the key written down: the same
+// bytes without the MAC check are refused (any other key makes the first sealed message forged).
+TEST(Vectors, AuthProofsVerifyForTheirRoleOnly) {
+  ASSERT_EQ(vc_auth_init(), 0);
+  const Json j = Json::parse(read_text(kVectors / "auth.json"));
+  ASSERT_TRUE(j.contains("auth"));
+  const Json& a = j["auth"];
+  const Bytes key = unhex(a["rig_key"]), nn = unhex(a["nonce_node"]), nh = unhex(a["nonce_host"]);
+  const Bytes ph = unhex(a["proof_host"]), pn = unhex(a["proof_node"]);
+  const uint16_t node = a["node_id"].get<uint16_t>();
+  EXPECT_TRUE(vc_auth_verify(ph.data(), key.data(), VC_AUTH_ROLE_HOST, node, nn.data(), nh.data()));
+  EXPECT_TRUE(vc_auth_verify(pn.data(), key.data(), VC_AUTH_ROLE_NODE, node, nn.data(), nh.data()));
+  EXPECT_FALSE(vc_auth_verify(ph.data(), key.data(), VC_AUTH_ROLE_NODE, node, nn.data(), nh.data()));
+  EXPECT_FALSE(vc_auth_verify(pn.data(), key.data(), VC_AUTH_ROLE_NODE, node + 1, nn.data(), nh.data()));
+  // The proofs on the wire are those: RESPONSE carries the host's, PROOF the node's.
+  const Json& ev = j["events"];
+  ASSERT_EQ(ev.size(), 3u);
+  EXPECT_EQ(ev[0]["message"]["body"]["step_name"], "challenge");
+  EXPECT_EQ(unhex(ev[0]["message"]["body"]["nonce"]), nn);
+  EXPECT_EQ(unhex(ev[1]["message"]["body"]["nonce"]), nh);
+  EXPECT_EQ(unhex(ev[1]["message"]["body"]["proof"]), ph);
+  EXPECT_EQ(unhex(ev[2]["message"]["body"]["proof"]), pn);
+
+  const Json ms = Json::parse(read_text(kVectors / "mac_stream.json"));
+  const Bytes stream = read_bytes(kVectors / "mac_stream.bin");
+  vc_mac rx = mac_state(ms["mac"]);
+  const Json good = decode_events_mac(stream, 0, rx, nullptr);
+  ASSERT_EQ(good.size(), 4u);
+  for (const Json& e : good) EXPECT_TRUE(e.contains("message")) << e.dump();
+  EXPECT_EQ(good[1]["message"]["type"], "HULL");
+  EXPECT_EQ(good[1]["message"]["header"]["flags"], VC_FLAG_MAC);
+  rx.key[5] ^= 1;  // another key: every sealed message is forged
+  for (const Json& e : decode_events_mac(stream, 0, rx, nullptr))
+    EXPECT_EQ(e["error"]["code"], "VC_PROTO_EMAC") << e.dump();
+}
+
+TEST(Vectors, TriggerDatagramWithMac) {
+  ASSERT_EQ(vc_auth_init(), 0);
+  const Json j = Json::parse(read_text(kVectors / "trigger_mac.json"));
+  const Bytes b = read_bytes(kVectors / "trigger_mac.bin");
+  ASSERT_EQ(b.size(), size_t{VC_TRIGGER_DGRAM_MAC_SIZE});
+  vc_mac rx{};
+  vc_auth_trigger_key(unhex(j["rig_key"]).data(), &rx);
+  EXPECT_EQ(Bytes(rx.key, rx.key + VC_AUTH_KEY_SIZE), unhex(j["trigger_key"]));
+  uint64_t seq = 0, t = 0;
+  ASSERT_EQ(vc_trigger_dgram_decode_mac(b.data(), b.size(), &rx, &seq, &t), 0);
+  EXPECT_EQ(seq, j["seq"].get<uint64_t>());
+  EXPECT_EQ(t, j["t_ns"].get<uint64_t>());
+  EXPECT_EQ(rx.counter, j["counter"].get<uint64_t>() + 1);
+  EXPECT_EQ(vc_trigger_dgram_decode_mac(b.data(), b.size(), &rx, &seq, &t), VC_PROTO_EREPLAY);
+  vc_mac fresh{};
+  vc_auth_trigger_key(unhex(j["rig_key"]).data(), &fresh);
+  for (size_t i = 0; i < b.size(); i++) {
+    if (i >= 4 && i < 6) continue;  // the version field: a changed version is -EBADMSG, not a forgery
+    if (i < 4) continue;            // the magic likewise
+    Bytes f = b;
+    f[i] ^= 0x01;
+    vc_mac r = fresh;
+    EXPECT_EQ(vc_trigger_dgram_decode_mac(f.data(), f.size(), &r, &seq, &t), VC_PROTO_EMAC) << "byte " << i;
+  }
 }
 
 }  // namespace

@@ -14,6 +14,7 @@
 
 #include <fmt/core.h>
 
+#include "voxcap/auth.h"
 #include "voxcap/crc32c.h"
 #include "voxcap/proto.h"
 #include "voxcap/proto_json.hpp"
@@ -301,6 +302,10 @@ struct Vector {
   size_t max_payload = 0;  // 0: VC_PROTO_MAX_PAYLOAD
   Bytes bytes;
   Json events = Json::array();
+  // Authenticated streams (2.3): what the receiver's MAC state is derived from ("mac" in the .json:
+  // the rig key, node id, both nonces, the direction and its first counter, and the derived MAC key),
+  // and for the handshake vector the inputs of its proofs ("auth"). Null: a plain stream.
+  Json mac, auth;
 
   // A valid message; `wire` overrides the encoder's bytes (newer versions built by hand).
   void message(vc_msg m, std::optional<Bytes> wire = std::nullopt, uint32_t ignored = 0) {
@@ -335,7 +340,85 @@ struct Vector {
   }
   // A message rejected with a non-fatal error: consumed, decoding goes on.
   void rejected(const Bytes& b, int code) { error(raw(b), code, ld16(b.data() + 6)); }
+  // A valid message sealed with tx (auth.h, vc_mac_seal): the receiver sees the header as sent (flag
+  // VC_FLAG_MAC, both CRCs of the sealed frame) with payload_len less the trailer, and the same body.
+  void sealed(vc_msg m, const Bytes& wire) {
+    Json e;
+    m.hdr.version_major = wire[4];
+    m.hdr.version_minor = wire[5];
+    m.hdr.flags = ld16(wire.data() + 8);
+    m.hdr.payload_len = ld32(wire.data() + 12) - VC_AUTH_TRAILER_SIZE;
+    m.hdr.payload_crc = ld32(wire.data() + 32);
+    m.hdr.header_crc = ld32(wire.data() + 36);
+    e["offset"] = bytes.size();
+    e["message"] = msg_to_json(m);
+    events.push_back(e);
+    raw(wire);
+  }
 };
+
+// ---- authenticated control (2.3): deterministic key and nonces --------------------------------------
+
+struct AuthInputs {
+  uint8_t key[VC_AUTH_KEY_SIZE];
+  uint8_t nonce_node[VC_AUTH_NONCE_SIZE], nonce_host[VC_AUTH_NONCE_SIZE];
+  AuthInputs() {
+    for (int i = 0; i < VC_AUTH_KEY_SIZE; i++) key[i] = static_cast<uint8_t>(0x5A ^ (7 * i + 1));
+    for (int i = 0; i < VC_AUTH_NONCE_SIZE; i++) {
+      nonce_node[i] = static_cast<uint8_t>(0x10 + i);
+      nonce_host[i] = static_cast<uint8_t>(0x80 + 3 * i);
+    }
+  }
+  Json json() const {
+    Json j;
+    j["rig_key"] = hex(Bytes(key, key + VC_AUTH_KEY_SIZE));
+    j["node_id"] = kNode;
+    j["nonce_node"] = hex(Bytes(nonce_node, nonce_node + VC_AUTH_NONCE_SIZE));
+    j["nonce_host"] = hex(Bytes(nonce_host, nonce_host + VC_AUTH_NONCE_SIZE));
+    return j;
+  }
+  // The node -> host direction's MAC state (vc_auth_session), counter 0.
+  vc_mac node_to_host() const {
+    vc_mac n2h{}, h2n{};
+    vc_auth_session(key, kNode, nonce_node, nonce_host, &n2h, &h2n);
+    return n2h;
+  }
+  Json mac_json() const {
+    Json j = json();
+    const vc_mac m = node_to_host();
+    j["direction"] = "node_to_host";
+    j["counter"] = m.counter;
+    j["mac_key"] = hex(Bytes(m.key, m.key + VC_AUTH_KEY_SIZE));
+    return j;
+  }
+};
+
+vc_msg auth_msg(uint16_t step, const uint8_t* nonce, const uint8_t* proof) {
+  vc_msg m = make(VC_MSG_AUTH);
+  m.u.auth.step = step;
+  if (nonce) std::copy(nonce, nonce + VC_AUTH_NONCE_SIZE, m.u.auth.nonce);
+  if (proof) std::copy(proof, proof + VC_AUTH_PROOF_SIZE, m.u.auth.proof);
+  return m;
+}
+
+// The message sealed with tx (its counter used and advanced).
+Bytes seal(const vc_msg& m, vc_mac& tx) {
+  Bytes b = encode(m);
+  const size_t len = b.size();
+  b.resize(len + VC_AUTH_TRAILER_SIZE);
+  size_t out = 0;
+  int rc = vc_mac_seal(&tx, b.data(), len, b.size(), &out);
+  if (rc) throw std::runtime_error(fmt::format("sealing type {} failed: {}", m.hdr.type, rc));
+  b.resize(out);
+  return b;
+}
+
+// Both CRCs recomputed after bytes were changed: the frame is sound, only the MAC can tell.
+Bytes recrc(Bytes b) {
+  st32(b.data() + 32, vc_crc32c(0, b.data() + VC_PROTO_HEADER_SIZE, b.size() - VC_PROTO_HEADER_SIZE));
+  st32(b.data() + 36, vc_crc32c(0, b.data(), 36));
+  return b;
+}
 
 std::vector<Vector> build_streams() {
   std::vector<Vector> v;
@@ -658,6 +741,74 @@ std::vector<Vector> build_streams() {
                     "VC_PROTO_EINCONSISTENT");
     r.rejected(patched(hello_msg(), [](Bytes& p) { st16(p.data(), 4); }), VC_PROTO_EINCONSISTENT);
   }
+  // ---- authenticated control (2.3): the handshake and MAC'd streams, deterministic key and nonces ----
+  const AuthInputs ai;
+  {
+    Vector& a = add("auth",
+                    "AUTH handshake of node 3 on a keyed rig (after its HELLO): the node's challenge, the "
+                    "host's response (its nonce and proof), the node's proof; key, nonces and proofs in "
+                    "`auth` (a proof verifies only for its role)");
+    uint8_t proof_host[VC_AUTH_PROOF_SIZE], proof_node[VC_AUTH_PROOF_SIZE];
+    vc_auth_prove(proof_host, ai.key, VC_AUTH_ROLE_HOST, kNode, ai.nonce_node, ai.nonce_host);
+    vc_auth_prove(proof_node, ai.key, VC_AUTH_ROLE_NODE, kNode, ai.nonce_node, ai.nonce_host);
+    a.message(auth_msg(VC_AUTH_CHALLENGE, ai.nonce_node, nullptr));
+    a.message(auth_msg(VC_AUTH_RESPONSE, ai.nonce_host, proof_host));
+    a.message(auth_msg(VC_AUTH_PROOF, nullptr, proof_node));
+    a.auth = ai.json();
+    a.auth["proof_host"] = hex(Bytes(proof_host, proof_host + VC_AUTH_PROOF_SIZE));
+    a.auth["proof_node"] = hex(Bytes(proof_node, proof_node + VC_AUTH_PROOF_SIZE));
+  }
+  {
+    Vector& m = add("mac_stream",
+                    "After the `auth` handshake, node 3's messages sealed with the node-to-host MAC key "
+                    "(counters 0..3, `mac`): HEARTBEAT running, HULL, FEATURES, STATS; each decodes with "
+                    "its trailer removed");
+    vc_mac tx = ai.node_to_host();
+    for (const vc_msg& msg : {heartbeat_msg(VC_STATE_RUNNING), hull_msg(small), features_msg(), stats_msg()})
+      m.sealed(msg, seal(msg, tx));
+    m.mac = ai.mac_json();
+  }
+  {
+    Vector& f = add("mac_forged",
+                    "On the `mac` stream: a sealed HULL with one RLE byte changed (CRCs recomputed), the "
+                    "HULL sealed with another key, a HEARTBEAT without a MAC: VC_PROTO_EMAC three times, "
+                    "the counter unmoved; the real sealed HULL (counter 0) after them decodes");
+    vc_mac tx = ai.node_to_host();
+    const Bytes real = seal(hull_msg(small), tx);
+    Bytes changed = real;
+    changed[VC_PROTO_HEADER_SIZE + 24] ^= 0x01;  // the first RLE byte
+    f.rejected(recrc(changed), VC_PROTO_EMAC);
+    vc_mac other = ai.node_to_host();
+    other.key[0] ^= 0x80;
+    f.rejected(seal(hull_msg(small), other), VC_PROTO_EMAC);
+    f.rejected(encode(heartbeat_msg(VC_STATE_RUNNING)), VC_PROTO_EMAC);
+    f.sealed(hull_msg(small), real);
+    f.mac = ai.mac_json();
+  }
+  {
+    Vector& r = add("mac_replayed",
+                    "On the `mac` stream: a sealed HULL (counter 0), the same bytes again: "
+                    "VC_PROTO_EREPLAY; the HEARTBEAT sealed with counter 1 after it decodes");
+    vc_mac tx = ai.node_to_host();
+    const Bytes hull = seal(hull_msg(small), tx);
+    r.sealed(hull_msg(small), hull);
+    r.rejected(hull, VC_PROTO_EREPLAY);
+    const vc_msg hb = heartbeat_msg(VC_STATE_RUNNING);
+    r.sealed(hb, seal(hb, tx));
+    r.mac = ai.mac_json();
+  }
+  {
+    Vector& o = add("mac_reordered",
+                    "On the `mac` stream: FEATURES sealed with counter 1 before the HULL of counter 0: "
+                    "VC_PROTO_EORDER; then the HULL (0) and the same FEATURES (1) decode");
+    vc_mac tx = ai.node_to_host();
+    const Bytes hull = seal(hull_msg(small), tx);
+    const Bytes feats = seal(features_msg(), tx);
+    o.rejected(feats, VC_PROTO_EORDER);
+    o.sealed(hull_msg(small), hull);
+    o.sealed(features_msg(), feats);
+    o.mac = ai.mac_json();
+  }
   return v;
 }
 
@@ -741,10 +892,13 @@ std::vector<std::string> write_all(const std::filesystem::path& dir) {
       "regenerating gives byte-identical files and that the decoder produces each `.json`'s `events`\n"
       "from the `.bin` fed in any chunking. The fuzz targets start from these files.\n\n"
       "| vector | what it holds, what a receiver must do |\n|---|---|\n";
+  if (vc_auth_init() < 0) throw std::runtime_error("libsodium failed to start");
   for (const Vector& v : build_streams()) {
     Json j;
     j["description"] = v.description;
     j["max_payload"] = v.max_payload ? v.max_payload : size_t{VC_PROTO_MAX_PAYLOAD};
+    if (!v.mac.is_null()) j["mac"] = v.mac;
+    if (!v.auth.is_null()) j["auth"] = v.auth;
     j["events"] = v.events;
     write_bytes(dir / (v.name + ".bin"), v.bytes);
     write_file(dir / (v.name + ".json"), j.dump(2) + "\n");
@@ -776,6 +930,31 @@ std::vector<std::string> write_all(const std::filesystem::path& dir) {
   readme +=
       "| `trigger` | the emulated trigger datagram of pulse 1042 |\n"
       "| `trigger_bad_version` | a trigger datagram of version 2: `-EBADMSG` |\n";
+  {  // The authenticated trigger datagram (version 2) with the `auth` vectors' rig key.
+    const AuthInputs ai;
+    vc_mac tx{};
+    vc_auth_trigger_key(ai.key, &tx);
+    tx.counter = 7;
+    Bytes d(VC_TRIGGER_DGRAM_MAC_SIZE);
+    vc_trigger_dgram_encode_mac(d.data(), kSeq, kTrigger, &tx);
+    write_bytes(dir / "trigger_mac.bin", d);
+    Json mj;
+    mj["description"] =
+        "Authenticated trigger datagram (version 2) of pulse 1042, counter 7, with the trigger key of "
+        "rig_key: accepted by a receiver expecting counter <= 7; the same bytes again are a replay "
+        "(VC_PROTO_EREPLAY), any byte changed a forgery (VC_PROTO_EMAC)";
+    mj["rig_key"] = hex(Bytes(ai.key, ai.key + VC_AUTH_KEY_SIZE));
+    mj["trigger_key"] = hex(Bytes(tx.key, tx.key + VC_AUTH_KEY_SIZE));
+    mj["counter"] = 7;
+    mj["seq"] = kSeq;
+    mj["t_ns"] = kTrigger;
+    write_file(dir / "trigger_mac.json", mj.dump(2) + "\n");
+    names.insert(names.end(), {"trigger_mac.bin", "trigger_mac.json"});
+    readme +=
+        "| `trigger_mac` | the authenticated trigger datagram (version 2) of pulse 1042, counter 7, "
+        "with the `auth` vectors' rig key: accepted once; replayed: `VC_PROTO_EREPLAY`; any byte "
+        "changed: `VC_PROTO_EMAC` |\n";
+  }
   write_file(dir / "README.md", readme);
   names.push_back("README.md");
   std::sort(names.begin(), names.end());

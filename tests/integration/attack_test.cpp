@@ -20,6 +20,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <mutex>
 #include <set>
 #include <sstream>
 #include <string>
@@ -513,6 +514,171 @@ TEST(Attack, KeyedRigRefusesAnImpostorWithoutTheKey) {
   EXPECT_EQ(after.nodes[1].joins, 1u);
   EXPECT_TRUE(after.nodes[1].connected);
   EXPECT_LT(after.last_seq, huge);
+}
+
+// ---- the keyed rig: memory under the flood, and MAC rejections per node --------------------------------
+
+// The node's side of a keyed connection, from SPEC.md "Authentication" with the proto library only.
+struct KeyedNode {
+  int fd = -1;
+  uint16_t node;
+  vc_decoder* dec = nullptr;
+  vc_mac tx{}, rx{};
+  KeyedNode(uint16_t port, uint16_t id) : node(id) {
+    fd = connect_host(port);
+    EXPECT_EQ(vc_decoder_new(0, &dec, nullptr, 0), 0);
+  }
+  ~KeyedNode() {
+    vc_decoder_free(dec);
+    close(fd);
+  }
+  bool next(vc_msg* m, int ms = 3000) {
+    auto end = Clock::now() + std::chrono::milliseconds(ms);
+    for (;;) {
+      int rc = vc_decoder_next(dec, m);
+      if (rc == 1) return true;
+      if (rc < 0 || Clock::now() > end) return false;
+      pollfd p{fd, POLLIN, 0};
+      if (poll(&p, 1, 20) <= 0) continue;
+      uint8_t b[65536];
+      ssize_t n = recv(fd, b, sizeof b, 0);
+      if (n <= 0) return false;
+      size_t used = 0;
+      for (size_t off = 0; off < static_cast<size_t>(n); off += used)
+        if (vc_decoder_feed(dec, b + off, static_cast<size_t>(n) - off, &used) < 0) return false;
+    }
+  }
+  bool handshake(const uint8_t key[VC_AUTH_KEY_SIZE]) {
+    vc_hello h{};
+    h.node_id = node;
+    h.capabilities = VC_CAP_HULL | VC_CAP_AUTH;
+    h.camera_count = 2;
+    for (int c = 0; c < 2; c++) {
+      h.cameras[c].width = 160;
+      h.cameras[c].height = 120;
+    }
+    uint8_t buf[512];
+    size_t len = 0;
+    vc_header hdr{};
+    hdr.node_id = node;
+    if (vc_encode_hello(buf, sizeof buf, &len, &hdr, &h) != 0 || !send_all(fd, buf, len)) return false;
+    uint8_t nn[VC_AUTH_NONCE_SIZE], nh[VC_AUTH_NONCE_SIZE];
+    vc_auth_random(nn, sizeof nn);
+    vc_auth_msg a{};
+    a.step = VC_AUTH_CHALLENGE;
+    std::memcpy(a.nonce, nn, sizeof nn);
+    if (vc_encode_auth(buf, sizeof buf, &len, &hdr, &a) != 0 || !send_all(fd, buf, len)) return false;
+    vc_msg m{};
+    if (!next(&m) || m.hdr.type != VC_MSG_AUTH || m.u.auth.step != VC_AUTH_RESPONSE) return false;
+    std::memcpy(nh, m.u.auth.nonce, sizeof nh);
+    if (!vc_auth_verify(m.u.auth.proof, key, VC_AUTH_ROLE_HOST, node, nn, nh)) return false;
+    vc_auth_msg p{};
+    p.step = VC_AUTH_PROOF;
+    vc_auth_prove(p.proof, key, VC_AUTH_ROLE_NODE, node, nn, nh);
+    if (vc_encode_auth(buf, sizeof buf, &len, &hdr, &p) != 0 || !send_all(fd, buf, len)) return false;
+    vc_auth_session(key, node, nn, nh, &tx, &rx);
+    vc_decoder_set_mac(dec, &rx);
+    return true;
+  }
+  std::vector<uint8_t> sealed_heartbeat(vc_mac* mac, uint32_t state) {
+    std::vector<uint8_t> b(VC_PROTO_HEADER_SIZE + 64);
+    size_t len = 0, out = 0;
+    vc_header hdr{};
+    hdr.node_id = node;
+    vc_heartbeat hb{vc::monotonic_ns(), state};
+    EXPECT_EQ(vc_encode_heartbeat(b.data(), b.size(), &len, &hdr, &hb), 0);
+    EXPECT_EQ(vc_mac_seal(mac, b.data(), len, b.size(), &out), 0);
+    b.resize(out);
+    return b;
+  }
+};
+
+// "A forged, replayed or reordered message is dropped with a logged reason", per node: a process that
+// holds the key takes the slot of a killed edge, proves the key, and sends a forged, a replayed and a
+// reordered message among sealed ones. Each is dropped, logged with its reason and counted in that
+// node's report (NodeReport::mac_rejected) and the server's; the real ones pass; the rig goes on.
+TEST(Attack, KeyedRigCountsForgedReplayedAndReorderedMessagesPerNode) {
+  std::mutex mu;
+  std::vector<std::string> lines;
+  Options o = keyed_options();
+  o.host_log = [&](log::Level, const std::string& line) {
+    std::lock_guard<std::mutex> g(mu);
+    if (lines.size() < 10000) lines.push_back(line);
+  };
+  EmulatedRig rig(o);
+  rig.start(60);
+  rig.run_frames(60, 30);
+  uint8_t key[VC_AUTH_KEY_SIZE];
+  char why[512];
+  ASSERT_EQ(vc_auth_init(), 0);
+  ASSERT_EQ(vc_key_load((rig.workdir() / "rig.key").c_str(), key, why, sizeof why), 0) << why;
+  rig.kill_node(2, SIGKILL);
+  for (int i = 0; i < 300 && rig.report().nodes[2].connected; i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_FALSE(rig.report().nodes[2].connected);
+  const aggregator::Report before = rig.report();
+  {
+    KeyedNode n(rig.host_port(), 2);
+    ASSERT_TRUE(n.handshake(key));
+    vc_msg m{};
+    ASSERT_TRUE(n.next(&m)) << "the host's first sealed message";
+    EXPECT_EQ(m.hdr.type, VC_MSG_CONFIG);
+    const std::vector<uint8_t> first = n.sealed_heartbeat(&n.tx, VC_STATE_IDLE);  // counter 0
+    ASSERT_TRUE(send_all(n.fd, first.data(), first.size()));
+    std::vector<uint8_t> forged = n.sealed_heartbeat(&n.tx, VC_STATE_IDLE);  // counter 1, then altered
+    n.tx.counter--;                                                          // it never arrives whole
+    forged[VC_PROTO_HEADER_SIZE] ^= 0x01;
+    const uint32_t pc =
+        vc_crc32c(0, forged.data() + VC_PROTO_HEADER_SIZE, forged.size() - VC_PROTO_HEADER_SIZE);
+    std::memcpy(&forged[32], &pc, 4);
+    const uint32_t hc = vc_crc32c(0, forged.data(), 36);
+    std::memcpy(&forged[36], &hc, 4);
+    ASSERT_TRUE(send_all(n.fd, forged.data(), forged.size()));
+    ASSERT_TRUE(send_all(n.fd, first.data(), first.size()));                       // replayed
+    const std::vector<uint8_t> second = n.sealed_heartbeat(&n.tx, VC_STATE_IDLE);  // counter 1
+    const std::vector<uint8_t> third = n.sealed_heartbeat(&n.tx, VC_STATE_IDLE);   // counter 2
+    ASSERT_TRUE(send_all(n.fd, third.data(), third.size()));                       // reordered
+    ASSERT_TRUE(send_all(n.fd, second.data(), second.size()));
+    ASSERT_TRUE(send_all(n.fd, third.data(), third.size()));
+    aggregator::Report during;
+    for (int i = 0; i < 300; i++) {
+      during = rig.report();
+      if (during.nodes[2].mac_rejected.total() >= 3) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    EXPECT_EQ(during.nodes[2].mac_rejected.forged, 1u);
+    EXPECT_EQ(during.nodes[2].mac_rejected.replayed, 1u);
+    EXPECT_EQ(during.nodes[2].mac_rejected.reordered, 1u);
+    EXPECT_EQ(during.server.mac_forged - before.server.mac_forged, 1u);
+    EXPECT_EQ(during.server.mac_replayed - before.server.mac_replayed, 1u);
+    EXPECT_EQ(during.server.mac_reordered - before.server.mac_reordered, 1u);
+    EXPECT_EQ(during.server.mac_unidentified, 0u);
+    EXPECT_TRUE(during.nodes[2].connected) << "three failures do not close it (16 do)";
+    for (size_t k = 0; k < 2; k++) EXPECT_EQ(during.nodes[k].mac_rejected.total(), 0u);
+  }
+  {
+    std::lock_guard<std::mutex> g(mu);
+    for (const char* reason : {"forged", "replayed", "reordered"}) {
+      bool said = false;
+      for (const std::string& l : lines)
+        said = said || (l.find("(node 2): dropped a message") != std::string::npos &&
+                        l.find(std::string("1 ") + reason + " so far") != std::string::npos);
+      EXPECT_TRUE(said) << "no line says the " << reason << " message was dropped";
+    }
+  }
+  for (int i = 0; i < 300 && rig.report().nodes[2].connected; i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  rig.restart_node(2);
+  auto t0 = Clock::now();
+  while (!rig.node_running(2) && Clock::now() - t0 < std::chrono::seconds(20))
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_TRUE(rig.node_running(2));
+  rig.run_seconds(0.5);
+  const aggregator::Report rejoined = rig.report();
+  rig.run_seconds(1.0);
+  Result r = rig.stop();
+  expect_complete_since(rejoined, r.report, 30, "after node 2 rejoined");
+  EXPECT_EQ(r.report.nodes[2].mac_rejected.total(), 3u) << "the counts stay the node's after it rejoined";
 }
 
 }  // namespace

@@ -42,6 +42,16 @@ std::vector<std::string> resolve_ipv4(const std::string& address) {
   return out;
 }
 
+std::vector<uint8_t> load_rig_key(const config::RigConfig& rig) {
+  if (rig.key_path.empty()) return {};
+  if (vc_auth_init() < 0) throw std::runtime_error("libsodium failed to start");
+  std::vector<uint8_t> key(VC_AUTH_KEY_SIZE);
+  char why[512] = "";
+  if (vc_key_load(rig.key_path.string().c_str(), key.data(), why, sizeof why) < 0)
+    throw config::ConfigError(rig.source.string(), "key", why[0] ? why : "cannot read the key file");
+  return key;
+}
+
 uint32_t grid_id(const rig::VoxelGrid& g) {
   double d[4] = {g.min_m[0], g.min_m[1], g.min_m[2], g.voxel_m};
   int32_t n[3] = {g.nx, g.ny, g.nz};
@@ -213,11 +223,7 @@ Aggregator::Aggregator(config::RigConfig rig, Options options)
   // The rig key (proto/SPEC.md "Authentication"): the sessions prove it and seal every message, the
   // udp trigger signs its datagrams. Without one the rig is loopback-only (RigConfig::valid) and says so.
   if (!rig_.key_path.empty()) {
-    so.key.resize(VC_AUTH_KEY_SIZE);
-    char key_why[512] = "";
-    if (vc_auth_init() < 0 ||
-        vc_key_load(rig_.key_path.string().c_str(), so.key.data(), key_why, sizeof key_why) < 0)
-      throw std::runtime_error(key_why[0] ? key_why : "libsodium failed to start");
+    so.key = load_rig_key(rig_);  // a bad key file is bad input: ConfigError, exit 2 at the commands
     rig_.trigger.udp.key = so.key;
     log(log::Level::info, fmt::format("authenticated control: rig key {}", rig_.key_path.string()));
   } else {
@@ -568,6 +574,18 @@ void Aggregator::on_disconnect(session::ConnId conn, const std::string& reason) 
   n->rep.leaves++;
   set_running(*n);
   log(log::Level::warn, fmt::format("node {} ({}) left: {}", n->id, n->cfg->id, reason));
+}
+
+void Aggregator::on_mac_rejected(session::ConnId /*conn*/, uint16_t node_id, int code) {
+  // By the node its HELLO named (and the server accepted): the connection may be gone or replaced
+  // since, the count stays the node's. The server logged the message's line.
+  std::lock_guard<std::mutex> g(mu_);
+  for (auto& n : nodes_) {
+    if (n->id != node_id) continue;
+    NodeReport::MacRejected& m = n->rep.mac_rejected;
+    (code == VC_PROTO_EMAC ? m.forged : code == VC_PROTO_EREPLAY ? m.replayed : m.reordered)++;
+    return;
+  }
 }
 
 void Aggregator::on_tick(uint64_t now_ns) {

@@ -21,7 +21,10 @@ AssemblyStage::AssemblyStage(assemble::AssemblerOptions assembler, AssemblyOptio
       opt_(options),
       log_(log::or_spdlog(std::move(log), "voxcap-host")),
       inbox_(options.queue, pipeline::Overflow::DropNewest),
-      assembler_(unmerged(std::move(assembler))) {}
+      assembler_(unmerged(std::move(assembler))),
+      pulse_ring_(assembler_.options().max_pending) {
+  pulse_batch_.reserve(pulse_ring_.size());
+}
 
 AssemblyStage::~AssemblyStage() {
   stop();
@@ -122,7 +125,35 @@ void AssemblyStage::set_running(uint16_t node_id, bool running) {
 }
 
 void AssemblyStage::post_pulse(uint64_t seq, uint64_t t_ns) {
-  inbox_.push_always(Pulse{seq, t_ns});
+  std::lock_guard<std::mutex> g(pulse_mu_);
+  if (pulse_count_ == pulse_ring_.size()) {  // full: the oldest note goes (see the header)
+    pulse_head_ = (pulse_head_ + 1) % pulse_ring_.size();
+    pulse_count_--;
+    pulse_overwritten_++;
+  }
+  pulse_ring_[(pulse_head_ + pulse_count_) % pulse_ring_.size()] = Pulse{seq, t_ns};
+  pulse_count_++;
+}
+
+void AssemblyStage::take_pulses() {
+  pulse_batch_.clear();
+  {
+    std::lock_guard<std::mutex> g(pulse_mu_);
+    for (size_t k = 0; k < pulse_count_; k++)
+      pulse_batch_.push_back(pulse_ring_[(pulse_head_ + k) % pulse_ring_.size()]);
+    pulse_head_ = pulse_count_ = 0;
+  }
+  for (const Pulse& p : pulse_batch_) assembler_.pulse(p.seq, p.t_ns);
+}
+
+size_t AssemblyStage::pulse_notes_waiting() const {
+  std::lock_guard<std::mutex> g(pulse_mu_);
+  return pulse_count_;
+}
+
+uint64_t AssemblyStage::pulse_notes_overwritten() const {
+  std::lock_guard<std::mutex> g(pulse_mu_);
+  return pulse_overwritten_;
 }
 
 void AssemblyStage::forward(std::vector<assemble::MergedFrame>& frames) {
@@ -142,6 +173,7 @@ void AssemblyStage::run() {
     uint64_t now = vc::monotonic_ns();
     {
       std::lock_guard<std::mutex> g(mu_);
+      take_pulses();  // every pulse noted before this message was taken is known before it
       if (in) {
         if (const size_t bytes = bytes_of(*in)) {
           const uint16_t node = std::visit(
@@ -163,8 +195,6 @@ void AssemblyStage::run() {
                                     now, out);
         } else if (auto* r = std::get_if<Running>(&*in)) {
           assembler_.set_running(r->node_id, r->running);
-        } else if (auto* pu = std::get_if<Pulse>(&*in)) {
-          assembler_.pulse(pu->seq, pu->t_ns);
         }
       }
       if (!in || now - last_poll >= poll_ns) {
@@ -183,6 +213,7 @@ void AssemblyStage::run() {
   }
   {
     std::lock_guard<std::mutex> g(mu_);
+    take_pulses();
     assembler_.flush(vc::monotonic_ns(), out);
   }
   forward(out);

@@ -2,6 +2,7 @@
 // noted by the test). Loops are bounded in time.
 #include "voxcap/aggregator/aggregator.hpp"
 #include "voxcap/aggregator/record_stage.hpp"
+#include "voxcap/auth.h"
 #include "voxcap/base/clock.hpp"
 #include "voxcap/record/pose.hpp"
 
@@ -641,6 +642,227 @@ TEST(Aggregator, RejectsUnknownNodesAndWrongCameras) {
   FakeEdge wrong(agg.port(), 1, 320);
   EXPECT_EQ(wrong.expect(VC_MSG_CONFIG, 1000), -2);
   agg.stop();
+}
+
+}  // namespace
+}  // namespace vc::aggregator
+
+namespace vc::aggregator {
+namespace {
+
+// Issue #13: MAC rejections were counted per connection only (gone with it) and not in the report.
+// The session server tells the handler the node whose accepted connection a dropped message came on;
+// the node's report keeps the counts by reason across its connections.
+TEST(Aggregator, CountsMacRejectionsPerNodeByReasonAcrossConnections) {
+  TmpDir tmp;
+  Options o;
+  o.start_trigger = false;
+  o.log = [](log::Level, const std::string&) {};
+  Aggregator agg(make_rig(tmp.p), o);
+  agg.on_mac_rejected(11, 2, VC_PROTO_EMAC);
+  agg.on_mac_rejected(11, 2, VC_PROTO_EMAC);
+  agg.on_mac_rejected(12, 2, VC_PROTO_EREPLAY);  // a later connection of the same node
+  agg.on_mac_rejected(13, 1, VC_PROTO_EORDER);
+  agg.on_mac_rejected(14, 9, VC_PROTO_EMAC);  // no such node: counted by the server only
+  const Report r = agg.report();
+  ASSERT_EQ(r.nodes.size(), 2u);
+  EXPECT_EQ(r.nodes[0].id, 1u);
+  EXPECT_EQ(r.nodes[0].mac_rejected.forged, 0u);
+  EXPECT_EQ(r.nodes[0].mac_rejected.reordered, 1u);
+  EXPECT_EQ(r.nodes[1].mac_rejected.forged, 2u);
+  EXPECT_EQ(r.nodes[1].mac_rejected.replayed, 1u);
+  EXPECT_EQ(r.nodes[1].mac_rejected.reordered, 0u);
+  EXPECT_EQ(r.nodes[1].mac_rejected.total(), 3u);
+}
+
+// The rig key named in rig.toml is read as the host reads it, and a bad one is bad input (ConfigError
+// naming the key, one line): missing, open to group or others, malformed. voxcap config check runs the
+// same function.
+TEST(Aggregator, ABadKeyFileIsAConfigErrorNamingTheKey) {
+  TmpDir tmp;
+  Options o;
+  o.start_trigger = false;
+  o.log = [](log::Level, const std::string&) {};
+  config::RigConfig rig = make_rig(tmp.p);
+  EXPECT_TRUE(load_rig_key(rig).empty()) << "no key: a keyless (loopback) rig";
+  auto expect_error = [&](const std::string& what) {
+    SCOPED_TRACE(what);
+    try {
+      Aggregator agg(rig, o);
+      ADD_FAILURE() << "no error";
+    } catch (const config::ConfigError& e) {
+      EXPECT_EQ(e.key(), "key");
+      EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+      EXPECT_EQ(std::string(e.what()).find('\n'), std::string::npos);
+    }
+  };
+  rig.key_path = tmp.p / "rig.key";
+  expect_error("No such file");
+  std::ofstream(rig.key_path) << std::string(64, 'a') << "\n";
+  fs::permissions(rig.key_path, fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read);
+  expect_error("lets group or others at it");
+  fs::permissions(rig.key_path, fs::perms::owner_read | fs::perms::owner_write);
+  EXPECT_EQ(load_rig_key(rig).size(), size_t{VC_AUTH_KEY_SIZE});
+  std::ofstream(rig.key_path) << "not a key\n";
+  expect_error("not one line of 64 hex digits");
+}
+
+// A node's side of a keyed connection (proto/SPEC.md "Authentication"), with the proto library only.
+struct KeyedEdge {
+  int fd = -1;
+  uint16_t id;
+  vc_decoder* dec = new_decoder();
+  vc_mac tx{}, rx{};
+  KeyedEdge(uint16_t port, uint16_t node) : id(node) {
+    fd = socket(AF_INET, SOCK_STREAM, 0);
+    sockaddr_in a{};
+    a.sin_family = AF_INET;
+    a.sin_port = htons(port);
+    a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    EXPECT_EQ(connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof(a)), 0);
+  }
+  ~KeyedEdge() {
+    vc_decoder_free(dec);
+    close(fd);
+  }
+  bool send_all(const uint8_t* b, size_t n) { return ::send(fd, b, n, MSG_NOSIGNAL) == (ssize_t)n; }
+  // The next message (1), the peer closed (-2) or nothing in ms (-1).
+  int next(vc_msg* m, int ms = 3000) {
+    auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
+    uint8_t b[8192];
+    for (;;) {
+      int rc = vc_decoder_next(dec, m);
+      if (rc == 1) return 1;
+      if (rc < 0) return -2;
+      if (std::chrono::steady_clock::now() > end) return -1;
+      pollfd p{fd, POLLIN, 0};
+      if (poll(&p, 1, 20) <= 0) continue;
+      ssize_t n = recv(fd, b, sizeof(b), 0);
+      if (n <= 0) return -2;
+      size_t used = 0;
+      for (size_t off = 0; off < (size_t)n; off += used)
+        if (vc_decoder_feed(dec, b + off, n - off, &used) < 0) return -2;
+    }
+  }
+  // HELLO offering the key, the challenge, the host's proof checked, ours; true when the host proved it.
+  bool handshake(const uint8_t* key) {
+    vc_hello h{};
+    h.node_id = id;
+    h.capabilities = VC_CAP_HULL | VC_CAP_AUTH;
+    h.camera_count = 2;
+    for (int c = 0; c < 2; c++) {
+      h.cameras[c].width = 64;
+      h.cameras[c].height = 48;
+    }
+    uint8_t buf[512];
+    size_t len = 0;
+    vc_header hdr{};
+    hdr.node_id = id;
+    if (vc_encode_hello(buf, sizeof buf, &len, &hdr, &h) != 0 || !send_all(buf, len)) return false;
+    uint8_t nn[VC_AUTH_NONCE_SIZE], nh[VC_AUTH_NONCE_SIZE];
+    vc_auth_random(nn, sizeof nn);
+    vc_auth_msg a{};
+    a.step = VC_AUTH_CHALLENGE;
+    std::memcpy(a.nonce, nn, sizeof nn);
+    if (vc_encode_auth(buf, sizeof buf, &len, &hdr, &a) != 0 || !send_all(buf, len)) return false;
+    vc_msg m{};
+    if (next(&m) != 1 || m.hdr.type != VC_MSG_AUTH || m.u.auth.step != VC_AUTH_RESPONSE) return false;
+    std::memcpy(nh, m.u.auth.nonce, sizeof nh);
+    if (!vc_auth_verify(m.u.auth.proof, key, VC_AUTH_ROLE_HOST, id, nn, nh)) return false;
+    vc_auth_msg p{};
+    p.step = VC_AUTH_PROOF;
+    vc_auth_prove(p.proof, key, VC_AUTH_ROLE_NODE, id, nn, nh);
+    if (vc_encode_auth(buf, sizeof buf, &len, &hdr, &p) != 0 || !send_all(buf, len)) return false;
+    vc_auth_session(key, id, nn, nh, &tx, &rx);
+    vc_decoder_set_mac(dec, &rx);
+    return true;
+  }
+  // Waits for a message of `type`: 1, -2 when closed, -1 when it did not come in ms.
+  int expect(uint16_t type, int ms = 3000) {
+    vc_msg m{};
+    for (;;) {
+      int rc = next(&m, ms);
+      if (rc != 1) return rc;
+      if (m.hdr.type == type) return 1;
+    }
+  }
+  void heartbeat(uint32_t state) {
+    std::vector<uint8_t> b(VC_PROTO_HEADER_SIZE + 64);
+    size_t len = 0, out = 0;
+    vc_header hdr{};
+    hdr.node_id = id;
+    vc_heartbeat hb{1, state};
+    ASSERT_EQ(vc_encode_heartbeat(b.data(), b.size(), &len, &hdr, &hb), 0);
+    ASSERT_EQ(vc_mac_seal(&tx, b.data(), len, b.size(), &out), 0);
+    ASSERT_TRUE(send_all(b.data(), out));
+  }
+};
+
+// Deliver 1 of issue #13: a second HELLO for a connected node is refused, the live node stays, unless
+// it proves the key and the old connection is dead: on a keyed rig a HELLO that proves the key takes
+// the node from a connection silent for more than half the heartbeat timeout, never from a live one.
+TEST(Aggregator, KeyedHelloReplacesOnlyADeadConnectionOfItsNode) {
+  ASSERT_EQ(vc_auth_init(), 0);
+  TmpDir tmp;
+  std::vector<std::string> lines;
+  std::mutex mu;
+  Options o;
+  o.start_trigger = false;
+  o.log = [&](log::Level, const std::string& l) {
+    std::lock_guard<std::mutex> g(mu);
+    lines.push_back(l);
+  };
+  config::RigConfig rig = make_rig(tmp.p);
+  rig.key_path = tmp.p / "rig.key";
+  uint8_t key[VC_AUTH_KEY_SIZE];
+  char why[256];
+  ASSERT_EQ(vc_key_write(rig.key_path.c_str(), false, key, why, sizeof why), 0) << why;
+  Aggregator agg(rig, o);
+  agg.start();
+  KeyedEdge live(agg.port(), 1);
+  ASSERT_TRUE(live.handshake(key));
+  ASSERT_EQ(live.expect(VC_MSG_CONFIG), 1);
+  {  // the same key, while the live node talks: refused, the live node stays
+    KeyedEdge second(agg.port(), 1);
+    live.heartbeat(VC_STATE_IDLE);
+    ASSERT_TRUE(second.handshake(key));
+    EXPECT_EQ(second.expect(VC_MSG_CONFIG, 1000), -2) << "refused and closed, no CONFIG";
+  }
+  Report r = agg.report();
+  EXPECT_EQ(r.nodes[0].hellos_refused, 1u);
+  EXPECT_EQ(r.nodes[0].joins, 1u);
+  EXPECT_TRUE(r.nodes[0].connected);
+  // The live node goes silent for more than half the heartbeat timeout (2 s): a HELLO that proves the
+  // key takes its place (an edge that restarted before its old connection was seen to die).
+  std::this_thread::sleep_for(std::chrono::milliseconds(1200));
+  KeyedEdge restarted(agg.port(), 1);
+  ASSERT_TRUE(restarted.handshake(key));
+  EXPECT_EQ(restarted.expect(VC_MSG_CONFIG), 1);
+  EXPECT_EQ(live.expect(VC_MSG_CONFIG, 1000), -2) << "the silent connection was closed";
+  r = agg.report();
+  EXPECT_EQ(r.nodes[0].joins, 2u);
+  EXPECT_EQ(r.nodes[0].hellos_refused, 1u);
+  EXPECT_TRUE(r.nodes[0].connected);
+  agg.stop();
+  std::lock_guard<std::mutex> g(mu);
+  bool said = false;
+  for (const std::string& l : lines) said = said || l.find("proved the key from") != std::string::npos;
+  EXPECT_TRUE(said) << "the replacement is logged";
+}
+
+// Deliver 1: a keyless rig (allowed only when every address is loopback: RigConfig::valid) says so
+// in its log.
+TEST(Aggregator, AKeylessRigSaysSoInItsLog) {
+  TmpDir tmp;
+  std::vector<std::string> lines;
+  Options o;
+  o.start_trigger = false;
+  o.log = [&](log::Level level, const std::string& l) {
+    if (level == log::Level::warn) lines.push_back(l);
+  };
+  Aggregator agg(make_rig(tmp.p), o);
+  ASSERT_FALSE(lines.empty());
+  EXPECT_NE(lines[0].find("no rig key: control is not authenticated"), std::string::npos) << lines[0];
 }
 
 }  // namespace

@@ -24,11 +24,13 @@ struct Gate : pipeline::Stage {
   bool open = false;
   std::vector<uint64_t> seqs;
   std::vector<size_t> features;
+  std::vector<uint64_t> t_trigger;
   std::string name() const override { return "gate"; }
   void process(pipeline::Frame& f) override {
     std::unique_lock<std::mutex> l(mu);
     cv.wait(l, [&] { return open; });
     seqs.push_back(f.seq);
+    t_trigger.push_back(f.t_trigger_ns);
     features.push_back(f.node(1) ? f.node(1)->features.size() : 0);
   }
   void release() {
@@ -145,6 +147,61 @@ TEST(AssemblyStage, ANodeOverItsShareOfBytesIsDroppedAndTheOthersGetIn) {
   gate.release();
   a.stop();
   p.stop();
+}
+
+// Pulse notes are bounded too (issue #13): while the assembly thread is held back (a stage that does
+// not take frames) and the nodes flood its queue, 100000 pulses never grow the queue past its
+// capacity nor the notes past the assembler's ring, and when the thread goes on the newest pulse is
+// known: the hulls of the last pulsed seq are taken (not refused as unpulsed) and their frame's
+// deadline runs from the host's time of that pulse.
+TEST(AssemblyStage, PulseNotesStayBoundedUnderAFloodAndTheNewestPulseIsNeverLost) {
+  pipeline::Pipeline p(pipeline::StageContext{});
+  Gate& gate = p.tap(std::make_unique<Gate>(), {1, pipeline::Overflow::Block});
+  p.start();
+  assemble::AssemblerOptions o = options();
+  o.pulsed_only = true;
+  AssemblyStage a(o, {8, 1}, p, [](log::Level, const std::string&) {});
+  a.set_running(1, true);
+  a.set_running(2, true);
+  a.start();
+  // Three frames hold the thread: one in the gate, one in its queue, one being pushed.
+  for (uint64_t seq = 1; seq <= 3; seq++) {
+    a.post_pulse(seq, vc::monotonic_ns());
+    ASSERT_TRUE(a.post_hull(hull(1, seq)));
+    ASSERT_TRUE(a.post_hull(hull(2, seq)));
+  }
+  for (int i = 0; i < 400 && a.report().queue.depth > 0; i++) std::this_thread::sleep_for(5ms);
+  ASSERT_EQ(a.report().queue.depth, 0u) << "the thread took the three frames and waits on the gate";
+  uint64_t refused = 0, t_last = 0;
+  const uint64_t kPulses = 100000, t0 = vc::monotonic_ns();
+  for (uint64_t seq = 4; seq <= kPulses; seq++) {
+    t_last = t0 + seq;  // the host's time of each pulse, told apart from any node's stamp
+    a.post_pulse(seq, t_last);
+    if (seq % 100 == 0) refused += a.post_features(1, seq, vc::monotonic_ns(), vc_features{}) ? 0 : 1;
+  }
+  EXPECT_GT(refused, 900u) << "the queue was full: the flood was refused";
+  EXPECT_LE(a.report().queue.max_depth, 8u) << "pulse notes took places in the queue";
+  EXPECT_LE(a.pulse_notes_waiting(), a.pulse_ring_size());
+  EXPECT_EQ(a.pulse_ring_size(), o.max_pending);
+  // The thread took the first three before it was held; of the rest only the newest max_pending wait.
+  EXPECT_EQ(a.pulse_notes_waiting(), o.max_pending);
+  EXPECT_EQ(a.pulse_notes_overwritten(), kPulses - 3 - o.max_pending);
+  gate.release();
+  for (int i = 0; i < 400 && a.report().queue.depth > 0; i++) std::this_thread::sleep_for(5ms);
+  // The newest pulse was kept: its hulls are taken and make a complete frame, timed from the pulse.
+  assemble::PartialHull h1 = hull(1, kPulses), h2 = hull(2, kPulses);
+  h1.t_trigger_ns = h2.t_trigger_ns = 5;  // a node's stamp is not what the deadline runs from
+  ASSERT_TRUE(a.post_hull(std::move(h1)));
+  ASSERT_TRUE(a.post_hull(std::move(h2)));
+  a.stop();
+  p.stop();
+  EXPECT_EQ(a.stats().nodes.at(1).unpulsed, 0u);
+  EXPECT_EQ(a.stats().nodes.at(2).unpulsed, 0u);
+  ASSERT_FALSE(gate.seqs.empty());
+  EXPECT_EQ(gate.seqs.back(), kPulses);
+  EXPECT_EQ(gate.t_trigger.back(), t_last);
+  EXPECT_EQ(a.stats().complete, 4u);
+  EXPECT_EQ(a.pulse_notes_waiting(), 0u);
 }
 
 TEST(AssemblyStage, WaitsOnlyForRunningNodesAndFlushesPendingFramesAtStop) {

@@ -84,7 +84,13 @@ std::vector<const NodeConfig*> RigConfig::tracking_nodes() const {
 }
 
 bool RigConfig::loopback_only() const {
-  auto loopback = [](const std::string& a) { return a == "localhost" || a.rfind("127.", 0) == 0; };
+  // An IPv4 literal in 127.0.0.0/8, or localhost; a host name such as "127.example.net" is not (it
+  // may resolve anywhere).
+  auto loopback = [](const std::string& a) {
+    Endpoint e;
+    e.host = a;
+    return e.is_loopback();
+  };
   if (!loopback(network.listen)) return false;
   for (const NodeConfig& n : nodes)
     if (n.address != "any" && !loopback(n.address)) return false;

@@ -563,6 +563,14 @@ TEST(RigKey, KeylessRigMustBeLoopbackOnlyAndKeyIsResolvedAgainstTheFile) {
   EXPECT_FALSE(c.loopback_only());
   c.nodes[0].address = "localhost";
   EXPECT_TRUE(c.loopback_only());
+  c.nodes[0].address = "127.0.0.2";
+  EXPECT_TRUE(c.loopback_only());
+  // A name that merely starts like a loopback address may resolve anywhere: not loopback.
+  c.nodes[0].address = "127.example.net";
+  EXPECT_FALSE(c.loopback_only());
+  c.nodes[0].address = "any";
+  c.network.listen = "127.0.0.1.example.net";
+  EXPECT_FALSE(c.loopback_only());
 }
 
 }  // namespace

@@ -775,7 +775,9 @@ void EmulatedRig::start(double timeout_s) {
                            o.rate_hz, o.seed, o.noise, o.appearance, o.room, cal_path.string());
   if (o.bvh_scale > 0) m.sim_spec += fmt::format(",bvh_scale={}", o.bvh_scale);
   aggregator::Options ao;
-  if (o.quiet)
+  if (o.host_log)
+    ao.log = o.host_log;
+  else if (o.quiet)
     ao.log = [out = log::to_spdlog("voxcap-host")](log::Level level, const std::string& line) {
       if (level >= log::Level::err) out(level, line);
     };

@@ -158,4 +158,40 @@ std::string summary_json(const Reader::Summary& s, const std::filesystem::path& 
   return j.dump(2) + "\n";
 }
 
+RunRecording read_back(const Reader::Summary& s, const std::filesystem::path& dir, uint64_t merged_frames) {
+  RunRecording r;
+  r.dir = dir;
+  r.merged_frames = merged_frames;
+  r.frames = s.frames;
+  r.records = s.records;
+  r.skipped_records = s.skipped_records;
+  r.skipped_bytes = s.skipped_bytes;
+  r.truncated_bytes = s.truncated_bytes;
+  r.closed_cleanly = s.closed_cleanly;
+  r.stop = to_string(s.stop);
+  r.damage = s.damage;
+  return r;
+}
+
+RunRecording read_back(const std::filesystem::path& dir, uint64_t merged_frames) {
+  const Reader reader = Reader::open(dir);
+  return read_back(reader.summary_ref(), dir, merged_frames);
+}
+
+std::string run_recording_line(const RunRecording& r) {
+  std::string out = fmt::format("session   {}: {} frames (of {} merged), {} records, ", r.dir.string(),
+                                r.frames, r.merged_frames, r.records);
+  if (r.closed_cleanly)
+    out += "closed cleanly";
+  else
+    out += r.stop == "closed" ? "closed with damage" : fmt::format("NOT closed ({})", r.stop);
+  if (r.skipped_records > 0 || r.skipped_bytes > 0)
+    out += fmt::format(", {} damaged record{} skipped ({})", r.skipped_records,
+                       r.skipped_records == 1 ? "" : "s", human_bytes(r.skipped_bytes));
+  if (r.truncated_bytes > 0) out += fmt::format(", {} ignored at its end", human_bytes(r.truncated_bytes));
+  if (const uint64_t n = r.frames_not_recorded())
+    out += fmt::format(", {} merged frame{} NOT in the session", n, n == 1 ? "" : "s");
+  return out;
+}
+
 }  // namespace vc::record

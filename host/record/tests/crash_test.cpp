@@ -4,6 +4,8 @@
 #include <unistd.h>
 
 #include <filesystem>
+#include <string>
+#include <variant>
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
@@ -11,6 +13,7 @@
 #include "session_fixture.hpp"
 #include "voxcap/record/format.hpp"
 #include "voxcap/record/recorder.hpp"
+#include "voxcap/record/session_info.hpp"
 
 namespace vc::record {
 namespace {
@@ -180,6 +183,41 @@ TEST_F(RecordCrash, SeveralDamagedRecordsInAClosedSession) {
   for (size_t i = 0; i < records.size(); ++i)
     if (i != 1 && i != 4 && i != 5 && i != 9) expected.push_back(records[i]);
   EXPECT_EQ(read_and_compare(reader, expected), expected.size());
+}
+
+// Issue #13: a run's summary (voxcap rig, voxcap-host, voxcap demo) counts what its session holds, read
+// back as `session info` reads it: a damaged frame record is a frame fewer, a skipped record and a
+// merged frame the session does not hold, and the summary's line says each.
+TEST_F(RecordCrash, RunSummaryCountsWhatTheSessionHolds) {
+  size_t frames = 0, frame_k = 0;
+  for (size_t i = 0; i < records.size(); ++i)
+    if (std::holds_alternative<FrameRecord>(records[i])) frame_k = (frames++ == 2) ? i : frame_k;
+  std::vector<uint8_t> closed = session_bytes(records, /*close=*/true);
+  {
+    Reader whole = Reader::from_bytes(closed);
+    const RunRecording r = read_back(whole.summary_ref(), "S", frames);
+    EXPECT_EQ(r.frames, frames);
+    EXPECT_EQ(r.records, records.size());
+    EXPECT_TRUE(r.complete());
+    EXPECT_EQ(run_recording_line(r), "session   S: " + std::to_string(frames) + " frames (of " +
+                                         std::to_string(frames) + " merged), " +
+                                         std::to_string(records.size()) + " records, closed cleanly");
+  }
+  closed[offsets[frame_k + 1] + 26] ^= 0x10;  // inside the third frame record's body
+  Reader damaged = Reader::from_bytes(std::move(closed));
+  const RunRecording r = read_back(damaged.summary_ref(), "S", frames);
+  EXPECT_EQ(r.frames, frames - 1);
+  EXPECT_EQ(r.records, records.size() - 1);
+  EXPECT_EQ(r.skipped_records, 1u);
+  EXPECT_EQ(r.skipped_bytes, offsets[frame_k + 2] - offsets[frame_k + 1]);
+  EXPECT_EQ(r.frames_not_recorded(), 1u);
+  EXPECT_FALSE(r.complete());
+  EXPECT_EQ(r.damage.size(), 1u);
+  const std::string line = run_recording_line(r);
+  EXPECT_THAT(line, ::testing::HasSubstr(std::to_string(frames - 1) + " frames (of " +
+                                         std::to_string(frames) + " merged)"));
+  EXPECT_THAT(line, ::testing::HasSubstr("closed with damage, 1 damaged record skipped ("));
+  EXPECT_THAT(line, ::testing::HasSubstr("1 merged frame NOT in the session"));
 }
 
 // Power loss on ext4 can leave the tail of the file zero-filled: a torn tail, not corruption.

@@ -359,22 +359,33 @@ void Server::handle_readable(Conn& c, uint64_t now_ns) {
             return;
           }
           if (rc == VC_PROTO_EMAC || rc == VC_PROTO_EREPLAY || rc == VC_PROTO_EORDER) {
-            std::lock_guard<std::mutex> g(mu_);
-            uint64_t& count = rc == VC_PROTO_EMAC      ? c.st.forged
-                              : rc == VC_PROTO_EREPLAY ? c.st.replayed
-                                                       : c.st.reordered;
-            count++;
-            stats_.mac_rejected++;
-            uint64_t total = c.st.forged + c.st.replayed + c.st.reordered;
-            log(log::Level::warn, fmt::format("connection {} (node {}): dropped a message: {} ({} {} so far)",
-                                              c.id, c.node_id, why, count,
-                                              rc == VC_PROTO_EMAC      ? "forged"
-                                              : rc == VC_PROTO_EREPLAY ? "replayed"
-                                                                       : "reordered"));
-            if (total >= VC_AUTH_MAX_REJECTS) {
-              c.closing = fmt::format("{} messages failed their MAC", total);
-              return;
+            bool close_it = false;
+            {
+              std::lock_guard<std::mutex> g(mu_);
+              uint64_t& count = rc == VC_PROTO_EMAC      ? c.st.forged
+                                : rc == VC_PROTO_EREPLAY ? c.st.replayed
+                                                         : c.st.reordered;
+              count++;
+              stats_.mac_rejected++;
+              (rc == VC_PROTO_EMAC      ? stats_.mac_forged
+               : rc == VC_PROTO_EREPLAY ? stats_.mac_replayed
+                                        : stats_.mac_reordered)++;
+              if (!c.hello) stats_.mac_unidentified++;
+              uint64_t total = c.st.forged + c.st.replayed + c.st.reordered;
+              log(log::Level::warn,
+                  fmt::format("connection {} (node {}): dropped a message: {} ({} {} so far)", c.id,
+                              c.node_id, why, count,
+                              rc == VC_PROTO_EMAC      ? "forged"
+                              : rc == VC_PROTO_EREPLAY ? "replayed"
+                                                       : "reordered"));
+              if (total >= VC_AUTH_MAX_REJECTS) {
+                c.closing = fmt::format("{} messages failed their MAC", total);
+                close_it = true;
+              }
             }
+            // Outside mu_: the handler may send (Server::send takes mu_).
+            if (c.hello) handler_.on_mac_rejected(c.id, c.node_id, rc);
+            if (close_it) return;
             continue;
           }
           log(log::Level::warn, fmt::format("connection {}: rejected a message: {}", c.id, why));

@@ -41,6 +41,12 @@ struct Recorder : Handler {
     cv.notify_all();
   }
   void on_disconnect(ConnId, const std::string&) override {}
+  std::vector<std::pair<uint16_t, int>> mac_rejected;  // (node, code) as on_mac_rejected told
+  void on_mac_rejected(ConnId, uint16_t node_id, int code) override {
+    std::lock_guard<std::mutex> g(mu);
+    mac_rejected.emplace_back(node_id, code);
+    cv.notify_all();
+  }
   template <typename Pred>
   bool wait(Pred p, int ms = 3000) {
     std::unique_lock<std::mutex> l(mu);
@@ -243,6 +249,18 @@ TEST_F(SessionAuth, ForgedReplayedAndReorderedMessagesAreDroppedCountedAndEndThe
   EXPECT_EQ(conns[0].replayed, 1u);
   EXPECT_EQ(conns[0].reordered, 1u);
   EXPECT_EQ(h.heartbeat_times, (std::vector<uint64_t>{1, 2}));  // only the real ones, in order
+  // Each drop is the node's, by reason, for the handler's per-node counts (NodeReport::mac_rejected),
+  // and in the server's totals; none was a stranger's.
+  ASSERT_TRUE(h.wait([&] { return h.mac_rejected.size() == 4; }));
+  EXPECT_EQ(h.mac_rejected,
+            (std::vector<std::pair<uint16_t, int>>{
+                {2, VC_PROTO_EMAC}, {2, VC_PROTO_EMAC}, {2, VC_PROTO_EREPLAY}, {2, VC_PROTO_EORDER}}));
+  const ServerStats st = s.stats();
+  EXPECT_EQ(st.mac_forged, 2u);
+  EXPECT_EQ(st.mac_replayed, 1u);
+  EXPECT_EQ(st.mac_reordered, 1u);
+  EXPECT_EQ(st.mac_unidentified, 0u);
+  EXPECT_EQ(st.mac_rejected, 4u);
   // The real third one still passes after its reordered copy was dropped.
   c.raw(third.data(), third.size());
   ASSERT_TRUE(h.wait([&] { return h.heartbeat_times.size() == 3; }));

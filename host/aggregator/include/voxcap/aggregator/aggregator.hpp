@@ -50,6 +50,11 @@ vc_config make_config_message(const config::RigConfig& rig, const config::NodeCo
 // nodes[].address as the IPv4 addresses a node's connection may come from: an IPv4 address itself, a
 // host name's IPv4 addresses, none for "any" (or a name that does not resolve).
 std::vector<std::string> resolve_ipv4(const std::string& address);
+// The rig key named in rig.toml (`key = ...`), read as the host reads it before it starts (voxcap
+// config check runs the same): a regular file, not readable by group or others, one line of 64 hex
+// digits. Empty without a key. Throws config::ConfigError (file rig.toml, key "key", one line) when
+// the file is missing, too open or malformed.
+std::vector<uint8_t> load_rig_key(const config::RigConfig& rig);
 // A stable id for the rig's grid (CRC32C of its parameters).
 uint32_t grid_id(const rig::VoxelGrid& grid);
 
@@ -92,7 +97,14 @@ struct NodeReport {
   // HULL, FEATURES and SILHOUETTE refused before assembly, by reason: "not_running" (the node is not
   // in state running), "unpulsed" (a seq the host has not pulsed). Each reason is logged once per node.
   std::map<std::string, uint64_t> refused;
-  uint64_t unpulsed = 0;     // refused by the assembler itself for a seq never pulsed (a second guard)
+  uint64_t unpulsed = 0;  // refused by the assembler itself for a seq never pulsed (a second guard)
+  // Messages on this node's connections (all of them, across rejoins) dropped by their MAC (keyed
+  // rigs, protocol 2.3): a bad tag or none (forged), a counter used before (replayed), one ahead of
+  // the next (reordered). The session server logs each; a connection with 16 is closed.
+  struct MacRejected {
+    uint64_t forged = 0, replayed = 0, reordered = 0;
+    uint64_t total() const { return forged + replayed + reordered; }
+  } mac_rejected;
   double edge_frame_ms = 0;  // trigger edge → HULL queued, as the edge's STATS say (mean)
   std::map<std::string, double> edge_stage_ms;  // mean per stage from the last STATS
   Latency rx;                                   // trigger → HULL received at the host
@@ -145,6 +157,7 @@ class Aggregator : public session::Handler {
   void on_message(session::ConnId conn, const vc_msg& msg, uint64_t t_rx_ns) override;
   void on_disconnect(session::ConnId conn, const std::string& reason) override;
   void on_tick(uint64_t now_ns) override;
+  void on_mac_rejected(session::ConnId conn, uint16_t node_id, int code) override;
 
  private:
   struct Node;

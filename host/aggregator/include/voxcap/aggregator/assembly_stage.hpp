@@ -54,8 +54,18 @@ class AssemblyStage {
   // hulls queued before a node started running are assembled as if it was not running yet.
   void set_running(uint16_t node_id, bool running);
   // The host sent pulse seq at t_ns (the trigger thread): the assembler takes that seq from now on
-  // (assemble::AssemblerOptions::pulsed_only). Queued in order, never dropped, never waits.
+  // (assemble::AssemblerOptions::pulsed_only). Never waits, and never takes a place in the queue: the
+  // notes wait in a ring of their own, as many as the assembler keeps pulse times for (its
+  // max_pending), which the assembly thread empties before every message it takes (so a pulse is
+  // known no later than in queue order). When the thread is held back longer than that, the oldest
+  // notes are overwritten: those are the pulses the assembler would have forgotten by then anyway (it
+  // keeps the last max_pending), and the newest, which moves its pulse mark, is always kept.
   void post_pulse(uint64_t seq, uint64_t t_ns);
+  // Pulse notes waiting for the assembly thread now (at most pulse_ring_size()), and how many were
+  // overwritten before it took them.
+  size_t pulse_notes_waiting() const;
+  size_t pulse_ring_size() const { return pulse_ring_.size(); }
+  uint64_t pulse_notes_overwritten() const;
 
   assemble::AssemblerStats stats() const;
   size_t pending() const;
@@ -84,9 +94,10 @@ class AssemblyStage {
   struct Pulse {
     uint64_t seq, t_ns;
   };
-  using Input = std::variant<assemble::PartialHull, Features, Stats, Running, SilhouetteIn, Pulse>;
+  using Input = std::variant<assemble::PartialHull, Features, Stats, Running, SilhouetteIn>;
 
   bool post(uint16_t node_id, Input in);
+  void take_pulses();  // the assembly thread: the waiting pulse notes into the assembler (mu_ held)
   void note_drop(const char* why);  // the warning line, at most every 5 s
   static size_t bytes_of(const Input& in);
   void run();
@@ -103,6 +114,13 @@ class AssemblyStage {
   std::map<uint16_t, uint64_t> drops_;
   std::map<uint16_t, size_t> queued_bytes_;  // per node: bytes of its messages in inbox_
   uint64_t drops_logged_ = 0, last_drop_log_ns_ = 0;
+  // The pulse notes (post_pulse): a ring, oldest first from pulse_head_; under pulse_mu_ only, so the
+  // trigger thread never waits for the assembler.
+  mutable std::mutex pulse_mu_;
+  std::vector<Pulse> pulse_ring_;
+  size_t pulse_head_ = 0, pulse_count_ = 0;
+  uint64_t pulse_overwritten_ = 0;
+  std::vector<Pulse> pulse_batch_;  // the assembly thread's copy, reused
   std::thread thread_;
   bool started_ = false, stopped_ = false;
 };

@@ -55,6 +55,7 @@ struct Options {
   std::filesystem::path edge_binary;  // empty: voxcap-edge beside this executable
   std::filesystem::path record_dir;   // record the session in a new folder below this; empty: no recording
   bool quiet = true;                  // edges log warnings only, host info lines suppressed
+  log::Fn host_log;  // the host's lines (a test's capture); none: spdlog (errors only when quiet)
   // Authenticated control (proto/SPEC.md "Authentication"): a fresh rig key in the workdir (rig.key,
   // 0600), named in its rig.toml and given to every edge, so the demo runs the real path. false: the
   // keyless loopback rig.

@@ -46,6 +46,14 @@ class Handler {
   virtual void on_disconnect(ConnId conn, const std::string& reason) = 0;
   // Called on the server thread about every poll_interval (for deadlines and timers).
   virtual void on_tick(uint64_t now_ns) { (void)now_ns; }
+  // A message on conn, whose HELLO for node_id was accepted, was dropped by its MAC (2.3):
+  // VC_PROTO_EMAC (forged), VC_PROTO_EREPLAY (replayed) or VC_PROTO_EORDER (reordered). The server
+  // has counted and logged it; this is for the handler's per-node counts.
+  virtual void on_mac_rejected(ConnId conn, uint16_t node_id, int code) {
+    (void)conn;
+    (void)node_id;
+    (void)code;
+  }
 };
 
 struct ServerOptions {
@@ -79,6 +87,10 @@ struct ServerStats {
   uint64_t prehello_timeouts = 0;  // connections without HELLO in hello_timeout_ms
   uint64_t auth_refused = 0;       // keyless HELLOs on a keyed rig, failed or missing proofs
   uint64_t mac_rejected = 0;       // messages dropped by their MAC (all connections)
+  // mac_rejected by reason, all connections: a bad tag or none, a counter used before, one ahead.
+  uint64_t mac_forged = 0, mac_replayed = 0, mac_reordered = 0;
+  // mac_rejected on connections that were no node's yet (no HELLO accepted): no handler sees those.
+  uint64_t mac_unidentified = 0;
 };
 
 class Server {
