@@ -175,7 +175,7 @@ Json grab_json(const vc_grab& m) {
   return j;
 }
 
-Json frame_json(const vc_frame& m, const JsonOptions& opt) {
+Json frame_json(const vc_frame_msg& m, const JsonOptions& opt) {
   Json j;
   j["camera"] = m.camera;
   j["format"] = m.format;

@@ -273,7 +273,7 @@ static int parse_grab(reader* r, vc_grab* m) {
   return vc_check_grab(m, reserved, r->diag);
 }
 
-static int parse_frame(reader* r, vc_frame* m) {
+static int parse_frame(reader* r, vc_frame_msg* m) {
   int rc = need(r, VC_FRAME_FIXED, "the fixed part");
   if (rc) return rc;
   const uint8_t* p = r->p;

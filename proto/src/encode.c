@@ -338,7 +338,7 @@ static void put_frame_fixed(uint8_t* p, uint16_t camera, uint16_t format, uint16
   vc_st32(p + 8, pixels_len);
 }
 
-int vc_encode_frame(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_frame* m) {
+int vc_encode_frame(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_frame_msg* m) {
   if (!m || !hdr || (m->pixels_len && !m->pixels)) return -EINVAL;
   int rc = vc_check_frame(m, NULL);
   if (rc) return rc;

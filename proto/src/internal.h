@@ -53,6 +53,6 @@ int vc_check_grab(const vc_grab* m, uint16_t reserved, vc_proto_diag* diag);
 /* FRAME (2.4): camera, format and size; then pixels_len against them. */
 int vc_check_frame_fields(uint16_t camera, uint16_t format, uint16_t width, uint16_t height,
                           vc_proto_diag* diag);
-int vc_check_frame(const vc_frame* m, vc_proto_diag* diag);
+int vc_check_frame(const vc_frame_msg* m, vc_proto_diag* diag);
 
 #endif /* VOXCAP_PROTO_INTERNAL_H */

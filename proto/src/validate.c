@@ -278,7 +278,7 @@ int vc_check_frame_fields(uint16_t camera, uint16_t format, uint16_t width, uint
   return 0;
 }
 
-int vc_check_frame(const vc_frame* m, vc_proto_diag* diag) {
+int vc_check_frame(const vc_frame_msg* m, vc_proto_diag* diag) {
   int rc = vc_check_frame_fields(m->camera, m->format, m->width, m->height, diag);
   if (rc) return rc;
   const uint64_t want = (uint64_t)m->width * m->height * vc_frame_format_channels(m->format);

@@ -151,7 +151,7 @@ TEST(Frame, FromRgbCopiesRowsWithoutStride) {
   EXPECT_EQ(le32(&b[48]), 7u * 5 * 3);
   Decoded d = decode(b);
   ASSERT_EQ(d.rc, 1) << d.diag.detail;
-  const vc_frame& f = d.msg->u.frame;
+  const vc_frame_msg& f = d.msg->u.frame;
   EXPECT_EQ(d.msg->hdr.seq, 1042u);
   EXPECT_EQ(d.msg->hdr.t_trigger_ns, 99u);
   ASSERT_EQ(f.pixels_len, 105u);
@@ -181,7 +181,7 @@ TEST(Frame, GrayIsFixedPointLuma) {
 
 TEST(Frame, RejectsBadLengthsSizesFormatsAndCameras) {
   const Bytes img = rgb_image(6, 4, 18);
-  vc_frame f{1, VC_FRAME_RGB8, 6, 4, 72, img.data()};
+  vc_frame_msg f{1, VC_FRAME_RGB8, 6, 4, 72, img.data()};
   Bytes good(VC_PROTO_HEADER_SIZE + 12 + 72);
   size_t len = 0;
   vc_header hdr = header(7);
@@ -217,7 +217,7 @@ TEST(Frame, RejectsBadLengthsSizesFormatsAndCameras) {
 
   // The encoders refuse the same.
   Bytes b(VC_PROTO_HEADER_SIZE + 200);
-  vc_frame bad = f;
+  vc_frame_msg bad = f;
   bad.pixels_len = 71;
   EXPECT_EQ(vc_encode_frame(b.data(), b.size(), &len, &hdr, &bad), VC_PROTO_EINCONSISTENT);
   bad = f;
@@ -231,7 +231,7 @@ TEST(Frame, RejectsBadLengthsSizesFormatsAndCameras) {
 
 TEST(Frame, ANewerMinorMayAppendFields) {
   const Bytes img = rgb_image(2, 2, 6);
-  vc_frame f{0, VC_FRAME_RGB8, 2, 2, 12, img.data()};
+  vc_frame_msg f{0, VC_FRAME_RGB8, 2, 2, 12, img.data()};
   Bytes b(VC_PROTO_HEADER_SIZE + 24);
   size_t len = 0;
   vc_header hdr = header(7);

@@ -319,7 +319,7 @@ const Bytes& frame_rgb_pixels() {
 
 vc_msg frame_msg(uint16_t camera = 1, uint16_t format = VC_FRAME_RGB8) {
   vc_msg m = make(VC_MSG_FRAME, kSeq, kTrigger);
-  vc_frame& f = m.u.frame;
+  vc_frame_msg& f = m.u.frame;
   f.camera = camera;
   f.format = format;
   f.width = 6;

@@ -347,13 +347,13 @@ typedef struct vc_grab {
 } vc_grab;
 
 /* FRAME (2.4): one camera's image of frame hdr.seq, rows top to bottom, no padding. */
-typedef struct vc_frame {
+typedef struct vc_frame_msg {
   uint16_t camera;        /* the node's camera index, < VC_PROTO_MAX_CAMERAS */
   uint16_t format;        /* vc_frame_format */
   uint16_t width, height; /* 1..VC_PROTO_MAX_FRAME_SIDE */
   uint32_t pixels_len;    /* width * height * channels, exactly */
   const uint8_t* pixels;  /* pixels_len bytes */
-} vc_frame;
+} vc_frame_msg;
 
 typedef struct vc_msg {
   vc_header hdr;
@@ -372,7 +372,7 @@ typedef struct vc_msg {
     vc_silhouette silhouette;
     vc_auth_msg auth;
     vc_grab grab;
-    vc_frame frame;
+    vc_frame_msg frame;
   } u;
 } vc_msg;
 
@@ -413,7 +413,7 @@ int vc_encode_auth(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, 
 
 int vc_encode_grab(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_grab* m);
 /* m->pixels holds m->pixels_len bytes; the sizes are checked before it is copied. */
-int vc_encode_frame(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_frame* m);
+int vc_encode_frame(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_frame_msg* m);
 /* FRAME straight from a camera image of interleaved RGB rows (`stride` bytes apart, width * 3 bytes
  * each): written into buf as `format` (gray8: luma in fixed point, rgb8: copied), no allocation (the
  * edge's path). cap >= VC_PROTO_HEADER_SIZE + 12 + width * height * channels always suffices.
