@@ -186,13 +186,15 @@ static void handle_ctl(edged* d, ctl* c) {
       if (rc == -EAGAIN) {
         send_error(d, VC_ERR_STATE, VC_SEVERITY_ERROR, VC_MSG_GRAB, "%s", why);
       } else if (rc < 0) {
-        send_error(d, rc == -ENOMEM ? VC_ERR_INTERNAL : VC_ERR_CAMERA, VC_SEVERITY_ERROR, VC_MSG_GRAB, "%s", why);
+        send_error(d, rc == -ENOMEM ? VC_ERR_INTERNAL : VC_ERR_CAMERA, VC_SEVERITY_ERROR, VC_MSG_GRAB, "%s",
+                   why);
       }
       if (rc != -EAGAIN && c->grab.every == 0)
         vc_log(VC_LOG_INFO, "GRAB: no more FRAMEs");
       else if (vc_node_grabbing(d->node))
         vc_log(VC_LOG_INFO, "GRAB: %s FRAMEs of every %u-th frame from seq %llu (%u frames; 0: no end)",
-               vc_frame_format_name(c->grab.format), c->grab.every, (unsigned long long)c->seq, c->grab.count);
+               vc_frame_format_name(c->grab.format), c->grab.every, (unsigned long long)c->seq,
+               c->grab.count);
       break;
     case VC_MSG_STOP:
       vc_node_stop(d->node);

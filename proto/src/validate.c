@@ -265,7 +265,8 @@ int vc_check_frame_fields(uint16_t camera, uint16_t format, uint16_t width, uint
   if (camera >= VC_PROTO_MAX_CAMERAS)
     return vc_diag_set(diag, VC_PROTO_EFIELD, "FRAME: camera %u >= %d", camera, VC_PROTO_MAX_CAMERAS);
   const unsigned ch = vc_frame_format_channels(format);
-  if (ch == 0) return vc_diag_set(diag, VC_PROTO_EFIELD, "FRAME: unknown format %u (1 gray8, 2 rgb8)", format);
+  if (ch == 0)
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "FRAME: unknown format %u (1 gray8, 2 rgb8)", format);
   if (width == 0 || height == 0)
     return vc_diag_set(diag, VC_PROTO_EFIELD, "FRAME: size %ux%u has no pixels", width, height);
   if (width > VC_PROTO_MAX_FRAME_SIDE || height > VC_PROTO_MAX_FRAME_SIDE)

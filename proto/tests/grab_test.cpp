@@ -83,14 +83,14 @@ TEST(Grab, LayoutAsInSpecAndRoundTrip) {
   const vc_grab g{15, VC_FRAME_GRAY8, 0x3, 40};
   const Bytes b = encode_grab(g);
   ASSERT_EQ(b.size(), 40u + 12);
-  EXPECT_EQ(b[5], 4);                  // version 2.4
-  EXPECT_EQ(le16(&b[6]), 13u);         // type GRAB
-  EXPECT_EQ(le32(&b[12]), 12u);        // payload_len
-  EXPECT_EQ(le16(&b[40]), 15u);        // every
-  EXPECT_EQ(le16(&b[42]), 1u);         // format gray8
-  EXPECT_EQ(le16(&b[44]), 3u);         // cameras
-  EXPECT_EQ(le16(&b[46]), 0u);         // reserved
-  EXPECT_EQ(le32(&b[48]), 40u);        // count
+  EXPECT_EQ(b[5], 4);            // version 2.4
+  EXPECT_EQ(le16(&b[6]), 13u);   // type GRAB
+  EXPECT_EQ(le32(&b[12]), 12u);  // payload_len
+  EXPECT_EQ(le16(&b[40]), 15u);  // every
+  EXPECT_EQ(le16(&b[42]), 1u);   // format gray8
+  EXPECT_EQ(le16(&b[44]), 3u);   // cameras
+  EXPECT_EQ(le16(&b[46]), 0u);   // reserved
+  EXPECT_EQ(le32(&b[48]), 40u);  // count
   Decoded d = decode(b);
   ASSERT_EQ(d.rc, 1) << d.diag.detail;
   EXPECT_EQ(d.msg->hdr.seq, 1000u);
@@ -110,9 +110,11 @@ TEST(Grab, EncoderAndDecoderRefuseTheSameFields) {
   Bytes b(VC_PROTO_HEADER_SIZE + 64);
   size_t len = 0;
   vc_header h = header();
-  const vc_grab bad[] = {{15, 0, 1, 0}, {15, 3, 1, 0}, {15, VC_FRAME_RGB8, 0, 0}, {15, VC_FRAME_RGB8, 0x100, 0}};
+  const vc_grab bad[] = {
+      {15, 0, 1, 0}, {15, 3, 1, 0}, {15, VC_FRAME_RGB8, 0, 0}, {15, VC_FRAME_RGB8, 0x100, 0}};
   for (const vc_grab& g : bad) {
-    EXPECT_EQ(vc_encode_grab(b.data(), b.size(), &len, &h, &g), VC_PROTO_EFIELD) << g.format << " " << g.cameras;
+    EXPECT_EQ(vc_encode_grab(b.data(), b.size(), &len, &h, &g), VC_PROTO_EFIELD)
+        << g.format << " " << g.cameras;
     // The same fields by hand on the wire.
     Bytes p(12, 0);
     p[0] = static_cast<uint8_t>(g.every);
@@ -141,7 +143,8 @@ TEST(Frame, FromRgbCopiesRowsWithoutStride) {
   Bytes b(VC_PROTO_HEADER_SIZE + 12 + w * h * 3);
   size_t len = 0;
   vc_header hdr = header(1042, 99);
-  ASSERT_EQ(vc_encode_frame_rgb(b.data(), b.size(), &len, &hdr, 1, VC_FRAME_RGB8, w, h, img.data(), stride), 0);
+  ASSERT_EQ(vc_encode_frame_rgb(b.data(), b.size(), &len, &hdr, 1, VC_FRAME_RGB8, w, h, img.data(), stride),
+            0);
   ASSERT_EQ(len, b.size());
   EXPECT_EQ(le16(&b[6]), 14u);  // type FRAME
   EXPECT_EQ(le16(&b[40]), 1u);  // camera
@@ -165,7 +168,8 @@ TEST(Frame, GrayIsFixedPointLuma) {
   Bytes b(VC_PROTO_HEADER_SIZE + 12 + w * h);
   size_t len = 0;
   vc_header hdr = header(5);
-  ASSERT_EQ(vc_encode_frame_rgb(b.data(), b.size(), &len, &hdr, 0, VC_FRAME_GRAY8, w, h, img.data(), w * 3), 0);
+  ASSERT_EQ(vc_encode_frame_rgb(b.data(), b.size(), &len, &hdr, 0, VC_FRAME_GRAY8, w, h, img.data(), w * 3),
+            0);
   Decoded d = decode(b);
   ASSERT_EQ(d.rc, 1) << d.diag.detail;
   ASSERT_EQ(d.msg->u.frame.pixels_len, 12u);
@@ -175,7 +179,8 @@ TEST(Frame, GrayIsFixedPointLuma) {
   }
   // Too small a buffer: -ENOSPC with the size needed, as every encoder.
   len = 0;
-  EXPECT_EQ(vc_encode_frame_rgb(b.data(), 30, &len, &hdr, 0, VC_FRAME_GRAY8, w, h, img.data(), w * 3), -ENOSPC);
+  EXPECT_EQ(vc_encode_frame_rgb(b.data(), 30, &len, &hdr, 0, VC_FRAME_GRAY8, w, h, img.data(), w * 3),
+            -ENOSPC);
   EXPECT_EQ(len, b.size());
 }
 

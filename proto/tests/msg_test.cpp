@@ -750,7 +750,7 @@ TEST(Names, EveryCodeAndTypeHasOne) {
   for (uint16_t t = VC_MSG_HELLO; t <= VC_MSG_FRAME; t++) EXPECT_NE(vc_msg_type_name(t), nullptr);
   EXPECT_EQ(vc_msg_type_name(0), nullptr);
   EXPECT_STREQ(vc_msg_type_name(11), "SILHOUETTE");
-  EXPECT_STREQ(vc_msg_type_name(12), "AUTH");  // 2.3
+  EXPECT_STREQ(vc_msg_type_name(12), "AUTH");   // 2.3
   EXPECT_STREQ(vc_msg_type_name(13), "GRAB");   // 2.4
   EXPECT_STREQ(vc_msg_type_name(14), "FRAME");  // 2.4
   EXPECT_EQ(vc_msg_type_name(15), nullptr);

@@ -114,8 +114,8 @@ struct Aggregator::Node {
   uint8_t minor = 0;        // the protocol minor version of its HELLO
   bool grab_sent = false;   // the GRAB in force was sent to it in its current run
   vc_grab grabbed{};        // what it was last asked (every 0: nothing): FRAMEs are checked against it
-  bool assembling = false;             // what the assembly stage was last told (set_running)
-  std::string peer;                    // where its connection comes from
+  bool assembling = false;  // what the assembly stage was last told (set_running)
+  std::string peer;         // where its connection comes from
   std::vector<std::string> addresses;  // nodes[].address resolved (IPv4); empty: "any"
   NodeReport rep;
 };
@@ -358,8 +358,8 @@ void Aggregator::on_frame(Node& n, const vc_msg& m) {
   if (refuse(n, m)) return;
   const vc_frame_msg& f = m.u.frame;
   const vc_grab& g = n.grabbed;
-  if (!g.every || m.hdr.seq % g.every || f.camera >= n.cfg->cameras.size() || !(g.cameras & (1u << f.camera)) ||
-      f.format != g.format) {
+  if (!g.every || m.hdr.seq % g.every || f.camera >= n.cfg->cameras.size() ||
+      !(g.cameras & (1u << f.camera)) || f.format != g.format) {
     if (n.rep.refused["unrequested"]++ == 0)
       log(log::Level::warn,
           fmt::format("node {} ({}): refused FRAME seq {} camera {} that no GRAB asked for (counted as "

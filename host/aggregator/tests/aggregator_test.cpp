@@ -662,14 +662,13 @@ TEST(Aggregator, TakesOnlyTheFramesAGrabAskedForAndKeepsMerging) {
     }
     if (seq % 2 == 0) wanted += 4;
   }
-  e1.frame(seq + 2, t, 0, VC_FRAME_GRAY8);  // two ahead of the last pulse: never pulsed
-  e1.frame(seq - seq % 2, t, 1, VC_FRAME_RGB8);  // a format not asked for
+  e1.frame(seq + 2, t, 0, VC_FRAME_GRAY8);        // two ahead of the last pulse: never pulsed
+  e1.frame(seq - seq % 2, t, 1, VC_FRAME_RGB8);   // a format not asked for
   e2.frame(seq - seq % 2, t, 2, VC_FRAME_GRAY8);  // a camera the node does not have
   Report r;
   for (int i = 0; i < 400; i++) {
     r = agg.report();
-    if (r.nodes[0].refused["unpulsed"] == 1 && r.nodes[1].refused["unrequested"] >= 6 &&
-        r.frames >= 11)
+    if (r.nodes[0].refused["unpulsed"] == 1 && r.nodes[1].refused["unrequested"] >= 6 && r.frames >= 11)
       break;
     std::this_thread::sleep_for(std::chrono::milliseconds(5));
   }

@@ -201,7 +201,7 @@ class Aggregator : public session::Handler {
   std::atomic<uint64_t> last_pulse_seq_{0}, pulses_{0};
   bool run_started_ = false;
   uint64_t origin_ = 0;
-  vc_grab grab_{};      // the GRAB in force (every 0: none)
+  vc_grab grab_{};  // the GRAB in force (every 0: none)
   FrameSink frame_sink_;
   uint64_t last_log_ns_ = 0, frames_at_log_ = 0;
 };
