@@ -61,6 +61,7 @@ pid_t spawn(const std::vector<std::string>& args, const fs::path& log) {
     dup2(fd, 1);
     dup2(fd, 2);
     std::vector<char*> argv;
+    argv.reserve(args.size() + 1);
     for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
     argv.push_back(nullptr);
     execv(argv[0], argv.data());
@@ -81,7 +82,7 @@ cv::Mat gray8(const cv::Mat& bgr) {
   cv::Mat g(bgr.rows, bgr.cols, CV_8UC1);
   for (int y = 0; y < bgr.rows; y++)
     for (int x = 0; x < bgr.cols; x++) {
-      const cv::Vec3b p = bgr.at<cv::Vec3b>(y, x);
+      const cv::Vec3b& p = bgr.at<cv::Vec3b>(y, x);
       g.at<uint8_t>(y, x) = static_cast<uint8_t>((77u * p[2] + 150u * p[1] + 29u * p[0] + 128u) >> 8);
     }
   return g;
