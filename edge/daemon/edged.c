@@ -23,6 +23,7 @@ typedef struct ctl {
   uint64_t seq;
   uint32_t frames;
   vc_config cfg;
+  vc_grab grab; /* GRAB (2.4) */
 } ctl;
 
 typedef struct edged {
@@ -36,6 +37,7 @@ typedef struct edged {
   vc_link* link;
   uint64_t hulls_sent, frame_sum_ns, frame_max_ns, frame_n; /* pipeline thread */
   uint64_t silhouettes_sent, silhouettes_dropped;           /* pipeline thread: queued / no room */
+  uint64_t frames_sent, frames_dropped;                     /* pipeline thread: FRAMEs queued / no room */
 } edged;
 
 static atomic_bool g_stop;
@@ -88,6 +90,7 @@ static void on_message(void* user, const vc_msg* m) {
     case VC_MSG_BACKGROUND:
     case VC_MSG_START:
     case VC_MSG_STOP:
+    case VC_MSG_GRAB:
       break;
     case VC_MSG_HEARTBEAT:
       return;
@@ -109,6 +112,7 @@ static void on_message(void* user, const vc_msg* m) {
   c->seq = m->hdr.seq;
   if (m->hdr.type == VC_MSG_CONFIG) c->cfg = m->u.config;
   if (m->hdr.type == VC_MSG_BACKGROUND) c->frames = m->u.background.frame_count;
+  if (m->hdr.type == VC_MSG_GRAB) c->grab = m->u.grab;
   d->in_count++;
   pthread_mutex_unlock(&d->mu);
   vc_capture_wake(d->cap);
@@ -177,6 +181,21 @@ static void handle_ctl(edged* d, ctl* c) {
       vc_capture_set_phase(d->cap, VC_CAPTURE_RUNNING, c->seq);
       vc_log(VC_LOG_INFO, "running from seq %llu", (unsigned long long)c->seq);
       break;
+    case VC_MSG_GRAB:
+      rc = vc_node_grab(d->node, &c->grab, c->seq, why, sizeof(why));
+      if (rc == -EAGAIN) {
+        send_error(d, VC_ERR_STATE, VC_SEVERITY_ERROR, VC_MSG_GRAB, "%s", why);
+      } else if (rc < 0) {
+        send_error(d, rc == -ENOMEM ? VC_ERR_INTERNAL : VC_ERR_CAMERA, VC_SEVERITY_ERROR, VC_MSG_GRAB, "%s",
+                   why);
+      }
+      if (rc != -EAGAIN && c->grab.every == 0)
+        vc_log(VC_LOG_INFO, "GRAB: no more FRAMEs");
+      else if (vc_node_grabbing(d->node))
+        vc_log(VC_LOG_INFO, "GRAB: %s FRAMEs of every %u-th frame from seq %llu (%u frames; 0: no end)",
+               vc_frame_format_name(c->grab.format), c->grab.every, (unsigned long long)c->seq,
+               c->grab.count);
+      break;
     case VC_MSG_STOP:
       vc_node_stop(d->node);
       vc_capture_set_phase(d->cap, VC_CAPTURE_IDLE, 0);
@@ -225,6 +244,15 @@ static void handle_work(edged* d, const vc_capture_pair* p) {
         } else {
           d->silhouettes_dropped++;
         }
+      }
+      /* GRAB (2.4): the frame's camera images after its HULL, only where the queue stays half empty
+       * (never at a HULL's cost, never waited for); what finds no room is counted. */
+      int k = vc_node_frames(d->node, w->seq, w->t_ns, rgb, stride, &out);
+      for (int i = 0; i < k; i++) {
+        if (vc_link_send_if_room(d->link, out.msg[i], out.len[i]) == 0)
+          d->frames_sent++;
+        else
+          d->frames_dropped++;
       }
     } else if (rc < 0 && rc != -EAGAIN) {
       send_error(d, VC_ERR_OVERLOAD, VC_SEVERITY_WARNING, 0, "frame %llu not sent: %s",
@@ -277,6 +305,8 @@ static void send_stats(edged* d) {
       {VC_COUNTER_CAMERA_ERRORS, cam_errors},
       {VC_COUNTER_SILHOUETTES_SENT, d->silhouettes_sent},
       {VC_COUNTER_SILHOUETTES_DROPPED, d->silhouettes_dropped + nc.silhouettes_over_limit},
+      {VC_COUNTER_FRAMES_SENT, d->frames_sent},
+      {VC_COUNTER_FRAMES_DROPPED, d->frames_dropped},
   };
   for (size_t i = 0; i < sizeof(c) / sizeof(c[0]); i++) {
     s.counters[i].counter_id = c[i].id;

@@ -56,6 +56,13 @@ struct vc_node {
   size_t silcap[VC_NODE_CAMS];
   uint16_t silw[VC_NODE_CAMS], silh[VC_NODE_CAMS];
 
+  /* GRAB (2.4): the request in force (every 0: none) and one FRAME buffer per camera, made by GRAB. */
+  vc_grab grab;
+  uint64_t grab_first_seq;
+  uint32_t grab_sent; /* frames sent for this GRAB */
+  uint8_t* framebuf[VC_NODE_CAMS];
+  size_t framecap[VC_NODE_CAMS];
+
   vc_features_producer producer; /* track == NULL: none */
   uint8_t featbuf[VC_NODE_CAMS][VC_PROTO_HEADER_SIZE + 6 + 16 * VC_PROTO_MAX_FEATURES];
 
@@ -117,6 +124,7 @@ void vc_node_free(vc_node* n) {
     free(n->masks[c]);
     free(n->silbits[c]);
     free(n->silbuf[c]);
+    free(n->framebuf[c]);
   }
   free(n->scratch);
   free(n->bitset);
@@ -264,6 +272,7 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
     n->silh[c] = silh[c];
   }
   n->have_frame = false;
+  n->grab.every = 0; /* CONFIG ends a GRAB */
   n->cfg = *cfg;
   n->have_cfg = true;
   n->sub = sub;
@@ -434,12 +443,85 @@ int vc_node_start(vc_node* n, uint64_t first_seq) {
   if (n->state != VC_STATE_READY && n->state != VC_STATE_RUNNING) return -EAGAIN;
   n->first_seq = first_seq;
   n->state = VC_STATE_RUNNING;
+  n->grab.every = 0; /* START ends a GRAB */
   if (n->producer.reset) n->producer.reset(n->producer.user);
   return 0;
 }
 
 void vc_node_stop(vc_node* n) {
   if (n->state == VC_STATE_RUNNING) n->state = VC_STATE_READY;
+  n->grab.every = 0;
+}
+
+int vc_node_grab(vc_node* n, const vc_grab* g, uint64_t first_seq, char* why, size_t why_len) {
+  vc_why_clear(why, why_len);
+  if (n->state != VC_STATE_RUNNING) {
+    vc_why(why, why_len, "GRAB while the node is %s, not running", vc_node_state_name(n->state));
+    return -EAGAIN;
+  }
+  if (g->every == 0) {
+    n->grab.every = 0;
+    return 0;
+  }
+  const unsigned ch = vc_frame_format_channels(g->format);
+  uint16_t cams = 0;
+  int rc = 0;
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
+    if (!(g->cameras & (1u << c))) continue;
+    const size_t need = VC_PROTO_HEADER_SIZE + 12 + (size_t)n->cams[c].width * (size_t)n->cams[c].height * ch;
+    if (need - VC_PROTO_HEADER_SIZE > VC_PROTO_MAX_PAYLOAD - 36) { /* 36: FRAME's fixed part + a MAC */
+      vc_why(why, why_len, "camera %d's %dx%d %s image does not fit a message", c, n->cams[c].width,
+             n->cams[c].height, vc_frame_format_name(g->format));
+      rc = -EMSGSIZE;
+      continue;
+    }
+    if (n->framecap[c] < need) {
+      uint8_t* b = realloc(n->framebuf[c], need);
+      if (!b) {
+        vc_why(why, why_len, "GRAB: out of memory for camera %d's %zu-byte FRAME", c, need);
+        return -ENOMEM;
+      }
+      n->framebuf[c] = b;
+      n->framecap[c] = need;
+    }
+    cams = (uint16_t)(cams | (1u << c));
+  }
+  if ((g->cameras >> VC_NODE_CAMS) && rc == 0) {
+    vc_why(why, why_len, "GRAB asks for cameras 0x%04x, the node has %d", g->cameras, VC_NODE_CAMS);
+    rc = -ENODEV;
+  }
+  if (!cams) return rc ? rc : -ENODEV;
+  n->grab = *g;
+  n->grab.cameras = cams;
+  n->grab_first_seq = first_seq;
+  n->grab_sent = 0;
+  return rc;
+}
+
+bool vc_node_grabbing(const vc_node* n) {
+  return n->grab.every != 0;
+}
+
+int vc_node_frames(vc_node* n, uint64_t seq, uint64_t t_trigger_ns, const uint8_t* const rgb[VC_NODE_CAMS],
+                   const size_t stride[VC_NODE_CAMS], vc_node_output* out) {
+  out->count = 0;
+  const vc_grab* g = &n->grab;
+  if (g->every == 0 || n->state != VC_STATE_RUNNING || seq < n->grab_first_seq || seq % g->every) return 0;
+  vc_header hdr = {.node_id = n->id, .seq = seq, .t_trigger_ns = t_trigger_ns};
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
+    if (!(g->cameras & (1u << c))) continue;
+    size_t len = 0;
+    if (vc_encode_frame_rgb(n->framebuf[c], n->framecap[c], &len, &hdr, (uint16_t)c, g->format,
+                            (uint16_t)n->cams[c].width, (uint16_t)n->cams[c].height, rgb[c], stride[c]) < 0)
+      continue; /* sizes were checked at GRAB: not reached */
+    out->msg[out->count] = n->framebuf[c];
+    out->len[out->count] = len;
+    out->type[out->count] = VC_MSG_FRAME;
+    out->count++;
+    n->counters.frames_encoded++;
+  }
+  if (g->count && ++n->grab_sent >= g->count) n->grab.every = 0;
+  return out->count;
 }
 
 void vc_node_set_features_producer(vc_node* n, const vc_features_producer* producer) {

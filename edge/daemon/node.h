@@ -16,6 +16,7 @@
 #ifndef VOXCAP_EDGE_NODE_H
 #define VOXCAP_EDGE_NODE_H
 
+#include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -124,6 +125,22 @@ int vc_node_process(vc_node* node, uint64_t seq, uint64_t t_trigger_ns,
                     const uint8_t* const rgb[VC_NODE_CAMS], const size_t stride[VC_NODE_CAMS],
                     const uint8_t** msg, size_t* len);
 
+/* GRAB (2.4): from now on, the frames whose seq is a multiple of g->every and >= first_seq (0: any)
+ * get one FRAME per asked camera from vc_node_frames, until g->count frames were sent (0: no end) or
+ * the next GRAB, START, STOP or CONFIG; g->every 0 stops. The FRAME buffers are made here, never per
+ * frame. 0; -EAGAIN when not RUNNING; -ENODEV when g->cameras names a camera the node does not have
+ * (the cameras it has are grabbed; why says which) ; -EMSGSIZE when no asked camera's image fits a
+ * payload; -ENOMEM (the previous GRAB stays). */
+int vc_node_grab(vc_node* node, const vc_grab* g, uint64_t first_seq, char* why, size_t why_len);
+/* Whether a GRAB is in force. */
+bool vc_node_grabbing(const vc_node* node);
+/* The FRAMEs of frame seq when the GRAB in force selects it (after vc_node_process_frame of the same
+ * frame: send them after its HULL): rgb/stride the frame pair as it was processed, out filled with
+ * FRAME messages (type VC_MSG_FRAME) in the node's buffers, valid until the next call on the node.
+ * Returns the number of FRAMEs (0: not selected). A GRAB whose count is reached stops here. */
+int vc_node_frames(vc_node* node, uint64_t seq, uint64_t t_trigger_ns, const uint8_t* const rgb[VC_NODE_CAMS],
+                   const size_t stride[VC_NODE_CAMS], vc_node_output* out);
+
 /* The silhouettes of the last processed frame (width x height bytes each, 0/255), for feature
  * tracking and diagnostics; NULL before the first frame. Valid until the next call on the node. */
 const uint8_t* vc_node_mask(const vc_node* node, int cam);
@@ -143,6 +160,7 @@ typedef struct vc_node_counters {
   uint64_t features_failed;        /* frames whose producer failed or gave features that do not encode */
   uint64_t silhouettes_encoded;    /* SILHOUETTE messages */
   uint64_t silhouettes_over_limit; /* SILHOUETTEs not encoded: over a protocol limit (runs, payload) */
+  uint64_t frames_encoded;         /* FRAME messages (2.4) */
 } vc_node_counters;
 void vc_node_get_counters(const vc_node* node, vc_node_counters* out);
 

@@ -165,6 +165,28 @@ Json silhouette_json(const vc_silhouette& m, const JsonOptions& opt) {
   return j;
 }
 
+Json grab_json(const vc_grab& m) {
+  Json j;
+  j["every"] = m.every;
+  j["format"] = m.format;
+  put_name(j, "format", vc_frame_format_name(m.format));
+  j["cameras"] = m.cameras;
+  j["count"] = m.count;
+  return j;
+}
+
+Json frame_json(const vc_frame_msg& m, const JsonOptions& opt) {
+  Json j;
+  j["camera"] = m.camera;
+  j["format"] = m.format;
+  put_name(j, "format", vc_frame_format_name(m.format));
+  j["width"] = m.width;
+  j["height"] = m.height;
+  j["pixels_len"] = m.pixels_len;
+  put_hex(j, "pixels", m.pixels, m.pixels_len, opt);
+  return j;
+}
+
 Json hull_json(const vc_hull& m, const JsonOptions& opt) {
   Json j;
   j["grid_id"] = m.grid_id;
@@ -304,6 +326,12 @@ Json msg_to_json(const vc_msg& msg, const JsonOptions& opt) {
         break;
       case VC_MSG_AUTH:
         body = auth_json(msg.u.auth);
+        break;
+      case VC_MSG_GRAB:
+        body = grab_json(msg.u.grab);
+        break;
+      case VC_MSG_FRAME:
+        body = frame_json(msg.u.frame, opt);
         break;
       default:
         break;  // START, STOP: no fields

@@ -259,6 +259,38 @@ static int parse_auth(reader* r, vc_auth_msg* m) {
   return vc_check_auth(m, reserved, r->diag);
 }
 
+static int parse_grab(reader* r, vc_grab* m) {
+  int rc = need(r, VC_GRAB_SIZE, "the fields");
+  if (rc) return rc;
+  const uint8_t* p = r->p;
+  m->every = vc_ld16(p + 0);
+  m->format = vc_ld16(p + 2);
+  m->cameras = vc_ld16(p + 4);
+  uint16_t reserved = vc_ld16(p + 6);
+  m->count = vc_ld32(p + 8);
+  r->off = VC_GRAB_SIZE;
+  if ((rc = finish(r))) return rc;
+  return vc_check_grab(m, reserved, r->diag);
+}
+
+static int parse_frame(reader* r, vc_frame_msg* m) {
+  int rc = need(r, VC_FRAME_FIXED, "the fixed part");
+  if (rc) return rc;
+  const uint8_t* p = r->p;
+  m->camera = vc_ld16(p + 0);
+  m->format = vc_ld16(p + 2);
+  m->width = vc_ld16(p + 4);
+  m->height = vc_ld16(p + 6);
+  m->pixels_len = vc_ld32(p + 8);
+  r->off = VC_FRAME_FIXED;
+  /* the sizes first: pixels_len must be what width x height says before it is trusted for a read */
+  if ((rc = vc_check_frame(m, r->diag))) return rc;
+  if ((rc = need(r, m->pixels_len, "pixels (pixels_len)"))) return rc;
+  m->pixels = p + VC_FRAME_FIXED;
+  r->off += m->pixels_len;
+  return finish(r);
+}
+
 static int parse_body(vc_msg* m, vc_proto_diag* diag) {
   reader r = {m->payload,
               m->hdr.payload_len,
@@ -302,6 +334,12 @@ static int parse_body(vc_msg* m, vc_proto_diag* diag) {
       break;
     case VC_MSG_AUTH:
       rc = parse_auth(&r, &m->u.auth);
+      break;
+    case VC_MSG_GRAB:
+      rc = parse_grab(&r, &m->u.grab);
+      break;
+    case VC_MSG_FRAME:
+      rc = parse_frame(&r, &m->u.frame);
       break;
     default:
       return 0; /* unknown type: reported with known = false, body left unset */

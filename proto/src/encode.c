@@ -314,6 +314,67 @@ int vc_encode_auth(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, 
   return 0;
 }
 
+int vc_encode_grab(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_grab* m) {
+  if (!m || !hdr) return -EINVAL;
+  int rc = vc_check_grab(m, 0, NULL);
+  if (rc) return rc;
+  if ((rc = frame_begin(buf, cap, len, hdr, VC_GRAB_SIZE))) return rc;
+  uint8_t* p = buf + VC_PROTO_HEADER_SIZE;
+  vc_st16(p + 0, m->every);
+  vc_st16(p + 2, m->format);
+  vc_st16(p + 4, m->cameras);
+  vc_st16(p + 6, 0);
+  vc_st32(p + 8, m->count);
+  seal(buf, hdr, VC_MSG_GRAB, VC_GRAB_SIZE);
+  return 0;
+}
+
+static void put_frame_fixed(uint8_t* p, uint16_t camera, uint16_t format, uint16_t width, uint16_t height,
+                            uint32_t pixels_len) {
+  vc_st16(p + 0, camera);
+  vc_st16(p + 2, format);
+  vc_st16(p + 4, width);
+  vc_st16(p + 6, height);
+  vc_st32(p + 8, pixels_len);
+}
+
+int vc_encode_frame(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_frame_msg* m) {
+  if (!m || !hdr || (m->pixels_len && !m->pixels)) return -EINVAL;
+  int rc = vc_check_frame(m, NULL);
+  if (rc) return rc;
+  size_t plen = VC_FRAME_FIXED + (size_t)m->pixels_len;
+  if ((rc = frame_begin(buf, cap, len, hdr, plen))) return rc;
+  uint8_t* p = buf + VC_PROTO_HEADER_SIZE;
+  put_frame_fixed(p, m->camera, m->format, m->width, m->height, m->pixels_len);
+  memmove(p + VC_FRAME_FIXED, m->pixels, m->pixels_len);
+  seal(buf, hdr, VC_MSG_FRAME, plen);
+  return 0;
+}
+
+int vc_encode_frame_rgb(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, uint16_t camera,
+                        uint16_t format, uint16_t width, uint16_t height, const uint8_t* rgb, size_t stride) {
+  if (!len || !hdr || (cap && !buf) || !rgb || stride < (size_t)width * 3) return -EINVAL;
+  int rc = vc_check_frame_fields(camera, format, width, height, NULL);
+  if (rc) return rc;
+  const unsigned ch = vc_frame_format_channels(format);
+  const size_t row = (size_t)width * ch, pixels = row * height;
+  if ((rc = frame_begin(buf, cap, len, hdr, VC_FRAME_FIXED + pixels))) return rc;
+  uint8_t* p = buf + VC_PROTO_HEADER_SIZE;
+  put_frame_fixed(p, camera, format, width, height, (uint32_t)pixels);
+  uint8_t* out = p + VC_FRAME_FIXED;
+  for (unsigned y = 0; y < height; y++, out += row) {
+    const uint8_t* in = rgb + (size_t)y * stride;
+    if (ch == 3) {
+      memcpy(out, in, row);
+    } else { /* Q8 luma, BT.601: (77 R + 150 G + 29 B + 128) >> 8, the weights sum to 256 */
+      for (unsigned x = 0; x < width; x++, in += 3)
+        out[x] = (uint8_t)((77u * in[0] + 150u * in[1] + 29u * in[2] + 128u) >> 8);
+    }
+  }
+  seal(buf, hdr, VC_MSG_FRAME, VC_FRAME_FIXED + pixels);
+  return 0;
+}
+
 int vc_msg_encode(uint8_t* buf, size_t cap, size_t* len, const vc_msg* msg) {
   if (!msg) return -EINVAL;
   const vc_header* h = &msg->hdr;
@@ -342,6 +403,10 @@ int vc_msg_encode(uint8_t* buf, size_t cap, size_t* len, const vc_msg* msg) {
       return vc_encode_silhouette(buf, cap, len, h, &msg->u.silhouette);
     case VC_MSG_AUTH:
       return vc_encode_auth(buf, cap, len, h, &msg->u.auth);
+    case VC_MSG_GRAB:
+      return vc_encode_grab(buf, cap, len, h, &msg->u.grab);
+    case VC_MSG_FRAME:
+      return vc_encode_frame(buf, cap, len, h, &msg->u.frame);
     default:
       return -EINVAL;
   }

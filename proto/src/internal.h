@@ -21,6 +21,8 @@
 #define VC_ERROR_FIXED 10
 #define VC_SILHOUETTE_FIXED 16 /* 2.1 */
 #define VC_AUTH_MSG_SIZE 68    /* 2.3 */
+#define VC_GRAB_SIZE 12        /* 2.4 */
+#define VC_FRAME_FIXED 12      /* 2.4 */
 
 #if defined(__GNUC__) || defined(__clang__)
 #define VC_PRINTF(fmt_idx, arg_idx) __attribute__((format(printf, fmt_idx, arg_idx)))
@@ -45,5 +47,12 @@ int vc_check_silhouette(const vc_silhouette* m, uint64_t* runs, vc_proto_diag* d
 /* The fields of a SILHOUETTE that do not depend on its RLE. */
 int vc_check_silhouette_fields(uint16_t camera, uint16_t scale, uint16_t width, uint16_t height,
                                vc_proto_diag* diag);
+
+/* GRAB (2.4): the fields, reserved as received (0 when encoding). */
+int vc_check_grab(const vc_grab* m, uint16_t reserved, vc_proto_diag* diag);
+/* FRAME (2.4): camera, format and size; then pixels_len against them. */
+int vc_check_frame_fields(uint16_t camera, uint16_t format, uint16_t width, uint16_t height,
+                          vc_proto_diag* diag);
+int vc_check_frame(const vc_frame_msg* m, vc_proto_diag* diag);
 
 #endif /* VOXCAP_PROTO_INTERNAL_H */

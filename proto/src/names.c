@@ -120,7 +120,7 @@ bool vc_proto_error_is_fatal(int code) {
 const char* vc_msg_type_name(uint16_t type) {
   static const char* const names[] = {NULL,    "HELLO",      "CONFIG",   "BACKGROUND", "START",
                                       "STOP",  "HULL",       "FEATURES", "STATS",      "HEARTBEAT",
-                                      "ERROR", "SILHOUETTE", "AUTH"};
+                                      "ERROR", "SILHOUETTE", "AUTH",     "GRAB",       "FRAME"};
   return lookup(names, ARRAY_LEN(names), type);
 }
 
@@ -131,9 +131,10 @@ const char* vc_stage_name(uint32_t id) {
 }
 
 const char* vc_counter_name(uint32_t id) {
-  static const char* const names[] = {
-      "frames_captured",      "hulls_sent",       "features_sent", "send_queue_drops", "frames_without_pulse",
-      "pulses_without_frame", "hulls_over_limit", "camera_errors", "silhouettes_sent", "silhouettes_dropped"};
+  static const char* const names[] = {"frames_captured",     "hulls_sent",           "features_sent",
+                                      "send_queue_drops",    "frames_without_pulse", "pulses_without_frame",
+                                      "hulls_over_limit",    "camera_errors",        "silhouettes_sent",
+                                      "silhouettes_dropped", "frames_sent",          "frames_dropped"};
   return lookup(names, ARRAY_LEN(names), id);
 }
 
@@ -171,4 +172,20 @@ const char* vc_error_code_name(uint32_t code) {
 const char* vc_error_severity_name(uint32_t severity) {
   static const char* const names[] = {"warning", "error", "fatal"};
   return lookup(names, ARRAY_LEN(names), severity);
+}
+
+const char* vc_frame_format_name(uint32_t format) {
+  static const char* const names[] = {NULL, "gray8", "rgb8"}; /* vc_frame_format */
+  return lookup(names, ARRAY_LEN(names), format);
+}
+
+unsigned vc_frame_format_channels(uint32_t format) {
+  switch (format) {
+    case VC_FRAME_GRAY8:
+      return 1;
+    case VC_FRAME_RGB8:
+      return 3;
+    default:
+      return 0;
+  }
 }

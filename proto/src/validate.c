@@ -248,3 +248,44 @@ int vc_check_silhouette(const vc_silhouette* m, uint64_t* runs, vc_proto_diag* d
   return check_rle_payload("SILHOUETTE", m->rle, m->rle_len, (uint64_t)m->width * m->height, "width x height",
                            m->foreground_count, "foreground_count", runs, diag);
 }
+
+int vc_check_grab(const vc_grab* m, uint16_t reserved, vc_proto_diag* diag) {
+  if (reserved != 0) return vc_diag_set(diag, VC_PROTO_EFIELD, "GRAB: reserved is %u, not 0", reserved);
+  if (m->every == 0) return 0; /* stop: the other fields are not read */
+  if (vc_frame_format_channels(m->format) == 0)
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "GRAB: unknown format %u (1 gray8, 2 rgb8)", m->format);
+  if (m->cameras == 0 || (m->cameras >> VC_PROTO_MAX_CAMERAS) != 0)
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "GRAB: cameras 0x%04x names no camera or one >= %d", m->cameras,
+                       VC_PROTO_MAX_CAMERAS);
+  return 0;
+}
+
+int vc_check_frame_fields(uint16_t camera, uint16_t format, uint16_t width, uint16_t height,
+                          vc_proto_diag* diag) {
+  if (camera >= VC_PROTO_MAX_CAMERAS)
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "FRAME: camera %u >= %d", camera, VC_PROTO_MAX_CAMERAS);
+  const unsigned ch = vc_frame_format_channels(format);
+  if (ch == 0)
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "FRAME: unknown format %u (1 gray8, 2 rgb8)", format);
+  if (width == 0 || height == 0)
+    return vc_diag_set(diag, VC_PROTO_EFIELD, "FRAME: size %ux%u has no pixels", width, height);
+  if (width > VC_PROTO_MAX_FRAME_SIDE || height > VC_PROTO_MAX_FRAME_SIDE)
+    return vc_diag_set(diag, VC_PROTO_ELIMIT, "FRAME: size %ux%u, at most %d each", width, height,
+                       VC_PROTO_MAX_FRAME_SIDE);
+  if ((uint64_t)width * height * ch > VC_PROTO_MAX_PAYLOAD - VC_FRAME_FIXED)
+    return vc_diag_set(diag, VC_PROTO_ELIMIT, "FRAME: %ux%u %s is %llu bytes, over a payload of %u", width,
+                       height, vc_frame_format_name(format), (unsigned long long)width * height * ch,
+                       VC_PROTO_MAX_PAYLOAD);
+  return 0;
+}
+
+int vc_check_frame(const vc_frame_msg* m, vc_proto_diag* diag) {
+  int rc = vc_check_frame_fields(m->camera, m->format, m->width, m->height, diag);
+  if (rc) return rc;
+  const uint64_t want = (uint64_t)m->width * m->height * vc_frame_format_channels(m->format);
+  if (m->pixels_len != want)
+    return vc_diag_set(diag, VC_PROTO_EINCONSISTENT, "FRAME: pixels_len %u, %ux%u %s is %llu bytes",
+                       m->pixels_len, m->width, m->height, vc_frame_format_name(m->format),
+                       (unsigned long long)want);
+  return 0;
+}

@@ -69,7 +69,7 @@ TEST(Layout, HeartbeatByteByByteAsInSpec) {
   m->hdr.flags = 0;
   m->u.heartbeat = {0x3132333435363738ull, VC_STATE_RUNNING};
   const Bytes b = encode(*m);
-  Bytes expected = {'V',  'X',  'C',  'P',  2,    3,    9,    0,    0,    0,    0x03,
+  Bytes expected = {'V',  'X',  'C',  'P',  2,    4,    9,    0,    0,    0,    0x03,
                     0x02, 12,   0,    0,    0,    0x18, 0x17, 0x16, 0x15, 0x14, 0x13,
                     0x12, 0x11, 0x28, 0x27, 0x26, 0x25, 0x24, 0x23, 0x22, 0x21};
   const Bytes payload = {0x38, 0x37, 0x36, 0x35, 0x34, 0x33, 0x32, 0x31, 5, 0, 0, 0};
@@ -747,11 +747,13 @@ TEST(Names, EveryCodeAndTypeHasOne) {
     EXPECT_STRNE(vc_proto_strerror(code), "unknown error") << code;
     EXPECT_STRNE(vc_proto_error_name(code), "UNKNOWN") << code;
   }
-  for (uint16_t t = VC_MSG_HELLO; t <= VC_MSG_AUTH; t++) EXPECT_NE(vc_msg_type_name(t), nullptr);
+  for (uint16_t t = VC_MSG_HELLO; t <= VC_MSG_FRAME; t++) EXPECT_NE(vc_msg_type_name(t), nullptr);
   EXPECT_EQ(vc_msg_type_name(0), nullptr);
   EXPECT_STREQ(vc_msg_type_name(11), "SILHOUETTE");
-  EXPECT_STREQ(vc_msg_type_name(12), "AUTH");  // 2.3
-  EXPECT_EQ(vc_msg_type_name(13), nullptr);
+  EXPECT_STREQ(vc_msg_type_name(12), "AUTH");   // 2.3
+  EXPECT_STREQ(vc_msg_type_name(13), "GRAB");   // 2.4
+  EXPECT_STREQ(vc_msg_type_name(14), "FRAME");  // 2.4
+  EXPECT_EQ(vc_msg_type_name(15), nullptr);
   EXPECT_STREQ(vc_counter_name(VC_COUNTER_SILHOUETTES_SENT), "silhouettes_sent");
   EXPECT_STREQ(vc_counter_name(VC_COUNTER_SILHOUETTES_DROPPED), "silhouettes_dropped");
   EXPECT_STREQ(vc_feature_name(VC_FEATURE_RIGHT_FOOT), "right_foot");

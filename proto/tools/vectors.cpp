@@ -295,6 +295,51 @@ vc_msg silhouette_msg(const HullData& d, uint16_t camera = 0, uint64_t seq = kSe
   return m;
 }
 
+// ---- 2.4: GRAB and FRAME ----
+vc_msg grab_msg(uint16_t every = 15, uint16_t format = VC_FRAME_GRAY8, uint32_t count = 40) {
+  vc_msg m = make(VC_MSG_GRAB, kSeq, 0);  // header seq: the first frame to consider
+  m.u.grab.every = every;
+  m.u.grab.format = format;
+  m.u.grab.cameras = 0x3;
+  m.u.grab.count = count;
+  return m;
+}
+
+// A 6x4 camera image: RGB ramps, so every byte differs from its neighbours. Static: messages point at it.
+const Bytes& frame_rgb_pixels() {
+  static const Bytes px = [] {
+    Bytes b;
+    for (int y = 0; y < 4; y++)
+      for (int x = 0; x < 6; x++)
+        b.insert(b.end(), {static_cast<uint8_t>(40 * x + 3), static_cast<uint8_t>(60 * y + 7),
+                           static_cast<uint8_t>(200 - 10 * (x + y))});
+    return b;
+  }();
+  return px;
+}
+
+vc_msg frame_msg(uint16_t camera = 1, uint16_t format = VC_FRAME_RGB8) {
+  vc_msg m = make(VC_MSG_FRAME, kSeq, kTrigger);
+  vc_frame_msg& f = m.u.frame;
+  f.camera = camera;
+  f.format = format;
+  f.width = 6;
+  f.height = 4;
+  static Bytes gray;
+  if (format == VC_FRAME_GRAY8) {
+    const Bytes& rgb = frame_rgb_pixels();
+    gray.clear();
+    for (size_t i = 0; i < rgb.size(); i += 3)
+      gray.push_back(static_cast<uint8_t>((77u * rgb[i] + 150u * rgb[i + 1] + 29u * rgb[i + 2] + 128u) >> 8));
+    f.pixels = gray.data();
+    f.pixels_len = static_cast<uint32_t>(gray.size());
+  } else {
+    f.pixels = frame_rgb_pixels().data();
+    f.pixels_len = static_cast<uint32_t>(frame_rgb_pixels().size());
+  }
+  return m;
+}
+
 // ---- vectors -----------------------------------------------------------------------------------------
 
 struct Vector {
@@ -808,6 +853,29 @@ std::vector<Vector> build_streams() {
     o.sealed(hull_msg(small), hull);
     o.sealed(features_msg(), feats);
     o.mac = ai.mac_json();
+  }
+  {  // 2.4: GRAB and FRAME
+    add("grab", "GRAB to node 3: from frame 1042, every 15th frame, both cameras, gray8, 40 frames")
+        .message(grab_msg());
+    add("grab_stop", "GRAB with every 0: stop sending FRAMEs").message(grab_msg(0, 0, 0));
+    add("frame", "FRAME of frame 1042, camera 1: a 6x4 rgb8 image (72 pixel bytes, rows without padding)")
+        .message(frame_msg());
+    add("frame_gray", "FRAME of frame 1042, camera 0: the same image as gray8 (24 bytes of BT.601 luma)")
+        .message(frame_msg(0, VC_FRAME_GRAY8));
+    Vector& r = add("frame_rejections",
+                    "FRAMEs rejected, each followed by nothing fatal: pixels_len 71 for a 6x4 rgb8 image "
+                    "(VC_PROTO_EINCONSISTENT), 72 announced but 70 sent (VC_PROTO_ETRUNCATED), one byte "
+                    "after the pixels (VC_PROTO_ETRAILING), format 3 (VC_PROTO_EFIELD), width 16385 "
+                    "(VC_PROTO_ELIMIT), camera 8 (VC_PROTO_EFIELD); a GRAB with format 0 and every 15 "
+                    "(VC_PROTO_EFIELD); then a FRAME that decodes");
+    r.rejected(patched(frame_msg(), [](Bytes& p) { st32(p.data() + 8, 71); }), VC_PROTO_EINCONSISTENT);
+    r.rejected(patched(frame_msg(), [](Bytes& p) { p.resize(p.size() - 2); }), VC_PROTO_ETRUNCATED);
+    r.rejected(patched(frame_msg(), [](Bytes& p) { p.push_back(0); }), VC_PROTO_ETRAILING);
+    r.rejected(patched(frame_msg(), [](Bytes& p) { st16(p.data() + 2, 3); }), VC_PROTO_EFIELD);
+    r.rejected(patched(frame_msg(), [](Bytes& p) { st16(p.data() + 4, 16385); }), VC_PROTO_ELIMIT);
+    r.rejected(patched(frame_msg(), [](Bytes& p) { st16(p.data() + 0, 8); }), VC_PROTO_EFIELD);
+    r.rejected(patched(grab_msg(), [](Bytes& p) { st16(p.data() + 2, 0); }), VC_PROTO_EFIELD);
+    r.message(frame_msg());
   }
   return v;
 }

@@ -121,8 +121,11 @@ struct Aggregator::Node {
   bool connected = false;
   uint32_t state = VC_STATE_IDLE;
   bool background_sent = false, start_sent = false;
-  bool assembling = false;             // what the assembly stage was last told (set_running)
-  std::string peer;                    // where its connection comes from
+  uint8_t minor = 0;        // the protocol minor version of its HELLO
+  bool grab_sent = false;   // the GRAB in force was sent to it in its current run
+  vc_grab grabbed{};        // what it was last asked (every 0: nothing): FRAMEs are checked against it
+  bool assembling = false;  // what the assembly stage was last told (set_running)
+  std::string peer;         // where its connection comes from
   std::vector<std::string> addresses;  // nodes[].address resolved (IPv4); empty: "any"
   NodeReport rep;
 };
@@ -317,6 +320,79 @@ bool Aggregator::refuse(Node& n, const vc_msg& m) {
   return true;
 }
 
+void Aggregator::set_frame_sink(FrameSink sink) {
+  std::lock_guard<std::mutex> g(mu_);
+  frame_sink_ = std::move(sink);
+}
+
+void Aggregator::grab(uint16_t every, uint16_t format) {
+  std::lock_guard<std::mutex> g(mu_);
+  grab_ = vc_grab{};
+  if (every) {
+    grab_.every = every;
+    grab_.format = format;
+    grab_.cameras = 1;  // per node: all of its cameras (send_grab)
+  }
+  for (auto& n : nodes_) {
+    n->grab_sent = false;
+    if (n->connected && n->state == VC_STATE_RUNNING) send_grab(*n);
+  }
+}
+
+void Aggregator::send_grab(Node& n) {
+  n.grab_sent = true;
+  if (n.minor < 4) {  // SPEC "Evolution": a node older than 2.4 never gets a GRAB
+    if (grab_.every)
+      log(log::Level::warn, fmt::format("node {} ({}) speaks protocol 2.{}: it cannot send camera images "
+                                        "(GRAB is 2.4); update its voxcap-edge",
+                                        n.id, n.cfg->id, n.minor));
+    return;
+  }
+  std::vector<uint8_t> buf(VC_PROTO_HEADER_SIZE + 16);
+  size_t len = 0;
+  vc_header hdr{};
+  hdr.node_id = n.id;
+  vc_grab g = grab_;
+  if (g.every) g.cameras = static_cast<uint16_t>((1u << std::min<size_t>(n.cfg->cameras.size(), 8)) - 1);
+  if (vc_encode_grab(buf.data(), buf.size(), &len, &hdr, &g) != 0) return;
+  buf.resize(len);
+  send(n, buf);
+  n.grabbed = g;
+}
+
+void Aggregator::on_frame(Node& n, const vc_msg& m) {
+  if (refuse(n, m)) return;
+  const vc_frame_msg& f = m.u.frame;
+  const vc_grab& g = n.grabbed;
+  if (!g.every || m.hdr.seq % g.every || f.camera >= n.cfg->cameras.size() ||
+      !(g.cameras & (1u << f.camera)) || f.format != g.format) {
+    if (n.rep.refused["unrequested"]++ == 0)
+      log(log::Level::warn,
+          fmt::format("node {} ({}): refused FRAME seq {} camera {} that no GRAB asked for (counted as "
+                      "'unrequested'; logged once per reason)",
+                      n.id, n.cfg->id, m.hdr.seq, f.camera));
+    return;
+  }
+  if (m.hdr.node_id != n.id) {
+    n.rep.rejected++;
+    return;
+  }
+  n.rep.frames++;
+  if (!frame_sink_) return;
+  CameraFrame cf;
+  cf.node_id = n.id;
+  cf.node_camera = f.camera;
+  cf.camera = n.cfg->cameras[f.camera];
+  cf.seq = m.hdr.seq;
+  cf.t_trigger_ns = m.hdr.t_trigger_ns;
+  cf.width = f.width;
+  cf.height = f.height;
+  cf.format = f.format;
+  // The decoder checked pixels_len = width * height * channels (proto/SPEC.md); the view dies here.
+  cf.pixels.assign(f.pixels, f.pixels + f.pixels_len);
+  frame_sink_(std::move(cf));
+}
+
 Aggregator::Node* Aggregator::by_conn(session::ConnId conn) {
   for (auto& n : nodes_)
     if (n->connected && n->conn == conn) return n.get();
@@ -385,6 +461,9 @@ std::string Aggregator::on_hello(session::ConnId conn, const vc_msg& m, const st
   n->connected = true;
   n->state = VC_STATE_IDLE;
   n->background_sent = n->start_sent = false;
+  n->minor = m.hdr.version_minor;
+  n->grab_sent = false;
+  n->grabbed = vc_grab{};
   n->rep.joins++;
   log(log::Level::info, fmt::format("node {} ({}) joined from {}", n->id, n->cfg->id, peer));
   // The server delivers HELLO's acceptance after this returns; the CONFIG is queued behind nothing.
@@ -458,6 +537,12 @@ void Aggregator::advance(Node& n) {
 
 void Aggregator::set_running(Node& n) {
   bool running = n.connected && n.state == VC_STATE_RUNNING;
+  if (!running) {
+    n.grab_sent = false;  // a node's GRAB ends with its run (SPEC: START, STOP, CONFIG end it)
+    n.grabbed = vc_grab{};
+  } else if (grab_.every && !n.grab_sent) {
+    send_grab(n);
+  }
   if (running == n.assembling) return;
   n.assembling = running;
   assembly_->set_running(n.id, running);
@@ -520,6 +605,9 @@ void Aggregator::on_message(session::ConnId conn, const vc_msg& m, uint64_t t_rx
       assembly_->post_silhouette(n->id, m.hdr.seq, m.hdr.t_trigger_ns, std::move(sil));
       break;
     }
+    case VC_MSG_FRAME:
+      on_frame(*n, m);
+      break;
     case VC_MSG_STATS: {
       const vc_stats& s = m.u.stats;
       for (int i = 0; i < s.stage_count; i++) {

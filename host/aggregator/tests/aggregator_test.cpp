@@ -184,6 +184,21 @@ struct FakeEdge {
     ASSERT_EQ(vc_encode_stats(buf, sizeof(buf), &len, &hdr, &s), 0);
     write_all(buf, len);
   }
+  // A FRAME (2.4) of a w x 48 image whose bytes are (seq + i) mod 251.
+  void frame(uint64_t seq, uint64_t t, uint16_t camera, uint16_t format, int w = 64) {
+    const size_t n = size_t(w) * 48 * vc_frame_format_channels(format);
+    std::vector<uint8_t> px(n), buf(VC_PROTO_HEADER_SIZE + 16 + n);
+    for (size_t i = 0; i < n; i++) px[i] = static_cast<uint8_t>((seq + i) % 251);
+    vc_frame_msg f{camera, format, static_cast<uint16_t>(w), 48, static_cast<uint32_t>(n), px.data()};
+    size_t len = 0;
+    vc_header hdr{};
+    hdr.node_id = id;
+    hdr.seq = seq;
+    hdr.t_trigger_ns = t;
+    ASSERT_EQ(vc_encode_frame(buf.data(), buf.size(), &len, &hdr, &f), 0);
+    write_all(buf.data(), len);
+  }
+  vc_grab last_grab{};  // the body of the last GRAB expect() returned
   // Waits for a message of `type`; returns its header seq, or -1.
   int64_t expect(uint16_t type, int ms = 3000) {
     auto end = std::chrono::steady_clock::now() + std::chrono::milliseconds(ms);
@@ -191,7 +206,10 @@ struct FakeEdge {
     while (std::chrono::steady_clock::now() < end) {
       vc_msg m;
       while (vc_decoder_next(dec, &m) > 0)
-        if (m.hdr.type == type) return (int64_t)m.hdr.seq;
+        if (m.hdr.type == type) {
+          if (type == VC_MSG_GRAB) last_grab = m.u.grab;
+          return (int64_t)m.hdr.seq;
+        }
       pollfd p{fd, POLLIN, 0};
       if (poll(&p, 1, 20) <= 0) continue;
       ssize_t n = recv(fd, b, sizeof(b), 0);
@@ -594,6 +612,95 @@ TEST(Aggregator, RefusesHullsFromANodeNotRunningOrForASeqNeverPulsed) {
   for (const std::string& l : lines)
     if (l.find("refused") != std::string::npos && l.find("never pulsed") != std::string::npos) said++;
   EXPECT_EQ(said, 2u) << "logged once per node and reason";
+}
+
+// Protocol 2.4: FRAMEs are taken only from a running node that a GRAB in force asked, for a pulsed
+// seq the GRAB selects, a camera and format it asked for; everything else is counted and dropped, and
+// hulls keep merging meanwhile.
+TEST(Aggregator, TakesOnlyTheFramesAGrabAskedForAndKeepsMerging) {
+  TmpDir tmp;
+  Options o;
+  o.start_trigger = false;
+  o.log = [](log::Level, const std::string&) {};
+  config::RigConfig rig = make_rig(tmp.p);
+  uint32_t gid = grid_id(rig.grid);
+  Aggregator agg(rig, o);
+  std::mutex fmu;
+  std::vector<CameraFrame> got;
+  agg.set_frame_sink([&](CameraFrame&& f) {
+    std::lock_guard<std::mutex> g(fmu);
+    got.push_back(std::move(f));
+  });
+  agg.start();
+  FakeEdge e1(agg.port(), 1), e2(agg.port(), 2);
+  const uint64_t origin = static_cast<uint64_t>(bring_up(agg, e1, e2));
+  std::vector<uint8_t> a(8, 0xF0), b(8, 0x3C);
+  auto pulse = [&](uint64_t seq) {
+    const uint64_t t = vc::monotonic_ns();
+    agg.note_pulse(seq, t);
+    e1.hull(seq, t, gid, a);
+    e2.hull(seq, t, gid, b);
+    return t;
+  };
+  uint64_t seq = origin;
+  uint64_t t = pulse(seq);
+  e1.frame(seq, t, 0, VC_FRAME_GRAY8);  // before any GRAB: unrequested
+  for (int i = 0; i < 400 && agg.report().nodes[0].refused["unrequested"] < 1; i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  agg.grab(2, VC_FRAME_GRAY8);
+  ASSERT_EQ(e1.expect(VC_MSG_GRAB), 0);
+  EXPECT_EQ(e1.last_grab.every, 2);
+  EXPECT_EQ(e1.last_grab.format, VC_FRAME_GRAY8);
+  EXPECT_EQ(e1.last_grab.cameras, 3);
+  EXPECT_EQ(e1.last_grab.count, 0u);
+  ASSERT_EQ(e2.expect(VC_MSG_GRAB), 0);
+  size_t wanted = 0;
+  for (int k = 1; k <= 10; k++) {
+    t = pulse(++seq);
+    for (uint16_t c = 0; c < 2; c++) {
+      e1.frame(seq, t, c, VC_FRAME_GRAY8);  // odd seqs: not selected
+      e2.frame(seq, t, c, VC_FRAME_GRAY8);
+    }
+    if (seq % 2 == 0) wanted += 4;
+  }
+  e1.frame(seq + 2, t, 0, VC_FRAME_GRAY8);        // two ahead of the last pulse: never pulsed
+  e1.frame(seq - seq % 2, t, 1, VC_FRAME_RGB8);   // a format not asked for
+  e2.frame(seq - seq % 2, t, 2, VC_FRAME_GRAY8);  // a camera the node does not have
+  Report r;
+  for (int i = 0; i < 400; i++) {
+    r = agg.report();
+    if (r.nodes[0].refused["unpulsed"] == 1 && r.nodes[1].refused["unrequested"] >= 6 && r.frames >= 11)
+      break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_EQ(r.nodes[0].frames + r.nodes[1].frames, wanted);
+  EXPECT_EQ(r.nodes[0].refused["unrequested"], 1u + 10 + 1);  // before GRAB, 5 odd seqs x 2, rgb8
+  EXPECT_EQ(r.nodes[1].refused["unrequested"], 10u + 1);
+  EXPECT_EQ(r.nodes[0].refused["unpulsed"], 1u);
+  EXPECT_EQ(r.frames, 11u) << "hulls kept merging";
+  EXPECT_EQ(r.complete, 11u);
+  {
+    std::lock_guard<std::mutex> g(fmu);
+    ASSERT_EQ(got.size(), wanted);
+    for (const CameraFrame& f : got) {
+      EXPECT_EQ(f.seq % 2, 0u);
+      EXPECT_EQ(f.width, 64);
+      EXPECT_EQ(f.height, 48);
+      EXPECT_EQ(f.camera, rig.nodes[f.node_id - 1].cameras[f.node_camera]);
+      ASSERT_EQ(f.pixels.size(), 64u * 48);
+      for (size_t i = 0; i < f.pixels.size(); i += 37) ASSERT_EQ(f.pixels[i], (f.seq + i) % 251);
+    }
+  }
+  // every 0 stops: the nodes are told, and later FRAMEs are unrequested.
+  agg.grab(0);
+  ASSERT_EQ(e1.expect(VC_MSG_GRAB), 0);
+  EXPECT_EQ(e1.last_grab.every, 0);
+  t = pulse(seq + 1);
+  e1.frame(seq + 1 - (seq + 1) % 2, t, 0, VC_FRAME_GRAY8);
+  for (int i = 0; i < 400 && agg.report().nodes[0].refused["unrequested"] < 13; i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  EXPECT_EQ(agg.report().nodes[0].refused["unrequested"], 13u);
+  agg.stop();
 }
 
 // Issue #13: a duplicate HELLO with a live node's id replaced the real node (and got its calibration);

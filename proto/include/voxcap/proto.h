@@ -1,4 +1,4 @@
-/* The voxcap wire protocol, both sides: framing, the eleven message types, encoders, a streaming
+/* The voxcap wire protocol, both sides: framing, the message types, encoders, a streaming
  * decoder, and the emulated trigger datagram. proto/SPEC.md is the normative text; every struct field
  * below is named as in SPEC.md and appears on the wire in the order listed there.
  *
@@ -29,7 +29,7 @@ extern "C" {
 
 #define VC_PROTO_MAGIC 0x50435856u /* "VXCP" in memory */
 #define VC_PROTO_VERSION_MAJOR 2
-#define VC_PROTO_VERSION_MINOR 3
+#define VC_PROTO_VERSION_MINOR 4
 #define VC_PROTO_HEADER_SIZE 40
 
 #define VC_PROTO_MAX_PAYLOAD (8u * 1024u * 1024u) /* bytes after the header, any type */
@@ -43,6 +43,7 @@ extern "C" {
 #define VC_PROTO_MAX_SILHOUETTE_SIDE 16384        /* SILHOUETTE width and height, pixels (2.1) */
 #define VC_PROTO_MAX_SILHOUETTE_SCALE 16          /* CONFIG silhouette_scale, SILHOUETTE scale (2.1) */
 #define VC_PROTO_MAX_HELLO_PAYLOAD 1024           /* a receiver's cap on the first message (HELLO) */
+#define VC_PROTO_MAX_FRAME_SIDE 16384             /* FRAME width and height, pixels (2.4) */
 
 /* ---- Error codes of the decoder and encoders (SPEC.md "Errors") ----------------------------------
  * Fatal codes concern the framing: the byte stream cannot be resynchronised, the decoder stays in the
@@ -94,7 +95,9 @@ enum vc_msg_type {
   VC_MSG_HEARTBEAT = 9,   /* both ways, periodic */
   VC_MSG_ERROR = 10,      /* both ways */
   VC_MSG_SILHOUETTE = 11, /* node -> host, per camera every silhouette_every-th frame (2.1) */
-  VC_MSG_AUTH = 12        /* both ways, the key's challenge-response on connect (2.3, auth.h) */
+  VC_MSG_AUTH = 12,       /* both ways, the key's challenge-response on connect (2.3, auth.h) */
+  VC_MSG_GRAB = 13,       /* host -> node: send full camera images of some frames (2.4) */
+  VC_MSG_FRAME = 14       /* node -> host: one camera's image of one frame, as GRAB asked (2.4) */
 };
 /* "HELLO", ... for known types, NULL otherwise. */
 const char* vc_msg_type_name(uint16_t type);
@@ -164,6 +167,8 @@ enum vc_counter_id {
   VC_COUNTER_CAMERA_ERRORS = 7,
   VC_COUNTER_SILHOUETTES_SENT = 8,    /* SILHOUETTE messages queued for the host (2.1) */
   VC_COUNTER_SILHOUETTES_DROPPED = 9, /* SILHOUETTEs not sent: no room in the send queue, or a limit */
+  VC_COUNTER_FRAMES_SENT = 10,        /* FRAME messages queued for the host (2.4) */
+  VC_COUNTER_FRAMES_DROPPED = 11,     /* FRAMEs asked for but not sent: no room in the send queue (2.4) */
 };
 const char* vc_stage_name(uint32_t id);            /* "capture", ... or NULL */
 const char* vc_counter_name(uint32_t id);          /* "frames_captured", ... or NULL */
@@ -324,6 +329,32 @@ typedef struct vc_auth_msg {
   uint8_t proof[32]; /* RESPONSE, PROOF: vc_auth_prove (auth.h); zero in CHALLENGE */
 } vc_auth_msg;
 
+/* GRAB (2.4): which frames' full camera images the node sends, as FRAME messages. */
+enum vc_frame_format {
+  VC_FRAME_GRAY8 = 1, /* one byte per pixel, luma (BT.601 weights of the RGB the node has) */
+  VC_FRAME_RGB8 = 2,  /* three bytes per pixel, R G B: the node's frame as it is */
+  VC_FRAME_FORMAT_COUNT = 3
+};
+const char* vc_frame_format_name(uint32_t format); /* "gray8", "rgb8" or NULL */
+/* Bytes per pixel of a format, 0 for an unknown one. */
+unsigned vc_frame_format_channels(uint32_t format);
+
+typedef struct vc_grab {
+  uint16_t every;   /* 0: stop grabbing; N: frames whose seq is a multiple of N (and >= the header's seq) */
+  uint16_t format;  /* vc_frame_format; 0 allowed only with every 0 */
+  uint16_t cameras; /* bit k: the node's camera k; 0 allowed only with every 0 */
+  uint32_t count;   /* frames to send, then stop; 0: until the next GRAB, CONFIG, START or STOP */
+} vc_grab;
+
+/* FRAME (2.4): one camera's image of frame hdr.seq, rows top to bottom, no padding. */
+typedef struct vc_frame_msg {
+  uint16_t camera;        /* the node's camera index, < VC_PROTO_MAX_CAMERAS */
+  uint16_t format;        /* vc_frame_format */
+  uint16_t width, height; /* 1..VC_PROTO_MAX_FRAME_SIDE */
+  uint32_t pixels_len;    /* width * height * channels, exactly */
+  const uint8_t* pixels;  /* pixels_len bytes */
+} vc_frame_msg;
+
 typedef struct vc_msg {
   vc_header hdr;
   const uint8_t* payload; /* view of hdr.payload_len bytes (decoded messages only) */
@@ -340,6 +371,8 @@ typedef struct vc_msg {
     vc_error error;
     vc_silhouette silhouette;
     vc_auth_msg auth;
+    vc_grab grab;
+    vc_frame_msg frame;
   } u;
 } vc_msg;
 
@@ -377,6 +410,16 @@ int vc_encode_silhouette_bits(uint8_t* buf, size_t cap, size_t* len, const vc_he
                               uint16_t scale, uint16_t width, uint16_t height, const uint8_t* bits);
 
 int vc_encode_auth(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_auth_msg* m);
+
+int vc_encode_grab(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_grab* m);
+/* m->pixels holds m->pixels_len bytes; the sizes are checked before it is copied. */
+int vc_encode_frame(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, const vc_frame_msg* m);
+/* FRAME straight from a camera image of interleaved RGB rows (`stride` bytes apart, width * 3 bytes
+ * each): written into buf as `format` (gray8: luma in fixed point, rgb8: copied), no allocation (the
+ * edge's path). cap >= VC_PROTO_HEADER_SIZE + 12 + width * height * channels always suffices.
+ * VC_PROTO_EFIELD / VC_PROTO_ELIMIT for a camera, format or size out of range or over the payload. */
+int vc_encode_frame_rgb(uint8_t* buf, size_t cap, size_t* len, const vc_header* hdr, uint16_t camera,
+                        uint16_t format, uint16_t width, uint16_t height, const uint8_t* rgb, size_t stride);
 
 /* Dispatches on msg->hdr.type to the encoder above (msg->known types only; -EINVAL otherwise). */
 int vc_msg_encode(uint8_t* buf, size_t cap, size_t* len, const vc_msg* msg);

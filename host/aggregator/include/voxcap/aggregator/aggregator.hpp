@@ -58,6 +58,20 @@ std::vector<uint8_t> load_rig_key(const config::RigConfig& rig);
 // A stable id for the rig's grid (CRC32C of its parameters).
 uint32_t grid_id(const rig::VoxelGrid& grid);
 
+// One camera's full image of one frame, from a FRAME (protocol 2.4) a node sent because the host asked
+// (Aggregator::grab). Owned copy: the decoder's view dies with the message.
+struct CameraFrame {
+  uint16_t node_id = 0;
+  uint16_t node_camera = 0;  // the node's camera index (HELLO order)
+  std::string camera;        // the rig's name for it (nodes[].cameras)
+  uint64_t seq = 0, t_trigger_ns = 0;
+  int width = 0, height = 0;
+  uint16_t format = VC_FRAME_GRAY8;  // vc_frame_format: gray8 (1 byte per pixel) or rgb8 (R G B)
+  std::vector<uint8_t> pixels;       // width * height * channels, rows without padding
+};
+// Where FRAMEs go: called on the session server's thread, must not block (queue and return).
+using FrameSink = std::function<void(CameraFrame&&)>;
+
 struct Options {
   // origin = last pulse + this much time in pulses (at least 6): START must reach every node, and each
   // must be streaming (emulated cameras reopen for the run) before the origin pulse.
@@ -92,10 +106,12 @@ struct NodeReport {
   uint64_t edge_queue_drops = 0, edge_frames_without_pulse = 0, edge_pulses_without_frame = 0;
   uint64_t host_queue_drops = 0;  // its messages dropped because the assembly stage's queue was full
   uint64_t features = 0, features_late = 0;  // FEATURES that joined a frame / came after it
+  uint64_t frames = 0;                       // FRAMEs (2.4) taken and handed to the frame sink
   uint64_t errors = 0;
   std::string last_error;
-  // HULL, FEATURES and SILHOUETTE refused before assembly, by reason: "not_running" (the node is not
-  // in state running), "unpulsed" (a seq the host has not pulsed). Each reason is logged once per node.
+  // HULL, FEATURES, SILHOUETTE and FRAME refused before assembly, by reason: "not_running" (the node is
+  // not in state running), "unpulsed" (a seq the host has not pulsed), "unrequested" (a FRAME no GRAB
+  // in force asked for: another seq or camera, or no GRAB). Each reason is logged once per node.
   std::map<std::string, uint64_t> refused;
   uint64_t unpulsed = 0;  // refused by the assembler itself for a seq never pulsed (a second guard)
   // Messages on this node's connections (all of them, across rejoins) dropped by their MAC (keyed
@@ -149,6 +165,13 @@ class Aggregator : public session::Handler {
 
   Report report() const;
   bool all_running() const;
+  // Full camera images (protocol 2.4): frames go to `sink` (set before start()). grab() sends GRAB
+  // (every `every`-th frame as `format`, both cameras, no end) to every running node that speaks 2.4,
+  // and again to each node that (re)starts running while it is in force; every 0 stops (GRAB with every
+  // 0). Nodes older than 2.4 are skipped with a warning naming them. Their hulls merge as before.
+  void set_frame_sink(FrameSink sink);
+  void grab(uint16_t every, uint16_t format = VC_FRAME_GRAY8);
+
   // The pulse observer (the trigger thread calls it; tests may call it directly).
   void note_pulse(uint64_t seq, uint64_t t_ns);
 
@@ -168,6 +191,8 @@ class Aggregator : public session::Handler {
   // HULL, FEATURES, SILHOUETTE from a node that is not running, or for a seq never pulsed: true when
   // refused (counted in its report by reason, logged once per reason).
   bool refuse(Node& n, const vc_msg& m);
+  void send_grab(Node& n);  // the GRAB in force (grab_), or its stop, to one node
+  void on_frame(Node& n, const vc_msg& m);
   void log(log::Level level, const std::string& line) const;
   pipeline::PipelineReport pipeline_report() const;
 
@@ -189,6 +214,8 @@ class Aggregator : public session::Handler {
   std::atomic<uint64_t> last_pulse_seq_{0}, pulses_{0};
   bool run_started_ = false;
   uint64_t origin_ = 0;
+  vc_grab grab_{};  // the GRAB in force (every 0: none)
+  FrameSink frame_sink_;
   uint64_t last_log_ns_ = 0, frames_at_log_ = 0;
 };
 
