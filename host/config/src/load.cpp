@@ -431,9 +431,14 @@ void check_sections(const RigConfig& c, const Context& ctx) {
   if (!c.assembly.valid(&why)) fail_validation(ctx, "assembly", why);
   if (!c.recording.valid(&why)) fail_validation(ctx, "recording", why);
   if (!c.network.valid(&why)) fail_validation(ctx, "network", why);
+  if (!c.vmc.valid(&why)) fail_validation(ctx, "vmc", why);
 }
 
 void collect_warnings(RigConfig* c) {
+  if (c->vmc.enabled && !c->vmc.target.is_loopback())
+    c->warnings.push_back(fmt::format(
+        "vmc.target: {} is not on this machine: every pose goes out on the network, unauthenticated",
+        c->vmc.target.str()));
   if (c->trigger.backend == TriggerBackend::Udp && c->trigger.udp.targets.size() > c->nodes.size())
     c->warnings.push_back(
         fmt::format("trigger.udp.targets: {} targets for {} nodes; the extra ones get pulses too",
@@ -557,6 +562,15 @@ RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::pa
     Reader r(*t, "network", ctx);
     r.get("listen", &c.network.listen);
     r.get_int("port", &c.network.port, 1, 65535);
+    r.finish();
+  }
+  if (const toml::table* t = top.table("vmc")) {  // the live pose stream out (host/stream)
+    Reader r(*t, "vmc", ctx);
+    r.get("enabled", &c.vmc.enabled);
+    std::string target, why;
+    if (r.get("target", &target) && !Endpoint::parse(target, &c.vmc.target, &why))
+      r.ctx().fail(r.key("target"), why);
+    r.get("rate_hz", &c.vmc.rate_hz);
     r.finish();
   }
   top.finish();
