@@ -77,7 +77,9 @@ TEST(VmcConfig, BadValuesAreRefusedNamingTheKey) {
   };
   for (const auto& [line, expect] : cases) {
     try {
-      parse(rig, kHead + "[vmc]\n" + line + "\n");
+      std::string text = kHead;
+      text += "[vmc]\n" + line + "\n";
+      parse(rig, text);
       ADD_FAILURE() << "accepted: " << line;
     } catch (const ConfigError& e) {
       EXPECT_THAT(e.what(), HasSubstr(expect)) << line;

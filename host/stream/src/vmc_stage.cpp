@@ -49,10 +49,13 @@ void VmcStage::note_error(const std::string& what, uint64_t now_ns) {
 
 void VmcStage::process(pipeline::Frame& f) {
   const auto slot = static_cast<int64_t>(std::floor(static_cast<double>(f.seq) * rate_hz_ / rig_rate_hz_));
-  const bool pick = !any_picked_ || slot != last_slot_;
-  if (!pick) {
+  // Frames may leave the assembler out of seq order (a late one resolved after its successor): never
+  // go back, so T only grows and no slot is sent twice.
+  const bool stale = any_picked_ && slot < last_slot_;
+  if (stale || (any_picked_ && slot == last_slot_)) {
     std::lock_guard<std::mutex> g(mu_);
     ++c_.frames;
+    c_.stale += stale ? 1 : 0;
     return;
   }
   any_picked_ = true;

@@ -95,12 +95,20 @@ TEST(VmcStage, PicksFramesBySeqAtTheConfiguredRate) {
     ASSERT_FALSE(gaps.empty());
     EXPECT_LE(*gaps.rbegin() - *gaps.begin(), 1) << rig_hz << " " << vmc_hz;
   }
-  // A gap in seq (frames dropped before the stage) sends the next frame at once.
+  // A gap in seq (frames dropped before the stage) sends the next frame at once; a frame older than
+  // the last one sent (out of seq order) is not sent.
   Harness r(60, 30);
   r.frame(10, rest_pose());
   r.frame(11, rest_pose());
   r.frame(15, rest_pose());
-  EXPECT_EQ(r.stage->counters().sent, 2u);
+  r.frame(12, rest_pose());
+  r.frame(16, rest_pose());
+  r.frame(17, rest_pose());
+  EXPECT_EQ(r.stage->counters().sent, 3u);  // 10, 15, 16
+  EXPECT_EQ(r.stage->counters().stale, 1u);
+  EXPECT_EQ(r.stage->counters().frames, 6u);
+  for (size_t k = 1; k < r.sink->packets.size(); ++k)
+    EXPECT_GT(r.sink->packets[k].time_s, r.sink->packets[k - 1].time_s);
 }
 
 TEST(VmcStage, SaysWaitingBeforeTheFirstPoseThenSendsBonesAndHoldsTheLastPose) {

@@ -2,8 +2,10 @@
 // (pipeline().tap(), drop-oldest: a live consumer never holds the rig back).
 //
 // Rate: `rate_hz` of [vmc], at most the rig's trigger rate. Frames are picked by their trigger seq, not
-// by the wall clock: frame seq is sent when floor(seq * rate / rig_rate) moved on since the last one
-// sent (rate = rig rate: every frame; 30 of a 60 Hz rig: every other seq). Every picked frame sends one
+// by the wall clock: frame seq is sent when its slot floor(seq * rate / rig_rate) is past the last one
+// sent (rate = rig rate: every frame; 30 of a 60 Hz rig: every other seq); a frame that reaches the
+// stage after a later one (the assembler resolves frames as they complete) is not sent, so /VMC/Ext/T
+// never goes back. Every picked frame sends one
 // bundle (vmc_sink.hpp): before the fitter's first pose only OK (loaded 0, waiting for calibration) and
 // T; with a pose its bones (vmc_pose.hpp) and OK (loaded 1, calibrated, tracking 1 when fitted, 0 when
 // predicted); a frame without a pose after the first re-sends the last pose with tracking 0, as the
@@ -32,6 +34,7 @@ struct VmcCounters {
   double rate_hz = 0;        // the rate in force (configured, capped at the rig's)
   uint64_t frames = 0;       // frames the stage saw
   uint64_t picked = 0;       // of those, picked by the rate
+  uint64_t stale = 0;        // ... not picked: older than the last one picked (out of seq order)
   uint64_t sent = 0;         // bundles sent
   uint64_t with_pose = 0;    // ... of those with bones
   uint64_t held = 0;         // ... re-sending the last pose (the frame had none)
