@@ -12,8 +12,8 @@
 #include <map>
 #include <mutex>
 #include <numbers>
-#include <tuple>
 #include <set>
+#include <tuple>
 
 #include <glm/geometric.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -214,7 +214,8 @@ TEST(VmcStream, TheEmulatedRigStreamsTheFittedSkeletonToALoopbackReceiverAtTheCo
     }
     bone_err_deg.push_back(worst);
     const auto& R = fp.torso_R_world;  // row-major; column y: where the performer faces
-    facing.push_back(glm::dot(world["Hips"].second * dvec3(0, 0, 1), unity_from_world(dvec3(R[1], R[4], R[7]))));
+    facing.push_back(
+        glm::dot(world["Hips"].second * dvec3(0, 0, 1), unity_from_world(dvec3(R[1], R[4], R[7]))));
   }
   EXPECT_EQ(posed, c.with_pose);
   ASSERT_GT(posed, 0u);
@@ -231,7 +232,8 @@ TEST(VmcStream, TheEmulatedRigStreamsTheFittedSkeletonToALoopbackReceiverAtTheCo
   EXPECT_GT(median(feet_y), -0.05);
   EXPECT_LT(median(feet_y), 0.3);
   ASSERT_GT(matched, posed / 2) << "bundles matched to their frame by T";
-  RecordProperty("bone_err_deg_max", std::to_string(*std::max_element(bone_err_deg.begin(), bone_err_deg.end())));
+  RecordProperty("bone_err_deg_max",
+                 std::to_string(*std::max_element(bone_err_deg.begin(), bone_err_deg.end())));
   EXPECT_LT(*std::max_element(hips_err_mm.begin(), hips_err_mm.end()), 0.1);  // float precision
   EXPECT_LT(*std::max_element(bone_err_deg.begin(), bone_err_deg.end()), 0.1);
   EXPECT_GT(median(facing), 0.8);
