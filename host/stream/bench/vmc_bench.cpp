@@ -50,7 +50,7 @@ void BM_VmcPose(benchmark::State& state) {
   const std::vector<pipeline::Pose> ps = poses(64);
   stream::VmcPoser poser;
   size_t k = 0;
-  for (auto _ : state) {
+  for ([[maybe_unused]] auto _ : state) {
     stream::VmcPose v = poser.pose(ps[k++ % ps.size()]);
     benchmark::DoNotOptimize(v);
   }
@@ -69,7 +69,7 @@ void run_stage(benchmark::State& state, std::unique_ptr<stream::VmcSink> sink) {
   ctx.log = [](log::Level, const std::string&) {};
   stage.configure(ctx);
   pipeline::Frame f;
-  for (auto _ : state) {
+  for ([[maybe_unused]] auto _ : state) {
     f.pose = ps[f.seq % ps.size()];
     f.t_trigger_ns = f.seq * 16'666'667ULL;
     stage.process(f);
