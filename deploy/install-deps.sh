@@ -37,6 +37,8 @@ pkgs+=(libopencv-dev libglm-dev nlohmann-json3-dev libtomlplusplus-dev libcli11-
 pkgs+=(libceres-dev libopencv-contrib-dev)
 # Authenticated control (proto/include/voxcap/auth.h): keyed BLAKE2b, crypto_kdf, randombytes.
 pkgs+=(libsodium-dev)
+# The live pose stream out (host/stream): VMC is OSC over UDP, built and sent with liblo.
+pkgs+=(liblo-dev)
 # The V4L2 VM test: a Debian kernel with the vivid module booted under qemu with a busybox initramfs.
 pkgs+=(qemu-system-x86 busybox-static cpio xz-utils zstd kmod)
 # The client test (label client): the exported BVH in Blender, headless, with its stock importer.

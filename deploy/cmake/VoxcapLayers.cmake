@@ -44,6 +44,7 @@ set(VC_LAYERS
   "host/fit: vc_host_fit vc_host_fit_testing"  # the two-layer skeleton, the "fit" stage
   "host/record: vc_host_record vc_host_record_testing"
   "host/export: vc_host_export"         # fitted poses -> BVH and joints.csv (hw/body's standard humanoid)
+  "host/stream: vc_host_stream vc_host_stream_testing"  # the live pose stream out: VMC over OSC/UDP (liblo)
   "host/aggregator: vc_host_aggregator"
   "host/emulated: vc_host_emulated"
   "host/deploy: vc_host_deploy"         # voxcap deploy: boards over ssh, flash-config (edge.toml via the edge's reader)

@@ -18,6 +18,7 @@
 #include "export_report.hpp"
 #include "pose_figures.hpp"
 #include "run_recording.hpp"
+#include "vmc_option.hpp"
 #include "voxcap/emulated/emulated_rig.hpp"
 #include "voxcap/export/take.hpp"
 
@@ -34,6 +35,7 @@ struct DemoArgs {
   std::string out;  // demo: where the take and the session go
   bool json = false;
   bool eval = false;
+  std::string vmc;  // --vmc HOST:PORT: the live pose stream out
 };
 
 void add_rig_options(CLI::App* cmd, DemoArgs& a) {
@@ -62,6 +64,7 @@ void add_rig_options(CLI::App* cmd, DemoArgs& a) {
   cmd->add_option("--workdir", a.rig.workdir, "Keep rig.yaml, rig.toml and the edge logs here");
   cmd->add_flag(
       "--verbose", [&a](int64_t) { a.rig.quiet = false; }, "Info logs from host and edges");
+  cmd->add_option("--vmc", a.vmc, kVmcHelp)->type_name("HOST:PORT");
 }
 
 nlohmann::json figures_json(const DemoArgs& a, const emulated::Result& r) {
@@ -97,6 +100,13 @@ void run_demo(DemoArgs& a) {
   if (std::sscanf(a.size.c_str(), "%dx%d", &a.rig.width, &a.rig.height) != 2)
     throw UsageError("--size: expected WxH, got '" + a.size + "'");
   if (a.frames < 2 || a.frames > 10'000'000) throw UsageError("--frames: 2 .. 10000000");
+  if (!a.vmc.empty()) {
+    const config::VmcOptions vo = vmc_options({}, a.vmc);
+    a.rig.stages = [prev = a.rig.stages, vo](pipeline::Pipeline& p) {
+      if (prev) prev(p);
+      add_vmc_stage(p, vo);
+    };
+  }
   a.rig.truth_every = 0;  // the hull scorer (voxcap rig --emulated) is not needed here: its renders cost
   a.rig.score_poses = true;
   a.rig.keep_poses = !a.eval;

@@ -12,6 +12,7 @@
 
 #include "commands.hpp"
 #include "run_recording.hpp"
+#include "vmc_option.hpp"
 #include "voxcap/aggregator/aggregator.hpp"
 #include "voxcap/aggregator/record_stage.hpp"
 #include "voxcap/config/rig_config.hpp"
@@ -328,6 +329,8 @@ void add_rig_commands(CLI::App& app) {
   cmd->add_option("--record", *record,
                   "record the session (merged hulls, features, stats, rig.toml, calibration) in a new folder "
                   "below this one; a real rig records to rig.toml's recording.dir unless this is given");
+  auto vmc = std::make_shared<std::string>();
+  cmd->add_option("--vmc", *vmc, kVmcHelp)->type_name("HOST:PORT");
   cmd->add_flag(
       "--verbose", [opt](int64_t) { opt->quiet = false; }, "emulated: info logs from host and edges");
   cmd->add_flag(
@@ -363,6 +366,13 @@ void add_rig_commands(CLI::App& app) {
       if (std::sscanf(size->c_str(), "%dx%d", &opt->width, &opt->height) != 2)
         throw UsageError("--size: expected WxH, got '" + *size + "'");
       opt->record_dir = *record;
+      if (!vmc->empty()) {  // the emulated rig's own rig.toml has no [vmc]: --vmc alone turns it on
+        const config::VmcOptions vo = vmc_options({}, *vmc);
+        opt->stages = [prev = opt->stages, vo](pipeline::Pipeline& p) {
+          if (prev) prev(p);
+          add_vmc_stage(p, vo);
+        };
+      }
       std::string why;
       if (!opt->valid(&why)) throw UsageError(why);
       emulated::EmulatedRig rig(*opt);
@@ -436,6 +446,7 @@ void add_rig_commands(CLI::App& app) {
         agg.pipeline().tap(std::make_unique<aggregator::RecordStage>(
                                record->empty() ? rig.recording.dir : std::filesystem::path(*record)),
                            aggregator::RecordStage::kQueue);
+    add_vmc_stage(agg.pipeline(), vmc_options(rig.vmc, *vmc));
     agg.start();  // creates the session folder
     fmt::print("recording to {}\n", recording.dir().string());
     auto end =

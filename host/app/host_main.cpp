@@ -17,6 +17,7 @@
 #include "voxcap/base/log.hpp"
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/record/session_info.hpp"
+#include "voxcap/stream/vmc_stage.hpp"
 
 namespace {
 std::atomic<bool> g_stop{false};
@@ -48,6 +49,8 @@ int main(int argc, char** argv) {
     // stream-out are added here the same way.
     auto& recording = agg.pipeline().tap(std::make_unique<vc::aggregator::RecordStage>(rig.recording.dir),
                                          vc::aggregator::RecordStage::kQueue);
+    if (rig.vmc.enabled)  // the live pose stream out ([vmc], host/stream)
+      agg.pipeline().tap(std::make_unique<vc::stream::VmcStage>(rig.vmc), vc::stream::VmcStage::kQueue);
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     agg.start();

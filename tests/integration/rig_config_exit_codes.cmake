@@ -78,7 +78,8 @@ file(WRITE ${WORK}/keyless_name.toml "${text}")
 
 set(bad_inputs unknown_subcommand unknown_option bench_repeats_0 grid600 nan_toml fifo_toml wide_yaml
     nested_yaml fifo_session edge_node_id edge_port edge_size bvh_1e308 rig_bvh_scale key_missing key_open
-    key_malformed rig_key_open host_key_open keyless_any keyless_name key_new_exists key_check_open)
+    key_malformed rig_key_open host_key_open keyless_any keyless_name key_new_exists key_check_open
+    rig_vmc demo_vmc vmc_toml)
 set(cmd_key_new_exists ${VOXCAP} key new ${WORK}/bad.key)
 set(expect_key_new_exists "bad.key: File exists \\(use --force to replace it\\)")
 set(cmd_key_check_open ${VOXCAP} key check ${WORK}/open.key)
@@ -125,6 +126,13 @@ set(cmd_bvh_1e308 ${VOXCAP} sim --motion ${WORK}/huge.bvh --frames 1 --cameras 2
 set(expect_bvh_1e308 "huge.bvh:[0-9]+: number out of range")
 set(cmd_rig_bvh_scale ${VOXCAP} rig --emulated --bvh-scale -1 --frames 1)
 set(expect_rig_bvh_scale "bvh-scale")
+set(cmd_rig_vmc ${VOXCAP} rig --emulated --vmc 127.0.0.1 --frames 1)
+set(expect_rig_vmc "--vmc: expected \"host:port\", got \"127.0.0.1\"")
+set(cmd_demo_vmc ${VOXCAP} demo --vmc 127.0.0.1:0 --frames 2 --out ${WORK}/demo)
+set(expect_demo_vmc "--vmc: port must be 1-65535")
+file(WRITE ${WORK}/vmc.toml "${good}\n[vmc]\nenabled = true\nrate_hz = 500\n")
+set(cmd_vmc_toml ${VOXCAP} config check ${WORK}/vmc.toml)
+set(expect_vmc_toml "vmc.rate_hz: must be in \\(0, 240\\], got 500")
 
 foreach(c ${bad_inputs})
   execute_process(COMMAND ${cmd_${c}} OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc TIMEOUT 60)

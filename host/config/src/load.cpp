@@ -497,9 +497,14 @@ void check_sections(const RigConfig& c, const Context& ctx) {
   if (!c.recording.valid(&why)) fail_validation(ctx, "recording", why);
   if (!c.network.valid(&why)) fail_validation(ctx, "network", why);
   if (!c.hil.valid(&why)) fail_validation(ctx, "hil", why);
+  if (!c.vmc.valid(&why)) fail_validation(ctx, "vmc", why);
 }
 
 void collect_warnings(RigConfig* c) {
+  if (c->vmc.enabled && !c->vmc.target.is_loopback())
+    c->warnings.push_back(fmt::format(
+        "vmc.target: {} is not on this machine: every pose goes out on the network, unauthenticated",
+        c->vmc.target.str()));
   if (c->trigger.backend == TriggerBackend::Udp && c->trigger.udp.targets.size() > c->nodes.size())
     c->warnings.push_back(
         fmt::format("trigger.udp.targets: {} targets for {} nodes; the extra ones get pulses too",
@@ -630,6 +635,15 @@ RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::pa
     read_hil(r, &c.hil);
   }
   top.find("deploy");  // [deploy]: how voxcap deploy reaches and sets up the boards (host/deploy checks it)
+  if (const toml::table* t = top.table("vmc")) {  // the live pose stream out (host/stream)
+    Reader r(*t, "vmc", ctx);
+    r.get("enabled", &c.vmc.enabled);
+    std::string target, why;
+    if (r.get("target", &target) && !Endpoint::parse(target, &c.vmc.target, &why))
+      r.ctx().fail(r.key("target"), why);
+    r.get("rate_hz", &c.vmc.rate_hz);
+    r.finish();
+  }
   top.finish();
 
   // Errors in this file first, then those that need the calibration file.

@@ -279,6 +279,16 @@ bool NetworkOptions::valid(std::string* why) const {
   return true;
 }
 
+bool VmcOptions::valid(std::string* why) const {
+  if (target.port == 0) return fail(why, "target: port must be 1-65535");
+  if (target.host != "localhost" && !is_ipv4(target.host))
+    return fail(why, fmt::format("target: host must be a numeric IPv4 address or localhost, got \"{}\"",
+                                 target.host));
+  if (!(rate_hz > 0 && rate_hz <= kMaxRateHz))
+    return fail(why, fmt::format("rate_hz: must be in (0, {}], got {}", kMaxRateHz, rate_hz));
+  return true;
+}
+
 std::string_view to_string(TrackingNodes nodes) {
   return nodes == TrackingNodes::All ? "all" : "front";
 }

@@ -121,6 +121,18 @@ struct NetworkOptions {
   bool valid(std::string* why) const;
 };
 
+// The live pose stream out over the VMC protocol ([vmc], host/stream): OSC bundles over UDP to an
+// animation tool (VSeeFace, Unity's EVMC4U, Blender's VMC add-ons). Off by default; a target off this
+// machine is allowed (the tool often runs on another PC) and is the user's explicit choice.
+struct VmcOptions {
+  static constexpr double kMaxRateHz = 240;
+  bool enabled = false;
+  Endpoint target{"127.0.0.1", 39539};  // the receiver ("Marionette"); 39539 is VMC's usual port
+  double rate_hz = 60;                  // bundles per second, (0, 240]; at most the rig's trigger rate
+
+  bool valid(std::string* why) const;
+};
+
 enum class NodeRole { Side, Front };  // front nodes also track head, hands and feet (paper sec. 6)
 std::string_view to_string(NodeRole role);
 

@@ -102,6 +102,7 @@ struct RigConfig {
   RecordingOptions recording;
   NetworkOptions network;
   HilOptions hil;                     // [hil]: what `voxcap hil` tests (tests/hil/README.md)
+  VmcOptions vmc;                     // [vmc]: the live pose stream out (host/stream)
   std::vector<std::string> warnings;  // legal but suspicious ("3 udp targets for 2 nodes")
 
   // Cross-section checks (each section's own valid() included): node ids and camera assignments
