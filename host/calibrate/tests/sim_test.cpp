@@ -3,11 +3,10 @@
 // the performer's hull carved by edge/core's carver with the solved and the true calibration from the same
 // true silhouettes at 128^3.
 //
-// NOT YET the issue's tolerances (focal 0.5 %, principal point 2 px, centres 5 mm, orientations 0.2 degrees,
-// RMS 0.3 px, world 5 mm / 0.2 degrees, IoU 0.98): those hold on exact corners with 0.1 px noise
-// (solve_test.cpp), but the rendered board's detected corners are noisier (~0.3 px RMS), and the solve
-// misses them by up to ~3x (host/calibrate/README.md, "Not yet"). The bounds below are what it reaches
-// today, so a regression fails; the measured figures are printed.
+// The bounds are issue 14's: focal lengths within 0.5 %, principal points within 2 px, centres within 5 mm,
+// orientations within 0.2 degrees, reprojection RMS < 0.3 px, the world frame within 5 mm and 0.2 degrees,
+// hull IoU >= 0.98. Measured on this rig (host/calibrate/README.md): RMS 0.032 px, focal 0.05 %, principal
+// point 0.63 px, centre 1.9 mm, orientation 0.08 degrees, world 0.6 mm / 0.03 degrees, IoU 0.994.
 #include <algorithm>
 #include <bit>
 #include <cmath>
@@ -94,7 +93,7 @@ TEST(CalibrateSim, SolvesTheRenderedVirtualRigAndCarvesItsHull) {
   opt.grid = scene.calibration().grid;
   const Solution s = solve(cap, opt);
   ASSERT_EQ(s.calibration.cameras.size(), scene.calibration().cameras.size());
-  EXPECT_LT(s.rms_px, 0.4);
+  EXPECT_LT(s.rms_px, 0.3);
   cv::Vec3d origin_sum(0, 0, 0);
   double worst_f = 0, worst_pp = 0, worst_c = 0, worst_r = 0, worst_rms = 0;
   double tilt_sum = 0;
@@ -109,13 +108,12 @@ TEST(CalibrateSim, SolvesTheRenderedVirtualRigAndCarvesItsHull) {
     worst_c = std::max(worst_c, cv::norm(got.center_world() - want.center_world()));
     worst_r = std::max(worst_r, angle_deg(got.R_cam_from_world, want.R_cam_from_world));
     worst_rms = std::max(worst_rms, s.cameras[c].rms_px);
-    EXPECT_NEAR(got.K(0, 0) / want.K(0, 0), 1.0, 0.01);
-    EXPECT_NEAR(got.K(1, 1) / want.K(1, 1), 1.0, 0.01);
-    EXPECT_NEAR(got.K(0, 2), want.K(0, 2), 6.0);
-    EXPECT_NEAR(got.K(1, 2), want.K(1, 2), 6.0);
-    EXPECT_LT(cv::norm(got.center_world() - want.center_world()), 0.025);
-    EXPECT_LT(angle_deg(got.R_cam_from_world, want.R_cam_from_world), 0.8);
-    EXPECT_LT(s.cameras[c].rms_px, 0.45);
+    EXPECT_NEAR(got.K(0, 0) / want.K(0, 0), 1.0, 0.005);
+    EXPECT_NEAR(got.K(1, 1) / want.K(1, 1), 1.0, 0.005);
+    EXPECT_LT(cv::norm(cv::Vec2d(got.K(0, 2) - want.K(0, 2), got.K(1, 2) - want.K(1, 2))), 2.0);
+    EXPECT_LT(cv::norm(got.center_world() - want.center_world()), 0.005);
+    EXPECT_LT(angle_deg(got.R_cam_from_world, want.R_cam_from_world), 0.2);
+    EXPECT_LT(s.cameras[c].rms_px, 0.3);
     origin_sum += got.center_world() - want.center_world();
     // The world's z in the camera frame (the floor's normal): the world frame's tilt seen by this camera.
     const cv::Vec3d z_got(got.R_cam_from_world(0, 2), got.R_cam_from_world(1, 2), got.R_cam_from_world(2, 2));
@@ -130,8 +128,8 @@ TEST(CalibrateSim, SolvesTheRenderedVirtualRigAndCarvesItsHull) {
       "mm, orientation %.3f deg; world origin %.1f mm, z %.3f deg\n",
       s.rms_px, worst_rms, 100 * worst_f, worst_pp, 1000 * worst_c, worst_r, 1000 * cv::norm(origin_sum) / n,
       tilt_sum / n);
-  EXPECT_LT(cv::norm(origin_sum) / n, 0.015) << "world origin";
-  EXPECT_LT(tilt_sum / n, 0.5) << "world z";
+  EXPECT_LT(cv::norm(origin_sum) / n, 0.005) << "world origin";
+  EXPECT_LT(tilt_sum / n, 0.2) << "world z";
 
   // The hull from the same true silhouettes, carved with the solved and the true cameras, at 128^3.
   sim::SceneOptions so;
@@ -159,7 +157,7 @@ TEST(CalibrateSim, SolvesTheRenderedVirtualRigAndCarvesItsHull) {
     ASSERT_GT(uni, 1000u);
     std::printf("frame %d: hull IoU solved vs true calibration %.4f (%llu voxels in the union)\n", frame,
                 static_cast<double>(inter) / static_cast<double>(uni), static_cast<unsigned long long>(uni));
-    EXPECT_GE(static_cast<double>(inter) / static_cast<double>(uni), 0.95) << "frame " << frame;
+    EXPECT_GE(static_cast<double>(inter) / static_cast<double>(uni), 0.98) << "frame " << frame;
   }
 }
 

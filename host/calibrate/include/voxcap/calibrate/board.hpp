@@ -37,10 +37,11 @@ struct Detection {
 };
 
 // Finds the board in one image (CV_8UC1 or CV_8UC3; colour order does not matter). ChArUco: markers,
-// corners interpolated, then each corner refined by cv::cornerSubPix (OpenCV 4.6's interpolation leaves
-// them half a pixel off). Chessboard: cv::findChessboardCorners + cornerSubPix, ids row-major (a square
-// board may be found turned, so use one with an odd and an even side). An image without the board gives
-// an empty detection.
+// corners interpolated, then each corner refined where its edges meet, the markers' borders left out
+// (OpenCV 4.6's interpolation leaves them half a pixel off, and cv::cornerSubPix's window takes in the
+// markers in small or slanted views); a corner that cannot be refined is left out. Chessboard:
+// cv::findChessboardCorners + cornerSubPix, ids row-major (a square board may be found turned, so use one
+// with an odd and an even side). An image without the board gives an empty detection.
 Detection detect_board(const cv::Mat& image, const BoardSpec& board);
 
 }  // namespace vc::calibrate
