@@ -83,9 +83,9 @@ std::vector<uint8_t> random_frame(const vc_bgmodel* m, size_t stride, std::mt199
       for (int c = 0; c < 3; c++) {
         const int mu = mean[(static_cast<size_t>(y) * w + x) * 3 + c];
         int v = mu + noise(rng);
-        if (k == 0) v = byte(rng);                                      // foreground
+        if (k == 0) v = byte(rng);                                        // foreground
         if (k == 1 || k == 2) v = static_cast<int>(mu * g) + noise(rng);  // shadow-like
-        if (k == 3) v = c == 0 ? 0 : 255;                               // extremes
+        if (k == 3) v = c == 0 ? 0 : 255;                                 // extremes
         f[static_cast<size_t>(y) * stride + static_cast<size_t>(x) * 3 + c] =
             static_cast<uint8_t>(std::clamp(v, 0, 255));
       }
