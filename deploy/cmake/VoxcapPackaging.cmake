@@ -16,7 +16,7 @@ if(VC_PART_EDGE)
   install(FILES ${VC_PACKAGING_DIR}/edge.toml DESTINATION /etc/voxcap COMPONENT edge)
   install(FILES ${VC_PACKAGING_DIR}/edge.toml DESTINATION ${CMAKE_INSTALL_DATADIR}/voxcap/examples COMPONENT edge)
   install(FILES ${VC_PACKAGING_DIR}/voxcap-edge.service DESTINATION ${VC_SYSTEMD_UNITDIR} COMPONENT edge)
-  install(FILES ${PROJECT_SOURCE_DIR}/edge/daemon/README.md DESTINATION ${CMAKE_INSTALL_DOCDIR}/../voxcap-edge
+  install(FILES ${PROJECT_SOURCE_DIR}/edge/daemon/README.md DESTINATION ${CMAKE_INSTALL_DATADIR}/doc/voxcap-edge
           COMPONENT edge)
 endif()
 if(VC_PART_HOST)

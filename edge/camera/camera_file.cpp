@@ -56,7 +56,9 @@ std::vector<std::pair<uint64_t, std::string>> list_frames(const std::string& fol
     if (name.size() < 5 || name.compare(name.size() - 4, 4, ".png") != 0) continue;
     std::string stem = name.substr(0, name.size() - 4);
     if (stem.empty() || stem.find_first_not_of("0123456789") != std::string::npos) continue;
-    out.emplace_back(std::strtoull(stem.c_str(), nullptr, 10), folder + "/" + name);
+    std::string path = folder;
+    path.append("/").append(name);
+    out.emplace_back(std::strtoull(stem.c_str(), nullptr, 10), std::move(path));
   }
   closedir(d);
   std::sort(out.begin(), out.end());
