@@ -78,13 +78,13 @@ if [ ${#missing[@]} -gt 0 ] || [ ${#arm_missing[@]} -gt 0 ]; then
   $SUDO apt-get install -y -qq --no-install-recommends -t bookworm-backports "${bp_pkgs[@]}" >/dev/null
   # The arm64 libraries must never displace an amd64 package (multiarch versions must match, and some
   # arm64 packages conflict with the host's): refuse rather than remove anything.
-  if apt-get install -s --no-install-recommends "${arm_pkgs[@]}" 2>&1 | grep -q '^Remv'; then
+  if apt-get install -s --no-install-recommends "${arm_pkgs[@]}" 2>&1 | grep '^Remv' >/dev/null; then
     echo "install-deps: installing the arm64 libraries would remove amd64 packages:" >&2
     apt-get install -s --no-install-recommends "${arm_pkgs[@]}" 2>&1 | grep '^Remv' >&2
     exit 1
   fi
   $SUDO apt-get install -y -qq --no-install-recommends "${arm_pkgs[@]}" >/dev/null
-  if apt-get install -s --no-install-recommends -t bookworm-backports "${arm_bp_pkgs[@]}" 2>&1 | grep -q '^Remv'; then
+  if apt-get install -s --no-install-recommends -t bookworm-backports "${arm_bp_pkgs[@]}" 2>&1 | grep '^Remv' >/dev/null; then
     echo "install-deps: installing ${arm_bp_pkgs[*]} would remove amd64 packages" >&2
     exit 1
   fi
