@@ -48,6 +48,18 @@ pkgs+=(blender)
 pkgs+=(openssh-server openssh-client libyaml-cpp-dev)
 # From bookworm-backports (pinned to that suite explicitly).
 bp_pkgs=(libcamera-dev libgpiod-dev)
+# The board build (deploy/cmake/toolchain-aarch64.cmake, preset arm64) and its unit tests under
+# qemu-user: Debian's cross toolchain, and the edge's libraries for arm64 through multiarch, beside the
+# amd64 ones. Only what can sit beside the host's packages: OpenCV's core, imgproc and video -dev and
+# calib3d's runtime library (its -dev package and imgcodecs pull the arm64 GDAL, which would remove the
+# host's libopencv-dev and blender; the build takes calib3d's headers from the amd64 -dev package).
+pkgs+=(crossbuild-essential-arm64 qemu-user)
+arm_pkgs=(libopencv-core-dev:arm64 libopencv-imgproc-dev:arm64
+          libopencv-video-dev:arm64 libopencv-calib3d406:arm64 libsodium-dev:arm64 libfmt-dev:arm64
+          libtomlplusplus-dev:arm64 libgtest-dev:arm64 libgmock-dev:arm64)
+# libcamera-dev is not multiarch (arm64 and amd64 replace each other): its arm64 runtime library
+# only; the headers are the amd64 -dev package's, the same for every architecture.
+arm_bp_pkgs=(libcamera0.3:arm64 libgpiod-dev:arm64)
 
 missing=()
 for p in "${pkgs[@]}" "${bp_pkgs[@]}"; do
@@ -57,11 +69,31 @@ done
 if dpkg-query -W -f='${Version}' libgpiod-dev 2>/dev/null | grep -q '^1\.'; then missing+=(libgpiod-dev); fi
 if dpkg-query -W -f='${Version}' libcamera-dev 2>/dev/null | grep -q '^0\.0\.'; then missing+=(libcamera-dev); fi
 
-if [ ${#missing[@]} -gt 0 ]; then
-  echo "install-deps: installing ${missing[*]}"
+arm_missing=()
+for p in "${arm_pkgs[@]}" "${arm_bp_pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || arm_missing+=("$p")
+done
+if dpkg-query -W -f='${Version}' libgpiod-dev:arm64 2>/dev/null | grep -q '^1\.'; then arm_missing+=(libgpiod-dev:arm64); fi
+
+if [ ${#missing[@]} -gt 0 ] || [ ${#arm_missing[@]} -gt 0 ]; then
+  echo "install-deps: installing ${missing[*]} ${arm_missing[*]}"
+  if ! dpkg --print-foreign-architectures | grep -qx arm64; then $SUDO dpkg --add-architecture arm64; fi
   $SUDO apt-get update -qq
   $SUDO apt-get install -y -qq --no-install-recommends "${pkgs[@]}" >/dev/null
   $SUDO apt-get install -y -qq --no-install-recommends -t bookworm-backports "${bp_pkgs[@]}" >/dev/null
+  # The arm64 libraries must never displace an amd64 package (multiarch versions must match, and some
+  # arm64 packages conflict with the host's): refuse rather than remove anything.
+  if apt-get install -s --no-install-recommends "${arm_pkgs[@]}" 2>&1 | grep '^Remv' >/dev/null; then
+    echo "install-deps: installing the arm64 libraries would remove amd64 packages:" >&2
+    apt-get install -s --no-install-recommends "${arm_pkgs[@]}" 2>&1 | grep '^Remv' >&2
+    exit 1
+  fi
+  $SUDO apt-get install -y -qq --no-install-recommends "${arm_pkgs[@]}" >/dev/null
+  if apt-get install -s --no-install-recommends -t bookworm-backports "${arm_bp_pkgs[@]}" 2>&1 | grep '^Remv' >/dev/null; then
+    echo "install-deps: installing ${arm_bp_pkgs[*]} would remove amd64 packages" >&2
+    exit 1
+  fi
+  $SUDO apt-get install -y -qq --no-install-recommends -t bookworm-backports "${arm_bp_pkgs[@]}" >/dev/null
 fi
 
 # The kernel image for the VM test is unpacked into a cache folder rather than installed, so the

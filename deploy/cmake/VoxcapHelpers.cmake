@@ -35,3 +35,65 @@ function(vc_test)
     PROPERTIES LABELS "${T_LABELS}" TIMEOUT ${T_TIMEOUT} RUN_SERIAL ${T_SERIAL}
     WORKING_DIRECTORY ${CMAKE_CURRENT_BINARY_DIR})
 endfunction()
+
+# vc_find_opencv(<modules...>): OpenCV 4 for the given modules, as the targets opencv_<module>.
+# OpenCV's CMake package (OpenCVConfig.cmake) comes with Debian's libopencv-dev, which is not
+# multiarch-installable. A cross build against the arm64 packages has, instead, per module: the
+# -dev package (core, imgproc, video: headers and libopencv_<m>.so), or only the runtime library
+# (calib3d: libopencv_<m>.so.406, whose -dev package cannot be installed beside the amd64 host's;
+# its headers are the amd64 -dev package's, the same version), or nothing (imgcodecs: its arm64
+# runtime conflicts with the host's GDAL). There each module found becomes an imported target of its
+# own (the names the package file defines); a missing one is left undefined, and its users test
+# TARGET opencv_<m>.
+macro(vc_find_opencv)
+  find_package(OpenCV 4 QUIET COMPONENTS ${ARGN})
+  if(NOT OpenCV_FOUND)
+    find_path(VC_OPENCV_INCLUDE_DIR opencv2/core.hpp PATH_SUFFIXES opencv4 REQUIRED)
+    set(_vc_cv_inc ${VC_OPENCV_INCLUDE_DIR})
+    if(EXISTS /usr/include/${CMAKE_LIBRARY_ARCHITECTURE}/opencv4)
+      list(APPEND _vc_cv_inc /usr/include/${CMAKE_LIBRARY_ARCHITECTURE}/opencv4) # cvconfig.h
+    endif()
+    set(_vc_cv_found)
+    foreach(_vc_m ${ARGN})
+      if(NOT TARGET opencv_${_vc_m})
+        find_library(VC_OPENCV_${_vc_m}_LIBRARY NAMES opencv_${_vc_m} libopencv_${_vc_m}.so.406)
+        if(VC_OPENCV_${_vc_m}_LIBRARY)
+          add_library(opencv_${_vc_m} SHARED IMPORTED GLOBAL)
+          set_target_properties(opencv_${_vc_m} PROPERTIES
+            IMPORTED_LOCATION ${VC_OPENCV_${_vc_m}_LIBRARY}
+            INTERFACE_INCLUDE_DIRECTORIES "${_vc_cv_inc}")
+          if(NOT _vc_m STREQUAL "core")
+            set_property(TARGET opencv_${_vc_m} APPEND PROPERTY INTERFACE_LINK_LIBRARIES opencv_core)
+          endif()
+          list(APPEND _vc_cv_found ${_vc_m})
+        endif()
+      endif()
+    endforeach()
+    if(NOT TARGET opencv_core)
+      message(FATAL_ERROR "OpenCV: neither its CMake package nor libopencv_core found")
+    endif()
+    message(STATUS "OpenCV: no CMake package (cross build); imported ${_vc_cv_found} from ${_vc_cv_inc}")
+  endif()
+endmacro()
+
+# vc_find_libcamera(): PkgConfig::LIBCAMERA (libcamera >= 0.3). Debian's libcamera-dev is not
+# multiarch-installable (its arm64 and amd64 packages replace each other); a cross build has the arm64
+# runtime libraries (libcamera0.3:arm64) and the amd64 -dev package's headers, which are the same for
+# every architecture. There the target is made from those (the same flags libcamera.pc gives).
+macro(vc_find_libcamera)
+  if(CMAKE_CROSSCOMPILING)
+    pkg_check_modules(LIBCAMERA QUIET IMPORTED_TARGET libcamera>=0.3)
+  else()
+    pkg_check_modules(LIBCAMERA REQUIRED IMPORTED_TARGET libcamera>=0.3)
+  endif()
+  if(NOT TARGET PkgConfig::LIBCAMERA)
+    find_path(VC_LIBCAMERA_INCLUDE_DIR libcamera/camera_manager.h PATH_SUFFIXES libcamera REQUIRED)
+    find_library(VC_LIBCAMERA_LIBRARY NAMES camera libcamera.so.0.3 REQUIRED)
+    find_library(VC_LIBCAMERA_BASE_LIBRARY NAMES camera-base libcamera-base.so.0.3 REQUIRED)
+    add_library(PkgConfig::LIBCAMERA INTERFACE IMPORTED GLOBAL)
+    set_target_properties(PkgConfig::LIBCAMERA PROPERTIES
+      INTERFACE_INCLUDE_DIRECTORIES ${VC_LIBCAMERA_INCLUDE_DIR}
+      INTERFACE_LINK_LIBRARIES "${VC_LIBCAMERA_LIBRARY};${VC_LIBCAMERA_BASE_LIBRARY}")
+    message(STATUS "libcamera: no arm64 libcamera.pc (cross build); ${VC_LIBCAMERA_LIBRARY} with ${VC_LIBCAMERA_INCLUDE_DIR}")
+  endif()
+endmacro()

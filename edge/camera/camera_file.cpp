@@ -16,7 +16,9 @@
 #include <cstring>
 #include <memory>
 #include <opencv2/core.hpp>
+#if VC_HAVE_IMGCODECS
 #include <opencv2/imgcodecs.hpp>
+#endif
 #include <opencv2/imgproc.hpp>
 #include <string>
 #include <utility>
@@ -54,17 +56,31 @@ std::vector<std::pair<uint64_t, std::string>> list_frames(const std::string& fol
     if (name.size() < 5 || name.compare(name.size() - 4, 4, ".png") != 0) continue;
     std::string stem = name.substr(0, name.size() - 4);
     if (stem.empty() || stem.find_first_not_of("0123456789") != std::string::npos) continue;
-    out.emplace_back(std::strtoull(stem.c_str(), nullptr, 10), folder + "/" + name);
+    std::string path = folder;
+    path.append("/").append(name);
+    out.emplace_back(std::strtoull(stem.c_str(), nullptr, 10), std::move(path));
   }
   closedir(d);
   std::sort(out.begin(), out.end());
   return out;
 }
 
+// cv::imread, or nothing in a build without OpenCV's imgcodecs (the arm64 cross build: Debian's arm64
+// imgcodecs cannot be installed beside the amd64 host's libraries; a board's native build has it).
+cv::Mat imread_bgr(const std::string& path) {
+#if VC_HAVE_IMGCODECS
+  return cv::imread(path, cv::IMREAD_COLOR);
+#else
+  (void)path;
+  return {};
+#endif
+}
+constexpr const char* kNoPng = VC_HAVE_IMGCODECS ? "" : " (PNG reading not built in: no OpenCV imgcodecs)";
+
 // Reads a PNG into rgb (w x h, stride bytes per row). 0, -EIO (unreadable) or -ENOTSUP (size).
 int read_rgb(vc_camera* cam, const std::string& path, int w, int h, uint8_t* rgb, size_t stride) {
-  cv::Mat bgr = cv::imread(path, cv::IMREAD_COLOR);
-  if (bgr.empty()) return vc_camera_set_error(cam, -EIO, "cannot read image %s", path.c_str());
+  cv::Mat bgr = imread_bgr(path);
+  if (bgr.empty()) return vc_camera_set_error(cam, -EIO, "cannot read image %s%s", path.c_str(), kNoPng);
   if (bgr.cols != w || bgr.rows != h)
     return vc_camera_set_error(cam, -EIO, "%s is %dx%d, the sequence is %dx%d", path.c_str(), bgr.cols,
                                bgr.rows, w, h);
@@ -83,8 +99,9 @@ int load_scene(vc_camera* cam, FileCamera* f, vc_camera_scene scene, int* width,
   auto frames = list_frames(folder);
   if (frames.empty())
     return vc_camera_set_error(cam, -ENOENT, "no <number>.png frames in %s", folder.c_str());
-  cv::Mat first = cv::imread(frames[0].second, cv::IMREAD_COLOR);
-  if (first.empty()) return vc_camera_set_error(cam, -EIO, "cannot read image %s", frames[0].second.c_str());
+  cv::Mat first = imread_bgr(frames[0].second);
+  if (first.empty())
+    return vc_camera_set_error(cam, -EIO, "cannot read image %s%s", frames[0].second.c_str(), kNoPng);
   *width = first.cols;
   *height = first.rows;
   f->folder = std::move(folder);

@@ -17,6 +17,7 @@
 #include <CLI/CLI.hpp>
 
 #include "commands.hpp"
+#include "voxcap/base/programs.hpp"
 
 namespace vc::cli {
 namespace {
@@ -25,10 +26,14 @@ namespace fs = std::filesystem;
 
 [[noreturn]] void exec_bench(const std::string& voxcap_argv0, const std::string& group,
                              const std::vector<std::string>& rest) {
-  const fs::path bin = fs::read_symlink("/proc/self/exe").parent_path() / "voxcap-bench";
-  if (!fs::exists(bin))
+  const fs::path bin = vc::find_program("voxcap-bench");
+  if (bin.empty()) {
+    std::string where;
+    for (const fs::path& p : vc::program_candidates("voxcap-bench"))
+      where += (where.empty() ? "" : ", ") + p.string();
     throw std::runtime_error(
-        fmt::format("{} not found beside voxcap (build the voxcap-bench target)", bin.string()));
+        fmt::format("voxcap-bench not found (looked in {}; build the voxcap-bench target)", where));
+  }
   std::vector<std::string> args{voxcap_argv0 + " bench", group};
   args.insert(args.end(), rest.begin(), rest.end());
   std::vector<char*> argv;

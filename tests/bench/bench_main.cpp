@@ -153,7 +153,7 @@ void add_edge_command(CLI::App& app) {
     std::vector<int> grids;
     vc::bench::EdgeBenchOptions opt;
     bool json = false, no_callgrind = false, no_rss = false;
-    std::string child, frames_file;
+    std::string child, frames_file, size;
   };
   auto args = std::make_shared<EdgeArgs>();
   auto* edge = app.add_subcommand("edge",
@@ -169,12 +169,17 @@ void add_edge_command(CLI::App& app) {
   edge->add_option("--bg-frames", args->opt.bg_frames, "Empty-room frames the background model learns from")
       ->check(CLI::Range(2, 1000))
       ->capture_default_str();
-  edge->add_option("--width", args->opt.width, "Image width per camera")
-      ->check(CLI::Range(16, 4096))
-      ->capture_default_str();
-  edge->add_option("--height", args->opt.height, "Image height per camera")
-      ->check(CLI::Range(16, 4096))
-      ->capture_default_str();
+  auto* width = edge->add_option("--width", args->opt.width, "Image width per camera")
+                    ->check(CLI::Range(16, 4096))
+                    ->capture_default_str();
+  auto* height = edge->add_option("--height", args->opt.height, "Image height per camera")
+                     ->check(CLI::Range(16, 4096))
+                     ->capture_default_str();
+  edge->add_option("--size", args->size,
+                   "Image size per camera WxH, each 16..4096, instead of --width/--height (1456x1088: the "
+                   "Raspberry Pi Global Shutter camera's native size)")
+      ->excludes(width)
+      ->excludes(height);
   edge->add_flag("--json", args->json, "Print JSON (keys below) instead of a table");
   edge->add_flag("--no-callgrind", args->no_callgrind, "Skip the instruction counts (no valgrind child)");
   edge->add_flag("--no-rss", args->no_rss, "Skip the peak-memory child");
@@ -187,6 +192,16 @@ void add_edge_command(CLI::App& app) {
 
   edge->callback([args] {
     vc::bench::EdgeBenchOptions opt = args->opt;
+    if (!args->size.empty()) {
+      int w = 0, h = 0;
+      char tail = 0;
+      if (std::sscanf(args->size.c_str(), "%dx%d%c", &w, &h, &tail) != 2 || w < 16 || w > 4096 || h < 16 ||
+          h > 4096)
+        throw UsageError("--size: expected WxH with each side 16..4096 (e.g. 1456x1088), got '" + args->size +
+                         "'");
+      opt.width = w;
+      opt.height = h;
+    }
     opt.callgrind = !args->no_callgrind;
     opt.rss = !args->no_rss;
     std::vector<int> grids = args->grids.empty() ? std::vector<int>{128} : args->grids;

@@ -16,6 +16,10 @@ run(0 "Usage: [^\n]*voxcap bench edge \\[OPTIONS\\].*--bg-frames.*goals\\.\\*" $
 run(2 "^voxcap: --child needs --frames-file and one --grid\n$" ${VOXCAP} bench edge --child rss)
 run(2 "^voxcap-bench: --child needs --frames-file and one --grid\n$" ${VOXCAP_BENCH} edge --child rss)
 run(2 "^voxcap: --size: expected WxH\n$" ${VOXCAP} bench host --no-rig --size 3)
+# bench edge --size WxH (issue #16): the Pi Global Shutter camera's 1456x1088 is the frame measured.
+run(2 "^voxcap: --size: expected WxH with each side 16..4096 \\(e.g. 1456x1088\\), got '3'\n$" ${VOXCAP} bench edge --size 3)
+run(2 "^voxcap: --size: expected WxH with each side 16..4096[^\n]*got '1456x1088x2'\n$" ${VOXCAP} bench edge --size 1456x1088x2)
+run(2 "excludes --width" ${VOXCAP} bench edge --size 1456x1088 --width 640)
 # CLI11's own parse errors are bad input like any other: one line, exit 2 (issue #13; was CLI11's 105).
 run(2 "^voxcap: --grid: Value 2 not in range[^\n]*\n$" ${VOXCAP} bench edge --grid 2)
 
@@ -24,7 +28,7 @@ file(REMOVE_RECURSE ${WORK})
 file(MAKE_DIRECTORY ${WORK})
 file(COPY ${VOXCAP} DESTINATION ${WORK})
 get_filename_component(name ${VOXCAP} NAME)
-run(1 "^voxcap: [^\n]*/voxcap-bench not found beside voxcap \\(build the voxcap-bench target\\)\n$"
+run(1 "^voxcap: voxcap-bench not found \\(looked in [^\n]*/voxcap-bench, [^\n]*/libexec/voxcap/voxcap-bench[^\n]*; build the voxcap-bench target\\)\n$"
     ${WORK}/${name} bench edge --grid 16)
 run(0 "voxcap" ${WORK}/${name} --version)
 file(REMOVE_RECURSE ${WORK})

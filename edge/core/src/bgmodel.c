@@ -56,6 +56,9 @@
 #include "dispatch.h"
 #include "voxcap/why.h"
 
+#if VC_HAVE_NEON_VARIANT
+#include <arm_neon.h>
+#endif
 #if VC_HAVE_AVX2_VARIANT
 #include <immintrin.h>
 #endif
@@ -453,6 +456,52 @@ VC_TARGET_AVX2 static int classify_row_avx2(const uint8_t* restrict px, const ui
 }
 #endif
 
+#if VC_HAVE_NEON_VARIANT
+/* Pass A with NEON, 16 pixels per step; the same codes as classify_span. ld3 de-interleaves the
+ * 48 bytes of each plane into one vector per channel, so a pixel's three channel codes fold with
+ * plain ORs (no shuffles): with band = OR of the channels' (blo - p) and fg = OR of (flo - p) and
+ * (p - fhi) (saturated), the code is 0xFF where fg != 0, else min(band, 1) -- the OR of the three
+ * channel codes of classify_span. The band pixels' bits come from (code == 1) ANDed with the bit
+ * weights 1..128 and summed per half. */
+static int classify_row_neon(const uint8_t* restrict px, const uint8_t* restrict blo,
+                             const uint8_t* restrict flo, const uint8_t* restrict fhi, uint8_t* restrict out,
+                             uint64_t* restrict bits, int n) {
+  static const uint8_t weights[16] = {1, 2, 4, 8, 16, 32, 64, 128, 1, 2, 4, 8, 16, 32, 64, 128};
+  const uint8x16_t wv = vld1q_u8(weights);
+  const uint8x16_t one = vdupq_n_u8(1);
+  const int n16 = n & ~15;
+  uint64_t any = 0;
+  for (int x = 0; x < n16; x += 16) {
+    const size_t o = 3 * (size_t)x;
+    const uint8x16x3_t p = vld3q_u8(px + o);
+    const uint8x16x3_t b = vld3q_u8(blo + o);
+    const uint8x16x3_t fl = vld3q_u8(flo + o);
+    const uint8x16x3_t fh = vld3q_u8(fhi + o);
+    uint8x16_t band = vqsubq_u8(b.val[0], p.val[0]);
+    band = vorrq_u8(band, vqsubq_u8(b.val[1], p.val[1]));
+    band = vorrq_u8(band, vqsubq_u8(b.val[2], p.val[2]));
+    uint8x16_t fg = vorrq_u8(vqsubq_u8(fl.val[0], p.val[0]), vqsubq_u8(p.val[0], fh.val[0]));
+    fg = vorrq_u8(fg, vorrq_u8(vqsubq_u8(fl.val[1], p.val[1]), vqsubq_u8(p.val[1], fh.val[1])));
+    fg = vorrq_u8(fg, vorrq_u8(vqsubq_u8(fl.val[2], p.val[2]), vqsubq_u8(p.val[2], fh.val[2])));
+    const uint8x16_t v = vorrq_u8(vtstq_u8(fg, fg), vminq_u8(band, one)); /* vtst: 0xFF where != 0 */
+    vst1q_u8(out + x, v);
+    const uint8x16_t marks = vandq_u8(vceqq_u8(v, one), wv);
+    const uint64_t mb = (uint64_t)vaddv_u8(vget_low_u8(marks)) | (uint64_t)vaddv_u8(vget_high_u8(marks)) << 8;
+    if ((x & 63) == 0)
+      bits[x / 64] = mb;
+    else
+      bits[x / 64] |= mb << (x & 63);
+    any |= mb;
+  }
+  if (n16 < n) { /* the last n % 16 pixels: the portable code, from a multiple of 16 */
+    const int x64 = n16 & ~63;
+    classify_span(px, blo, flo, fhi, out, n16, n);
+    any |= (uint64_t)band_bits(out, x64, n, bits);
+  }
+  return any != 0;
+}
+#endif
+
 /* Pass B: eq. 2 for the band pixels of one row (bit i of `bits`), walked with count-trailing-zeros
  * (words without band pixels cost a test). A pixel that fails is foreground (0xFF); one that
  * passes is background (0), and when the texture test is on (`cand` not NULL) also a candidate,
@@ -612,6 +661,9 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
                   const uint8_t* restrict, uint8_t* restrict, uint64_t* restrict, int) = classify_row_generic;
 #if VC_HAVE_AVX2_VARIANT
   if (vc__use_avx2()) classify = classify_row_avx2;
+#endif
+#if VC_HAVE_NEON_VARIANT
+  if (vc__use_neon()) classify = classify_row_neon;
 #endif
   const int w = m->width, h = m->height, r = VC_TEXTURE_RADIUS, rows = 2 * VC_TEXTURE_RADIUS + 1;
   const size_t row = (size_t)w * 3;

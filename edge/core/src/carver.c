@@ -44,7 +44,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "dispatch.h"
 #include "voxcap/why.h"
+
+#if VC_HAVE_NEON_VARIANT
+#include <arm_neon.h>
+#endif
 
 #define TOP 16
 #define MID 8
@@ -1081,6 +1086,39 @@ static inline uint64_t leaf_lookup_wide(const uint8_t* mask, const uint32_t* e) 
   return bits;
 }
 
+#if VC_HAVE_NEON_VARIANT
+/* The NEON variant of the two lookups: the 64 pixel bytes are gathered as they are (NEON has no
+ * gather) into one 64-byte block, and the block becomes the 64 bits in vector registers: nonzero
+ * bytes to 0xFF (tst), each ANDed with its bit's weight 1..128, three rounds of pairwise adds fold
+ * each 8 bytes into one, whose 8 bytes are the result (little-endian: byte k holds voxels 8k..8k+7).
+ * The scalar form's compare, shift and OR per voxel go; the same bits. */
+static inline uint64_t pack64_neon(const uint8_t g[64]) {
+  static const uint8_t weights[16] = {1, 2, 4, 8, 16, 32, 64, 128, 1, 2, 4, 8, 16, 32, 64, 128};
+  const uint8x16_t w = vld1q_u8(weights);
+  const uint8x16x4_t q = vld1q_u8_x4(g);
+  const uint8x16_t t0 = vandq_u8(vtstq_u8(q.val[0], q.val[0]), w);
+  const uint8x16_t t1 = vandq_u8(vtstq_u8(q.val[1], q.val[1]), w);
+  const uint8x16_t t2 = vandq_u8(vtstq_u8(q.val[2], q.val[2]), w);
+  const uint8x16_t t3 = vandq_u8(vtstq_u8(q.val[3], q.val[3]), w);
+  uint8x16_t p = vpaddq_u8(vpaddq_u8(t0, t1), vpaddq_u8(t2, t3));
+  p = vpaddq_u8(p, p);
+  return vgetq_lane_u64(vreinterpretq_u64_u8(p), 0);
+}
+
+static inline uint64_t leaf_lookup_neon(const uint8_t* mask, uint32_t base, const uint16_t* e) {
+  const uint8_t* b = mask + base;
+  uint8_t g[64];
+  for (int v = 0; v < 64; v++) g[v] = b[e[v]];
+  return pack64_neon(g);
+}
+
+static inline uint64_t leaf_lookup_wide_neon(const uint8_t* mask, const uint32_t* e) {
+  uint8_t g[64];
+  for (int v = 0; v < 64; v++) g[v] = mask[e[v]];
+  return pack64_neon(g);
+}
+#endif
+
 /* ORs a leaf's 64 bits (x + 4y + 16z) into the bitset at voxel origin (i0, j0, k0). Bits of voxels
  * outside the grid are zero, so no byte past a row's last voxel is written. */
 static void write_leaf(const grid_i* g, uint8_t* bits, int i0, int j0, int k0, uint64_t b) {
@@ -1116,6 +1154,9 @@ int vc_carver_run(vc_carver* cv, const uint8_t* mask0, const uint8_t* mask1, uin
     }
   }
   memset(bitset, 0, vc_carver_bitset_bytes(cv));
+#if VC_HAVE_NEON_VARIANT
+  const bool neon = vc__use_neon();
+#endif
   const grid_i* g = &cv->grid;
   uint64_t occupied = 0;
   uint32_t skipped = 0, filled = 0, tested = 0;
@@ -1174,12 +1215,28 @@ int vc_carver_run(vc_carver* cv, const uint8_t* mask0, const uint8_t* mask1, uin
             } else {
               if (t->wide != NO_TAB) {
                 const uint32_t* we = cv->wide + (size_t)t->wide * 2 * 64;
-                if (l0 == S_PART) b &= leaf_lookup_wide(cm[0][t->cls[0]], we);
-                if (l1 == S_PART && b != 0) b &= leaf_lookup_wide(cm[1][t->cls[1]], we + 64);
+#if VC_HAVE_NEON_VARIANT
+                if (neon) {
+                  if (l0 == S_PART) b &= leaf_lookup_wide_neon(cm[0][t->cls[0]], we);
+                  if (l1 == S_PART && b != 0) b &= leaf_lookup_wide_neon(cm[1][t->cls[1]], we + 64);
+                } else
+#endif
+                {
+                  if (l0 == S_PART) b &= leaf_lookup_wide(cm[0][t->cls[0]], we);
+                  if (l1 == S_PART && b != 0) b &= leaf_lookup_wide(cm[1][t->cls[1]], we + 64);
+                }
               } else {
                 const uint16_t* e = cv->entries + (size_t)cv->leaf_tab_idx[li] * 2 * 64;
-                if (l0 == S_PART) b &= leaf_lookup(cm[0][t->cls[0]], t->base[0], e);
-                if (l1 == S_PART && b != 0) b &= leaf_lookup(cm[1][t->cls[1]], t->base[1], e + 64);
+#if VC_HAVE_NEON_VARIANT
+                if (neon) {
+                  if (l0 == S_PART) b &= leaf_lookup_neon(cm[0][t->cls[0]], t->base[0], e);
+                  if (l1 == S_PART && b != 0) b &= leaf_lookup_neon(cm[1][t->cls[1]], t->base[1], e + 64);
+                } else
+#endif
+                {
+                  if (l0 == S_PART) b &= leaf_lookup(cm[0][t->cls[0]], t->base[0], e);
+                  if (l1 == S_PART && b != 0) b &= leaf_lookup(cm[1][t->cls[1]], t->base[1], e + 64);
+                }
               }
               tested++;
             }

@@ -820,7 +820,7 @@ TEST(SubtractParams, GainsAndTextureKAreBounded) {
   EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), 0);
 }
 
-INSTANTIATE_TEST_SUITE_P(Kernels, SubtractVariants, ::testing::Values("generic", "avx2"),
+INSTANTIATE_TEST_SUITE_P(Kernels, SubtractVariants, ::testing::Values("generic", "avx2", "neon"),
                          [](const auto& p) { return std::string(p.param); });
 
 TEST(EdgeKernels, SelectRejectsUnknownNames) {

@@ -115,7 +115,7 @@ TEST_P(CleanupVariants, RadiusEqualsTheReferenceOnRandomMasks) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Kernels, CleanupVariants, ::testing::Values("generic", "avx2"),
+INSTANTIATE_TEST_SUITE_P(Kernels, CleanupVariants, ::testing::Values("generic", "avx2", "neon"),
                          [](const auto& p) { return std::string(p.param); });
 
 TEST(Cleanup, ZeroIterationsNormalisesAndBadArgumentsFail) {

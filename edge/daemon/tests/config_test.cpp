@@ -177,3 +177,21 @@ TEST(EdgeConfig, OnlyABoundedRegularFileIsRead) {
 }
 
 }  // namespace
+
+namespace {
+
+// The example the voxcap-edge package installs as /etc/voxcap/edge.toml (deploy/packaging/edge.toml):
+// it loads and validates, for the reference rig's Pi 5 (two GS cameras at 1456x1088, GPIO18).
+TEST(EdgeConfig, PackagedExampleLoads) {
+  vc::edge::EdgeSettings s;
+  vc::edge::load_edge_toml(VOXCAP_SOURCE_DIR "/deploy/packaging/edge.toml", s);
+  s.validate();
+  vc_edged_options o = vc::edge::to_options(s);
+  EXPECT_EQ(o.node_id, 1);
+  EXPECT_STREQ(o.cameras[0].backend, "libcamera");
+  EXPECT_STREQ(o.cameras[1].backend, "libcamera");
+  EXPECT_STREQ(o.trigger.backend, "gpiod");
+  EXPECT_EQ(s.gpio_line_name, "GPIO18");
+}
+
+}  // namespace

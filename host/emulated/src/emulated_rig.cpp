@@ -1,6 +1,7 @@
 #include "voxcap/emulated/emulated_rig.hpp"
 
 #include "voxcap/auth.h"
+#include "voxcap/base/programs.hpp"
 
 #include <arpa/inet.h>
 #include <fcntl.h>
@@ -737,8 +738,8 @@ void EmulatedRig::start(double timeout_s) {
     m.dir = o.workdir;
     fs::create_directories(m.dir);
   }
-  m.edge_bin = o.edge_binary.empty() ? fs::read_symlink("/proc/self/exe").parent_path() / "voxcap-edge"
-                                     : o.edge_binary;
+  m.edge_bin = o.edge_binary.empty() ? vc::find_program("voxcap-edge") : fs::path(o.edge_binary);
+  if (m.edge_bin.empty()) m.edge_bin = vc::program_candidates("voxcap-edge").front();
   if (!fs::exists(m.edge_bin))
     throw std::runtime_error(
         fmt::format("edge binary {} not found (build the voxcap-edge target)", m.edge_bin.string()));

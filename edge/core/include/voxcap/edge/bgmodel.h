@@ -156,11 +156,12 @@ typedef struct vc_subtract_stats {
 int vc_subtract(const vc_bgmodel* model, const uint8_t* rgb, size_t stride, uint8_t* mask,
                 vc_subtract_stats* stats);
 
-/* Name of the kernel variant in use ("generic" or "avx2"). */
+/* Name of the kernel variant in use ("generic", "avx2" or "neon"). */
 const char* vc_edge_kernel_name(void);
 
 /* Selects the kernel variant for all subsequent calls of this library: "auto" (the best one this CPU
- * runs), "generic" (portable C, what every CPU runs), "avx2" (x86-64 with AVX2). Returns 0, or
+ * runs), "generic" (portable C, what every CPU runs), "avx2" (x86-64 with AVX2), "neon" (aarch64: the
+ * hand-written Advanced SIMD kernels, equal to "generic" bit for bit). Returns 0, or
  * -ENOTSUP when the variant cannot run here. Meant for tests and benchmarks; not thread-safe. */
 int vc_edge_kernel_select(const char* name);
 
