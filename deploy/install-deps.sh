@@ -41,6 +41,9 @@ pkgs+=(libsodium-dev)
 pkgs+=(qemu-system-x86 busybox-static cpio xz-utils zstd kmod)
 # The client test (label client): the exported BVH in Blender, headless, with its stock importer.
 pkgs+=(blender)
+# The live viewer (host/view): Boost.Beast/Asio (header-only); the browser test drives Debian's chromium
+# headless through playwright-core; npm installs the page's packages (three.js) below.
+pkgs+=(libboost-dev chromium)
 # From bookworm-backports (pinned to that suite explicitly).
 bp_pkgs=(libcamera-dev libgpiod-dev)
 
@@ -70,5 +73,12 @@ if [ ! -f "$kcache/ready" ]; then
   $SUDO dpkg-deb -x "$tmp"/linux-image-*.deb "$kcache"
   rm -rf "$tmp"
   echo "$kpkg" | $SUDO tee "$kcache/ready" >/dev/null
+fi
+# The viewer's page and its browser test: three.js and playwright-core from the npm registry, exactly as
+# host/view/web/package-lock.json pins them (nodejs/npm from Debian when the machine has no node).
+command -v npm >/dev/null 2>&1 || $SUDO apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
+web=$(cd "$(dirname "$0")/.." && pwd)/host/view/web
+if [ ! -f "$web/node_modules/.package-lock.json" ] || ! cmp -s "$web/package-lock.json" "$web/node_modules/.voxcap-lock"; then
+  (cd "$web" && npm ci --no-audit --no-fund --loglevel=error) && cp "$web/package-lock.json" "$web/node_modules/.voxcap-lock"
 fi
 echo "install-deps: all dependencies present"

@@ -45,6 +45,7 @@ set(VC_LAYERS
   "host/export: vc_host_export"         # fitted poses -> BVH and joints.csv (hw/body's standard humanoid)
   "host/aggregator: vc_host_aggregator"
   "host/emulated: vc_host_emulated"
+  "host/view: vc_host_view"             # the live viewer: server, view stage, record switch, replay
   "apps: voxcap voxcap-host voxcap-edge voxcap-edge-nosim"
   "tests/bench: vc_bench_edge vc_bench_host voxcap-bench")
 

@@ -431,6 +431,7 @@ void check_sections(const RigConfig& c, const Context& ctx) {
   if (!c.assembly.valid(&why)) fail_validation(ctx, "assembly", why);
   if (!c.recording.valid(&why)) fail_validation(ctx, "recording", why);
   if (!c.network.valid(&why)) fail_validation(ctx, "network", why);
+  if (!c.viewer.valid(&why)) fail_validation(ctx, "viewer", why);
 }
 
 void collect_warnings(RigConfig* c) {
@@ -557,6 +558,19 @@ RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::pa
     Reader r(*t, "network", ctx);
     r.get("listen", &c.network.listen);
     r.get_int("port", &c.network.port, 1, 65535);
+    r.finish();
+  }
+  if (const toml::table* t = top.table("viewer")) {
+    Reader r(*t, "viewer", ctx);
+    r.get("enabled", &c.viewer.enabled);
+    r.get("bind", &c.viewer.bind);
+    r.get_int("port", &c.viewer.port, 1, 65535);
+    std::string assets;
+    if (r.get("assets", &assets)) {
+      c.viewer.assets = assets;
+      if (c.viewer.assets.is_relative()) c.viewer.assets = source.parent_path() / c.viewer.assets;
+      c.viewer.assets = std::filesystem::absolute(c.viewer.assets).lexically_normal();
+    }
     r.finish();
   }
   top.finish();

@@ -279,6 +279,13 @@ bool NetworkOptions::valid(std::string* why) const {
   return true;
 }
 
+bool ViewerOptions::valid(std::string* why) const {
+  if (bind != "any" && !is_ipv4(bind))
+    return fail(why, fmt::format("bind: must be a numeric IPv4 address or \"any\", got \"{}\"", bind));
+  if (port == 0) return fail(why, "port: must be 1-65535");
+  return true;
+}
+
 std::string_view to_string(TrackingNodes nodes) {
   return nodes == TrackingNodes::All ? "all" : "front";
 }

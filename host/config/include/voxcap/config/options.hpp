@@ -121,6 +121,16 @@ struct NetworkOptions {
   bool valid(std::string* why) const;
 };
 
+// The live viewer (host/view): the page and its WebSockets, served by voxcap-host and `voxcap rig`.
+struct ViewerOptions {
+  bool enabled = true;
+  std::string bind = "127.0.0.1";  // IPv4 address or "any" (0.0.0.0): the page has no login, keep it local
+  uint16_t port = 8080;
+  std::filesystem::path assets;  // the page's files; empty: share/voxcap/web beside the binary's bin/
+
+  bool valid(std::string* why) const;
+};
+
 enum class NodeRole { Side, Front };  // front nodes also track head, hands and feet (paper sec. 6)
 std::string_view to_string(NodeRole role);
 

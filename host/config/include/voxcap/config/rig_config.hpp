@@ -101,6 +101,7 @@ struct RigConfig {
   AssemblyOptions assembly;
   RecordingOptions recording;
   NetworkOptions network;
+  ViewerOptions viewer;
   std::vector<std::string> warnings;  // legal but suspicious ("3 udp targets for 2 nodes")
 
   // Cross-section checks (each section's own valid() included): node ids and camera assignments
