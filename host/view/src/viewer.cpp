@@ -368,7 +368,8 @@ Viewer::~Viewer() {
 }
 
 void Viewer::attach(pipeline::Pipeline& p) {
-  record_ = &p.tap(std::make_unique<RecordSwitch>(opt_.record_dir, opt_.record_at_start), RecordSwitch::kQueue);
+  if (opt_.record_switch)
+    record_ = &p.tap(std::make_unique<RecordSwitch>(opt_.record_dir, opt_.record_at_start), RecordSwitch::kQueue);
   stage_ = &p.tap(std::make_unique<ViewStage>(*server_, opt_.max_hz,
                                               [this](const config::RigConfig* rig) {
                                                 rig_ = rig;

@@ -80,6 +80,7 @@ function setupRig(h) {
   featureMeshes = h.features.map((_, i) => { const m = new THREE.Mesh(new THREE.SphereGeometry(0.045, 12, 8), new THREE.MeshBasicMaterial({ color: FEATURE_COLORS[i % 5], wireframe: true })); m.visible = false; world.add(m); return m; });
   voxelMesh = null; voxelCap = 0;
   buildCameraPanels(h);
+  redraw();
   $('legend').textContent = `${h.cameras.length} cameras · grid ${h.grid.nx}×${h.grid.ny}×${h.grid.nz} @ ${(v * 1000).toFixed(0)} mm`;
 }
 
@@ -113,6 +114,7 @@ function showHull(m) {
   }
   voxelMesh.count = surface.length;
   voxelMesh.instanceMatrix.needsUpdate = true;
+  redraw();
   state.hulls++; state.seq = m.seq; state.voxels = m.occupied; state.rendered = surface.length;
   state.latency_ms = m.latency_ms;
 }
@@ -124,6 +126,7 @@ function showPose(m) {
   pos.needsUpdate = true;
   skeleton.geometry.computeBoundingSphere();
   skeleton.visible = true;
+  redraw();
   m.joints.forEach((p, j) => { if (jointMeshes[j]) { jointMeshes[j].position.set(...p); jointMeshes[j].visible = true; } });
   state.joints = m.joints; state.poses++; state.pose_state = m.state;
 }
@@ -261,11 +264,15 @@ $('stepb').onclick = () => send({ cmd: 'step', by: -1 });
 $('scrub').oninput = () => { scrubbing = true; send({ cmd: 'seek', index: Number($('scrub').value) }); };
 $('scrub').onchange = () => { scrubbing = false; };
 
-function frame() {
-  controls.update();
-  renderer.render(scene, camera);
-  requestAnimationFrame(frame);
+// Rendering on demand (new data, the orbit controls, a resize): an idle page costs nothing.
+let pending = false;
+function redraw() {
+  if (pending) return;
+  pending = true;
+  requestAnimationFrame(() => { pending = false; renderer.render(scene, camera); state.renders = (state.renders || 0) + 1; });
 }
+controls.addEventListener('change', redraw);
+window.addEventListener('resize', redraw);
 resize();
 connect();
-frame();
+redraw();
