@@ -193,7 +193,7 @@ std::string hello_json(const config::RigConfig& rig, std::string_view mode) {
     std::string node;
     for (const config::NodeConfig& n : rig.nodes)
       for (const std::string& name : n.cameras)
-        if (name == cam.name) node = n.id;
+        if (rig.camera_index(name) == static_cast<int>(c)) node = n.id;
     cams.push_back({{"index", c},
                     {"name", cam.name},
                     {"node", node},

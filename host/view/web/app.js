@@ -31,9 +31,10 @@ const world = new THREE.Group();
 scene.add(world);
 
 let voxelMesh = null, voxelCap = 0, grid = null;
-const voxelMaterial = new THREE.MeshLambertMaterial({ color: 0x6fa8dc });
-const boneMaterial = new THREE.LineBasicMaterial({ color: 0xffcc33 });
-const jointMaterial = new THREE.MeshBasicMaterial({ color: 0xff5533 });
+// The hull is see-through so the skeleton inside it shows; the skeleton is drawn last, on top.
+const voxelMaterial = new THREE.MeshLambertMaterial({ color: 0x6fa8dc, transparent: true, opacity: 0.35, depthWrite: false });
+const boneMaterial = new THREE.LineBasicMaterial({ color: 0xffcc33, depthTest: false, linewidth: 2 });
+const jointMaterial = new THREE.MeshBasicMaterial({ color: 0xff5533, depthTest: false });
 let skeleton = null, jointMeshes = [], featureMeshes = [];
 
 function resize() {
@@ -74,9 +75,10 @@ function setupRig(h) {
   bg.setAttribute('position', new THREE.Float32BufferAttribute(new Float32Array(h.bones.length * 6), 3));
   skeleton = new THREE.LineSegments(bg, boneMaterial);
   skeleton.visible = false;
+  skeleton.renderOrder = 10;
   world.add(skeleton);
   const sg = new THREE.SphereGeometry(0.03, 12, 8);
-  jointMeshes = h.joints.map(() => { const m = new THREE.Mesh(sg, jointMaterial); m.visible = false; world.add(m); return m; });
+  jointMeshes = h.joints.map(() => { const m = new THREE.Mesh(sg, jointMaterial); m.visible = false; m.renderOrder = 11; world.add(m); return m; });
   featureMeshes = h.features.map((_, i) => { const m = new THREE.Mesh(new THREE.SphereGeometry(0.045, 12, 8), new THREE.MeshBasicMaterial({ color: FEATURE_COLORS[i % 5], wireframe: true })); m.visible = false; world.add(m); return m; });
   voxelMesh = null; voxelCap = 0;
   buildCameraPanels(h);
