@@ -33,8 +33,8 @@ struct DemoArgs {
   std::string out;  // demo: where the take and the session go
   bool json = false;
   bool eval = false;
-  bool view = false;    // serve the live viewer while it runs
-  int view_port = -1;   // -1: 8080
+  bool view = false;   // serve the live viewer while it runs
+  int view_port = -1;  // -1: 8080
 };
 
 void add_rig_options(CLI::App* cmd, DemoArgs& a) {

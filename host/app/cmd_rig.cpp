@@ -323,10 +323,12 @@ void add_rig_commands(CLI::App& app) {
   auto no_view = std::make_shared<bool>(false);
   auto view_port = std::make_shared<int>(-1);
   auto view_bind = std::make_shared<std::string>();
-  cmd->add_flag("--view", *view,
-                "emulated: serve the live viewer (host/view: the page, /ws, /pose.json) on 127.0.0.1:8080 (or "
-                "--view-bind/--view-port); sessions recorded from the page go below --record (default ./recordings)");
-  cmd->add_flag("--no-view", *no_view, "a real rig: do not serve the viewer (rig.toml [viewer] enabled = false)");
+  cmd->add_flag(
+      "--view", *view,
+      "emulated: serve the live viewer (host/view: the page, /ws, /pose.json) on 127.0.0.1:8080 (or "
+      "--view-bind/--view-port); sessions recorded from the page go below --record (default ./recordings)");
+  cmd->add_flag("--no-view", *no_view,
+                "a real rig: do not serve the viewer (rig.toml [viewer] enabled = false)");
   cmd->add_option("--view-port", *view_port,
                   "the viewer's port, over rig.toml [viewer] port (0: a free one; the URL is printed)")
       ->check(CLI::Range(0, 65535));
@@ -347,7 +349,8 @@ void add_rig_commands(CLI::App& app) {
         check.port = 1;  // --view-port 0 (a free port) is fine here
         std::string why;
         if (!check.valid(&why)) throw UsageError("--view-bind: " + why);
-        vo.record_dir = record->empty() ? std::filesystem::path("recordings") : std::filesystem::path(*record);
+        vo.record_dir =
+            record->empty() ? std::filesystem::path("recordings") : std::filesystem::path(*record);
         vo.record_at_start = !record->empty();  // the viewer's record switch records instead
         opt->record_dir.clear();
         viewer = std::make_unique<view::Viewer>(vo);
@@ -427,7 +430,8 @@ void add_rig_commands(CLI::App& app) {
       throw UsageError(e.what());
     }
     aggregator::Aggregator& agg = *agg_ptr;
-    const std::filesystem::path record_dir = record->empty() ? rig.recording.dir : std::filesystem::path(*record);
+    const std::filesystem::path record_dir =
+        record->empty() ? rig.recording.dir : std::filesystem::path(*record);
     // The viewer (rig.toml [viewer]) records through its record switch, on from the start as without it.
     std::unique_ptr<view::Viewer> viewer;
     aggregator::RecordStage* recording = nullptr;

@@ -84,6 +84,7 @@ try {
 
   // Record from the page: a session appears in the list and on disk.
   await click(page, '#record');
+  console.log('after the click:', await page.evaluate(() => JSON.stringify({ r: window.voxcap.recording, v: window.voxcap.viewer, c: window.voxcap.connected })));
   await until(() => page.evaluate(() => window.voxcap.recording && window.voxcap.recording.on && window.voxcap.recording.records > 30), 180000, 'recording');
   await click(page, '#record');
   const session = await until(() => page.evaluate(() => !window.voxcap.recording.on && window.voxcap.sessions[0]), 120000, 'the session in the list');

@@ -41,8 +41,8 @@ class Writer {
 };
 
 // The 14 bones of the 15-joint skeleton (pipeline::PoseJoint), as joint index pairs.
-constexpr int kBones[][2] = {{0, 1}, {1, 2},  {1, 3},   {3, 4},   {4, 5},   {1, 6},   {6, 7},
-                             {7, 8}, {0, 9},  {9, 10},  {10, 11}, {0, 12},  {12, 13}, {13, 14}};
+constexpr int kBones[][2] = {{0, 1}, {1, 2}, {1, 3},  {3, 4},   {4, 5},  {1, 6},   {6, 7},
+                             {7, 8}, {0, 9}, {9, 10}, {10, 11}, {0, 12}, {12, 13}, {13, 14}};
 
 const char* const kFeatureNames[] = {"head", "left_hand", "right_hand", "left_foot", "right_foot"};
 
@@ -194,14 +194,15 @@ std::string hello_json(const config::RigConfig& rig, std::string_view mode) {
     for (const config::NodeConfig& n : rig.nodes)
       for (const std::string& name : n.cameras)
         if (rig.camera_index(name) == static_cast<int>(c)) node = n.id;
-    cams.push_back({{"index", c},
-                    {"name", cam.name},
-                    {"node", node},
-                    {"width", cam.width},
-                    {"height", cam.height},
-                    {"K", K},
-                    {"R_cam_from_world", R},
-                    {"t_cam_from_world", {cam.t_cam_from_world[0], cam.t_cam_from_world[1], cam.t_cam_from_world[2]}}});
+    cams.push_back(
+        {{"index", c},
+         {"name", cam.name},
+         {"node", node},
+         {"width", cam.width},
+         {"height", cam.height},
+         {"K", K},
+         {"R_cam_from_world", R},
+         {"t_cam_from_world", {cam.t_cam_from_world[0], cam.t_cam_from_world[1], cam.t_cam_from_world[2]}}});
   }
   j["cameras"] = cams;
   json nodes = json::array();

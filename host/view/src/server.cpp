@@ -8,11 +8,11 @@
 #include <stdexcept>
 #include <thread>
 
+#include <fmt/core.h>
 #include <boost/asio.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
-#include <fmt/core.h>
 
 #include "voxcap/view/http_path.hpp"
 
@@ -242,7 +242,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
   void on_read(error_code ec) {
     if (ec == http::error::header_limit || ec == http::error::buffer_overflow)
       return error(http::status::request_header_fields_too_large, "request header too large", false);
-    if (ec == http::error::body_limit) return error(http::status::payload_too_large, "request body too large", false);
+    if (ec == http::error::body_limit)
+      return error(http::status::payload_too_large, "request body too large", false);
     if (ec) {
       if (ec != http::error::end_of_stream && ec != beast::error::timeout && ec != net::error::eof)
         error(http::status::bad_request, "bad request", false);
@@ -257,9 +258,11 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       return error(http::status::method_not_allowed, "only GET and HEAD", req_.keep_alive());
     std::string rel, why;
     const auto t = req_.target();
-    if (!resolve_target(std::string_view(t.data(), t.size()), &rel, &why)) return error(http::status::bad_request, why, false);
+    if (!resolve_target(std::string_view(t.data(), t.size()), &rel, &why))
+      return error(http::status::bad_request, why, false);
     std::filesystem::path file;
-    if (!asset_file(impl_.opt.assets, rel, &file, &why)) return error(http::status::not_found, "not found", req_.keep_alive());
+    if (!asset_file(impl_.opt.assets, rel, &file, &why))
+      return error(http::status::not_found, "not found", req_.keep_alive());
     http::file_body::value_type body;
     body.open(file.c_str(), beast::file_mode::scan, ec);
     if (ec) return error(http::status::not_found, "not found", req_.keep_alive());
@@ -271,7 +274,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       return write(res);
     }
     auto res = std::make_shared<http::response<http::file_body>>(
-        std::piecewise_construct, std::make_tuple(std::move(body)), std::make_tuple(http::status::ok, req_.version()));
+        std::piecewise_construct, std::make_tuple(std::move(body)),
+        std::make_tuple(http::status::ok, req_.version()));
     headers(*res, mime_type(rel));
     res->content_length(size);
     write(res);
@@ -306,7 +310,8 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
 
   void error(http::status status, std::string_view text, bool keep_alive) {
     impl_.count(&ServerStats::http_errors);
-    auto res = std::make_shared<http::response<http::string_body>>(status, req_.version() ? req_.version() : 11);
+    auto res =
+        std::make_shared<http::response<http::string_body>>(status, req_.version() ? req_.version() : 11);
     res->set(http::field::server, "voxcap-view");
     res->set(http::field::content_type, "text/plain; charset=utf-8");
     res->body() = std::string(text) + "\n";  // NOLINT
@@ -384,7 +389,8 @@ void Server::start() {
   if (!ec) m.acceptor->bind(ep, ec);
   if (!ec) m.acceptor->listen(net::socket_base::max_listen_connections, ec);
   if (ec)
-    throw std::runtime_error(fmt::format("viewer: cannot listen on {}:{}: {}", m.opt.bind, m.opt.port, ec.message()));
+    throw std::runtime_error(
+        fmt::format("viewer: cannot listen on {}:{}: {}", m.opt.bind, m.opt.port, ec.message()));
   m.port = m.acceptor->local_endpoint().port();
   m.ticker.emplace(*m.ioc);
   m.accept();

@@ -28,8 +28,8 @@ std::filesystem::path default_assets_dir() {
 bool valid_session_name(std::string_view name) {
   if (name.empty() || name.size() > 128 || name[0] == '.') return false;
   for (char c : name)
-    if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' || c == '_' ||
-          c == '.'))
+    if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' ||
+          c == '_' || c == '.'))
       return false;
   return true;
 }
@@ -69,7 +69,8 @@ void ViewStage::process(pipeline::Frame& f) {
   // Silhouettes come at a low rate (CONFIG's silhouette_every): always passed on.
   for (const pipeline::NodePart& p : f.nodes)
     for (const pipeline::Silhouette& s : p.silhouettes)
-      server_.broadcast(Channel::Live, std::make_shared<const std::string>(encode_silhouette(f, p, s, rig_)), true);
+      server_.broadcast(Channel::Live, std::make_shared<const std::string>(encode_silhouette(f, p, s, rig_)),
+                        true);
   const uint64_t now = monotonic_ns();
   if (max_hz_ > 0 && last_ns_ && double(now - last_ns_) < 1e9 / max_hz_) {
     skipped_++;
@@ -172,7 +173,8 @@ class Replay {
         playing_ = false;
       } else if (cmd == "step") {
         playing_ = false;
-        pending_ = std::clamp<int64_t>(int64_t(index_) + arg, 0, frames_.empty() ? 0 : int64_t(frames_.size()) - 1);
+        pending_ =
+            std::clamp<int64_t>(int64_t(index_) + arg, 0, frames_.empty() ? 0 : int64_t(frames_.size()) - 1);
       } else if (cmd == "seek") {
         pending_ = std::clamp<int64_t>(arg, 0, frames_.empty() ? 0 : int64_t(frames_.size()) - 1);
       }
@@ -198,7 +200,8 @@ class Replay {
       if (index_ < frames_.size()) j["seq"] = frames_[index_].seq;
     }
     if (!error.empty()) j["error"] = error;
-    server_.send(client_, std::make_shared<const std::string>(encode_json(MsgType::Replay, j.dump())), true, false);
+    server_.send(client_, std::make_shared<const std::string>(encode_json(MsgType::Replay, j.dump())), true,
+                 false);
   }
 
   bool stopping() {
@@ -369,15 +372,17 @@ Viewer::~Viewer() {
 
 void Viewer::attach(pipeline::Pipeline& p) {
   if (opt_.record_switch)
-    record_ = &p.tap(std::make_unique<RecordSwitch>(opt_.record_dir, opt_.record_at_start), RecordSwitch::kQueue);
-  stage_ = &p.tap(std::make_unique<ViewStage>(*server_, opt_.max_hz,
-                                              [this](const config::RigConfig* rig) {
-                                                rig_ = rig;
-                                                if (rig)
-                                                  server_->broadcast_always(std::make_shared<const std::string>(
-                                                      encode_json(MsgType::Hello, hello_json(*rig, "live"))));
-                                              }),
-                  ViewStage::kQueue);
+    record_ =
+        &p.tap(std::make_unique<RecordSwitch>(opt_.record_dir, opt_.record_at_start), RecordSwitch::kQueue);
+  stage_ =
+      &p.tap(std::make_unique<ViewStage>(*server_, opt_.max_hz,
+                                         [this](const config::RigConfig* rig) {
+                                           rig_ = rig;
+                                           if (rig)
+                                             server_->broadcast_always(std::make_shared<const std::string>(
+                                                 encode_json(MsgType::Hello, hello_json(*rig, "live"))));
+                                         }),
+             ViewStage::kQueue);
 }
 
 void Viewer::set_report(std::function<aggregator::Report()> fn) {
@@ -389,8 +394,9 @@ void Viewer::start() {
   const std::filesystem::path assets = opt_.server.assets.empty() ? default_assets_dir() : opt_.server.assets;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(assets / "index.html", ec))
-    throw std::runtime_error(fmt::format(
-        "viewer: no page in {} (build the voxcap_web target, or set rig.toml [viewer] assets)", assets.string()));
+    throw std::runtime_error(
+        fmt::format("viewer: no page in {} (build the voxcap_web target, or set rig.toml [viewer] assets)",
+                    assets.string()));
   server_->start();
 }
 
@@ -425,7 +431,8 @@ void Viewer::on_control(ClientId client, std::string_view text) {
     return j.contains(k) && j[k].is_number_integer() ? j[k].get<int64_t>() : dflt;
   };
   auto reply = [&](json r) {
-    server_->send(client, std::make_shared<const std::string>(encode_json(MsgType::Stats, r.dump())), true, false);
+    server_->send(client, std::make_shared<const std::string>(encode_json(MsgType::Stats, r.dump())), true,
+                  false);
   };
   if (cmd == "record") {
     if (!record_ || !j.contains("on") || !j["on"].is_boolean()) return;
@@ -444,12 +451,14 @@ void Viewer::on_control(ClientId client, std::string_view text) {
     std::lock_guard<std::mutex> lock(mu_);
     replays_.erase(client);
     server_->set_replaying(client, false);
-    server_->send(client, std::make_shared<const std::string>(encode_json(MsgType::Replay, R"({"live":true})")),
-                  true, false);
+    server_->send(client,
+                  std::make_shared<const std::string>(encode_json(MsgType::Replay, R"({"live":true})")), true,
+                  false);
   } else if (cmd == "play" || cmd == "pause" || cmd == "step" || cmd == "seek") {
     std::lock_guard<std::mutex> lock(mu_);
     auto it = replays_.find(client);
-    if (it != replays_.end()) it->second->command(cmd, cmd == "step" ? integer("by", 1) : integer("index", 0));
+    if (it != replays_.end())
+      it->second->command(cmd, cmd == "step" ? integer("by", 1) : integer("index", 0));
   }
 }
 
@@ -482,19 +491,20 @@ std::string Viewer::stats_json() {
       if (last.second && now > last.second)
         node_fps_[n.id] = double(n.hulls - std::min(n.hulls, last.first)) * 1e9 / double(now - last.second);
       last = {n.hulls, now};
-      nodes.push_back({{"id", n.id},
-                       {"name", n.name},
-                       {"connected", n.connected},
-                       {"state", vc_node_state_name(n.state) ? vc_node_state_name(n.state) : "?"},
-                       {"fps", node_fps_[n.id]},
-                       {"hulls", n.hulls},
-                       {"late", n.late},
-                       {"missing", n.missing},
-                       {"drops", n.edge_queue_drops + n.host_queue_drops + n.edge_pulses_without_frame},
-                       {"trigger_to_hull_ms", n.edge_frame_ms},
-                       {"trigger_to_host_ms", {{"p50", n.rx.percentile_ms(0.5)}, {"p99", n.rx.percentile_ms(0.99)}}},
-                       {"edge_stage_ms", n.edge_stage_ms},
-                       {"last_error", n.last_error}});
+      nodes.push_back(
+          {{"id", n.id},
+           {"name", n.name},
+           {"connected", n.connected},
+           {"state", vc_node_state_name(n.state) ? vc_node_state_name(n.state) : "?"},
+           {"fps", node_fps_[n.id]},
+           {"hulls", n.hulls},
+           {"late", n.late},
+           {"missing", n.missing},
+           {"drops", n.edge_queue_drops + n.host_queue_drops + n.edge_pulses_without_frame},
+           {"trigger_to_hull_ms", n.edge_frame_ms},
+           {"trigger_to_host_ms", {{"p50", n.rx.percentile_ms(0.5)}, {"p99", n.rx.percentile_ms(0.99)}}},
+           {"edge_stage_ms", n.edge_stage_ms},
+           {"last_error", n.last_error}});
     }
     j["nodes"] = nodes;
     json stages = json::array();
@@ -511,8 +521,8 @@ std::string Viewer::stats_json() {
   }
   if (record_) {
     const RecordSwitch::State st = record_->state();
-    j["recording"] = {{"on", st.on}, {"dir", st.dir.filename().string()}, {"records", st.records},
-                      {"error", st.error}};
+    j["recording"] = {
+        {"on", st.on}, {"dir", st.dir.filename().string()}, {"records", st.records}, {"error", st.error}};
   }
   j["sessions"] = list_sessions(opt_.record_dir, 50);
   const ServerStats ss = server_->stats();

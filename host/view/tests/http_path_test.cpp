@@ -27,9 +27,9 @@ TEST(ViewHttpPath, MapsTargetsToFiles) {
 }
 
 TEST(ViewHttpPath, RefusesTraversalAndOddTargets) {
-  for (const char* t : {"/../etc/passwd", "/lib/../../x", "/..", "/%2e%2e/x", "/%2E%2E%2Fetc", "/.git/config",
-                        "/lib/.hidden", "/a//b", "relative", "", "/a\\b", "/a%00b", "/%", "/%4", "/%zz", "/a b",
-                        "http://host/x", "/./x"})
+  for (const char* t :
+       {"/../etc/passwd", "/lib/../../x", "/..", "/%2e%2e/x", "/%2E%2E%2Fetc", "/.git/config", "/lib/.hidden",
+        "/a//b", "relative", "", "/a\\b", "/a%00b", "/%", "/%4", "/%zz", "/a b", "http://host/x", "/./x"})
     EXPECT_TRUE(refused(t)) << t;
   EXPECT_TRUE(refused("/" + std::string(kMaxTarget, 'a')));
 }

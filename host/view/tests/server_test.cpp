@@ -3,11 +3,11 @@
 #include <fstream>
 #include <thread>
 
+#include <gtest/gtest.h>
 #include <boost/asio.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
 #include <boost/beast/websocket.hpp>
-#include <gtest/gtest.h>
 
 #include "voxcap/view/server.hpp"
 
@@ -75,16 +75,18 @@ TEST_F(Fixture, ServesFilesWithTheirTypes) {
 TEST_F(Fixture, RefusesTraversalMethodsAndLargeRequests) {
   Server server(options(), {});
   server.start();
-  for (const char* t : {"/../secret.txt", "/%2e%2e/secret.txt", "/lib/../../secret.txt", "/.%2e/secret.txt"}) {
+  for (const char* t :
+       {"/../secret.txt", "/%2e%2e/secret.txt", "/lib/../../secret.txt", "/.%2e/secret.txt"}) {
     const std::string r = get(server.port(), t);
     EXPECT_EQ(r.find("secret\n"), std::string::npos) << t;
     EXPECT_NE(r.find("HTTP/1.1 400"), std::string::npos) << t << ": " << r.substr(0, 40);
   }
-  EXPECT_NE(raw(server.port(), "POST / HTTP/1.1\r\nHost: x\r\nContent-Length: 2\r\nConnection: close\r\n\r\nab")
-                .find("HTTP/1.1 405"),
-            std::string::npos);
-  EXPECT_NE(raw(server.port(), "POST / HTTP/1.1\r\nHost: x\r\nContent-Length: 100000\r\n\r\n" +
-                                   std::string(2000, 'x'))
+  EXPECT_NE(
+      raw(server.port(), "POST / HTTP/1.1\r\nHost: x\r\nContent-Length: 2\r\nConnection: close\r\n\r\nab")
+          .find("HTTP/1.1 405"),
+      std::string::npos);
+  EXPECT_NE(raw(server.port(),
+                "POST / HTTP/1.1\r\nHost: x\r\nContent-Length: 100000\r\n\r\n" + std::string(2000, 'x'))
                 .find("HTTP/1.1 413"),
             std::string::npos);
   EXPECT_NE(raw(server.port(), "GET / HTTP/1.1\r\nHost: x\r\nX-Big: " + std::string(20000, 'a') + "\r\n\r\n")

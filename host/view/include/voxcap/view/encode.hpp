@@ -31,9 +31,9 @@ enum class MsgType : uint8_t {
 };
 
 // Caps on what one message may carry (a frame over them is cut, never sent unbounded).
-inline constexpr size_t kMaxHullRle = 16u << 20;        // bytes of RLE
-inline constexpr size_t kMaxSilhouetteRle = 4u << 20;   // bytes of RLE
-inline constexpr size_t kMaxFeatureCameras = 255;        // camera entries in one Features2D
+inline constexpr size_t kMaxHullRle = 16u << 20;       // bytes of RLE
+inline constexpr size_t kMaxSilhouetteRle = 4u << 20;  // bytes of RLE
+inline constexpr size_t kMaxFeatureCameras = 255;      // camera entries in one Features2D
 
 // Rig camera index of `node`'s camera `cam` (calibration order), from the rig's [[nodes]] cameras;
 // -1 when unknown.
@@ -41,7 +41,7 @@ int rig_camera_index(const config::RigConfig& rig, uint16_t node_id, uint16_t ca
 
 // The messages of one frame; each returns the message bytes (std::string: what WebSocket writes take).
 std::string encode_hull(const pipeline::Frame& f);
-std::string encode_pose(const pipeline::Frame& f);  // empty when the frame has no pose
+std::string encode_pose(const pipeline::Frame& f);        // empty when the frame has no pose
 std::string encode_features3d(const pipeline::Frame& f);  // empty when the frame was not triangulated
 // rig may be null (rig camera index then 0xFFFF).
 std::string encode_features2d(const pipeline::Frame& f, const config::RigConfig* rig);

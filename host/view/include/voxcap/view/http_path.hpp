@@ -12,7 +12,7 @@
 
 namespace vc::view {
 
-inline constexpr size_t kMaxTarget = 1024;          // bytes of a request target
+inline constexpr size_t kMaxTarget = 1024;           // bytes of a request target
 inline constexpr size_t kMaxAssetBytes = 16u << 20;  // the largest file served
 
 // "/" → "index.html", "/lib/three.module.js?v=1" → "lib/three.module.js". False (and why) for a

@@ -24,12 +24,12 @@ using ClientId = uint64_t;
 enum class Channel : uint8_t { Live, PoseJson };
 
 struct ServerOptions {
-  std::string bind = "127.0.0.1";  // numeric IPv4, or "any"
-  uint16_t port = 8080;            // 0: a free port (port() says which)
-  std::filesystem::path assets;    // the page's folder
-  size_t max_clients = 8;          // WebSocket clients at once; one more gets 503
-  size_t max_connections = 32;     // TCP connections at once (HTTP and WebSocket); more are closed at once
-  size_t max_queue_messages = 64;  // per client
+  std::string bind = "127.0.0.1";     // numeric IPv4, or "any"
+  uint16_t port = 8080;               // 0: a free port (port() says which)
+  std::filesystem::path assets;       // the page's folder
+  size_t max_clients = 8;             // WebSocket clients at once; one more gets 503
+  size_t max_connections = 32;        // TCP connections at once (HTTP and WebSocket); more are closed at once
+  size_t max_queue_messages = 64;     // per client
   size_t max_queue_bytes = 8u << 20;  // per client
   size_t max_header_bytes = 8192;     // of an HTTP request; more: 431
   size_t max_body_bytes = 1024;       // of an HTTP request (the page sends none); more: 413
@@ -51,10 +51,10 @@ struct ServerStats {
 class Server {
  public:
   struct Hooks {
-    std::function<std::string(ClientId, Channel)> hello;            // first message to a client; "": none
-    std::function<void(ClientId, std::string_view text)> control;   // a /ws client's text message
-    std::function<void(ClientId)> closed;                           // a client went away
-    std::function<void()> tick;                                     // every tick_s
+    std::function<std::string(ClientId, Channel)> hello;           // first message to a client; "": none
+    std::function<void(ClientId, std::string_view text)> control;  // a /ws client's text message
+    std::function<void(ClientId)> closed;                          // a client went away
+    std::function<void()> tick;                                    // every tick_s
   };
   // Hooks run on the io thread and must not block.
   Server(ServerOptions options, Hooks hooks);  // throws std::invalid_argument for invalid options

@@ -103,8 +103,8 @@ struct ViewerOptions {
   std::filesystem::path record_dir = "recordings";  // sessions are recorded and listed here
   bool record_at_start = false;                     // the record switch starts on
   bool record_switch = true;  // false: no record switch (the caller records on its own; the page only lists)
-  double max_hz = 30;                               // frames to the page per second at most
-  ServerOptions limits;                             // clients, queues (bind/port/assets taken from above)
+  double max_hz = 30;         // frames to the page per second at most
+  ServerOptions limits;       // clients, queues (bind/port/assets taken from above)
 };
 
 class Replay;
