@@ -46,6 +46,9 @@ pkgs+=(blender)
 # voxcap deploy's tests: an OpenSSH server on loopback stands in for a board; the flash config's
 # cloud-init YAML read back with yaml-cpp.
 pkgs+=(openssh-server openssh-client libyaml-cpp-dev)
+# The live viewer (host/view): Boost.Beast/Asio (header-only); the browser test drives Debian's chromium
+# headless through playwright-core; npm installs the page's packages (three.js) below.
+pkgs+=(libboost-dev chromium)
 # From bookworm-backports (pinned to that suite explicitly).
 bp_pkgs=(libcamera-dev libgpiod-dev)
 # The board build (deploy/cmake/toolchain-aarch64.cmake, preset arm64) and its unit tests under
@@ -107,5 +110,12 @@ if [ ! -f "$kcache/ready" ]; then
   $SUDO dpkg-deb -x "$tmp"/linux-image-*.deb "$kcache"
   rm -rf "$tmp"
   echo "$kpkg" | $SUDO tee "$kcache/ready" >/dev/null
+fi
+# The viewer's page and its browser test: three.js and playwright-core from the npm registry, exactly as
+# host/view/web/package-lock.json pins them (nodejs/npm from Debian when the machine has no node).
+command -v npm >/dev/null 2>&1 || $SUDO apt-get install -y -qq --no-install-recommends nodejs npm >/dev/null
+web=$(cd "$(dirname "$0")/.." && pwd)/host/view/web
+if [ ! -f "$web/node_modules/.package-lock.json" ] || ! cmp -s "$web/package-lock.json" "$web/node_modules/.voxcap-lock"; then
+  (cd "$web" && npm ci --no-audit --no-fund --loglevel=error) && cp "$web/package-lock.json" "$web/node_modules/.voxcap-lock"
 fi
 echo "install-deps: all dependencies present"

@@ -48,6 +48,7 @@ set(VC_LAYERS
   "host/aggregator: vc_host_aggregator"
   "host/emulated: vc_host_emulated"
   "host/deploy: vc_host_deploy"         # voxcap deploy: boards over ssh, flash-config (edge.toml via the edge's reader)
+  "host/view: vc_host_view"             # the live viewer: server, view stage, record switch, replay
   "apps: voxcap voxcap-host voxcap-edge voxcap-edge-nosim"
   "tests/bench: vc_bench_edge vc_bench_host voxcap-bench")
 

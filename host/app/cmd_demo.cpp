@@ -21,6 +21,7 @@
 #include "vmc_option.hpp"
 #include "voxcap/emulated/emulated_rig.hpp"
 #include "voxcap/export/take.hpp"
+#include "voxcap/view/viewer.hpp"
 
 namespace vc::cli {
 namespace {
@@ -36,6 +37,8 @@ struct DemoArgs {
   bool json = false;
   bool eval = false;
   std::string vmc;  // --vmc HOST:PORT: the live pose stream out
+  bool view = false;   // serve the live viewer while it runs
+  int view_port = -1;  // -1: 8080
 };
 
 void add_rig_options(CLI::App* cmd, DemoArgs& a) {
@@ -62,6 +65,11 @@ void add_rig_options(CLI::App* cmd, DemoArgs& a) {
       ->capture_default_str();
   cmd->add_option("--room", a.rig.room, "Room preset (default camouflage)")->capture_default_str();
   cmd->add_option("--workdir", a.rig.workdir, "Keep rig.yaml, rig.toml and the edge logs here");
+  cmd->add_flag("--view", a.view,
+                "Serve the live viewer (host/view) on 127.0.0.1:8080 while it runs (the session recorded in "
+                "--out can be replayed from the page)");
+  cmd->add_option("--view-port", a.view_port, "The viewer's port (0: a free one; the URL is printed)")
+      ->check(CLI::Range(0, 65535));
   cmd->add_flag(
       "--verbose", [&a](int64_t) { a.rig.quiet = false; }, "Info logs from host and edges");
   cmd->add_option("--vmc", a.vmc, kVmcHelp)->type_name("HOST:PORT");
@@ -117,15 +125,34 @@ void run_demo(DemoArgs& a) {
     if (ec) throw UsageError(fmt::format("--out {}: {}", a.out, ec.message()));
     a.rig.record_dir = fs::path(a.out);
   }
+  std::unique_ptr<view::Viewer> viewer;
+  if (a.view) {
+    view::ViewerOptions vo;
+    if (a.view_port >= 0) vo.server.port = static_cast<uint16_t>(a.view_port);
+    vo.record_dir = a.out.empty() ? fs::path("recordings") : fs::path(a.out);
+    vo.record_switch = false;  // the demo records its session itself
+    viewer = std::make_unique<view::Viewer>(vo);
+    a.rig.stages = [v = viewer.get(), prev = a.rig.stages](pipeline::Pipeline& p) {
+      if (prev) prev(p);
+      v->attach(p);
+    };
+  }
   std::string why;
   if (!a.rig.valid(&why)) throw UsageError(why);
   emulated::EmulatedRig rig(a.rig);
+  if (viewer) {
+    viewer->set_report([&rig] { return rig.report(); });
+    viewer->start();
+    fmt::print("viewer: {}\n", viewer->url());
+    std::fflush(stdout);
+  }
   if (!a.json)
     fmt::print("starting {} edge nodes ({} cameras, {}, {}^3 voxels), motion '{}', {} frames at {} Hz...\n",
                a.rig.nodes, 2 * a.rig.nodes, a.size, a.rig.grid, a.rig.motion, a.frames, a.rig.rate_hz);
   rig.start();
   rig.run_frames(a.frames, double(a.frames) / a.rig.rate_hz * 20 + 30);  // generous on a loaded machine
   emulated::Result r = rig.stop();
+  if (viewer) viewer->stop();
   if (r.report.frames == 0) throw std::runtime_error("no frame was merged");
   // demo: the session as it is on disk (read back once closed): the summary counts what it holds.
   std::optional<record::RunRecording> rec;

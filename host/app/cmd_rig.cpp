@@ -17,6 +17,7 @@
 #include "voxcap/aggregator/record_stage.hpp"
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/emulated/emulated_rig.hpp"
+#include "voxcap/view/viewer.hpp"
 
 namespace vc::cli {
 namespace {
@@ -359,6 +360,20 @@ void add_rig_commands(CLI::App& app) {
       "frames_lost, frames_to_acquire, losses, recover_max_frames, recover_p95_frames, confident_wrong, "
       "views_visible, views_untracked, err2d_p50_px, err2d_p95_px}}} (emulated; silhouettes from the edges' "
       "real masks; features scored on every frame, null where nothing was measured)");
+  auto view = std::make_shared<bool>(false);
+  auto no_view = std::make_shared<bool>(false);
+  auto view_port = std::make_shared<int>(-1);
+  auto view_bind = std::make_shared<std::string>();
+  cmd->add_flag(
+      "--view", *view,
+      "emulated: serve the live viewer (host/view: the page, /ws, /pose.json) on 127.0.0.1:8080 (or "
+      "--view-bind/--view-port); sessions recorded from the page go below --record (default ./recordings)");
+  cmd->add_flag("--no-view", *no_view,
+                "a real rig: do not serve the viewer (rig.toml [viewer] enabled = false)");
+  cmd->add_option("--view-port", *view_port,
+                  "the viewer's port, over rig.toml [viewer] port (0: a free one; the URL is printed)")
+      ->check(CLI::Range(0, 65535));
+  cmd->add_option("--view-bind", *view_bind, "the viewer's IPv4 address, over rig.toml [viewer] bind");
   cmd->callback([=] {
     std::signal(SIGINT, on_sigint);
     std::signal(SIGTERM, on_sigint);
@@ -373,9 +388,34 @@ void add_rig_commands(CLI::App& app) {
           add_vmc_stage(p, vo);
         };
       }
+      std::unique_ptr<view::Viewer> viewer;
+      if (*view) {
+        view::ViewerOptions vo;
+        if (*view_port >= 0) vo.server.port = static_cast<uint16_t>(*view_port);
+        if (!view_bind->empty()) vo.server.bind = *view_bind;
+        config::ViewerOptions check = vo.server;
+        check.port = 1;  // --view-port 0 (a free port) is fine here
+        std::string why;
+        if (!check.valid(&why)) throw UsageError("--view-bind: " + why);
+        vo.record_dir =
+            record->empty() ? std::filesystem::path("recordings") : std::filesystem::path(*record);
+        vo.record_at_start = !record->empty();  // the viewer's record switch records instead
+        opt->record_dir.clear();
+        viewer = std::make_unique<view::Viewer>(vo);
+        opt->stages = [v = viewer.get(), prev = opt->stages](pipeline::Pipeline& p) {
+          if (prev) prev(p);
+          v->attach(p);
+        };
+      }
       std::string why;
       if (!opt->valid(&why)) throw UsageError(why);
       emulated::EmulatedRig rig(*opt);
+      if (viewer) {
+        viewer->set_report([&rig] { return rig.report(); });
+        viewer->start();
+        fmt::print("viewer: {}\n", viewer->url());
+        std::fflush(stdout);
+      }
       if (!*json)
         fmt::print("starting {} edge nodes ({} cameras, {}), motion '{}', appearance '{}', room '{}'...\n",
                    opt->nodes, 2 * opt->nodes, *size, opt->motion, opt->appearance, opt->room);
@@ -404,6 +444,7 @@ void add_rig_commands(CLI::App& app) {
         }
       }
       emulated::Result r = rig.stop();
+      if (viewer) viewer->stop();
       // The session as it is on disk (read back once closed): the summary counts what it holds.
       std::optional<record::RunRecording> rec;
       if (!r.session_dir.empty()) rec = record::read_back(r.session_dir, r.report.frames);
@@ -442,20 +483,40 @@ void add_rig_commands(CLI::App& app) {
       throw UsageError(e.what());
     }
     aggregator::Aggregator& agg = *agg_ptr;
-    auto& recording =
-        agg.pipeline().tap(std::make_unique<aggregator::RecordStage>(
-                               record->empty() ? rig.recording.dir : std::filesystem::path(*record)),
-                           aggregator::RecordStage::kQueue);
+    const std::filesystem::path record_dir =
+        record->empty() ? rig.recording.dir : std::filesystem::path(*record);
+    // The viewer (rig.toml [viewer]) records through its record switch, on from the start as without it.
+    std::unique_ptr<view::Viewer> viewer;
+    aggregator::RecordStage* recording = nullptr;
+    if (rig.viewer.enabled && !*no_view) {
+      view::ViewerOptions vo;
+      vo.server = rig.viewer;
+      if (*view_port >= 0) vo.server.port = static_cast<uint16_t>(*view_port);
+      if (!view_bind->empty()) vo.server.bind = *view_bind;
+      vo.record_dir = record_dir;
+      vo.record_at_start = true;
+      viewer = std::make_unique<view::Viewer>(vo);
+      viewer->attach(agg.pipeline());
+      viewer->set_report([&agg] { return agg.report(); });
+      viewer->start();
+      fmt::print("viewer: {}\n", viewer->url());
+    } else {
+      recording = &agg.pipeline().tap(std::make_unique<aggregator::RecordStage>(record_dir),
+                                      aggregator::RecordStage::kQueue);
+    }
     add_vmc_stage(agg.pipeline(), vmc_options(rig.vmc, *vmc));
     agg.start();  // creates the session folder
-    fmt::print("recording to {}\n", recording.dir().string());
+    const std::filesystem::path session_dir =
+        recording ? recording->dir() : viewer->recorder()->state().dir;
+    fmt::print("recording to {}\n", session_dir.string());
     auto end =
         std::chrono::steady_clock::now() + std::chrono::duration<double>(*seconds > 0 ? *seconds : 1e12);
     while (!g_interrupted && std::chrono::steady_clock::now() < end)
       std::this_thread::sleep_for(std::chrono::milliseconds(50));
     agg.stop();
+    if (viewer) viewer->stop();
     const aggregator::Report rep = agg.report();
-    const record::RunRecording rec = record::read_back(recording.dir(), rep.frames);
+    const record::RunRecording rec = record::read_back(session_dir, rep.frames);
     if (*json) {
       nlohmann::json j = report_json(rep);
       j["session"] = run_recording_json(rec);

@@ -498,6 +498,7 @@ void check_sections(const RigConfig& c, const Context& ctx) {
   if (!c.network.valid(&why)) fail_validation(ctx, "network", why);
   if (!c.hil.valid(&why)) fail_validation(ctx, "hil", why);
   if (!c.vmc.valid(&why)) fail_validation(ctx, "vmc", why);
+  if (!c.viewer.valid(&why)) fail_validation(ctx, "viewer", why);
 }
 
 void collect_warnings(RigConfig* c) {
@@ -642,6 +643,17 @@ RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::pa
     if (r.get("target", &target) && !Endpoint::parse(target, &c.vmc.target, &why))
       r.ctx().fail(r.key("target"), why);
     r.get("rate_hz", &c.vmc.rate_hz);
+  if (const toml::table* t = top.table("viewer")) {
+    Reader r(*t, "viewer", ctx);
+    r.get("enabled", &c.viewer.enabled);
+    r.get("bind", &c.viewer.bind);
+    r.get_int("port", &c.viewer.port, 1, 65535);
+    std::string assets;
+    if (r.get("assets", &assets)) {
+      c.viewer.assets = assets;
+      if (c.viewer.assets.is_relative()) c.viewer.assets = source.parent_path() / c.viewer.assets;
+      c.viewer.assets = std::filesystem::absolute(c.viewer.assets).lexically_normal();
+    }
     r.finish();
   }
   top.finish();

@@ -286,6 +286,10 @@ bool VmcOptions::valid(std::string* why) const {
                                  target.host));
   if (!(rate_hz > 0 && rate_hz <= kMaxRateHz))
     return fail(why, fmt::format("rate_hz: must be in (0, {}], got {}", kMaxRateHz, rate_hz));
+bool ViewerOptions::valid(std::string* why) const {
+  if (bind != "any" && !is_ipv4(bind))
+    return fail(why, fmt::format("bind: must be a numeric IPv4 address or \"any\", got \"{}\"", bind));
+  if (port == 0) return fail(why, "port: must be 1-65535");
   return true;
 }
 

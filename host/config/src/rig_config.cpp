@@ -149,6 +149,7 @@ bool RigConfig::valid(std::string* why) const {
   if (!section_valid(recording, "recording", why)) return false;
   if (!section_valid(network, "network", why)) return false;
   if (!section_valid(vmc, "vmc", why)) return false;
+  if (!section_valid(viewer, "viewer", why)) return false;
 
   if (features.enabled && tracking_nodes().empty())
     return fail(why,

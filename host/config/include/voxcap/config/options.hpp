@@ -129,6 +129,12 @@ struct VmcOptions {
   bool enabled = false;
   Endpoint target{"127.0.0.1", 39539};  // the receiver ("Marionette"); 39539 is VMC's usual port
   double rate_hz = 60;                  // bundles per second, (0, 240]; at most the rig's trigger rate
+// The live viewer (host/view): the page and its WebSockets, served by voxcap-host and `voxcap rig`.
+struct ViewerOptions {
+  bool enabled = true;
+  std::string bind = "127.0.0.1";  // IPv4 address or "any" (0.0.0.0): the page has no login, keep it local
+  uint16_t port = 8080;
+  std::filesystem::path assets;  // the page's files; empty: share/voxcap/web beside the binary's bin/
 
   bool valid(std::string* why) const;
 };

@@ -103,6 +103,7 @@ struct RigConfig {
   NetworkOptions network;
   HilOptions hil;                     // [hil]: what `voxcap hil` tests (tests/hil/README.md)
   VmcOptions vmc;                     // [vmc]: the live pose stream out (host/stream)
+  ViewerOptions viewer;
   std::vector<std::string> warnings;  // legal but suspicious ("3 udp targets for 2 nodes")
 
   // Cross-section checks (each section's own valid() included): node ids and camera assignments
