@@ -643,6 +643,8 @@ RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::pa
     if (r.get("target", &target) && !Endpoint::parse(target, &c.vmc.target, &why))
       r.ctx().fail(r.key("target"), why);
     r.get("rate_hz", &c.vmc.rate_hz);
+    r.finish();
+  }
   if (const toml::table* t = top.table("viewer")) {
     Reader r(*t, "viewer", ctx);
     r.get("enabled", &c.viewer.enabled);

@@ -286,6 +286,9 @@ bool VmcOptions::valid(std::string* why) const {
                                  target.host));
   if (!(rate_hz > 0 && rate_hz <= kMaxRateHz))
     return fail(why, fmt::format("rate_hz: must be in (0, {}], got {}", kMaxRateHz, rate_hz));
+  return true;
+}
+
 bool ViewerOptions::valid(std::string* why) const {
   if (bind != "any" && !is_ipv4(bind))
     return fail(why, fmt::format("bind: must be a numeric IPv4 address or \"any\", got \"{}\"", bind));

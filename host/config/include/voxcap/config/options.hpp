@@ -129,6 +129,10 @@ struct VmcOptions {
   bool enabled = false;
   Endpoint target{"127.0.0.1", 39539};  // the receiver ("Marionette"); 39539 is VMC's usual port
   double rate_hz = 60;                  // bundles per second, (0, 240]; at most the rig's trigger rate
+
+  bool valid(std::string* why) const;
+};
+
 // The live viewer (host/view): the page and its WebSockets, served by voxcap-host and `voxcap rig`.
 struct ViewerOptions {
   bool enabled = true;
