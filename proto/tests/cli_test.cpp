@@ -54,6 +54,9 @@ TEST_F(Cli, DumpsEveryVectorAndExitsNonZeroExactlyOnErrors) {
     if (e.path().extension() != ".bin" || e.path().stem().string().rfind("trigger", 0) == 0) continue;
     SCOPED_TRACE(e.path().filename().string());
     const auto expected = vc::proto::Json::parse(read_text(fs::path(e.path()).replace_extension(".json")));
+    // A MAC'd stream (`mac` in its JSON) decodes only with its connection's MAC key, which a capture
+    // file does not carry and `proto dump` has no option for: proto_vectors_test decodes those.
+    if (expected.contains("mac")) continue;
     bool has_error = false;
     for (const auto& ev : expected["events"]) has_error |= ev.contains("error");
     const std::string max = " --max-payload " + std::to_string(expected["max_payload"].get<size_t>());
