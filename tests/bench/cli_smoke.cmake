@@ -19,7 +19,7 @@ run(2 "^voxcap: --size: expected WxH\n$" ${VOXCAP} bench host --no-rig --size 3)
 # bench edge --size WxH (issue #16): the Pi Global Shutter camera's 1456x1088 is the frame measured.
 run(2 "^voxcap: --size: expected WxH with each side 16..4096 \\(e.g. 1456x1088\\), got '3'\n$" ${VOXCAP} bench edge --size 3)
 run(2 "^voxcap: --size: expected WxH with each side 16..4096[^\n]*got '1456x1088x2'\n$" ${VOXCAP} bench edge --size 1456x1088x2)
-run(2 "excludes --width" ${VOXCAP} bench edge --size 1456x1088 --width 640)
+run(2 "--width excludes --size" ${VOXCAP} bench edge --size 1456x1088 --width 640)
 # CLI11's own parse errors are bad input like any other: one line, exit 2 (issue #13; was CLI11's 105).
 run(2 "^voxcap: --grid: Value 2 not in range[^\n]*\n$" ${VOXCAP} bench edge --grid 2)
 
