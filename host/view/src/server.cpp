@@ -9,6 +9,10 @@
 #include <thread>
 
 #include <fmt/core.h>
+// Boost 1.74's asio/awaitable.hpp uses std::exchange without including <utility>: gcc 12's C++20
+// headers no longer bring it in through <memory> (clang's libstdc++ build happens to).
+#include <utility>
+
 #include <boost/asio.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
