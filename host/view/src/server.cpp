@@ -109,7 +109,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
   WsSession(Server::Impl& impl, tcp::socket socket, Channel ch, std::unique_ptr<ConnectionSlot> slot)
       : impl_(impl), ws_(std::move(socket)), ch_(ch), slot_(std::move(slot)) {}
 
-  void run(http::request<http::string_body> req) {
+  void run(const http::request<http::string_body>& req) {
     ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
     ws_.read_message_max(impl_.opt.max_client_message);
     ws_.async_accept(req, [self = shared_from_this()](error_code ec) { self->on_accept(ec); });
@@ -309,7 +309,7 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       return error(http::status::service_unavailable, "too many viewer clients", false);
     }
     stream_.expires_never();
-    std::make_shared<WsSession>(impl_, stream_.release_socket(), ch, std::move(slot_))->run(std::move(req_));
+    std::make_shared<WsSession>(impl_, stream_.release_socket(), ch, std::move(slot_))->run(req_);
   }
 
   void error(http::status status, std::string_view text, bool keep_alive) {
