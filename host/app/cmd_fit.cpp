@@ -265,18 +265,7 @@ void run_fit(const FitArgs& a) {
   while (reader.next(r)) {
     if (const auto* f = std::get_if<record::FrameRecord>(&r)) {
       flush();
-      frame = pipeline::Frame{};
-      frame.seq = f->seq;
-      frame.t_trigger_ns = f->t_trigger_ns;
-      frame.t_merged_ns = f->t_merged_ns;
-      frame.grid_id = f->grid_id;
-      frame.voxel_count = f->voxel_count;
-      frame.occupied = f->occupied;
-      frame.degraded = f->degraded;
-      frame.present = f->nodes_present;
-      frame.missing = f->nodes_missing;
-      frame.rle = f->rle;
-      frame.merged = !f->rle.empty();
+      frame = record::frame_from_record(*f);
       pending = true;
       append(*f);
     } else if (const auto* f3 = std::get_if<record::Features3DRecord>(&r)) {

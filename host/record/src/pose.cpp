@@ -71,4 +71,20 @@ bool from_record(const PoseRecord& r, pipeline::Pose* out, std::string* why) {
   return true;
 }
 
+pipeline::Frame frame_from_record(const FrameRecord& record) {
+  pipeline::Frame f;
+  f.seq = record.seq;
+  f.t_trigger_ns = record.t_trigger_ns;
+  f.t_merged_ns = record.t_merged_ns;
+  f.grid_id = record.grid_id;
+  f.voxel_count = record.voxel_count;
+  f.occupied = record.occupied;
+  f.degraded = record.degraded;
+  f.present = record.nodes_present;
+  f.missing = record.nodes_missing;
+  f.rle = record.rle;
+  f.merged = !record.rle.empty();
+  return f;
+}
+
 }  // namespace vc::record

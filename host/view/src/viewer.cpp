@@ -232,18 +232,7 @@ class Replay {
       if (stopping() || frames_.size() >= kMaxFrames || bytes >= kMaxBytes) break;
       if (auto* fr = std::get_if<record::FrameRecord>(&rec)) {
         flush();
-        f = pipeline::Frame{};
-        f.seq = fr->seq;
-        f.t_trigger_ns = fr->t_trigger_ns;
-        f.t_merged_ns = fr->t_merged_ns;
-        f.grid_id = fr->grid_id;
-        f.voxel_count = fr->voxel_count;
-        f.occupied = fr->occupied;
-        f.degraded = fr->degraded;
-        f.present = fr->nodes_present;
-        f.missing = fr->nodes_missing;
-        f.rle = fr->rle;
-        f.merged = !fr->rle.empty();
+        f = record::frame_from_record(*fr);
         have = true;
       } else if (!have) {
         continue;

@@ -36,4 +36,8 @@ void to_record(uint64_t seq, const pipeline::Pose& pose, bool with_names, PoseRe
 // read from a file is untrusted: nothing here trusts it further than these checks.
 bool from_record(const PoseRecord& record, pipeline::Pose* out, std::string* why);
 
+// A recorded frame as the pipeline's Frame again (seq, times, grid, nodes, the merged hull's RLE): what
+// a replay or an offline re-fit starts from; features, poses and stats are added from their records.
+pipeline::Frame frame_from_record(const FrameRecord& record);
+
 }  // namespace vc::record
