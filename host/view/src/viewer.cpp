@@ -419,7 +419,7 @@ void Viewer::on_control(ClientId client, std::string_view text) {
   auto integer = [&](const char* k, int64_t dflt) {
     return j.contains(k) && j[k].is_number_integer() ? j[k].get<int64_t>() : dflt;
   };
-  auto reply = [&](json r) {
+  auto reply = [&](const json& r) {
     server_->send(client, std::make_shared<const std::string>(encode_json(MsgType::Stats, r.dump())), true,
                   false);
   };
