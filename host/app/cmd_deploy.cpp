@@ -74,6 +74,7 @@ void add_deploy_commands(CLI::App& app) {
   auto f_out = std::make_shared<std::string>();
   auto f_key = std::make_shared<std::string>();
   auto f_pkg = std::make_shared<std::string>();
+  auto f_boot = std::make_shared<std::string>("both");
   flash->add_option("--node", *f_node, "the rig node this card becomes (nodes[].id)")->required();
   flash->add_option("--inventory", *f_inv, "the rig.toml")->required();
   flash->add_option("--out", *f_out, "the folder to write")->required();
@@ -82,6 +83,10 @@ void add_deploy_commands(CLI::App& app) {
   flash->add_option("--package", *f_pkg,
                     "a voxcap-edge .deb to put on the card (default: [deploy] package_repo, "
                     "else [deploy] package)");
+  flash->add_option("--first-boot", *f_boot,
+                    "which first-boot files: cloud-init (user-data, meta-data, network-config: images from "
+                    "October 2025, trixie), firstrun (firstrun.sh and cmdline-firstrun.txt, whose words go "
+                    "at the end of the card's cmdline.txt: bookworm images) or both (default)");
   flash->callback([=] {
     const deploy::Inventory inv = load(*f_inv);
     deploy::FlashOptions o;
@@ -89,6 +94,8 @@ void add_deploy_commands(CLI::App& app) {
     o.out = *f_out;
     o.ssh_key = *f_key;
     o.package = *f_pkg;
+    if (!deploy::first_boot_from_name(*f_boot, &o.first_boot))
+      throw UsageError(fmt::format("--first-boot: \"{}\" is none of cloud-init, firstrun, both", *f_boot));
     deploy::FlashResult r;
     try {
       r = deploy::write_flash_config(inv, o);
@@ -98,6 +105,11 @@ void add_deploy_commands(CLI::App& app) {
     fmt::print("wrote the first-boot files of node {} to {}:\n", o.node, o.out.string());
     for (const auto& f : r.files) fmt::print("  {}\n", f);
     fmt::print("copy them onto the card's boot partition (bootfs) after flashing; host/deploy/README.md\n");
+    if (o.first_boot != deploy::FirstBoot::CloudInit)
+      fmt::print(
+          "a bookworm image: append cmdline-firstrun.txt to the end of the card's cmdline.txt (one line):\n"
+          "  sed -i \"1s|\\$|$(cat {}/cmdline-firstrun.txt)|\" /media/$USER/bootfs/cmdline.txt\n",
+          o.out.string());
   });
 
   dep->callback([=] {

@@ -5,6 +5,7 @@
 #include <sys/stat.h>
 #include <yaml-cpp/yaml.h>
 
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
@@ -24,7 +25,10 @@ std::string slurp(const std::filesystem::path& p) {
 }
 
 struct FlashTest : ::testing::Test {
-  std::filesystem::path dir = std::filesystem::temp_directory_path() / "vc_deploy_flash_test";
+  // One folder per test: CTest runs them in parallel.
+  std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                              (std::string("vc_deploy_flash_test_") +
+                               ::testing::UnitTest::GetInstance()->current_test_info()->name());
   std::filesystem::path out = dir / "bootfs";
   void SetUp() override {
     std::filesystem::remove_all(dir);
@@ -47,7 +51,7 @@ TEST_F(FlashTest, FilesAreWhatAFirstBootNeeds) {
   o.out = out;
   o.ssh_key = dir / "id.pub";
   const FlashResult r = write_flash_config(inv, o);
-  EXPECT_EQ(r.files.size(), 6u);
+  EXPECT_EQ(r.files.size(), 8u);  // both first-boot mechanisms by default
 
   // user-data: a cloud-config document.
   const std::string ud = slurp(out / "user-data");
@@ -128,6 +132,129 @@ TEST_F(FlashTest, FilesAreWhatAFirstBootNeeds) {
   EXPECT_NE(cam.find("dtoverlay=imx296,cam1\n"), std::string::npos);
 }
 
+// The text between "cat >PATH <<'END'" and END in a script.
+std::string heredoc(const std::string& script, const std::string& path) {
+  const std::string open = "cat >" + path + " <<'VOXCAP_END_OF_FILE'\n";
+  const size_t at = script.find(open);
+  if (at == std::string::npos) return {};
+  const size_t from = at + open.size();
+  const size_t to = script.find("\nVOXCAP_END_OF_FILE\n", from);
+  return to == std::string::npos ? std::string() : script.substr(from, to + 1 - from);
+}
+
+// bash -n: the script parses (nothing of it runs).
+int bash_syntax(const std::filesystem::path& script) {
+  return std::system(("bash -n '" + script.string() + "'").c_str());
+}
+
+TEST_F(FlashTest, FirstrunScriptForBookworm) {
+  const Inventory inv = load_inventory(dir / "pi5-reference.toml");
+  FlashOptions o;
+  o.node = "pi-b";
+  o.out = out;
+  o.ssh_key = dir / "id.pub";
+  o.first_boot = FirstBoot::Firstrun;
+  const FlashResult r = write_flash_config(inv, o);
+  EXPECT_EQ(r.files.size(), 5u);
+  EXPECT_FALSE(std::filesystem::exists(out / "user-data"));  // firstrun only
+  const std::filesystem::path script = out / "firstrun.sh";
+  ASSERT_TRUE(std::filesystem::exists(script));
+  EXPECT_EQ(bash_syntax(script), 0);
+  const std::string sh = slurp(script);
+  EXPECT_EQ(sh.rfind("#!/bin/bash\n", 0), 0u);
+  EXPECT_NE(sh.find("\nNODE='pi-b'\n"), std::string::npos);
+  EXPECT_NE(sh.find("set_hostname \"$NODE\""), std::string::npos);
+  EXPECT_NE(sh.find("echo \"$NODE\" >/etc/hostname"), std::string::npos);
+  const std::string pub = slurp(dir / "id.pub");
+  EXPECT_NE(sh.find("\nPUBKEY='" + pub.substr(0, pub.size() - 1) + "'\n"), std::string::npos);
+  EXPECT_NE(sh.find("\"$ADMIN_HOME/.ssh/authorized_keys\""), std::string::npos);
+  EXPECT_NE(sh.find("\nADMIN='voxcap-admin'\n"), std::string::npos);
+  EXPECT_NE(sh.find("NOPASSWD:ALL"), std::string::npos);  // voxcap deploy runs sudo -n
+  EXPECT_NE(sh.find("systemctl enable ssh\n"), std::string::npos);
+  // The key: 0600 for the service user, off the FAT partition.
+  EXPECT_NE(sh.find("install -m 0600 -o \"$SVC\" \"$BOOT/voxcap/rig.key\" /etc/voxcap/rig.key"),
+            std::string::npos);
+  EXPECT_NE(sh.find("shred -u \"$BOOT/voxcap/rig.key\""), std::string::npos);
+  // The package on the next boot, with the network up.
+  const std::string firstboot = heredoc(sh, "/usr/local/sbin/voxcap-firstboot");
+  EXPECT_NE(firstboot.find("apt-get install -y \"$BOOT/voxcap/voxcap-edge.deb\""), std::string::npos)
+      << firstboot;
+  EXPECT_NE(firstboot.find("systemctl enable --now voxcap-edge.service"), std::string::npos);
+  EXPECT_NE(heredoc(sh, "/etc/systemd/system/voxcap-firstboot.service").find("After=network-online.target"),
+            std::string::npos);
+  EXPECT_NE(sh.find("systemctl enable voxcap-firstboot.service"), std::string::npos);
+  {
+    const std::filesystem::path f = dir / "voxcap-firstboot";
+    std::ofstream(f) << firstboot;
+    EXPECT_EQ(bash_syntax(f), 0);
+  }
+  // edge.toml, read by the edge's own parser.
+  const std::string edge_toml = heredoc(sh, "/etc/voxcap/edge.toml");
+  ASSERT_FALSE(edge_toml.empty());
+  edge::EdgeSettings s;
+  ASSERT_NO_THROW(edge::parse_edge_toml(edge_toml, "edge.toml", s));
+  ASSERT_NO_THROW(s.validate());
+  EXPECT_EQ(s.node_id, 2);
+  EXPECT_EQ(s.key, "rig.key");
+  EXPECT_EQ(s.host, "192.168.50.1");
+  EXPECT_NE(heredoc(sh, "/etc/modprobe.d/voxcap-imx296.conf").find("options imx296 trigger_mode=1"),
+            std::string::npos);
+  EXPECT_NE(sh.find("include voxcap-camera.txt"), std::string::npos);
+  // eth0's address (NetworkManager keyfile).
+  const std::string nm = heredoc(sh, "/etc/NetworkManager/system-connections/voxcap-eth0.nmconnection");
+  EXPECT_NE(nm.find("\naddress1=192.168.50.12/24,192.168.50.1\n"), std::string::npos) << nm;
+  // Runs once: removes itself and its cmdline.txt words.
+  EXPECT_NE(sh.find("rm -f \"$BOOT/firstrun.sh\""), std::string::npos);
+  EXPECT_NE(sh.find("sed -i 's| systemd.run.*||g' \"$BOOT/cmdline.txt\""), std::string::npos);
+  EXPECT_EQ(slurp(out / "cmdline-firstrun.txt"),
+            " systemd.run=/boot/firmware/firstrun.sh systemd.run_success_action=reboot "
+            "systemd.unit=kernel-command-line.target\n");
+  // The card's files the script reads.
+  EXPECT_TRUE(std::filesystem::exists(out / "voxcap" / "rig.key"));
+  EXPECT_TRUE(std::filesystem::exists(out / "voxcap" / "voxcap-edge.deb"));
+  EXPECT_TRUE(std::filesystem::exists(out / "voxcap-camera.txt"));
+}
+
+TEST_F(FlashTest, QuotesWhatTheRigFileSays) {
+  // A login user with a quote and a space cannot break out of the script's words.
+  std::string text = slurp(dir / "pi5-reference.toml");
+  const size_t at = text.find("[deploy]\n");
+  ASSERT_NE(at, std::string::npos);
+  text.insert(at + 9, "admin_user = \"o'neil $(reboot)\"\n");
+  std::ofstream(dir / "pi5-reference.toml") << text;
+  Inventory inv;
+  try {
+    inv = load_inventory(dir / "pi5-reference.toml");
+  } catch (const InventoryError&) {
+    GTEST_SKIP() << "the inventory refuses such a user name itself";
+  }
+  FlashOptions o;
+  o.node = "pi-a";
+  o.out = out;
+  o.ssh_key = dir / "id.pub";
+  o.first_boot = FirstBoot::Firstrun;
+  write_flash_config(inv, o);
+  const std::string sh = slurp(out / "firstrun.sh");
+  EXPECT_EQ(bash_syntax(out / "firstrun.sh"), 0);
+  EXPECT_NE(sh.find("\nADMIN='o'\\''neil $(reboot)'\n"), std::string::npos);
+}
+
+TEST_F(FlashTest, CloudInitOnly) {
+  const Inventory inv = load_inventory(dir / "pi5-reference.toml");
+  FlashOptions o;
+  o.node = "pi-a";
+  o.out = out;
+  o.ssh_key = dir / "id.pub";
+  o.first_boot = FirstBoot::CloudInit;
+  EXPECT_EQ(write_flash_config(inv, o).files.size(), 6u);
+  EXPECT_TRUE(std::filesystem::exists(out / "user-data"));
+  EXPECT_FALSE(std::filesystem::exists(out / "firstrun.sh"));
+  FirstBoot f{};
+  EXPECT_TRUE(first_boot_from_name("firstrun", &f));
+  EXPECT_EQ(f, FirstBoot::Firstrun);
+  EXPECT_FALSE(first_boot_from_name("cloudinit", &f));
+}
+
 TEST_F(FlashTest, FromARepositoryAndDhcp) {
   std::string text = slurp(dir / "pi5-reference.toml");
   text.replace(text.find("network_prefix = 24"), 19,
@@ -147,6 +274,14 @@ TEST_F(FlashTest, FromARepositoryAndDhcp) {
   EXPECT_FALSE(std::filesystem::exists(out / "voxcap" / "voxcap-edge.deb"));
   const YAML::Node n = YAML::LoadFile((out / "network-config").string());
   EXPECT_TRUE(n["network"]["ethernets"]["eth0"]["dhcp4"].as<bool>());
+  // firstrun.sh: the repository's apt line, no keyfile (DHCP is NetworkManager's default).
+  const std::string sh = slurp(out / "firstrun.sh");
+  EXPECT_EQ(bash_syntax(out / "firstrun.sh"), 0);
+  EXPECT_EQ(heredoc(sh, "/etc/apt/sources.list.d/voxcap.list"),
+            "deb [trusted=yes] http://192.168.50.1/voxcap ./\n");
+  EXPECT_NE(heredoc(sh, "/usr/local/sbin/voxcap-firstboot").find("apt-get install -y voxcap-edge\n"),
+            std::string::npos);
+  EXPECT_EQ(sh.find("nmconnection"), std::string::npos);
 }
 
 TEST_F(FlashTest, RefusesWhatItCannotDo) {
