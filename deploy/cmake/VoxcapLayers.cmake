@@ -30,7 +30,7 @@ set(VC_LAYERS
   "edge/trigger: vc_edge_trigger"
   "edge/segment: vc_edge_segment"       # GVD segmentation (OpenCV only)
   "edge/track: vc_edge_track"           # head, hands, feet tracking (C++17 over OpenCV)
-  "edge/daemon: vc_edge_daemon"
+  "edge/daemon: vc_edge_daemon vc_edge_config"  # vc_edge_config: edge.toml's reader (host/deploy too)
   "host/base: vc_host_base"             # the host's logger and clock, below every host library
   "host/hil: vc_host_hil"               # the hardware-in-loop figures from timestamp streams (no devices)
   "host/calib: vc_host_calib"           # calib import, offline carving (hw/rig, edge/core)
