@@ -32,7 +32,7 @@ set(VC_LAYERS
   "edge/track: vc_edge_track"           # head, hands, feet tracking (C++17 over OpenCV)
   "edge/daemon: vc_edge_daemon vc_edge_config"  # vc_edge_config: edge.toml's reader (host/deploy too)
   "host/base: vc_host_base"             # the host's logger and clock, below every host library
-  "host/hil: vc_host_hil"               # the hardware-in-loop figures from timestamp streams (no devices)
+  "host/hil: vc_host_hil vc_host_hil_camera"  # hil figures from timestamp streams; its cameras (edge/camera or absent)
   "host/calib: vc_host_calib"           # calib import, offline carving (hw/rig, edge/core)
   "host/calibrate: vc_host_calibrate"   # rig calibration from board views (OpenCV aruco, Ceres)
   "host/config: vc_host_config"         # host/: in host/README.md's order
@@ -47,6 +47,7 @@ set(VC_LAYERS
   "host/stream: vc_host_stream vc_host_stream_testing"  # the live pose stream out: VMC over OSC/UDP (liblo)
   "host/aggregator: vc_host_aggregator"
   "host/emulated: vc_host_emulated"
+  "host/hil/run: vc_host_hil_run"       # voxcap hil's tests: devices, aggregator, emulated rig -> figures
   "host/deploy: vc_host_deploy"         # voxcap deploy: boards over ssh, flash-config (edge.toml via the edge's reader)
   "host/view: vc_host_view"             # the live viewer: server, view stage, record switch, replay
   "apps: voxcap voxcap-host voxcap-edge voxcap-edge-nosim"
