@@ -93,7 +93,8 @@ void parse_edge_toml(const std::string& text, const std::string& path, EdgeSetti
     throw ConfigError(fmt::format("{}:{}:{}: {}", path, e.source().begin.line, e.source().begin.column,
                                   one_line(std::string(e.description()))));
   }
-  r.check_keys(root, "", {"node_id", "state_dir", "key", "host", "cameras", "trigger", "link", "log"});
+  r.check_keys(root, "",
+               {"node_id", "state_dir", "key", "next_key", "host", "cameras", "trigger", "link", "log"});
   r.get(root, "", "node_id", s.node_id);
   if (root.contains("key")) {
     std::string key;
@@ -101,6 +102,13 @@ void parse_edge_toml(const std::string& text, const std::string& path, EdgeSetti
     std::filesystem::path kp(key);
     if (!key.empty() && kp.is_relative()) kp = std::filesystem::path(path).parent_path() / kp;
     s.key = key.empty() ? std::string() : kp.string();
+  }
+  if (root.contains("next_key")) {
+    std::string key;
+    r.get(root, "", "next_key", key);
+    std::filesystem::path kp(key);
+    if (!key.empty() && kp.is_relative()) kp = std::filesystem::path(path).parent_path() / kp;
+    s.next_key = key.empty() ? std::string() : kp.string();
   }
   r.get(root, "", "state_dir", s.state_dir);
   if (auto* h = r.table(root, "host")) {
@@ -174,6 +182,8 @@ void EdgeSettings::validate() const {
   };
   if (node_id < 0 || node_id > 65535) bad("node_id", fmt::format("must be in 0..65535, got {}", node_id));
   if (host.empty()) bad("host.address", "must not be empty");
+  if (!next_key.empty() && key.empty())
+    bad("next_key", "needs key (a rotation goes from one key to the next)");
   if (port <= 0 || port > 65535) bad("host.port", fmt::format("must be in 1..65535, got {}", port));
   for (size_t k = 0; k < 2; k++) {
     const CameraSettings& c = cameras[k];
@@ -227,6 +237,11 @@ void load_key(EdgeSettings& s) {
   char why[512];
   if (vc_key_load(s.key.c_str(), k.data(), why, sizeof why) < 0) throw ConfigError(why);
   s.key_bytes = std::move(k);
+  s.next_key_bytes.clear();
+  if (s.next_key.empty()) return;
+  std::vector<uint8_t> n(VC_AUTH_KEY_SIZE);
+  if (vc_key_load(s.next_key.c_str(), n.data(), why, sizeof why) < 0) throw ConfigError(why);
+  s.next_key_bytes = std::move(n);
 }
 
 vc_edged_options to_options(const EdgeSettings& s) {
@@ -281,6 +296,8 @@ vc_edged_options to_options(const EdgeSettings& s) {
   o.link.reconnect_max_ms = s.reconnect_max_ms;
   o.link.key = s.key_bytes.empty() ? nullptr : s.key_bytes.data();
   o.trigger.key = o.link.key;
+  o.link.next_key = o.link.key && !s.next_key_bytes.empty() ? s.next_key_bytes.data() : nullptr;
+  o.trigger.next_key = o.link.next_key;
   o.stats_ms = s.stats_ms;
   o.camera_timeout_ms = s.camera_timeout_ms;
   o.verbosity = s.verbosity;

@@ -60,6 +60,10 @@ struct EdgeSettings {
   std::string state_dir;  // where the learnt background model is kept across restarts ("" = not kept)
   std::string key;        // the rig key file (`key`, relative to edge.toml's folder); "" = keyless
   std::vector<uint8_t> key_bytes;  // the key read from it (load_key), VC_AUTH_KEY_SIZE bytes or empty
+  // `next_key`: during a rotation, the rig's new key file (relative like key; "" = none); the host may
+  // prove either (host/deploy/README.md "Keys"). Needs key.
+  std::string next_key;
+  std::vector<uint8_t> next_key_bytes;  // read by load_key
 
   // Throws ConfigError naming the key.
   void validate() const;
@@ -75,8 +79,9 @@ void load_edge_toml(const std::string& path, EdgeSettings& s);
 // The same over a file's text in memory (`path` names it in messages): tests and fuzzing.
 void parse_edge_toml(const std::string& text, const std::string& path, EdgeSettings& s);
 
-// Reads s.key into s.key_bytes (nothing without a key file). Throws ConfigError with the one-line
-// reason: a missing file, one that group or others may read, not one line of 64 hex digits.
+// Reads s.key into s.key_bytes and s.next_key into s.next_key_bytes (nothing without a key file). Throws
+// ConfigError with the one-line reason: a missing file, one that group or others may read, not one line of 64
+// hex digits.
 void load_key(EdgeSettings& s);
 
 // The daemon's options; strings point into s, which must outlive them.

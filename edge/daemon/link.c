@@ -39,7 +39,9 @@ struct vc_link {
   vc_link_stats st;
   bool keyed;
   uint8_t key[VC_AUTH_KEY_SIZE];
-  vc_mac tx;     /* node -> host of the current connection (link thread only) */
+  bool has_next;
+  uint8_t next_key[VC_AUTH_KEY_SIZE]; /* with has_next: the key a rotation brings (either is proved) */
+  vc_mac tx;                          /* node -> host of the current connection (link thread only) */
   uint8_t* seal; /* the message being written, sealed (grown to the largest message, then reused) */
   size_t seal_cap;
 };
@@ -157,15 +159,23 @@ static int finish_auth(vc_link* l, int fd, vc_decoder* dec, const vc_msg* m, con
     return -EACCES;
   }
   const uint8_t* nonce_host = m->u.auth.nonce;
-  if (!vc_auth_verify(m->u.auth.proof, l->key, VC_AUTH_ROLE_HOST, l->cfg.node_id, nonce_node, nonce_host)) {
-    vc_log(VC_LOG_WARN, "link: %s:%u answered with a wrong proof of the rig key: not obeying it", l->host,
-           l->cfg.port);
-    return -EACCES;
+  /* During a rotation the host holds the old key or the new one: whichever it proved, this
+   * connection proves and is keyed with that one (never neither). */
+  const uint8_t* key = l->key;
+  if (!vc_auth_verify(m->u.auth.proof, key, VC_AUTH_ROLE_HOST, l->cfg.node_id, nonce_node, nonce_host)) {
+    key = l->has_next ? l->next_key : NULL;
+    if (!key ||
+        !vc_auth_verify(m->u.auth.proof, key, VC_AUTH_ROLE_HOST, l->cfg.node_id, nonce_node, nonce_host)) {
+      vc_log(VC_LOG_WARN, "link: %s:%u answered with a wrong proof of the rig key: not obeying it", l->host,
+             l->cfg.port);
+      return -EACCES;
+    }
+    vc_log(VC_LOG_INFO, "link: %s:%u proved the rig's next key (rotation under way)", l->host, l->cfg.port);
   }
   uint8_t proof[VC_AUTH_PROOF_SIZE];
-  vc_auth_prove(proof, l->key, VC_AUTH_ROLE_NODE, l->cfg.node_id, nonce_node, nonce_host);
+  vc_auth_prove(proof, key, VC_AUTH_ROLE_NODE, l->cfg.node_id, nonce_node, nonce_host);
   vc_mac rx;
-  vc_auth_session(l->key, l->cfg.node_id, nonce_node, nonce_host, &l->tx, &rx);
+  vc_auth_session(key, l->cfg.node_id, nonce_node, nonce_host, &l->tx, &rx);
   vc_decoder_set_mac(dec, &rx);
   sodium_memzero(&rx, sizeof rx);
   if (write_auth(l, fd, VC_AUTH_PROOF, NULL, proof) < 0) return -EIO;
@@ -405,7 +415,12 @@ int vc_link_new(const vc_link_config* cfg, const vc_link_callbacks* cb, const ui
     }
     memcpy(l->key, cfg->key, VC_AUTH_KEY_SIZE);
     l->keyed = true;
+    if (cfg->next_key) {
+      memcpy(l->next_key, cfg->next_key, VC_AUTH_KEY_SIZE);
+      l->has_next = true;
+    }
   }
+  l->cfg.next_key = NULL;
   int rc = -ENOMEM;
   char qwhy[128] = "out of memory";
   l->hello = malloc(hello_len);
@@ -454,6 +469,7 @@ void vc_link_free(vc_link* l) {
   free(l->hello);
   free(l->seal);
   sodium_memzero(l->key, sizeof l->key);
+  sodium_memzero(l->next_key, sizeof l->next_key);
   free(l);
 }
 

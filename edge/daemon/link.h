@@ -40,6 +40,9 @@ typedef struct vc_link_config {
   int heartbeat_ms;     /* 0 = 250 */
   int host_timeout_ms;  /* 0 = 3000 */
   const uint8_t* key;   /* the rig key, VC_AUTH_KEY_SIZE bytes (copied), or NULL: keyless (loopback) */
+  /* With key: the rig's next key during a rotation (copied), or NULL. The host may prove either; the
+   * link proves and keys the connection with the one the host proved (host/deploy/README.md "Keys"). */
+  const uint8_t* next_key;
 } vc_link_config;
 
 typedef struct vc_link_callbacks {

@@ -50,7 +50,8 @@ bool parse_size(const std::string& s, int* w, int* h) {
 // --prove-key HEX: the proof voxcap deploy asks for over ssh (host/deploy/README.md, "Keys"), made
 // with the key this configuration names: BLAKE2b over a nonce of ours and deploy's, for the proof role
 // 3, which neither side of a rig connection ever accepts (node 1, host 2), so the answer cannot stand
-// in for a node's proof on the wire. Prints "node_id=N nonce=HEX proof=HEX". 0, or 2 (bad nonce).
+// in for a node's proof on the wire. Prints "node_id=N nonce=HEX proof=HEX", and a second such line
+// ending " key=next" for edge.toml's next_key during a rotation. 0, or 2 (bad nonce).
 constexpr uint16_t kDeployProofRole = 3;
 
 int hex_digit(char c) {
@@ -89,10 +90,14 @@ int prove_key(const vc::edge::EdgeSettings& s, const std::string& nonce_hex) {
     return 2;
   }
   if (vc_auth_init() < 0) return 1;
-  vc_auth_random(ours, sizeof ours);
-  vc_auth_prove(proof, s.key_bytes.data(), kDeployProofRole, static_cast<uint16_t>(s.node_id), ours, theirs);
-  std::printf("node_id=%d nonce=%s proof=%s\n", s.node_id, to_hex(ours, sizeof ours).c_str(),
-              to_hex(proof, sizeof proof).c_str());
+  // One line per key held: the key, then (a rotation under way) the next key, marked "key=next".
+  for (const std::vector<uint8_t>* k : {&s.key_bytes, &s.next_key_bytes}) {
+    if (k->size() != VC_AUTH_KEY_SIZE) continue;
+    vc_auth_random(ours, sizeof ours);
+    vc_auth_prove(proof, k->data(), kDeployProofRole, static_cast<uint16_t>(s.node_id), ours, theirs);
+    std::printf("node_id=%d nonce=%s proof=%s%s\n", s.node_id, to_hex(ours, sizeof ours).c_str(),
+                to_hex(proof, sizeof proof).c_str(), k == &s.key_bytes ? "" : " key=next");
+  }
   return 0;
 }
 
@@ -149,7 +154,8 @@ int run(int argc, char** argv) {
   std::string prove_nonce;
   app.add_option("--prove-key", prove_nonce,
                  "print a proof that this configuration's rig key is the one voxcap deploy holds, over "
-                 "deploy's 64-hex-digit nonce and one of ours (a role no rig connection accepts), and exit");
+                 "deploy's 64-hex-digit nonce and one of ours (a role no rig connection accepts), and exit; "
+                 "with next_key (a rotation under way) a second line, ending key=next, for that key");
   app.set_version_flag("--version", "voxcap-edge " VOXCAP_VERSION, "print the release and exit");
   try {
     app.parse(argc, argv);

@@ -7,7 +7,8 @@
  * forged datagram cannot move the edge's seq. The datagram's t_ns is the host's CLOCK_MONOTONIC: in
  * the emulated rig host and edges share one machine, so it needs no conversion. With the rig key
  * (protocol 2.3) only version-2 datagrams are taken, whose MAC verifies under the trigger key and
- * whose counter is past the last one taken: a stranger can neither forge nor replay a pulse. */
+ * whose counter is past the last one taken: a stranger can neither forge nor replay a pulse. While a
+ * key rotation is under way (next_key) a datagram under either key is taken, on one counter. */
 #define _GNU_SOURCE
 #include <arpa/inet.h>
 #include <errno.h>
@@ -27,6 +28,8 @@ struct udp_priv {
   int fd;
   bool keyed;
   vc_mac mac; /* with keyed: the trigger key and the next counter taken */
+  bool has_next;
+  vc_mac mac_next; /* with has_next: the trigger key of the rig's next key (a rotation under way) */
   vc_seq_window window;
   bool check_source;
   struct in_addr source; /* with check_source: the only sender taken */
@@ -37,6 +40,7 @@ static void udp_free(void* p) {
   if (!u) return;
   if (u->fd >= 0) close(u->fd);
   memset(&u->mac, 0, sizeof u->mac);
+  memset(&u->mac_next, 0, sizeof u->mac_next);
   free(u);
 }
 
@@ -76,6 +80,10 @@ static int udp_open(vc_trigger* trig, const vc_trigger_config* cfg, vc_trigger_i
     }
     vc_auth_trigger_key(cfg->key, &u->mac);
     u->keyed = true;
+    if (cfg->next_key) {
+      vc_auth_trigger_key(cfg->next_key, &u->mac_next);
+      u->has_next = true;
+    }
   }
   if (cfg->source_address && cfg->source_address[0]) {
     const char* src_addr = strcmp(cfg->source_address, "localhost") == 0 ? "127.0.0.1" : cfg->source_address;
@@ -122,6 +130,14 @@ static int udp_wait(vc_trigger* trig, void* p, int timeout_ms, vc_pulse* pulse, 
     }
     if (u->keyed) {
       int mrc = vc_trigger_dgram_decode_mac(buf, (size_t)n, &u->mac, &seq, &t_ns);
+      /* During a key rotation the host pulses under either key; one counter for both, so a datagram
+       * taken under one key cannot be replayed under the other. */
+      if (mrc == VC_PROTO_EMAC && u->has_next)
+        mrc = vc_trigger_dgram_decode_mac(buf, (size_t)n, &u->mac_next, &seq, &t_ns);
+      if (mrc == 0 && u->has_next) {
+        uint64_t c = u->mac.counter > u->mac_next.counter ? u->mac.counter : u->mac_next.counter;
+        u->mac.counter = u->mac_next.counter = c;
+      }
       if (mrc != 0) {
         st->forged++;
         continue;

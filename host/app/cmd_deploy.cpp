@@ -34,7 +34,9 @@ void add_deploy_commands(CLI::App& app) {
       "key "
       "(/etc/voxcap/rig.key, 0600, the service user's), restart voxcap-edge.service, check that it is "
       "active, "
-      "runs the package's version (voxcap-edge --version) and proves the rig key (voxcap-edge --prove-key); "
+      "runs the package's version (voxcap-edge --version) and proves the rig key (voxcap-edge --prove-key), "
+      "and, when no voxcap-host holds the rig's port, that it rejoined the rig: its keyed HELLO on that "
+      "port with the package's version, within [deploy] hello_timeout_s (20); "
       "roll back a board that fails (previous package, edge.toml and key). Progress per board, a summary, "
       "exit 1 when any board failed. host/deploy/README.md");
   auto inventory = std::make_shared<std::string>();
@@ -51,9 +53,11 @@ void add_deploy_commands(CLI::App& app) {
                   "configuration and key only)");
   dep->add_flag(
       "--rotate-key", *rotate,
-      "make a new rig key (<key>.next), install it on every board, check each proves it, then switch the "
-      "host's key file (the old one kept as <key>.old); boards left with the old key are named and the "
-      "host keeps its key");
+      "make a new rig key (<key>.next), install it on every board beside the old one (edge.toml next_key: "
+      "the board takes either key, so it keeps capturing with the running host), check each proves it, then "
+      "switch the host's key file (the old one kept as <key>.old; restart voxcap-host, then a plain deploy "
+      "drops the old key from the boards); boards left with the old key are named and the host keeps its "
+      "key");
   dep->add_flag("--dry-run", *dry,
                 "connect, report what each board runs and what would change; change nothing");
   dep->add_option("--node", *nodes, "only this board (repeat for more)");

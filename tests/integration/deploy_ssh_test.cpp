@@ -93,6 +93,7 @@ class DeploySsh : public ::testing::Test {
   fs::path dir;
   int port = -1;
   pid_t sshd = -1;
+  int rig_port = -1;  // the rig's host port: deploy's HELLO listener, the daemons' host.port
   std::string user;
 
   void SetUp() override {
@@ -157,22 +158,46 @@ class DeploySsh : public ::testing::Test {
         "exec " +
             (dir / "bin" / "fake-dpkg").string() + " \"$root\" \"$@\"\n",
         kExec);
+    // restart: stops the board's running voxcap-edge (its pid file), then starts the installed one
+    // with the board's edge.toml in the background, as the unit would: a real daemon that connects to
+    // the rig's port and says HELLO (not when the board folder holds "no-daemon": a service that looks
+    // active but never joins the rig).
     put(dir / "bin" / "fake-systemctl",
         "#!/bin/sh\n# fake-systemctl ROOT restart|is-active UNIT\nroot=$1; shift\n"
         "case \"$1\" in\n"
         "  restart) mkdir -p \"$root/run\"; rm -f \"$root/run/active\"; echo \"$2\" >> "
-        "\"$root/run/restarts\";\n"
-        "           \"$root/usr/bin/voxcap-edge\" --version > /dev/null 2>&1 && touch \"$root/run/active\"; "
-        "exit 0;;\n"
+        "\"$root/run/restarts\"\n"
+        "    if [ -f \"$root/run/pid\" ]; then p=$(cat \"$root/run/pid\"); kill \"$p\" 2>/dev/null; i=0\n"
+        "      while kill -0 \"$p\" 2>/dev/null && [ $i -lt 100 ]; do sleep 0.1; i=$((i+1)); done\n"
+        "      kill -9 \"$p\" 2>/dev/null; rm -f \"$root/run/pid\"; fi\n"
+        "    \"$root/usr/bin/voxcap-edge\" --version > /dev/null 2>&1 || exit 0\n"
+        "    touch \"$root/run/active\"\n"
+        "    if [ -f \"$root/etc/voxcap/edge.toml\" ] && [ ! -f \"$root/no-daemon\" ]; then\n"
+        "      setsid \"$root/usr/bin/voxcap-edge\" --config \"$root/etc/voxcap/edge.toml\" < /dev/null >> "
+        "\"$root/run/edge.log\" 2>&1 &\n"
+        "      echo $! > \"$root/run/pid\"\n    fi\n    exit 0;;\n"
         "  is-active) if [ -f \"$root/run/active\" ]; then echo active; else echo failed; exit 3; fi;;\n"
         "  *) exit 2;;\nesac\n",
         kExec);
+    rig_port = free_port();
+    ASSERT_GT(rig_port, 0);
     ASSERT_EQ(sh(std::string(VOXCAP_BINARY) + " key new " + (dir / "rig.key").string()).code, 0);
     fs::copy_file(fs::path(VOXCAP_SOURCE_DIR) / "hw" / "rigs" / "emulated.yaml", dir / "emulated.yaml");
     package("0.1.0-1", "");
   }
 
   void TearDown() override {
+    // The boards' daemons (started through ssh, so not our children): by their pid files, bounded.
+    for (const std::string id : {"node1", "node2", "node3"}) {
+      const fs::path pidfile = dir / ("board-" + id) / "run" / "pid";
+      if (dir.empty() || !fs::exists(pidfile)) continue;
+      const pid_t p = static_cast<pid_t>(std::stol("0" + slurp(pidfile)));
+      if (p <= 1) continue;
+      ::kill(p, SIGTERM);
+      for (int i = 0; i < 50 && ::kill(p, 0) == 0; ++i)
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+      ::kill(p, SIGKILL);
+    }
     if (sshd > 0) {
       ::kill(sshd, SIGTERM);
       int st = 0;
@@ -212,8 +237,9 @@ class DeploySsh : public ::testing::Test {
   }
 
   // The rig file: nodes node1..nodeN on loopback, each a board folder reached over the test's sshd.
+  // hello_timeout_s: how long deploy waits for each board's HELLO on the rig's port (0: not at all).
   void rig(const std::vector<std::string>& ids, const std::vector<std::string>& dpkg,
-           const std::vector<std::string>& service_user = {}) {
+           const std::vector<std::string>& service_user = {}, int hello_timeout_s = 30) {
     static const char* cams[] = {"front0", "front1", "ring2", "ring3", "ring4", "ring5"};
     std::string t =
         "version = 1\nname = \"loopback-boards\"\ncalibration = \"emulated.yaml\"\nkey = \"rig.key\"\n"
@@ -225,23 +251,33 @@ class DeploySsh : public ::testing::Test {
       t += "deploy = { root = \"" + root.string() + "\", dpkg = \"" + (dir / "bin" / dpkg[i]).string() + " " +
            root.string() + "\", systemctl = \"" + (dir / "bin" / "fake-systemctl").string() + " " +
            root.string() + "\"" +
-           (i < service_user.size() ? ", service_user = \"" + service_user[i] + "\"" : "") + " }\n";
+           (i < service_user.size() ? ", service_user = \"" + service_user[i] + "\"" : "") +
+           ", edge = { trigger = { port = " + std::to_string(trigger_port(i)) + " } } }\n";
     }
     t += "[trigger]\nbackend = \"udp\"\n[trigger.udp]\ntargets = [";
     for (size_t i = 0; i < ids.size(); ++i)
-      t += (i ? ", \"" : "\"") + std::string("127.0.0.1:") + std::to_string(47001 + i) + "\"";
-    t += "]\n[network]\nlisten = \"127.0.0.1\"\nport = 7600\n";
+      t += (i ? ", \"" : "\"") + std::string("127.0.0.1:") + std::to_string(trigger_port(i)) + "\"";
+    t += "]\n[network]\nlisten = \"127.0.0.1\"\nport = " + std::to_string(rig_port) + "\n";
     t += "[deploy]\nssh_port = " + std::to_string(port) +
          "\nidentity = \"userkey\"\nknown_hosts = \"known_hosts\"\n"
          "sudo = \"\"\nservice_user = \"" +
          user +
          "\"\nsettle_s = 0\nconnect_timeout_s = 10\nstep_timeout_s = 60\n"
-         "parallel = 2\n";
+         "parallel = 2\nhello_timeout_s = " +
+         std::to_string(hello_timeout_s) + "\n";
+    // device "": the sim backend's default scene (deploy's default device is the camera's number).
     t += "[deploy.edge]\nstate_dir = \"\"\n[[deploy.edge.cameras]]\nbackend = "
-         "\"sim\"\n[[deploy.edge.cameras]]\n"
-         "backend = \"sim\"\n[deploy.edge.trigger]\nbackend = \"udp\"\n";
+         "\"sim\"\ndevice = \"\"\n[[deploy.edge.cameras]]\n"
+         "backend = \"sim\"\ndevice = \"\"\n[deploy.edge.trigger]\nbackend = \"udp\"\n";
     put(dir / "rig.toml", t);
   }
+
+  // Each board's trigger input: a free port of its own, kept for the test (the daemons bind it).
+  int trigger_port(size_t i) {
+    while (trigger_ports.size() <= i) trigger_ports.push_back(free_port());
+    return trigger_ports[i];
+  }
+  std::vector<int> trigger_ports;
 
   CmdResult deploy(const std::string& args) {
     return sh(std::string(VOXCAP_BINARY) + " deploy --inventory " + (dir / "rig.toml").string() + " " + args);
@@ -270,7 +306,12 @@ TEST_F(DeploySsh, UpgradesLoopbackBoards) {
   EXPECT_NE(r.out.find("2 of 2 boards ok (voxcap-edge 0.1.0)"), std::string::npos) << r.out;
   for (const std::string id : {"node1", "node2"}) {
     SCOPED_TRACE(id);
-    EXPECT_NE(r.out.find("[" + id + "] ok: voxcap-edge 0.1.0 active, proved the rig key"), std::string::npos)
+    // Back in the rig: the real daemon's keyed HELLO on the rig's port, with the new version.
+    EXPECT_NE(
+        r.out.find("[" + id +
+                   "] ok: voxcap-edge 0.1.0 active, proved the rig key, rejoined with 0.1.0 (HELLO, key "
+                   "proved)"),
+        std::string::npos)
         << r.out;
     const std::string edge = slurp(etc(id) / "edge.toml");
     EXPECT_NE(edge.find("node_id = " + id.substr(4)), std::string::npos) << edge;
@@ -283,6 +324,34 @@ TEST_F(DeploySsh, UpgradesLoopbackBoards) {
     EXPECT_TRUE(fs::exists(dir / ("board-" + id) / "var/lib/voxcap/deploy/current.deb"));
     EXPECT_EQ(slurp(dir / ("board-" + id) / "installed-version"), "0.1.0-1\n");
   }
+  EXPECT_NE(r.out.find("listened on the rig's port 127.0.0.1:" + std::to_string(rig_port)), std::string::npos)
+      << r.out;
+}
+
+TEST_F(DeploySsh, BoardThatDoesNotRejoinIsRolledBack) {
+  old_board("node1");
+  old_board("node2");
+  rig({"node1", "node2"}, {"fake-dpkg", "fake-dpkg"});
+  ASSERT_EQ(deploy("--package " + (dir / "voxcap-edge_0.1.0-1_all.deb").string()).code, 0);
+  // Again, with node2's service looking active but never joining the rig.
+  put(dir / "board-node2" / "no-daemon", "");
+  rig({"node1", "node2"}, {"fake-dpkg", "fake-dpkg"}, {}, 3);
+  const CmdResult r = deploy("--package " + (dir / "voxcap-edge_0.1.0-1_all.deb").string());
+  EXPECT_EQ(r.code, 1) << r.out;
+  EXPECT_NE(r.out.find("[node1] ok: voxcap-edge 0.1.0 active, proved the rig key, rejoined with 0.1.0"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("[node2] FAILED: it did not rejoin the rig (no HELLO on 127.0.0.1:" +
+                       std::to_string(rig_port) + " in 3 s); rolling back"),
+            std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("deploy failed on: node2"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("[node2] rolled back: voxcap-edge 0.1.0 active again"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("node1            0.1.0      0.1.0      ok     0.1.0      ok"), std::string::npos)
+      << r.out;
+  EXPECT_NE(r.out.find("node2            0.1.0      0.1.0      ok     -          FAILED, rolled back"),
+            std::string::npos)
+      << r.out;
 }
 
 TEST_F(DeploySsh, FailingBoardsAreRolledBackAndNamed) {
@@ -292,8 +361,9 @@ TEST_F(DeploySsh, FailingBoardsAreRolledBackAndNamed) {
   const std::string edge2 = slurp(etc("node2") / "edge.toml");
 
   // 0.2.0: node2's installer fails, node3's "succeeds" but 0.2.0 never comes up.
+  // (Without the HELLO check: the stand-in 0.2.0 runs this build's daemon, whose HELLO says 0.1.0.)
   const fs::path v2 = package("0.2.0-1", "0.2.0");
-  rig({"node1", "node2", "node3"}, {"fake-dpkg", "fail-dpkg", "stale-dpkg"});
+  rig({"node1", "node2", "node3"}, {"fake-dpkg", "fail-dpkg", "stale-dpkg"}, {}, 0);
   const CmdResult r = deploy("--package " + v2.string());
   EXPECT_EQ(r.code, 1) << r.out;
   EXPECT_NE(r.out.find("deploy failed on: node2 node3"), std::string::npos) << r.out;
@@ -324,14 +394,42 @@ TEST_F(DeploySsh, RotateKeyEveryBoardProvesTheNewKey) {
   EXPECT_EQ(key_of(dir / "rig.key.old"), old_key);
   EXPECT_FALSE(fs::exists(dir / "rig.key.next"));
   EXPECT_NE(r.out.find("rig key rotated: every board proved the new key"), std::string::npos) << r.out;
+  // Every board holds both keys and proved the new one; restarted, it rejoined a host that still
+  // proves the OLD key (deploy's listener holds the host's key): no capture gap.
   for (const std::string id : {"node1", "node2", "node3"}) {
     SCOPED_TRACE(id);
     EXPECT_NE(r.out.find("[" + id + "] ok: voxcap-edge 0.1.0 active, proved the NEW key"), std::string::npos)
         << r.out;
+    EXPECT_NE(
+        r.out.find("[" + id +
+                   "] ok: voxcap-edge 0.1.0 active, proved the NEW key (and holds the old one until the "
+                   "host switches), rejoined with 0.1.0 (HELLO, key proved)"),
+        std::string::npos)
+        << r.out;
+    EXPECT_EQ(key_of(etc(id) / "rig.key"), old_key);
+    EXPECT_EQ(key_of(etc(id) / "rig.key.next"), new_key);
+    EXPECT_NE(slurp(etc(id) / "edge.toml").find("next_key = 'rig.key.next'"), std::string::npos);
+    for (const char* f : {"rig.key", "rig.key.next"}) {
+      struct stat st {};
+      ASSERT_EQ(::stat((etc(id) / f).c_str(), &st), 0);
+      EXPECT_EQ(st.st_mode & 0777, 0600u) << f;
+    }
+  }
+
+  // The host switched: a plain deploy drops the old key from every board, and each rejoins a host
+  // that proves only the new key.
+  r = deploy("");
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const std::string id : {"node1", "node2", "node3"}) {
+    SCOPED_TRACE(id);
+    EXPECT_NE(r.out.find("[" + id +
+                         "] ok: voxcap-edge 0.1.0 active, proved the rig key, rejoined with 0.1.0 "
+                         "(HELLO, key proved)"),
+              std::string::npos)
+        << r.out;
     EXPECT_EQ(key_of(etc(id) / "rig.key"), new_key);
-    struct stat st {};
-    ASSERT_EQ(::stat((etc(id) / "rig.key").c_str(), &st), 0);
-    EXPECT_EQ(st.st_mode & 0777, 0600u);
+    EXPECT_FALSE(fs::exists(etc(id) / "rig.key.next"));
+    EXPECT_EQ(slurp(etc(id) / "edge.toml").find("next_key"), std::string::npos);
   }
 
   // Again, with node2 unable to take it (its service user does not exist: the key cannot be given to it).
@@ -343,9 +441,11 @@ TEST_F(DeploySsh, RotateKeyEveryBoardProvesTheNewKey) {
   EXPECT_EQ(key_of(dir / "rig.key"), new_key) << "the host switched although node2 kept the old key";
   ASSERT_TRUE(fs::exists(dir / "rig.key.next"));
   const std::string newer = key_of(dir / "rig.key.next");
-  EXPECT_EQ(key_of(etc("node1") / "rig.key"), newer);
-  EXPECT_EQ(key_of(etc("node3") / "rig.key"), newer);
+  EXPECT_EQ(key_of(etc("node1") / "rig.key.next"), newer);
+  EXPECT_EQ(key_of(etc("node3") / "rig.key.next"), newer);
+  EXPECT_EQ(key_of(etc("node1") / "rig.key"), new_key);  // beside the key the host holds
   EXPECT_EQ(key_of(etc("node2") / "rig.key"), new_key);  // left with the key the host still holds
+  EXPECT_FALSE(fs::exists(etc("node2") / "rig.key.next"));
   EXPECT_NE(r.out.find("node2            0.1.0      0.1.0      OLD"), std::string::npos) << r.out;
 }
 

@@ -109,6 +109,34 @@ TEST(EdgeConfig, ErrorsNameTheKey) {
   EXPECT_NE(load_error("[link]\nheartbeat_ms = 100\nhost_timeout_ms = 50\n").find("link.host_timeout_ms"),
             std::string::npos);
   EXPECT_NE(load_error("[trigger\n").find(".toml:"), std::string::npos);  // parse error with position
+  EXPECT_NE(load_error("next_key = \"rig.key.next\"\n").find("next_key: needs key"), std::string::npos);
+}
+
+// A rotation under way: both key files, relative to edge.toml's folder, read and handed to the link and
+// the trigger (either key is proved; host/deploy/README.md "Keys").
+TEST(EdgeConfig, NextKeyDuringARotationReachesLinkAndTrigger) {
+  const std::string p = write_tmp("");
+  const std::string a = p + ".a", b = p + ".b", base = p.substr(p.rfind('/') + 1);
+  std::ofstream(p) << "key = \"" << base << ".a\"\nnext_key = \"" << base << ".b\"\n";
+  std::ofstream(a) << std::string(64, '1') << "\n";
+  std::ofstream(b) << std::string(64, '2') << "\n";
+  chmod(a.c_str(), 0600);
+  chmod(b.c_str(), 0600);
+  vc::edge::EdgeSettings s;
+  vc::edge::load_edge_toml(p, s);
+  s.validate();
+  vc::edge::load_key(s);
+  EXPECT_EQ(s.next_key, b);
+  ASSERT_EQ(s.key_bytes.size(), 32u);
+  ASSERT_EQ(s.next_key_bytes.size(), 32u);
+  EXPECT_EQ(s.key_bytes[0], 0x11);
+  EXPECT_EQ(s.next_key_bytes[0], 0x22);
+  const vc_edged_options o = vc::edge::to_options(s);
+  EXPECT_EQ(o.link.next_key, s.next_key_bytes.data());
+  EXPECT_EQ(o.trigger.next_key, s.next_key_bytes.data());
+  std::remove(a.c_str());
+  std::remove(b.c_str());
+  std::remove(p.c_str());
 }
 
 TEST(EdgeConfig, DefaultsAreTheEmulatedNode) {

@@ -1,7 +1,9 @@
 // The edge's link against a fake host on 127.0.0.1: HELLO first, host messages delivered, heartbeats,
-// reconnection after the host goes away, undecodable bytes drop the connection. Loops are bounded.
+// reconnection after the host goes away, undecodable bytes drop the connection, a key rotation's two
+// keys. Loops are bounded.
 #include "link.h"
 #include "log.h"
+#include "voxcap/auth.h"
 
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
@@ -10,8 +12,10 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <array>
 #include <atomic>
 #include <chrono>
+#include <cstring>
 #include <mutex>
 #include <string>
 #include <thread>
@@ -104,8 +108,11 @@ struct Sink {
   static uint32_t state(void*) { return VC_STATE_READY; }
 };
 
-vc_link* start_link(FakeHost& host, Sink& sink, int host_timeout_ms = 3000) {
+vc_link* start_link(FakeHost& host, Sink& sink, int host_timeout_ms = 3000, const uint8_t* key = nullptr,
+                    const uint8_t* next_key = nullptr) {
   vc_link_config cfg{};
+  cfg.key = key;
+  cfg.next_key = next_key;
   cfg.host = "127.0.0.1";
   cfg.port = host.port;
   cfg.node_id = 4;
@@ -284,6 +291,99 @@ TEST(Link, SendWhileDisconnectedIsCountedNotQueued) {
   vc_link_get_stats(link, &st);
   EXPECT_EQ(st.queue_dropped, 1u);
   vc_link_free(link);
+}
+
+using Key = std::array<uint8_t, VC_AUTH_KEY_SIZE>;
+
+Key random_key() {
+  Key k{};
+  vc_auth_random(k.data(), k.size());
+  return k;
+}
+
+// The host's side of the handshake on fd, proving `key`: takes HELLO and the node's challenge,
+// answers, and reads the node's proof. True when the node proved `key` too (false: it proved another
+// or closed without proving).
+bool host_handshake(int fd, const Key& key) {
+  vc_decoder* dec = nullptr;
+  EXPECT_EQ(vc_decoder_new(0, &dec, nullptr, 0), 0);
+  uint8_t nn[VC_AUTH_NONCE_SIZE] = {}, nh[VC_AUTH_NONCE_SIZE] = {};
+  bool result = false, done = false;
+  auto end = std::chrono::steady_clock::now() + std::chrono::seconds(3);
+  uint8_t buf[4096];
+  while (!done && std::chrono::steady_clock::now() < end) {
+    pollfd p{fd, POLLIN, 0};
+    if (poll(&p, 1, 20) <= 0) continue;
+    ssize_t n = recv(fd, buf, sizeof(buf), 0);
+    if (n <= 0) break;
+    size_t used = 0;
+    for (size_t off = 0; off < (size_t)n && !done; off += used) {
+      if (vc_decoder_feed(dec, buf + off, n - off, &used) < 0) {
+        done = true;
+        break;
+      }
+      vc_msg m;
+      while (!done && vc_decoder_next(dec, &m) > 0) {
+        if (m.hdr.type != VC_MSG_AUTH) continue;
+        if (m.u.auth.step == VC_AUTH_CHALLENGE) {
+          std::memcpy(nn, m.u.auth.nonce, sizeof nn);
+          vc_auth_random(nh, sizeof nh);
+          vc_auth_msg r{};
+          r.step = VC_AUTH_RESPONSE;
+          std::memcpy(r.nonce, nh, sizeof nh);
+          vc_auth_prove(r.proof, key.data(), VC_AUTH_ROLE_HOST, 4, nn, nh);
+          uint8_t out[VC_PROTO_HEADER_SIZE + 128];
+          size_t len = 0;
+          vc_header hdr{};
+          hdr.node_id = 4;
+          EXPECT_EQ(vc_encode_auth(out, sizeof out, &len, &hdr, &r), 0);
+          EXPECT_EQ(send(fd, out, len, MSG_NOSIGNAL), (ssize_t)len);
+        } else if (m.u.auth.step == VC_AUTH_PROOF) {
+          result = vc_auth_verify(m.u.auth.proof, key.data(), VC_AUTH_ROLE_NODE, 4, nn, nh);
+          done = true;
+        }
+      }
+    }
+  }
+  vc_decoder_free(dec);
+  return result;
+}
+
+// A key rotation under way (host/deploy/README.md "Keys"): the link holds the rig key and the next
+// one, joins a host that proves either and proves that same key back; a host with a third key is
+// never obeyed.
+TEST(Link, DuringARotationEitherKeyTheHostProvesIsTaken) {
+  ASSERT_EQ(vc_auth_init(), 0);
+  const Key old_key = random_key(), next_key = random_key(), stranger = random_key();
+  for (const Key* host_key : {&old_key, &next_key}) {
+    SCOPED_TRACE(host_key == &old_key ? "host on the old key" : "host on the next key");
+    FakeHost host;
+    Sink sink;
+    vc_link* link = start_link(host, sink, 3000, old_key.data(), next_key.data());
+    int fd = host.accept_within(2000);
+    ASSERT_GE(fd, 0);
+    EXPECT_TRUE(host_handshake(fd, *host_key)) << "the node did not prove the key the host proved";
+    for (int i = 0; i < 100 && sink.ups.load() == 0; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    EXPECT_EQ(sink.ups.load(), 1);
+    vc_link_free(link);
+    close(fd);
+  }
+  FakeHost host;
+  Sink sink;
+  vc_link* link = start_link(host, sink, 3000, old_key.data(), next_key.data());
+  int fd = host.accept_within(2000);
+  ASSERT_GE(fd, 0);
+  EXPECT_FALSE(host_handshake(fd, stranger));
+  vc_link_stats st{};
+  for (int i = 0; i < 100 && st.auth_failures == 0; ++i) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    vc_link_get_stats(link, &st);
+  }
+  EXPECT_GE(st.auth_failures, 1u);
+  EXPECT_EQ(sink.ups.load(), 0);
+  vc_link_free(link);
+  close(fd);
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "voxcap/auth.h"
 #include "voxcap/edge/trigger.h"
 #include "voxcap/proto.h"
 
@@ -190,5 +191,54 @@ TEST(UdpTriggerSource, TakesPulsesOnlyFromTheHostsAddress) {
   vc_trigger_stats st;
   vc_trigger_get_stats(trig, &st);
   EXPECT_EQ(st.foreign, 2u);
+  vc_trigger_free(trig);
+}
+
+// A key rotation under way (host/deploy/README.md "Keys"): with the rig key and the next one, a pulse
+// signed with either is taken, on one counter (a counter taken under one key is not taken again under
+// the other); a stranger's key is still forged.
+TEST(UdpTriggerKeys, EitherKeyOfARotationOnOneCounter) {
+  ASSERT_EQ(vc_auth_init(), 0);
+  uint8_t a[VC_AUTH_KEY_SIZE], b[VC_AUTH_KEY_SIZE], c[VC_AUTH_KEY_SIZE];
+  vc_auth_random(a, sizeof a);
+  vc_auth_random(b, sizeof b);
+  vc_auth_random(c, sizeof c);
+  vc_trigger_config cfg;
+  vc_trigger_config_init(&cfg);
+  cfg.backend = "udp";
+  cfg.key = a;
+  cfg.next_key = b;
+  vc_trigger* trig = nullptr;
+  char why[256];
+  ASSERT_EQ(vc_trigger_open(&cfg, &trig, why, sizeof why), 0) << why;
+  vc_trigger_info info;
+  vc_trigger_get_info(trig, &info);
+  const int fd = socket(AF_INET, SOCK_DGRAM, 0);
+  ASSERT_GE(fd, 0);
+  auto send_signed = [&](const uint8_t* key, uint64_t counter, uint64_t seq) {
+    vc_mac tx;
+    vc_auth_trigger_key(key, &tx);
+    tx.counter = counter;
+    uint8_t d[VC_TRIGGER_DGRAM_MAC_SIZE];
+    ASSERT_EQ(vc_trigger_dgram_encode_mac(d, seq, seq, &tx), 0);
+    sockaddr_in to{};
+    to.sin_family = AF_INET;
+    to.sin_port = htons(info.port);
+    to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    EXPECT_EQ(sendto(fd, d, sizeof d, 0, reinterpret_cast<sockaddr*>(&to), sizeof to), (ssize_t)sizeof d);
+  };
+  send_signed(a, 10, 1);
+  send_signed(b, 11, 2);
+  send_signed(c, 12, 3);  // a stranger
+  send_signed(a, 11, 4);  // counter 11 was taken (under b)
+  send_signed(b, 12, 5);
+  std::vector<uint64_t> got;
+  vc_pulse p;
+  while (vc_trigger_wait(trig, 300, &p) == 0) got.push_back(p.seq);
+  EXPECT_EQ(got, (std::vector<uint64_t>{1, 2, 5}));
+  vc_trigger_stats st;
+  vc_trigger_get_stats(trig, &st);
+  EXPECT_EQ(st.forged, 2u);
+  close(fd);
   vc_trigger_free(trig);
 }

@@ -3,9 +3,14 @@
 #include "voxcap/deploy/deploy.hpp"
 
 #include <fmt/core.h>
+#include <netdb.h>
+#include <sys/socket.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <condition_variable>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -13,6 +18,8 @@
 #include <thread>
 
 #include "voxcap/auth.h"
+#include "voxcap/base/clock.hpp"
+#include "voxcap/session/server.hpp"
 
 namespace vc::deploy {
 namespace {
@@ -103,16 +110,18 @@ std::string probe_script(const BoardSettings& s) {
 
 struct Payload {
   std::string edge_toml;
-  std::string key_hex;  // "" = keyless rig
-  std::string deb;      // "" = no package this run
+  std::string key_hex;       // "" = keyless rig
+  std::string next_key_hex;  // --rotate-key: the new key, beside the old as rig.key.next; "" = none
+  std::string deb;           // "" = no package this run
 };
 
 std::string install_script(const BoardSettings& s, const Payload& p, const std::string& eof) {
   std::string o = prelude(s) + "set -eu\numask 077\nmkdir -p \"$ETC\" \"$STATE\"\n";
   // What runs now, kept for the rollback.
-  o += "rm -f \"$STATE/edge.toml.prev\" \"$STATE/rig.key.prev\"\n"
+  o += "rm -f \"$STATE/edge.toml.prev\" \"$STATE/rig.key.prev\" \"$STATE/rig.key.next.prev\"\n"
        "[ ! -f \"$ETC/edge.toml\" ] || cp -p \"$ETC/edge.toml\" \"$STATE/edge.toml.prev\"\n"
-       "[ ! -f \"$ETC/rig.key\" ] || cp -p \"$ETC/rig.key\" \"$STATE/rig.key.prev\"\n";
+       "[ ! -f \"$ETC/rig.key\" ] || cp -p \"$ETC/rig.key\" \"$STATE/rig.key.prev\"\n"
+       "[ ! -f \"$ETC/rig.key.next\" ] || cp -p \"$ETC/rig.key.next\" \"$STATE/rig.key.next.prev\"\n";
   if (!p.deb.empty())
     o += "rm -f \"$STATE/previous.deb\"\n[ ! -f \"$STATE/current.deb\" ] || cp -p \"$STATE/current.deb\" "
          "\"$STATE/previous.deb\"\n";
@@ -129,7 +138,17 @@ std::string install_script(const BoardSettings& s, const Payload& p, const std::
          "chown \"$SU\" \"$ETC/.rig.key.new\" || { echo fail=key-owner; exit 12; }\n"
          "mv -f \"$ETC/.rig.key.new\" \"$ETC/rig.key\"\n";
   }
-  o += "mv -f \"$ETC/.edge.toml.new\" \"$ETC/edge.toml\"\necho step=config\n";
+  // A rotation: the new key beside the old one (edge.toml names both, the node proves either); any
+  // other deploy leaves one key, so a finished rotation's old key goes here.
+  if (!p.next_key_hex.empty())
+    o += "printf '%s\\n' " + q(p.next_key_hex) +
+         " > \"$ETC/.rig.key.next.new\"\n"
+         "chmod 600 \"$ETC/.rig.key.next.new\"\n"
+         "chown \"$SU\" \"$ETC/.rig.key.next.new\" || { echo fail=key-owner; exit 12; }\n"
+         "mv -f \"$ETC/.rig.key.next.new\" \"$ETC/rig.key.next\"\n";
+  o += "mv -f \"$ETC/.edge.toml.new\" \"$ETC/edge.toml\"\n";
+  if (p.next_key_hex.empty()) o += "rm -f \"$ETC/rig.key.next\"\n";
+  o += "echo step=config\n";
   if (!p.deb.empty()) {
     o += "base64 -d > \"$STATE/new.deb\" <<'" + eof + "'\n" + base64(p.deb) + eof + "\n";
     // --force-confold: an edge.toml the package ships as a conffile stays the one written above,
@@ -151,11 +170,14 @@ std::string rollback_script(const BoardSettings& s, bool package) {
          "\"$STATE/dpkg.log\" 2>&1; then cp -p \"$STATE/previous.deb\" "
          "\"$STATE/current.deb\"; echo package=restored; else echo package=failed; fi\n"
          "else echo package=none-kept; fi\n";
-  o += "rm -f \"$ETC/.edge.toml.new\" \"$ETC/.rig.key.new\"\n";
-  o += "[ ! -f \"$STATE/edge.toml.prev\" ] || cp -p \"$STATE/edge.toml.prev\" \"$ETC/edge.toml\"\n"
-       "[ ! -f \"$STATE/rig.key.prev\" ] || cp -p \"$STATE/rig.key.prev\" \"$ETC/rig.key\"\n"
-       "echo config=restored\n"
-       "$SYSTEMCTL restart \"$SVC\" && echo restart=ok || echo restart=failed\n";
+  o += "rm -f \"$ETC/.edge.toml.new\" \"$ETC/.rig.key.new\" \"$ETC/.rig.key.next.new\"\n";
+  o +=
+      "[ ! -f \"$STATE/edge.toml.prev\" ] || cp -p \"$STATE/edge.toml.prev\" \"$ETC/edge.toml\"\n"
+      "[ ! -f \"$STATE/rig.key.prev\" ] || cp -p \"$STATE/rig.key.prev\" \"$ETC/rig.key\"\n"
+      "if [ -f \"$STATE/rig.key.next.prev\" ]; then cp -p \"$STATE/rig.key.next.prev\" \"$ETC/rig.key.next\";"
+      " else rm -f \"$ETC/rig.key.next\"; fi\n"
+      "echo config=restored\n"
+      "$SYSTEMCTL restart \"$SVC\" && echo restart=ok || echo restart=failed\n";
   return o;
 }
 
@@ -165,10 +187,8 @@ std::string verify_script(const BoardSettings& s, const std::string& nonce_hex) 
          "if [ -x \"$BIN\" ]; then v=$(\"$BIN\" --version 2>/dev/null | head -n 1); echo \"version=${v##* "
          "}\";"
          " else echo version=none; fi\n"
-         "p=$(\"$BIN\" --config \"$ETC/edge.toml\" --prove-key " +
-         nonce_hex +
-         " 2>&1 | tail -n 1)\n"
-         "echo \"proof_line=$p\"\n";
+         "\"$BIN\" --config \"$ETC/edge.toml\" --prove-key " +
+         nonce_hex + " 2>&1 | tail -n 2 | sed 's/^/proof_line=/'\n";
 }
 
 struct Verified {
@@ -194,27 +214,125 @@ Verified verify(Remote& remote, const Board& b, const std::vector<uint8_t>& key_
   v.version = f["version"];
   if (key_now.empty()) {
     v.key = KeyState::Current;  // a keyless rig: nothing to prove
-  } else {
-    // "node_id=N nonce=HEX proof=HEX"
+    return v;
+  }
+  // One "node_id=N nonce=HEX proof=HEX" line per key the board holds (two while a rotation is under
+  // way: its key and, marked key=next, the next one).
+  bool any = false, proves_now = false, proves_old = false;
+  std::istringstream lines(r.out);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("proof_line=", 0) != 0) continue;
     std::map<std::string, std::string> p;
-    std::istringstream is(f["proof_line"]);
+    std::istringstream is(line.substr(11));
     std::string w;
     while (is >> w)
       if (const size_t eq = w.find('='); eq != std::string::npos) p[w.substr(0, eq)] = w.substr(eq + 1);
     uint8_t theirs[VC_AUTH_NONCE_SIZE], proof[VC_AUTH_PROOF_SIZE];
     if (p["node_id"] != std::to_string(b.number) || !unhex(p["nonce"], theirs, sizeof theirs) ||
-        !unhex(p["proof"], proof, sizeof proof)) {
-      v.why = "no key proof: " + (f["proof_line"].empty() ? std::string("(nothing)") : f["proof_line"]);
-    } else if (vc_auth_verify(proof, key_now.data(), kDeployProofRole, b.number, theirs, nonce)) {
-      v.key = rotating ? KeyState::New : KeyState::Current;
-    } else if (!key_old.empty() &&
-               vc_auth_verify(proof, key_old.data(), kDeployProofRole, b.number, theirs, nonce)) {
-      v.key = KeyState::Old;
-    } else {
-      v.why = "it proves another rig key";
-    }
+        !unhex(p["proof"], proof, sizeof proof))
+      continue;
+    any = true;
+    proves_now =
+        proves_now || vc_auth_verify(proof, key_now.data(), kDeployProofRole, b.number, theirs, nonce);
+    proves_old = proves_old || (!key_old.empty() && vc_auth_verify(proof, key_old.data(), kDeployProofRole,
+                                                                   b.number, theirs, nonce));
   }
+  if (!any)
+    v.why = "no key proof: " + (f["proof_line"].empty() ? std::string("(nothing)") : f["proof_line"]);
+  else if (proves_now)
+    v.key = rotating ? KeyState::New : KeyState::Current;
+  else if (proves_old)
+    v.key = KeyState::Old;
+  else
+    v.why = "it proves another rig key";
   return v;
+}
+
+// HELLO's check (issue #16 item 4): while no voxcap-host holds the rig's port, deploy listens there
+// with the host's own session server (host/session: the same HELLO gate and key handshake, proved
+// with the key the host holds) and notes every node's HELLO: its software version, once it proved
+// the key. The connections stay open until deploy ends; the edges then reconnect with backoff and
+// join the real host when it starts.
+class HelloWatch : public session::Handler {
+ public:
+  struct Seen {
+    uint64_t t_ns = 0;
+    std::string version;  // sw_major.sw_minor.sw_patch
+    bool proved = false;  // it proved the rig key (a keyed rig only accepts such a HELLO)
+  };
+
+  HelloWatch(const config::RigConfig& rig, std::vector<uint8_t> host_key) {
+    session::ServerOptions so;
+    so.listen = rig.network.listen;
+    so.port = rig.network.port;
+    so.key = std::move(host_key);
+    keyed_ = !so.key.empty();
+    server_ = std::make_unique<session::Server>(so, *this, [](log::Level, const std::string&) {});
+  }
+  ~HelloWatch() override { stop(); }
+  HelloWatch(const HelloWatch&) = delete;
+  HelloWatch& operator=(const HelloWatch&) = delete;
+
+  void start() { server_->start(); }  // throws std::runtime_error (the port is taken)
+  void stop() {
+    if (server_) server_->stop();
+  }
+
+  // A HELLO of node since since_ns saying version want, waiting at most timeout_s; else the last HELLO
+  // it sent since (the process before the restart may still have said one), else none.
+  std::optional<Seen> wait(uint16_t node, uint64_t since_ns, const std::string& want, int timeout_s) {
+    std::unique_lock<std::mutex> g(mu_);
+    std::optional<Seen> found;
+    cv_.wait_for(g, std::chrono::seconds(timeout_s), [&] {
+      for (const auto& [n, seen] : hellos_)
+        if (n == node && seen.t_ns >= since_ns) {
+          found = seen;
+          if (seen.version == want) return true;
+        }
+      return false;
+    });
+    return found;
+  }
+
+  std::string on_hello(session::ConnId, const vc_msg& m, const std::string&) override {
+    Seen s;
+    s.t_ns = monotonic_ns();
+    s.version = fmt::format("{}.{}.{}", m.u.hello.sw_major, m.u.hello.sw_minor, m.u.hello.sw_patch);
+    s.proved = keyed_;  // a keyed server hands over a HELLO only once its sender proved the key
+    {
+      std::lock_guard<std::mutex> g(mu_);
+      if (hellos_.size() < 4096) hellos_.emplace_back(m.u.hello.node_id, s);  // bounded
+    }
+    cv_.notify_all();
+    return "";
+  }
+  void on_message(session::ConnId, const vc_msg&, uint64_t) override {}
+  void on_disconnect(session::ConnId, const std::string&) override {}
+
+ private:
+  std::unique_ptr<session::Server> server_;
+  bool keyed_ = false;
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::vector<std::pair<uint16_t, Seen>> hellos_;
+};
+
+// Whether address (what the boards connect to) is one of this machine's: a socket binds to it. A rig
+// whose host listens on "any" from another machine must not have deploy wait for HELLOs that go there.
+bool local_address(const std::string& address) {
+  addrinfo hints{};
+  hints.ai_socktype = SOCK_DGRAM;
+  addrinfo* res = nullptr;
+  if (address.empty() || ::getaddrinfo(address.c_str(), "0", &hints, &res) != 0) return false;
+  bool local = false;
+  for (const addrinfo* a = res; a && !local; a = a->ai_next) {
+    const int fd = ::socket(a->ai_family, a->ai_socktype, a->ai_protocol);
+    if (fd < 0) continue;
+    local = ::bind(fd, a->ai_addr, a->ai_addrlen) == 0;
+    ::close(fd);
+  }
+  ::freeaddrinfo(res);
+  return local;
 }
 
 std::vector<uint8_t> load_key(const std::filesystem::path& p) {
@@ -322,7 +440,30 @@ DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& 
       progress("", fmt::format("new rig key written to {} (mode 0600)", report.key_next.string()));
     }
   }
-  if (!key_now.empty()) base.key_hex = hex(key_now.data(), key_now.size());
+  // The board's rig.key is the host's key; during a rotation the new one goes beside it (next_key).
+  const std::vector<uint8_t>& host_key = opt.rotate_key ? key_old : key_now;
+  if (!host_key.empty()) base.key_hex = hex(host_key.data(), host_key.size());
+  if (opt.rotate_key && !key_now.empty()) base.next_key_hex = hex(key_now.data(), key_now.size());
+
+  std::unique_ptr<HelloWatch> watch;
+  const std::string rig_port = fmt::format("{}:{}", inv.rig.network.listen, inv.rig.network.port);
+  if (!opt.dry_run && inv.hello_timeout_s > 0 && !local_address(inv.host_address)) {
+    report.hello_note = fmt::format(
+        "HELLO not checked: the boards connect to {}, not an address of this machine", inv.host_address);
+    progress("", report.hello_note);
+  } else if (!opt.dry_run && inv.hello_timeout_s > 0) {
+    try {
+      watch = std::make_unique<HelloWatch>(inv.rig, host_key);
+      watch->start();
+      report.hello_note = "listened on the rig's port " + rig_port + " for the boards' HELLO";
+    } catch (const std::exception& e) {
+      watch.reset();
+      report.hello_note = fmt::format(
+          "HELLO not checked: the rig's port {} is taken (voxcap-host runs?) or not this machine's ({})",
+          rig_port, e.what());
+    }
+    progress("", report.hello_note);
+  }
 
   report.boards.resize(boards.size());
   std::atomic<size_t> next{0};
@@ -355,11 +496,13 @@ DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& 
     }
     Payload p = base;
     p.edge_toml = b.edge_toml;
+    if (!p.next_key_hex.empty()) p.edge_toml = "next_key = 'rig.key.next'\n" + p.edge_toml;
     uint8_t r8[8];
     vc_auth_random(r8, sizeof r8);
     const std::string eof = "VOXCAP_EOF_" + hex(r8, sizeof r8);
     say(report.package_version.empty() ? "writing edge.toml and the rig key, restarting"
                                        : "installing voxcap-edge " + report.package_version);
+    const uint64_t t_install = monotonic_ns();
     const ProcessResult ir = remote.run(b, install_script(b.settings, p, eof), true);
     bool failed = ir.exit_code != 0;
     if (failed) {
@@ -387,12 +530,30 @@ DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& 
       else if (v.key == KeyState::Old)
         res.why = "it still proves the old key", failed = true;
     }
+    if (!failed && watch) {
+      // The node must come back to the rig: a HELLO since the restart, with the version asked for.
+      say(fmt::format("waiting for its HELLO on {} (at most {} s)", rig_port, inv.hello_timeout_s));
+      const auto seen = watch->wait(b.number, t_install, want, inv.hello_timeout_s);
+      if (!seen) {
+        res.why =
+            fmt::format("it did not rejoin the rig (no HELLO on {} in {} s)", rig_port, inv.hello_timeout_s);
+        failed = true;
+      } else {
+        res.hello = seen->version;
+        if (seen->version != want)
+          res.why = fmt::format("it rejoined with {} (HELLO), not {}", seen->version, want), failed = true;
+      }
+    }
     if (!failed) {
       res.ok = true;
-      say(fmt::format("ok: voxcap-edge {} active{}", res.after,
-                      key_now.empty()  ? ""
-                      : opt.rotate_key ? ", proved the NEW key"
-                                       : ", proved the rig key"));
+      say(fmt::format("ok: voxcap-edge {} active{}{}", res.after,
+                      key_now.empty() ? ""
+                      : opt.rotate_key
+                          ? ", proved the NEW key (and holds the old one until the host switches)"
+                          : ", proved the rig key",
+                      res.hello.empty() ? ""
+                                        : fmt::format(", rejoined with {} (HELLO{})", res.hello,
+                                                      host_key.empty() ? "" : ", key proved")));
       return;
     }
     say("FAILED: " + res.why + "; rolling back");
@@ -430,6 +591,7 @@ DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& 
       for (size_t i = next++; i < boards.size(); i = next++) work(i);
     });
   for (auto& t : pool) t.join();
+  if (watch) watch->stop();  // the edges reconnect with backoff and join the real host
 
   if (opt.rotate_key && !opt.dry_run) {
     for (const BoardResult& r : report.boards)
@@ -450,7 +612,8 @@ DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& 
             fmt::format("{}: cannot take the new key: {}", inv.rig.key_path.string(), ec.message()));
       report.key_switched = true;
       progress("", fmt::format("every board proved the new key: {} now holds it (the old one in {}); restart "
-                               "voxcap-host so it uses it",
+                               "voxcap-host so it uses it (the boards take either key meanwhile), then run "
+                               "voxcap deploy to drop the old key from them",
                                inv.rig.key_path.string(), old.string()));
     } else if (report.left_with_old_key.empty()) {
       progress("", "--node chose some boards: the host keeps its key; rotate every board to switch it");
@@ -460,7 +623,8 @@ DeployReport run_deploy(const Inventory& inv, const DeployOptions& opt, Remote& 
 }
 
 std::string format_summary(const DeployReport& r, bool rotate_key) {
-  std::string o = fmt::format("{:<16} {:<10} {:<10} {:<6} {}\n", "board", "before", "after", "key", "result");
+  std::string o = fmt::format("{:<16} {:<10} {:<10} {:<6} {:<10} {}\n", "board", "before", "after", "key",
+                              "HELLO", "result");
   size_t good = 0;
   for (const BoardResult& b : r.boards) {
     const char* key = b.key == KeyState::New       ? "new"
@@ -472,16 +636,18 @@ std::string format_summary(const DeployReport& r, bool rotate_key) {
                              ? (b.rollback_ok ? "FAILED, rolled back" : "FAILED, rollback incomplete")
                              : "FAILED";
     if (!b.ok) result += ": " + b.why;
-    o += fmt::format("{:<16} {:<10} {:<10} {:<6} {}\n", b.id, b.before.empty() ? "?" : b.before,
-                     b.after.empty() ? "?" : b.after, key, result);
+    o += fmt::format("{:<16} {:<10} {:<10} {:<6} {:<10} {}\n", b.id, b.before.empty() ? "?" : b.before,
+                     b.after.empty() ? "?" : b.after, key, b.hello.empty() ? "-" : b.hello, result);
     good += b.ok ? 1 : 0;
   }
   o += fmt::format("{} of {} boards ok", good, r.boards.size());
   if (!r.package_version.empty()) o += fmt::format(" (voxcap-edge {})", r.package_version);
   o += "\n";
+  if (!r.hello_note.empty()) o += r.hello_note + "\n";
   if (rotate_key) {
     if (r.key_switched)
-      o += "rig key rotated: every board proved the new key; restart voxcap-host\n";
+      o += "rig key rotated: every board proved the new key; restart voxcap-host (the boards take either key "
+           "until then), then run voxcap deploy to drop the old key from the boards\n";
     else if (!r.left_with_old_key.empty()) {
       o += "rig key NOT rotated on the host; boards without the new key:";
       for (const auto& id : r.left_with_old_key) o += " " + id;

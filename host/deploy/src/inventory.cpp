@@ -81,8 +81,8 @@ const std::set<std::string> kBoardKeys = {"ssh_user",
                                           "settle_s",
                                           "edge"};
 const std::set<std::string> kGlobalKeys = {
-    "host_address", "parallel",       "package", "admin_user", "authorized_key",
-    "package_repo", "network_prefix", "gateway", "dns",        "timezone"};
+    "host_address",   "parallel", "package", "admin_user", "authorized_key", "package_repo",
+    "network_prefix", "gateway",  "dns",     "timezone",   "hello_timeout_s"};
 
 std::filesystem::path relative_to(const std::filesystem::path& base, const std::string& p) {
   std::filesystem::path out(p);
@@ -280,6 +280,7 @@ Inventory load_inventory(const std::filesystem::path& rig_toml) {
   read_board(r, *dep, "deploy.", dir, base);
   std::string s;
   r.integer(*dep, "deploy.", "parallel", inv.parallel, 1, 64);
+  r.integer(*dep, "deploy.", "hello_timeout_s", inv.hello_timeout_s, 0, 600);
   if (r.str(*dep, "deploy.", "package", s)) inv.package = relative_to(dir, s);
   if (!r.str(*dep, "deploy.", "host_address", inv.host_address)) {
     const std::string& listen = inv.rig.network.listen;

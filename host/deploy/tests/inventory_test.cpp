@@ -44,6 +44,7 @@ TEST(Inventory, ReferenceRigGivesEveryBoardAnEdgeTomlTheEdgeAccepts) {
   const Inventory inv = load_inventory(kRigs / "pi5-reference.toml");
   ASSERT_EQ(inv.boards.size(), 3u);
   EXPECT_EQ(inv.parallel, 3);
+  EXPECT_EQ(inv.hello_timeout_s, 20);  // the default: each board's HELLO awaited when deploy can listen
   EXPECT_EQ(inv.host_address, "192.168.50.1");
   const Board& b = inv.boards[1];
   EXPECT_EQ(b.id, "pi-b");
@@ -107,6 +108,15 @@ TEST(Inventory, BadKeysAreNamed) {
     FAIL() << "no host address and network.listen any loaded";
   } catch (const InventoryError& e) {
     EXPECT_NE(std::string(e.what()).find("deploy.host_address: missing"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(
+      load_inventory(rig_copy("hello0", "parallel = 3", "parallel = 3\nhello_timeout_s = 0")).hello_timeout_s,
+      0);
+  try {
+    load_inventory(rig_copy("hellobad", "parallel = 3", "parallel = 3\nhello_timeout_s = 601"));
+    FAIL() << "hello_timeout_s 601 loaded";
+  } catch (const InventoryError& e) {
+    EXPECT_NE(std::string(e.what()).find("deploy.hello_timeout_s"), std::string::npos) << e.what();
   }
   try {
     load_inventory(rig_copy("sshbad", "ssh = \"voxcap-admin@192.168.50.11\"", "ssh = \"-oProxyCommand=x\""));

@@ -61,6 +61,9 @@ typedef struct vc_trigger_config {
    * datagrams whose MAC verifies, with a counter past the last one taken, are pulses (proto/SPEC.md
    * "Trigger datagram"); anything else is counted in forged. */
   const uint8_t* key;
+  /* udp, with key: the rig's next key during a rotation (copied at open) or NULL; a datagram under
+   * either key is a pulse (one counter for both). */
+  const uint8_t* next_key;
 } vc_trigger_config;
 
 /* All zero except event_clock = MONOTONIC (which is zero). */

@@ -37,7 +37,8 @@ struct BoardResult {
   std::string before;        // version found before ("none" if no voxcap-edge)
   std::string after;         // version running at the end
   KeyState key = KeyState::Unknown;
-  std::string why;  // the failure, one line
+  std::string hello;  // the version its HELLO said after the restart ("" = not checked)
+  std::string why;    // the failure, one line
 };
 
 struct DeployReport {
@@ -46,6 +47,7 @@ struct DeployReport {
   bool key_switched = false;       // --rotate-key: the host's key file now holds the new key
   std::filesystem::path key_next;  // --rotate-key: the pending new key, while not every board proved it
   std::vector<std::string> left_with_old_key;  // --rotate-key: boards that did not prove the new key
+  std::string hello_note;                      // whether deploy listened for the boards' HELLO, or why not
   bool ok() const;
 };
 

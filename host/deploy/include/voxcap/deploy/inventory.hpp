@@ -64,8 +64,11 @@ struct FlashSettings {
 
 struct Inventory {
   config::RigConfig rig;
-  std::string host_address;       // what the boards connect to ([deploy] host_address, or network.listen)
-  int parallel = 4;               // boards worked on at once
+  std::string host_address;  // what the boards connect to ([deploy] host_address, or network.listen)
+  int parallel = 4;          // boards worked on at once
+  // How long a restarted board has to send its HELLO to deploy's listener on the rig's port (when
+  // deploy can take that port: no voxcap-host runs); 0 = do not listen.
+  int hello_timeout_s = 20;
   std::filesystem::path package;  // [deploy] package (absolute), the default of --package
   FlashSettings flash;
   std::vector<Board> boards;  // in rig node order
