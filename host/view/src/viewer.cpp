@@ -520,6 +520,15 @@ std::string Viewer::stats_json() {
                  {"sent", ss.messages_sent},
                  {"frames_sent", stage_ ? stage_->frames_sent() : 0},
                  {"frames_skipped", stage_ ? stage_->frames_skipped() : 0}};
+  json per_client = json::array();
+  for (const ClientStats& c : ss.per_client)
+    per_client.push_back({{"id", c.id},
+                          {"path", c.channel == Channel::Live ? "/ws" : "/pose.json"},
+                          {"port", c.peer_port},
+                          {"sent", c.sent},
+                          {"dropped", c.dropped},
+                          {"queued_bytes", c.queued_bytes}});
+  j["viewer"]["per_client"] = std::move(per_client);
   return j.dump();
 }
 

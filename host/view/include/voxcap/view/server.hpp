@@ -17,6 +17,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace vc::view {
 
@@ -40,12 +41,23 @@ struct ServerOptions {
   bool valid(std::string* why) const;
 };
 
+// One WebSocket client's queue, while it is connected: how a paused browser shows (its dropped grows,
+// its queued_bytes stays under max_queue_bytes).
+struct ClientStats {
+  ClientId id = 0;
+  Channel channel = Channel::Live;
+  uint16_t peer_port = 0;  // the client's TCP port (which browser tab, from the host's side)
+  uint64_t sent = 0, dropped = 0;
+  size_t queued_bytes = 0, queued_bytes_max = 0;
+};
+
 struct ServerStats {
   uint64_t clients = 0, clients_total = 0, clients_refused = 0, connections_refused = 0;
   uint64_t messages_sent = 0, messages_dropped = 0;  // dropped: the oldest live messages of slow clients
   uint64_t http_requests = 0, http_errors = 0;       // requests answered with 4xx/5xx
   uint64_t control_messages = 0;
-  size_t queued_bytes_max = 0;  // the most bytes one client ever had queued
+  size_t queued_bytes_max = 0;          // the most bytes one client ever had queued
+  std::vector<ClientStats> per_client;  // the WebSocket clients connected now, by id
 };
 
 class Server {
