@@ -38,7 +38,9 @@ expect "$edge" /usr/bin/voxcap-edge /etc/voxcap/edge.toml /usr/lib/systemd/syste
   /usr/share/voxcap/examples/edge.toml
 expect "$host" /usr/bin/voxcap /usr/bin/voxcap-host /usr/libexec/voxcap/voxcap-bench \
   /usr/lib/systemd/system/voxcap-host.service /usr/lib/udev/rules.d/60-voxcap.rules \
-  /usr/share/voxcap/rigs/pi5-gpiod.toml /usr/share/voxcap/rigs/emulated.toml
+  /usr/share/voxcap/rigs/pi5-gpiod.toml /usr/share/voxcap/rigs/emulated.toml \
+  /usr/share/voxcap/web/index.html /usr/share/voxcap/web/app.js /usr/share/voxcap/web/protocol.js \
+  /usr/share/voxcap/web/style.css
 if dpkg-deb -c "$edge" | grep -q "voxcap-host\|voxcap-bench"; then fail "voxcap-edge carries host programs"; fi
 
 # The units: the keys the service relies on.
