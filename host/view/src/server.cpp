@@ -43,6 +43,8 @@ bool ServerOptions::valid(std::string* why) const {
   if (max_clients < 1 || max_clients > 1024) return fail("viewer: max_clients must be 1..1024");
   if (max_connections < max_clients) return fail("viewer: max_connections must be >= max_clients");
   if (max_queue_messages < 2 || max_queue_bytes < 4096) return fail("viewer: queue too small");
+  if (send_buffer_bytes != 0 && (send_buffer_bytes < 4096 || send_buffer_bytes > (64u << 20)))
+    return fail("viewer: send_buffer_bytes must be 0 or 4 KiB..64 MiB");
   if (max_header_bytes < 512 || max_client_message < 64) return fail("viewer: limits too small");
   if (!(idle_timeout_s > 0) || !(tick_s > 0)) return fail("viewer: timeouts must be > 0");
   return true;
@@ -333,6 +335,11 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       return error(http::status::service_unavailable, "too many viewer clients", false);
     }
     stream_.expires_never();
+    if (impl_.opt.send_buffer_bytes > 0) {
+      error_code bec;  // best effort: the kernel may clamp it (net.core.wmem_max)
+      stream_.socket().set_option(
+          net::socket_base::send_buffer_size(static_cast<int>(impl_.opt.send_buffer_bytes)), bec);
+    }
     std::make_shared<WsSession>(impl_, stream_.release_socket(), ch, std::move(slot_))->run(req_);
   }
 

@@ -32,11 +32,15 @@ struct ServerOptions {
   size_t max_connections = 32;        // TCP connections at once (HTTP and WebSocket); more are closed at once
   size_t max_queue_messages = 64;     // per client
   size_t max_queue_bytes = 8u << 20;  // per client
-  size_t max_header_bytes = 8192;     // of an HTTP request; more: 431
-  size_t max_body_bytes = 1024;       // of an HTTP request (the page sends none); more: 413
-  size_t max_client_message = 4096;   // a WebSocket message from a client; more closes it
-  double idle_timeout_s = 30;         // an HTTP connection with no request for this long is closed
-  double tick_s = 0.5;                // Hooks::tick period
+  // SO_SNDBUF of a WebSocket connection (the kernel doubles it; 0: the kernel's autotuning, up to
+  // net.ipv4.tcp_wmem's 4 MiB). Bounded, a paused browser fills it in seconds and its queue starts
+  // dropping the oldest, instead of seconds of stale frames piling up in the kernel for it.
+  size_t send_buffer_bytes = 256u << 10;
+  size_t max_header_bytes = 8192;    // of an HTTP request; more: 431
+  size_t max_body_bytes = 1024;      // of an HTTP request (the page sends none); more: 413
+  size_t max_client_message = 4096;  // a WebSocket message from a client; more closes it
+  double idle_timeout_s = 30;        // an HTTP connection with no request for this long is closed
+  double tick_s = 0.5;               // Hooks::tick period
 
   bool valid(std::string* why) const;
 };
