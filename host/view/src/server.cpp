@@ -1,5 +1,6 @@
 #include "voxcap/view/server.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <deque>
 #include <map>
@@ -42,6 +43,8 @@ bool ServerOptions::valid(std::string* why) const {
   if (max_clients < 1 || max_clients > 1024) return fail("viewer: max_clients must be 1..1024");
   if (max_connections < max_clients) return fail("viewer: max_connections must be >= max_clients");
   if (max_queue_messages < 2 || max_queue_bytes < 4096) return fail("viewer: queue too small");
+  if (send_buffer_bytes != 0 && (send_buffer_bytes < 4096 || send_buffer_bytes > (64u << 20)))
+    return fail("viewer: send_buffer_bytes must be 0 or 4 KiB..64 MiB");
   if (max_header_bytes < 512 || max_client_message < 64) return fail("viewer: limits too small");
   if (!(idle_timeout_s > 0) || !(tick_s > 0)) return fail("viewer: timeouts must be > 0");
   return true;
@@ -79,7 +82,8 @@ struct Server::Impl {
   std::atomic<size_t> connections{0};
   // any thread
   mutable std::mutex stats_mu;
-  ServerStats stats;
+  ServerStats stats;                              // per_client filled by stats() from clients_stats
+  std::map<ClientId, ClientStats> clients_stats;  // the connected WebSocket clients' queues
 
   void count(uint64_t ServerStats::*field, uint64_t n = 1) {
     std::lock_guard<std::mutex> lock(stats_mu);
@@ -133,6 +137,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
       std::lock_guard<std::mutex> lock(impl_.stats_mu);
       impl_.stats.messages_dropped += dropped;
       if (q_bytes_ > impl_.stats.queued_bytes_max) impl_.stats.queued_bytes_max = q_bytes_;
+      note_queue(dropped, 0);
     }
     if (!writing_ && !q_.empty()) write_next();
   }
@@ -155,9 +160,15 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     id_ = impl_.next_id++;
     impl_.clients[id_] = weak_from_this();
     {
+      error_code pec;
+      const auto peer = beast::get_lowest_layer(ws_).socket().remote_endpoint(pec);
       std::lock_guard<std::mutex> lock(impl_.stats_mu);
       impl_.stats.clients = impl_.clients.size();
       impl_.stats.clients_total++;
+      ClientStats& cs = impl_.clients_stats[id_];
+      cs.id = id_;
+      cs.channel = ch_;
+      cs.peer_port = pec ? 0 : peer.port();
     }
     if (impl_.hooks.hello) {
       std::string hello = impl_.hooks.hello(id_, ch_);
@@ -194,8 +205,22 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     if (ec) return gone();
     q_bytes_ -= q_.front().msg->size();
     q_.pop_front();
-    impl_.count(&ServerStats::messages_sent);
+    {
+      std::lock_guard<std::mutex> lock(impl_.stats_mu);
+      impl_.stats.messages_sent++;
+      note_queue(0, 1);
+    }
     if (!q_.empty()) write_next();
+  }
+
+  // This client's line of ServerStats::per_client (stats_mu held; none before the accept gave an id).
+  void note_queue(uint64_t dropped, uint64_t sent) {
+    auto it = impl_.clients_stats.find(id_);
+    if (it == impl_.clients_stats.end()) return;
+    it->second.dropped += dropped;
+    it->second.sent += sent;
+    it->second.queued_bytes = q_bytes_;
+    it->second.queued_bytes_max = std::max(it->second.queued_bytes_max, q_bytes_);
   }
 
   void gone() {
@@ -208,6 +233,7 @@ class WsSession : public std::enable_shared_from_this<WsSession> {
     {
       std::lock_guard<std::mutex> lock(impl_.stats_mu);
       impl_.stats.clients = impl_.clients.size();
+      impl_.clients_stats.erase(id_);
     }
     if (impl_.hooks.closed) impl_.hooks.closed(id_);
   }
@@ -309,6 +335,11 @@ class HttpSession : public std::enable_shared_from_this<HttpSession> {
       return error(http::status::service_unavailable, "too many viewer clients", false);
     }
     stream_.expires_never();
+    if (impl_.opt.send_buffer_bytes > 0) {
+      error_code bec;  // best effort: the kernel may clamp it (net.core.wmem_max)
+      stream_.socket().set_option(
+          net::socket_base::send_buffer_size(static_cast<int>(impl_.opt.send_buffer_bytes)), bec);
+    }
     std::make_shared<WsSession>(impl_, stream_.release_socket(), ch, std::move(slot_))->run(req_);
   }
 
@@ -427,6 +458,8 @@ void Server::stop() {
   m.ioc->stop();
   if (m.thread.joinable()) m.thread.join();
   m.clients.clear();
+  std::lock_guard<std::mutex> lock(m.stats_mu);
+  m.clients_stats.clear();
 }
 
 uint16_t Server::port() const {
@@ -471,7 +504,10 @@ void Server::set_replaying(ClientId client, bool replaying) {
 
 ServerStats Server::stats() const {
   std::lock_guard<std::mutex> lock(impl_->stats_mu);
-  return impl_->stats;
+  ServerStats s = impl_->stats;
+  s.per_client.reserve(impl_->clients_stats.size());
+  for (const auto& [id, c] : impl_->clients_stats) s.per_client.push_back(c);
+  return s;
 }
 
 }  // namespace vc::view

@@ -18,13 +18,6 @@ namespace vc::view {
 
 using nlohmann::json;
 
-std::filesystem::path default_assets_dir() {
-  std::error_code ec;
-  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
-  if (ec) return {};
-  return exe.parent_path().parent_path() / "share" / "voxcap" / "web";
-}
-
 bool valid_session_name(std::string_view name) {
   if (name.empty() || name.size() > 128 || name[0] == '.') return false;
   for (char c : name)
@@ -380,6 +373,10 @@ void Viewer::set_report(std::function<aggregator::Report()> fn) {
 }
 
 void Viewer::start() {
+  if (opt_.server.assets.empty()) {
+    const AssetSearch found = find_assets();
+    if (found.dir.empty()) throw std::runtime_error(no_assets_message(found));
+  }
   const std::filesystem::path assets = opt_.server.assets.empty() ? default_assets_dir() : opt_.server.assets;
   std::error_code ec;
   if (!std::filesystem::is_regular_file(assets / "index.html", ec))
@@ -520,6 +517,15 @@ std::string Viewer::stats_json() {
                  {"sent", ss.messages_sent},
                  {"frames_sent", stage_ ? stage_->frames_sent() : 0},
                  {"frames_skipped", stage_ ? stage_->frames_skipped() : 0}};
+  json per_client = json::array();
+  for (const ClientStats& c : ss.per_client)
+    per_client.push_back({{"id", c.id},
+                          {"path", c.channel == Channel::Live ? "/ws" : "/pose.json"},
+                          {"port", c.peer_port},
+                          {"sent", c.sent},
+                          {"dropped", c.dropped},
+                          {"queued_bytes", c.queued_bytes}});
+  j["viewer"]["per_client"] = std::move(per_client);
   return j.dump();
 }
 

@@ -150,7 +150,23 @@ TEST_F(Fixture, StalledClientIsBoundedOthersGetEverything) {
   EXPECT_LE(st.queued_bytes_max, o.max_queue_bytes + 64 * 1024);
   EXPECT_EQ(st.clients, 2u);
   EXPECT_EQ(controls.load(), 1);
+  // Per client, told apart by their ports: the drops are all the stalled one's.
+  ASSERT_EQ(st.per_client.size(), 2u);
+  const uint16_t reader_port = beast::get_lowest_layer(*reader).local_endpoint().port();
+  const uint16_t stalled_port = beast::get_lowest_layer(*stalled).local_endpoint().port();
+  for (const ClientStats& c : st.per_client) {
+    EXPECT_EQ(c.channel, Channel::Live);
+    if (c.peer_port == reader_port) {
+      EXPECT_EQ(c.dropped, 0u);
+      EXPECT_GE(c.sent, static_cast<uint64_t>(kMessages));  // the hello and all (the last may be in flight)
+    } else {
+      EXPECT_EQ(c.peer_port, stalled_port);
+      EXPECT_EQ(c.dropped, st.messages_dropped);
+      EXPECT_LE(c.queued_bytes_max, o.max_queue_bytes + 64 * 1024);
+    }
+  }
   server.stop();
+  EXPECT_TRUE(server.stats().per_client.empty());
 }
 
 TEST_F(Fixture, TooManyClientsAreRefused) {

@@ -17,6 +17,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace vc::view {
 
@@ -31,13 +32,27 @@ struct ServerOptions {
   size_t max_connections = 32;        // TCP connections at once (HTTP and WebSocket); more are closed at once
   size_t max_queue_messages = 64;     // per client
   size_t max_queue_bytes = 8u << 20;  // per client
-  size_t max_header_bytes = 8192;     // of an HTTP request; more: 431
-  size_t max_body_bytes = 1024;       // of an HTTP request (the page sends none); more: 413
-  size_t max_client_message = 4096;   // a WebSocket message from a client; more closes it
-  double idle_timeout_s = 30;         // an HTTP connection with no request for this long is closed
-  double tick_s = 0.5;                // Hooks::tick period
+  // SO_SNDBUF of a WebSocket connection (the kernel doubles it; 0: the kernel's autotuning, up to
+  // net.ipv4.tcp_wmem's 4 MiB). Bounded, a paused browser fills it in seconds and its queue starts
+  // dropping the oldest, instead of seconds of stale frames piling up in the kernel for it.
+  size_t send_buffer_bytes = 256u << 10;
+  size_t max_header_bytes = 8192;    // of an HTTP request; more: 431
+  size_t max_body_bytes = 1024;      // of an HTTP request (the page sends none); more: 413
+  size_t max_client_message = 4096;  // a WebSocket message from a client; more closes it
+  double idle_timeout_s = 30;        // an HTTP connection with no request for this long is closed
+  double tick_s = 0.5;               // Hooks::tick period
 
   bool valid(std::string* why) const;
+};
+
+// One WebSocket client's queue, while it is connected: how a paused browser shows (its dropped grows,
+// its queued_bytes stays under max_queue_bytes).
+struct ClientStats {
+  ClientId id = 0;
+  Channel channel = Channel::Live;
+  uint16_t peer_port = 0;  // the client's TCP port (which browser tab, from the host's side)
+  uint64_t sent = 0, dropped = 0;
+  size_t queued_bytes = 0, queued_bytes_max = 0;
 };
 
 struct ServerStats {
@@ -45,7 +60,8 @@ struct ServerStats {
   uint64_t messages_sent = 0, messages_dropped = 0;  // dropped: the oldest live messages of slow clients
   uint64_t http_requests = 0, http_errors = 0;       // requests answered with 4xx/5xx
   uint64_t control_messages = 0;
-  size_t queued_bytes_max = 0;  // the most bytes one client ever had queued
+  size_t queued_bytes_max = 0;          // the most bytes one client ever had queued
+  std::vector<ClientStats> per_client;  // the WebSocket clients connected now, by id
 };
 
 class Server {

@@ -26,12 +26,10 @@
 #include "voxcap/aggregator/record_stage.hpp"
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/pipeline/pipeline.hpp"
+#include "voxcap/view/assets.hpp"  // default_assets_dir()
 #include "voxcap/view/server.hpp"
 
 namespace vc::view {
-
-// share/voxcap/web beside the running binary's bin/ folder (the build tree and the install tree alike).
-std::filesystem::path default_assets_dir();
 
 // Recorded sessions below `parent`: folder names holding records.vcr, newest name first, at most `max`.
 std::vector<std::string> list_sessions(const std::filesystem::path& parent, size_t max = 100);
