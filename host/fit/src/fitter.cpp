@@ -594,7 +594,25 @@ bool Fitter::pair_swapped(int pair) const {
   return s_->swapped.at(static_cast<size_t>(pair));
 }
 
+uint64_t Fitter::late_frames() const {
+  return late_frames_;
+}
+
 pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
+  if (!s_->have_seq || frame.seq >= s_->last_seq) return fit_next(frame);
+  // A frame older than the last one fitted: the assembler passes a complete frame on at once while an
+  // older one waits for a late node until its deadline. It is fitted from a copy of the history as it
+  // stands, which is then put back, so the history (t-1, the turn rate, the filters, the pairs' naming)
+  // only goes forward and the frame still gets its pose. A copy per such frame: they are rare.
+  auto history = std::make_unique<State>(*s_);
+  pipeline::Pose pose = fit_next(frame);
+  history->times = s_->times;
+  s_ = std::move(history);
+  ++late_frames_;
+  return pose;
+}
+
+pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
   State& s = *s_;
   const uint64_t t0 = monotonic_ns();
   s.times = StageTimes{};

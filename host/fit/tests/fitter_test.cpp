@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <map>
 #include <random>
+#include <vector>
 
 #include "voxcap/fit/synthetic.hpp"
 #include "voxcap/sim/body.hpp"
@@ -187,6 +188,45 @@ TEST(Fitter, AHandLostForTenFramesIsPredictedAndStaysClose) {
   // Measured 83 mm worst (the hand waving at ~1 m/s) and 17.9 mm MPJPE.
   EXPECT_LE(1000 * worst_wrist, 100);
   EXPECT_LE(100 * sum, 30);
+}
+
+// Frames out of trigger order (the assembler passes a complete frame on while an older one waits for a
+// late node until its deadline): the late frame gets its pose, and every other frame's pose is exactly
+// what it would have been had the late frame never come.
+TEST(Fitter, AFrameArrivingAfterNewerOnesLeavesTheirHistoryAlone) {
+  sim::SceneOptions so;
+  so.motion.source = "wave";
+  const sim::Scene scene(so);
+  const rig::VoxelGrid grid = *scene.calibration().grid;
+  const int late = scene.motion().lead_in_frames() + 60, frames = late + 20;
+  testing::FeatureNoise noise;
+  std::mt19937_64 rng(13);
+  std::vector<pipeline::Frame> in;
+  for (int frame = 0; frame < frames; ++frame) in.push_back(testing::synthetic_frame(scene, grid, frame, noise, rng));
+  ASSERT_EQ(in[static_cast<size_t>(late)].seq + 1, in[static_cast<size_t>(late) + 1].seq) << "frames carry their seq";
+
+  Fitter without(grid, {}, 60), with(grid, {}, 60);
+  std::map<int, pipeline::Pose> a, b;
+  for (int frame = 0; frame < frames; ++frame) {
+    if (frame == late) continue;
+    a[frame] = without.fit(in[static_cast<size_t>(frame)]);
+    b[frame] = with.fit(in[static_cast<size_t>(frame)]);
+    if (frame == late + 3) b[late] = with.fit(in[static_cast<size_t>(late)]);  // three frames late
+  }
+  EXPECT_EQ(with.late_frames(), 1u);
+  EXPECT_EQ(without.late_frames(), 0u);
+  for (const auto& [frame, pose] : a) {
+    ASSERT_EQ(b[frame].state, pose.state) << frame;
+    for (int j = 0; j < pipeline::kPoseJointCount; ++j)
+      for (int c = 0; c < 3; ++c)
+        ASSERT_EQ(b[frame].p_world[static_cast<size_t>(j)][static_cast<size_t>(c)],
+                  pose.p_world[static_cast<size_t>(j)][static_cast<size_t>(c)])
+            << "frame " << frame << " joint " << pipeline::pose_joint_name(j);
+  }
+  ASSERT_TRUE(b[late].valid());
+  const double e = testing::mpjpe(b[late], testing::true_pose(scene, late));
+  std::printf("a frame fitted three frames late: MPJPE %.1f mm\n", 1000 * e);
+  EXPECT_LT(1000 * e, 60);
 }
 
 // A foot feature off its leg (as a drifting or mislabelled colour track gives it): 25 cm to the

@@ -47,7 +47,8 @@ class Fitter {
 
   // One merged frame (frame.rle = merged hull, frame.features3d, frame.seq): the pose for it.
   // State None while the body model is not initialized yet (initialization frames) and on a frame
-  // without a usable merged hull.
+  // without a usable merged hull. A frame older than the last one fitted (frames can reach the fit out
+  // of trigger order) gets its pose from the history as it stands and leaves that history unchanged.
   pipeline::Pose fit(const pipeline::Frame& frame);
   // Forget the body model and the history.
   void reset();
@@ -64,11 +65,15 @@ class Fitter {
   const std::array<uint64_t, 2>& pair_swaps() const;
   // Whether the pair's features are taken the other way round now ([0] hands, [1] feet).
   bool pair_swapped(int pair) const;
+  // Frames fitted after a newer one (README: "Frames out of order"), since construction.
+  uint64_t late_frames() const;
 
   struct State;
 
  private:
+  pipeline::Pose fit_next(const pipeline::Frame& frame);  // moves the history on to this frame
   std::unique_ptr<State> s_;
+  uint64_t late_frames_ = 0;
 };
 
 // The "fit" chain stage (after "triangulate"): Frame::pose for every frame.
