@@ -169,6 +169,7 @@ class Replay {
       std::lock_guard<std::mutex> lock(mu_);
       if (cmd == "play") {
         playing_ = true;
+        if (!frames_.empty() && index_ + 1 >= frames_.size()) pending_ = 0;  // at the end: from the start
       } else if (cmd == "pause") {
         playing_ = false;
       } else if (cmd == "step") {
@@ -180,6 +181,8 @@ class Replay {
       }
     }
     cv_.notify_all();
+    // The page learns of play/pause at once (a step or seek is answered with its frame).
+    if (loaded_ && (cmd == "play" || cmd == "pause")) state();
   }
 
  private:
@@ -189,6 +192,9 @@ class Replay {
   };
 
   void state(const std::string& error = "") {
+    // Read and sent under one lock: the replay's thread and a play/pause from the page post in the
+    // order they read, so the last message the page gets is the newest state.
+    std::lock_guard<std::mutex> order(state_mu_);
     json j;
     j["session"] = name_;
     j["loaded"] = loaded_.load();
@@ -328,7 +334,7 @@ class Replay {
   const config::RigConfig* rig_;
   std::string name_;
   std::thread thread_;
-  std::mutex mu_;
+  std::mutex mu_, state_mu_;
   std::condition_variable cv_;
   bool quit_ = false, playing_ = false;
   std::atomic<bool> loaded_{false};
