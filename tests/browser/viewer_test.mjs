@@ -4,8 +4,10 @@
 // from the page makes a session that the page lists, the session replays (play/pause/step), and, with
 // three WebSocket clients connected — two pages and one that never reads — the rig completes every
 // frame (none dropped, merging never stopped) while the viewer drops the stalled client's oldest
-// messages and the host's memory stays bounded. Screenshots go to --out. Prints "N passed, N failed".
-import { spawn } from 'node:child_process';
+// messages and the host's memory stays bounded. Then `voxcap view SESSION` serves the recorded session
+// alone (replayed the same way), and refuses a folder that is no session or holds no frames (exit 2, one
+// line) and reads past a damaged record. Screenshots go to --out. Prints "N passed, N failed".
+import { spawn, spawnSync } from 'node:child_process';
 import { createRequire } from 'node:module';
 import fs from 'node:fs';
 import net from 'node:net';
@@ -160,6 +162,51 @@ try {
   check(false, `the rig's JSON: ${e.message} (exit ${code})`);
 }
 
+// `voxcap view SESSION`: the recorded session alone, no rig; then sessions that are not right.
+if (browser && session) {
+  const dir = path.join(work, 'recordings', session);
+  const view = spawn(voxcap, ['view', dir, '--view-port', '0'], { cwd: work });
+  let vout = '';
+  view.stdout.on('data', (d) => { vout += d; });
+  view.stderr.on('data', (d) => fs.appendFileSync(path.join(out, 'view.stderr.txt'), d));
+  const viewExit = new Promise((resolve) => view.on('exit', (code) => resolve(code)));
+  try {
+    const vurl = await until(() => (vout.match(/viewer: (http:\/\/127\.0\.0\.1:\d+\/)/) || [])[1], 60000, 'voxcap view\'s URL');
+    console.log(`voxcap view at ${vurl}`);
+    const vpage = await browser.newPage({ viewport: { width: 1400, height: 860 } });
+    vpage.on('pageerror', (e) => console.log(`page error: ${e.message}`));
+    await vpage.goto(vurl);
+    await until(() => vpage.evaluate(() => window.voxcap.hello && window.voxcap.hello.mode === 'session'), 60000, 'the session\'s Hello');
+    const solo = await vpage.evaluate(() => ({ rec: document.getElementById('record').hidden, live: document.getElementById('live').hidden,
+                                               session: window.voxcap.hello.session }));
+    check(solo.rec && solo.live && solo.session === session, `voxcap view serves ${solo.session} alone (no record, no live)`);
+    await replaySteps(vpage, 'view');
+  } catch (e) {
+    check(false, `voxcap view: ${e.message}`);
+  }
+  view.kill('SIGINT');
+  const vcode = await viewExit;
+  check(vcode === 0, `voxcap view stops on SIGINT (exit ${vcode})`);
+
+  const run = (args) => spawnSync(voxcap, args, { cwd: work, encoding: 'utf8', timeout: 120000 });
+  const oneLine = (r) => r.stderr.trim().split('\n').length === 1;
+  let r = run(['view', path.join(work, 'no-such-session'), '--view-port', '0']);
+  check(r.status === 2 && oneLine(r), `voxcap view of no session: exit ${r.status}, "${r.stderr.trim()}"`);
+  const zeros = path.join(work, 'zeros');
+  fs.mkdirSync(zeros);
+  for (const f of ['rig.toml', 'calibration.yaml', 'session.json']) fs.copyFileSync(path.join(dir, f), path.join(zeros, f));
+  fs.writeFileSync(path.join(zeros, 'records.vcr'), Buffer.alloc(65536));
+  r = run(['view', zeros, '--view-port', '0', '--seconds', '1']);
+  check(r.status === 2 && oneLine(r), `voxcap view of a session of zeros: exit ${r.status}, "${r.stderr.trim()}"`);
+  const damaged = path.join(work, 'damaged');
+  fs.cpSync(dir, damaged, { recursive: true });
+  const vcr = fs.readFileSync(path.join(damaged, 'records.vcr'));
+  vcr.fill(0x55, vcr.length >> 1, (vcr.length >> 1) + 64);
+  fs.writeFileSync(path.join(damaged, 'records.vcr'), vcr);
+  r = run(['view', damaged, '--view-port', '0', '--seconds', '1']);
+  check(r.status === 0 && /damaged records? skipped/.test(r.stdout) && /record \d+/.test(r.stderr),
+        `voxcap view reads past a damaged record: exit ${r.status}, "${r.stdout.split('\n')[0]}", "${r.stderr.trim().split('\n')[0]}"`);
+}
 if (browser) await browser.close();
 console.log(`${passed} passed, ${failed} failed`);
 process.exit(failed ? 1 : 0);

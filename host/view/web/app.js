@@ -270,6 +270,9 @@ function connect() {
       apply();  // what came before belongs to the rig before
       const m = decode(ev.data);
       state.hello = m.json; $('rig').textContent = `${m.json.rig} · ${m.json.nodes.length} nodes`; setupRig(m.json);
+      // `voxcap view SESSION`: a recorded session alone, no rig to record from or go back to.
+      const solo = m.json.mode === 'session';
+      $('record').hidden = solo; $('live').hidden = solo;
     } else if (type === T.Replay) {
       showReplay(decode(ev.data).json);
     } else if (type === T.Stats && new TextDecoder().decode(new Uint8Array(ev.data, 4, Math.min(12, ev.data.byteLength - 4))).startsWith('{"error"')) {
