@@ -30,6 +30,7 @@ void add_calibrate_commands(CLI::App& app);  // cmd_calibrate.cpp: voxcap calibr
 void add_key_commands(CLI::App& app);        // cmd_key.cpp: voxcap key new|check (the rig key)
 void add_hil_commands(CLI::App& app);        // cmd_hil.cpp: voxcap hil [--emulated] (hardware-in-loop tests)
 void add_deploy_commands(CLI::App& app);     // cmd_deploy.cpp: voxcap deploy [flash-config] (boards over ssh)
+void add_view_commands(CLI::App& app);       // cmd_view.cpp: voxcap view SESSION (a session in the viewer)
 
 // `voxcap bench ...` (cmd_bench.cpp).
 void add_bench_commands(CLI::App& app);

@@ -48,6 +48,7 @@ int main(int argc, char** argv) {
     vc::cli::add_deploy_commands(app);
     vc::cli::add_bench_commands(app);
     vc::cli::add_hil_commands(app);
+    vc::cli::add_view_commands(app);
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {

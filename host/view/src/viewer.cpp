@@ -162,6 +162,7 @@ class Replay {
       std::lock_guard<std::mutex> lock(mu_);
       if (cmd == "play") {
         playing_ = true;
+        if (!frames_.empty() && index_ + 1 >= frames_.size()) pending_ = 0;  // at the end: from the start
       } else if (cmd == "pause") {
         playing_ = false;
       } else if (cmd == "step") {
@@ -173,6 +174,8 @@ class Replay {
       }
     }
     cv_.notify_all();
+    // The page learns of play/pause at once (a step or seek is answered with its frame).
+    if (loaded_ && (cmd == "play" || cmd == "pause")) state();
   }
 
  private:
@@ -182,6 +185,9 @@ class Replay {
   };
 
   void state(const std::string& error = "") {
+    // Read and sent under one lock: the replay's thread and a play/pause from the page post in the
+    // order they read, so the last message the page gets is the newest state.
+    std::lock_guard<std::mutex> order(state_mu_);
     json j;
     j["session"] = name_;
     j["loaded"] = loaded_.load();
@@ -321,7 +327,7 @@ class Replay {
   const config::RigConfig* rig_;
   std::string name_;
   std::thread thread_;
-  std::mutex mu_;
+  std::mutex mu_, state_mu_;
   std::condition_variable cv_;
   bool quit_ = false, playing_ = false;
   std::atomic<bool> loaded_{false};
@@ -338,10 +344,7 @@ Viewer::Viewer(ViewerOptions options) : opt_(std::move(options)) {
   so.port = opt_.server.port;
   so.assets = opt_.server.assets.empty() ? default_assets_dir() : opt_.server.assets;
   Server::Hooks hooks;
-  hooks.hello = [this](ClientId, Channel ch) {
-    const config::RigConfig* rig = rig_.load();
-    return ch == Channel::Live && rig ? encode_json(MsgType::Hello, hello_json(*rig, "live")) : std::string();
-  };
+  hooks.hello = [this](ClientId c, Channel ch) { return ch == Channel::Live ? hello(c) : std::string(); };
   hooks.control = [this](ClientId c, std::string_view text) { on_control(c, text); };
   hooks.closed = [this](ClientId c) { on_closed(c); };
   hooks.tick = [this] { on_tick(); };
@@ -365,6 +368,38 @@ void Viewer::attach(pipeline::Pipeline& p) {
                                                  encode_json(MsgType::Hello, hello_json(*rig, "live"))));
                                          }),
              ViewStage::kQueue);
+}
+
+void Viewer::serve_session(SessionSource source) {
+  session_ = std::make_unique<SessionSource>(std::move(source));
+  rig_ = &session_->rig;
+}
+
+std::string Viewer::hello(ClientId client) {
+  const config::RigConfig* rig = rig_.load();
+  if (!rig) return {};
+  if (!session_) return encode_json(MsgType::Hello, hello_json(*rig, "live"));
+  // A session served alone: the page replays it from the start, without asking.
+  json h = json::parse(hello_json(*rig, "session"));
+  const std::string name = session_->dir.filename().string();
+  h["session"] = name;
+  start_replay(client, name, session_->dir);
+  return encode_json(MsgType::Hello, h.dump());
+}
+
+std::filesystem::path Viewer::session_dir(const std::string& name) const {
+  if (session_) return name == session_->dir.filename().string() ? session_->dir : std::filesystem::path();
+  const auto sessions = list_sessions(opt_.record_dir);
+  if (!valid_session_name(name) || std::find(sessions.begin(), sessions.end(), name) == sessions.end())
+    return {};
+  return opt_.record_dir / name;
+}
+
+void Viewer::start_replay(ClientId client, const std::string& name, const std::filesystem::path& dir) {
+  std::lock_guard<std::mutex> lock(mu_);
+  replays_.erase(client);
+  server_->set_replaying(client, true);
+  replays_[client] = std::make_unique<Replay>(*server_, client, dir, rig_.load(), name);
 }
 
 void Viewer::set_report(std::function<aggregator::Report()> fn) {
@@ -426,14 +461,11 @@ void Viewer::on_control(ClientId client, std::string_view text) {
   } else if (cmd == "replay") {
     if (!j.contains("session") || !j["session"].is_string()) return;
     const std::string name = j["session"].get<std::string>();
-    const auto sessions = list_sessions(opt_.record_dir);
-    if (!valid_session_name(name) || std::find(sessions.begin(), sessions.end(), name) == sessions.end())
-      return reply({{"error", "no such session"}});
-    std::lock_guard<std::mutex> lock(mu_);
-    replays_.erase(client);
-    server_->set_replaying(client, true);
-    replays_[client] = std::make_unique<Replay>(*server_, client, opt_.record_dir / name, rig_.load(), name);
+    const std::filesystem::path dir = session_dir(name);
+    if (dir.empty()) return reply({{"error", "no such session"}});
+    start_replay(client, name, dir);
   } else if (cmd == "live") {
+    if (session_) return reply({{"error", "no live rig: this viewer serves one recorded session"}});
     std::lock_guard<std::mutex> lock(mu_);
     replays_.erase(client);
     server_->set_replaying(client, false);
@@ -510,7 +542,8 @@ std::string Viewer::stats_json() {
     j["recording"] = {
         {"on", st.on}, {"dir", st.dir.filename().string()}, {"records", st.records}, {"error", st.error}};
   }
-  j["sessions"] = list_sessions(opt_.record_dir, 50);
+  j["sessions"] = session_ ? std::vector<std::string>{session_->dir.filename().string()}
+                           : list_sessions(opt_.record_dir, 50);
   const ServerStats ss = server_->stats();
   j["viewer"] = {{"clients", ss.clients},
                  {"dropped", ss.messages_dropped},

@@ -191,7 +191,7 @@ function showFeatures2D(m) {
 // ---- stats, recording, sessions ----
 const fmt = (x, d = 1) => (x === undefined || x === null || Number.isNaN(x) ? '–' : Number(x).toFixed(d));
 function showStats(j) {
-  if (j.error) { alert(j.error); return; }
+  if (j.error) { state.error = j.error; $('legend').textContent = j.error; return; }
   if (j.nodes) {
     state.nodes = j.nodes;
     $('nodes').tBodies[0].innerHTML = j.nodes.map((n) => `<tr data-node="${n.name}"><td>${n.name}</td>` +
@@ -212,7 +212,7 @@ function showStats(j) {
   if (j.sessions) {
     const sel = $('sessions'), cur = sel.value;
     if (JSON.stringify(j.sessions) !== JSON.stringify(state.sessions)) {
-      sel.innerHTML = j.sessions.map((s) => `<option>${s}</option>`).join('');
+      sel.replaceChildren(...j.sessions.map((s) => { const o = document.createElement('option'); o.textContent = s; return o; }));
       if (j.sessions.includes(cur)) sel.value = cur;
     }
     state.sessions = j.sessions;
@@ -234,25 +234,53 @@ function showReplay(j) {
 }
 
 // ---- the socket ----
+// The classic WebSocket API has no back-pressure: a page that decoded and drew every message as it came
+// would, on a slow or loaded machine, fall ever further behind the rig (the events queue up inside the
+// browser, unbounded, and the recording state the page shows would be minutes old). So a message is only
+// kept here as it arrives, the newest of each kind (silhouettes: per camera), and what is kept is applied
+// once per drawn frame (apply()). Hello and Replay state are applied at once, in order.
 let ws = null, scrubbing = false;
 const send = (o) => ws && ws.readyState === 1 && ws.send(JSON.stringify(o));
-function connect() {
-  ws = new WebSocket(`${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/ws`);
-  ws.binaryType = 'arraybuffer';
-  ws.onopen = () => { state.connected = true; };
-  ws.onclose = () => { state.connected = false; $('rig').textContent = 'disconnected — retrying'; setTimeout(connect, 1000); };
-  ws.onmessage = (ev) => {
-    if (typeof ev.data === 'string') return;
-    const m = decode(ev.data);
+const latest = new Map();  // kind -> ArrayBuffer
+function apply() {
+  const msgs = [...latest.values()];
+  latest.clear();
+  for (const buf of msgs) {
+    const m = decode(buf);
     switch (m.type) {
-      case T.Hello: state.hello = m.json; $('rig').textContent = `${m.json.rig} · ${m.json.nodes.length} nodes`; setupRig(m.json); break;
       case T.Hull: showHull(m); state.frames++; break;
       case T.Pose: showPose(m); break;
       case T.Features3D: showFeatures3D(m); break;
       case T.Features2D: showFeatures2D(m); break;
       case T.Silhouette: showSilhouette(m); break;
       case T.Stats: showStats(m.json); break;
-      case T.Replay: showReplay(m.json); break;
+    }
+  }
+}
+function connect() {
+  ws = new WebSocket(`${location.protocol === 'https:' ? 'wss' : 'ws'}://${location.host}/ws`);
+  ws.binaryType = 'arraybuffer';
+  ws.onopen = () => { state.connected = true; };
+  ws.onclose = () => { state.connected = false; $('rig').textContent = 'disconnected — retrying'; setTimeout(connect, 1000); };
+  ws.onmessage = (ev) => {
+    if (typeof ev.data === 'string' || ev.data.byteLength < 4) return;
+    const type = new DataView(ev.data).getUint8(0);
+    state.received = (state.received || 0) + 1;
+    if (type === T.Hello) {
+      apply();  // what came before belongs to the rig before
+      const m = decode(ev.data);
+      state.hello = m.json; $('rig').textContent = `${m.json.rig} · ${m.json.nodes.length} nodes`; setupRig(m.json);
+      // `voxcap view SESSION`: a recorded session alone, no rig to record from or go back to.
+      const solo = m.json.mode === 'session';
+      $('record').hidden = solo; $('live').hidden = solo;
+    } else if (type === T.Replay) {
+      showReplay(decode(ev.data).json);
+    } else if (type === T.Stats && new TextDecoder().decode(new Uint8Array(ev.data, 4, Math.min(12, ev.data.byteLength - 4))).startsWith('{"error"')) {
+      showStats(decode(ev.data).json);  // a reply to this page's request: never replaced by the next tick
+    } else {
+      const key = type === T.Silhouette && ev.data.byteLength >= 18 ? `6:${new DataView(ev.data).getUint16(16, true)}` : type;
+      latest.set(key, ev.data);
+      schedule();
     }
   };
 }
@@ -266,13 +294,23 @@ $('stepb').onclick = () => send({ cmd: 'step', by: -1 });
 $('scrub').oninput = () => { scrubbing = true; send({ cmd: 'seek', index: Number($('scrub').value) }); };
 $('scrub').onchange = () => { scrubbing = false; };
 
-// Rendering on demand (new data, the orbit controls, a resize): an idle page costs nothing.
-let pending = false;
-function redraw() {
+// Drawing on demand (new data, the orbit controls, a resize): an idle page costs nothing. One
+// animation frame applies the newest messages (above), then draws. A hidden page gets no animation
+// frames: a timer applies its messages then, so its state stays current.
+let pending = false, dirty = false;
+function frame() {
+  if (!pending) return;
+  apply();
+  if (dirty) { dirty = false; renderer.render(scene, camera); state.renders = (state.renders || 0) + 1; }
+  pending = false;
+}
+function schedule() {
   if (pending) return;
   pending = true;
-  requestAnimationFrame(() => { pending = false; renderer.render(scene, camera); state.renders = (state.renders || 0) + 1; });
+  requestAnimationFrame(frame);
+  setTimeout(frame, 250);
 }
+function redraw() { dirty = true; schedule(); }
 controls.addEventListener('change', redraw);
 window.addEventListener('resize', redraw);
 resize();

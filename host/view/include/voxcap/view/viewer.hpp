@@ -105,6 +105,13 @@ struct ViewerOptions {
   ServerOptions limits;       // clients, queues (bind/port/assets taken from above)
 };
 
+// A recorded session served alone (`voxcap view SESSION`): its folder and the rig it was recorded with
+// (the session's own rig.toml and calibration.yaml copies).
+struct SessionSource {
+  std::filesystem::path dir;
+  config::RigConfig rig;
+};
+
 class Replay;
 
 class Viewer {
@@ -117,6 +124,9 @@ class Viewer {
   Viewer& operator=(const Viewer&) = delete;
 
   void attach(pipeline::Pipeline& p);  // before the pipeline starts
+  // Instead of attach(): no rig, only this session; every page that connects replays it at once
+  // (Hello `mode` "session"). No record switch. Before start().
+  void serve_session(SessionSource source);
   void set_report(std::function<aggregator::Report()> fn);
   void start();  // throws std::runtime_error when it cannot listen or has no page
   void stop();
@@ -131,8 +141,13 @@ class Viewer {
   void on_closed(ClientId client);
   void on_tick();
   std::string stats_json();
+  std::string hello(ClientId client);
+  // The folder of session `name` a client may replay, or empty.
+  std::filesystem::path session_dir(const std::string& name) const;
+  void start_replay(ClientId client, const std::string& name, const std::filesystem::path& dir);
 
   std::atomic<const config::RigConfig*> rig_{nullptr};
+  std::unique_ptr<SessionSource> session_;  // serve_session(): the one session, and the rig it owns
   ViewerOptions opt_;
   std::unique_ptr<Server> server_;
   ViewStage* stage_ = nullptr;
