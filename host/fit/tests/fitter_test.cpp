@@ -202,8 +202,11 @@ TEST(Fitter, AFrameArrivingAfterNewerOnesLeavesTheirHistoryAlone) {
   testing::FeatureNoise noise;
   std::mt19937_64 rng(13);
   std::vector<pipeline::Frame> in;
-  for (int frame = 0; frame < frames; ++frame) in.push_back(testing::synthetic_frame(scene, grid, frame, noise, rng));
-  ASSERT_EQ(in[static_cast<size_t>(late)].seq + 1, in[static_cast<size_t>(late) + 1].seq) << "frames carry their seq";
+  in.reserve(static_cast<size_t>(frames));
+  for (int frame = 0; frame < frames; ++frame)
+    in.push_back(testing::synthetic_frame(scene, grid, frame, noise, rng));
+  ASSERT_EQ(in[static_cast<size_t>(late)].seq + 1, in[static_cast<size_t>(late) + 1].seq)
+      << "frames carry their seq";
 
   Fitter without(grid, {}, 60), with(grid, {}, 60);
   std::map<int, pipeline::Pose> a, b;
