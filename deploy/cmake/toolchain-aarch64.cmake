@@ -25,12 +25,15 @@ set(CMAKE_FIND_ROOT_PATH_MODE_PACKAGE BOTH)
 set(ENV{PKG_CONFIG_LIBDIR} /usr/lib/${VC_TRIPLET}/pkgconfig:/usr/share/pkgconfig)
 set(ENV{PKG_CONFIG_PATH} "")
 
-# Test programs run under qemu-user (Debian qemu-user), with the arm64 dynamic loader and libraries
-# of the multiarch tree (-L: the prefix qemu resolves the ELF interpreter /lib/ld-linux-aarch64.so.1
-# in; Debian's libc6:arm64 puts it in /usr/lib/aarch64-linux-gnu, reachable through /lib on the host).
+# Test programs run under qemu-user (Debian qemu-user) with the arm64 dynamic loader and libraries of
+# the multiarch tree: -L / (qemu resolves the ELF interpreter /lib/ld-linux-aarch64.so.1 under that
+# prefix; Debian's libc6:arm64 puts it there). Not -L /usr/aarch64-linux-gnu: that prefix holds the
+# cross toolchain's own glibc (libc6-arm64-cross, 2.36-8cross1), whose ld.so then runs the multiarch
+# libc.so.6 (libc6:arm64, 2.36-9+deb12u14), a pair built apart; programs that pull in lttng-ust
+# (libcamera: voxcap-edge) spun inside that ld.so in lttng-ust's constructor, before main.
 find_program(VC_QEMU_AARCH64 NAMES qemu-aarch64 qemu-aarch64-static)
 if(VC_QEMU_AARCH64)
-  set(CMAKE_CROSSCOMPILING_EMULATOR ${VC_QEMU_AARCH64} -L /usr/${VC_TRIPLET})
+  set(CMAKE_CROSSCOMPILING_EMULATOR ${VC_QEMU_AARCH64} -L /)
 endif()
 
 # The Pi 5's Cortex-A76 is ARMv8.2-A; the packages target plain ARMv8-A (every 64-bit Pi): NEON

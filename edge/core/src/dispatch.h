@@ -2,9 +2,10 @@
  * (VC_HOT inline bodies) and compiled twice on x86-64: for the baseline ISA and, in functions marked
  * VC_TARGET_AVX2, for AVX2, so that the compiler's auto-vectoriser can use 32-byte vectors. On
  * aarch64 the kernels whose portable form the compiler cannot map onto NEON well (the interleaved
- * pixel classification, the 3x3 majority filter's row, the carver's bit packing) have hand-written
- * NEON variants (Advanced SIMD is in every ARMv8-A core, so nothing is probed). The choice is made
- * once, lazily (cpuid on x86-64); vc_edge_kernel_select() overrides it for tests and benchmarks, and
+ * pixel classification, the carver's bit packing) have hand-written NEON variants (Advanced SIMD is in
+ * every ARMv8-A core, so nothing is probed); the 3x3 majority filter's rows are byte arithmetic that
+ * gcc vectorises for NEON itself, and the RLE's NEON word skip is proto's (vc_rle_encode_impl()). The choice
+ * is made once, lazily (cpuid on x86-64); vc_edge_kernel_select() overrides it for tests and benchmarks, and
  * "generic" is the portable C on every CPU: the reference the other variants must equal bit for bit. */
 #ifndef VOXCAP_EDGE_DISPATCH_H
 #define VOXCAP_EDGE_DISPATCH_H

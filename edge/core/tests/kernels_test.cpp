@@ -4,6 +4,9 @@
 // pixel offsets). Random inputs and the edges: every width from 1 to 70 (each tail length of a 16-
 // and 32-pixel step), the Pi Global Shutter camera's 1456, bytes at 0 and 255, thresholds that
 // saturate. A variant this CPU cannot run is skipped; the arm64 build runs "neon" under qemu-aarch64.
+// The RLE of the carved bitset (proto's vc_rle_encode, NEON word skip on aarch64) against its portable
+// scan, byte for byte: empty, full, alternating, long runs, runs that end at the grid's and the
+// vector step's edges, random densities and a hull-like grid.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -18,6 +21,7 @@
 #include "voxcap/edge/bgmodel.h"
 #include "voxcap/edge/carver.h"
 #include "voxcap/edge/cleanup.h"
+#include "voxcap/rle.h"
 
 namespace {
 
@@ -204,6 +208,122 @@ TEST_P(KernelVariant, CarveEqualsGenericBitForBit) {
 
 INSTANTIATE_TEST_SUITE_P(Kernels, KernelVariant, ::testing::Values("avx2", "neon"),
                          [](const auto& p) { return std::string(p.param); });
+
+// nbits bits (ceil(nbits / 8) bytes) starting `offset` bytes into their buffer, so that the vector
+// loads see every alignment; the padding bits past nbits are set (the encoders must ignore them).
+struct Bits {
+  std::vector<uint8_t> buf;
+  size_t offset = 0, nbits = 0;
+  const uint8_t* data() const { return buf.data() + offset; }
+  void set(size_t i) { buf[offset + i / 8] |= static_cast<uint8_t>(1u << (i % 8)); }
+};
+
+Bits make_bits(size_t nbits, size_t offset) {
+  Bits b;
+  b.offset = offset;
+  b.nbits = nbits;
+  b.buf.assign(offset + (nbits + 7) / 8 + 1, 0);
+  if (nbits % 8) b.buf[offset + nbits / 8] = static_cast<uint8_t>(0xFFu << (nbits % 8));
+  return b;
+}
+
+// Encodes with the default scan and with the portable one: the same code, bytes, length and info,
+// also when the output is one byte short (-ENOSPC, the needed size); and the stream decodes back.
+void expect_rle_same(const Bits& b, const std::string& what) {
+  const size_t cap = vc_rle_max_encoded_size(b.nbits) + 16;
+  std::vector<uint8_t> want(cap, 0xCD), got(cap, 0xCD);
+  size_t want_len = 0, got_len = 0;
+  vc_rle_info want_info{}, got_info{};
+  ASSERT_EQ(vc_rle_encode_info_portable(b.data(), b.nbits, want.data(), cap, &want_len, &want_info), 0)
+      << what;
+  ASSERT_EQ(vc_rle_encode_info(b.data(), b.nbits, got.data(), cap, &got_len, &got_info), 0) << what;
+  EXPECT_EQ(got_len, want_len) << what;
+  EXPECT_TRUE(got == want) << what << ": " << vc_rle_encode_impl() << " differs from portable";
+  EXPECT_EQ(got_info.total, want_info.total) << what;
+  EXPECT_EQ(got_info.occupied, want_info.occupied) << what;
+  EXPECT_EQ(got_info.runs, want_info.runs) << what;
+  if (want_len > 0) {
+    size_t short_want = 0, short_got = 0;
+    std::vector<uint8_t> a(want_len), c(want_len);
+    EXPECT_EQ(vc_rle_encode_info_portable(b.data(), b.nbits, a.data(), want_len - 1, &short_want, nullptr),
+              -ENOSPC);
+    EXPECT_EQ(vc_rle_encode_info(b.data(), b.nbits, c.data(), want_len - 1, &short_got, nullptr), -ENOSPC);
+    EXPECT_EQ(short_got, short_want) << what;
+  }
+  std::vector<uint8_t> back((b.nbits + 7) / 8 + 1, 0);
+  ASSERT_EQ(vc_rle_decode(got.data(), got_len, back.data(), b.nbits), 0) << what;
+  for (size_t i = 0; i < b.nbits; i++)
+    ASSERT_EQ((back[i / 8] >> (i % 8)) & 1, (b.data()[i / 8] >> (i % 8)) & 1) << what << " bit " << i;
+}
+
+TEST(EdgeKernels, RleEncodeEqualsPortableByteForByte) {
+#if defined(__aarch64__)
+  EXPECT_STREQ(vc_rle_encode_impl(), "neon");
+#else
+  EXPECT_STREQ(vc_rle_encode_impl(), "portable");
+#endif
+  std::mt19937 rng(1604);
+  // Around the word (64 bits), the scalar step (4 words) and the NEON step (8 words, 512 bits).
+  std::vector<size_t> sizes = {0, 1, 2, 7, 8, 9, 63, 64, 65, 255, 256, 257, 511, 512, 513, 1023, 1024, 1025};
+  for (size_t n : {2048, 4096, 5000, 32768 + 77}) sizes.push_back(n);
+  for (size_t n : sizes)
+    for (size_t offset : {0, 1, 3, 8}) {
+      const std::string at = std::to_string(n) + " bits at +" + std::to_string(offset);
+      expect_rle_same(make_bits(n, offset), "empty " + at);
+      Bits full = make_bits(n, offset);
+      for (size_t i = 0; i < n; i++) full.set(i);
+      expect_rle_same(full, "full " + at);
+      Bits alt = make_bits(n, offset), alt_words = make_bits(n, offset);
+      for (size_t i = 0; i < n; i++) {
+        if (i % 2) alt.set(i);
+        if ((i / 64) % 2) alt_words.set(i);
+      }
+      expect_rle_same(alt, "alternating bits " + at);
+      expect_rle_same(alt_words, "alternating words " + at);
+      if (n == 0) continue;
+      // One bit set, one bit clear, at both ends of the grid and at the step edges.
+      for (size_t i : {size_t{0}, n - 1, n / 2, size_t{511} % n, size_t{512} % n, size_t{64} % n}) {
+        Bits one = make_bits(n, offset), hole = make_bits(n, offset);
+        one.set(i);
+        for (size_t k = 0; k < n; k++)
+          if (k != i) hole.set(k);
+        expect_rle_same(one, "bit " + std::to_string(i) + " of " + at);
+        expect_rle_same(hole, "hole at " + std::to_string(i) + " of " + at);
+      }
+      // Long runs (mean 40, 700 and 5000 bits), and random bits at three densities.
+      for (double mean : {40.0, 700.0, 5000.0}) {
+        Bits runs = make_bits(n, offset);
+        std::geometric_distribution<size_t> len(1.0 / mean);
+        bool on = rng() % 2 != 0;
+        for (size_t i = 0; i < n; on = !on) {
+          const size_t r = 1 + len(rng);
+          for (size_t k = i; k < std::min(n, i + r); k++)
+            if (on) runs.set(k);
+          i += r;
+        }
+        expect_rle_same(runs, "runs of mean " + std::to_string(mean) + " " + at);
+      }
+      for (double density : {0.02, 0.5, 0.98}) {
+        Bits r = make_bits(n, offset);
+        std::bernoulli_distribution bit(density);
+        for (size_t i = 0; i < n; i++)
+          if (bit(rng)) r.set(i);
+        expect_rle_same(r, "density " + std::to_string(density) + " " + at);
+      }
+    }
+  // A hull-like grid: a body of boxes in 128^3 (a few runs per row, long empty stretches).
+  const int nx = 128;
+  Bits hull = make_bits(size_t{nx} * nx * nx, 0);
+  for (int k = 8; k < 120; k++)
+    for (int j = 40; j < 88; j++)
+      for (int i = 0; i < nx; i++) {
+        const bool torso = i >= 50 && i < 78 && j >= 52 && j < 76 && k >= 40 && k < 100;
+        const bool legs = ((i >= 52 && i < 60) || (i >= 68 && i < 76)) && j >= 58 && j < 70 && k < 40;
+        const bool arms = (i < 50 || i >= 78) && j >= 60 && j < 66 && k >= 88 && k < 96;
+        if (torso || legs || arms) hull.set(i + static_cast<size_t>(nx) * (j + static_cast<size_t>(nx) * k));
+      }
+  expect_rle_same(hull, "hull-like 128^3");
+}
 
 TEST(EdgeKernels, AutoPicksTheVectorVariantOfThisCpu) {
   ASSERT_EQ(vc_edge_kernel_select("auto"), 0);

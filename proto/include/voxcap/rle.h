@@ -84,6 +84,16 @@ int vc_rle_inspect(const uint8_t* rle, size_t len, vc_rle_info* info);
 int vc_rle_encode_info(const uint8_t* bits, size_t nbits, uint8_t* out, size_t cap, size_t* out_len,
                        vc_rle_info* info);
 
+/* Which scan over whole empty or occupied words vc_rle_encode and vc_rle_encode_info use: "neon" on
+ * aarch64 (Advanced SIMD is in every ARMv8-A core: 64 bytes a step), "portable" elsewhere (64-bit
+ * words, four a step). Static string. Either writes the same bytes. */
+const char* vc_rle_encode_impl(void);
+
+/* vc_rle_encode_info with the portable scan whatever the CPU: the reference the NEON scan is checked
+ * against byte for byte (edge/core's kernels_test), and a baseline for benchmarks. */
+int vc_rle_encode_info_portable(const uint8_t* bits, size_t nbits, uint8_t* out, size_t cap, size_t* out_len,
+                                vc_rle_info* info);
+
 #ifdef __cplusplus
 }
 #endif
