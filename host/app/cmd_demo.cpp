@@ -154,9 +154,10 @@ void run_demo(DemoArgs& a) {
   emulated::Result r = rig.stop();
   if (viewer) viewer->stop();
   if (r.report.frames == 0) throw std::runtime_error("no frame was merged");
-  // demo: the session as it is on disk (read back once closed): the summary counts what it holds.
+  // demo: the session as it is on disk (read back once closed) against the frames merged up to the
+  // host's stop (every stage drained, the recording closed): the summary counts what it holds.
   std::optional<record::RunRecording> rec;
-  if (!r.session_dir.empty()) rec = record::read_back(r.session_dir, r.report.frames);
+  if (!r.session_dir.empty()) rec = record::read_back(r.session_dir, r.final_report.frames);
   if (a.json) {
     nlohmann::json j = figures_json(a, r);
     if (rec) j["session"] = run_recording_json(*rec);

@@ -445,11 +445,13 @@ void add_rig_commands(CLI::App& app) {
       }
       emulated::Result r = rig.stop();
       if (viewer) viewer->stop();
-      // The session as it is on disk (read back once closed): the summary counts what it holds.
+      // The summary is the host's report once stopped (every stage drained, the recording closed) and
+      // the session as it is on disk, read back: its frames are the frames merged.
+      const aggregator::Report& rep = r.final_report;
       std::optional<record::RunRecording> rec;
-      if (!r.session_dir.empty()) rec = record::read_back(r.session_dir, r.report.frames);
+      if (!r.session_dir.empty()) rec = record::read_back(r.session_dir, rep.frames);
       if (*json) {
-        nlohmann::json j = report_json(r.report);
+        nlohmann::json j = report_json(rep);
         if (rec) j["session"] = run_recording_json(*rec);
         j["accuracy"] = accuracy_json(r.accuracy);
         j["emulated"] = {{"nodes", opt->nodes}, {"motion", opt->motion},   {"appearance", opt->appearance},
@@ -460,14 +462,14 @@ void add_rig_commands(CLI::App& app) {
         j["host_rss_kb"] = {{"start", r.host_rss_start_kb}, {"end", r.host_rss_end_kb}};
         fmt::print("{}\n", j.dump(2));
       } else {
-        print_report(r.report);
+        print_report(rep);
         if (rec) fmt::print("{}\n", record::run_recording_line(*rec));
         print_accuracy(r.accuracy);
       }
-      if (r.report.frames == 0) throw std::runtime_error("no frame was merged");
-      if (r.report.merging_stopped())
+      if (rep.frames == 0) throw std::runtime_error("no frame was merged");
+      if (rep.merging_stopped())
         throw std::runtime_error(fmt::format("frames stopped merging after seq {}: {} pulses never merged",
-                                             r.report.last_seq, r.report.unmerged_pulses()));
+                                             rep.last_seq, rep.unmerged_pulses()));
       return;
     }
     // A real rig: the aggregator alone; the edges are on their boards. A rig.toml that cannot be read
