@@ -36,7 +36,7 @@ struct DemoArgs {
   std::string out;  // demo: where the take and the session go
   bool json = false;
   bool eval = false;
-  std::string vmc;  // --vmc HOST:PORT: the live pose stream out
+  std::string vmc;     // --vmc HOST:PORT: the live pose stream out
   bool view = false;   // serve the live viewer while it runs
   int view_port = -1;  // -1: 8080
 };

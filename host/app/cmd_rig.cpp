@@ -508,8 +508,7 @@ void add_rig_commands(CLI::App& app) {
     }
     add_vmc_stage(agg.pipeline(), vmc_options(rig.vmc, *vmc));
     agg.start();  // creates the session folder
-    const std::filesystem::path session_dir =
-        recording ? recording->dir() : viewer->recorder()->state().dir;
+    const std::filesystem::path session_dir = recording ? recording->dir() : viewer->recorder()->state().dir;
     fmt::print("recording to {}\n", session_dir.string());
     auto end =
         std::chrono::steady_clock::now() + std::chrono::duration<double>(*seconds > 0 ? *seconds : 1e12);

@@ -149,7 +149,7 @@ struct Accuracy {
 };
 
 struct Result {
-  aggregator::Report report;        // taken while the run was still going (before the host stops)
+  aggregator::Report report;  // taken while the run was still going (before the host stops)
   // Taken once the host stopped: pending frames flushed, every stage drained, the recording closed.
   // Its frames are what the session holds (the run summaries count these).
   aggregator::Report final_report;
