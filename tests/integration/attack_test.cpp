@@ -51,6 +51,7 @@
 // holds: a keyed flood run saw VmHWM rise 47 MB while the heap's live bytes rose 0.3 MB. A quarantine
 // of 8 MB (still catching a use of any of the last 8 MB freed) lets VmHWM, the true peak, measure the
 // host. ASAN_OPTIONS in the environment still overrides it.
+// NOLINTNEXTLINE(bugprone-reserved-identifier): the name is the sanitizer runtime's documented hook
 extern "C" const char* __asan_default_options() {
   return "quarantine_size_mb=8:thread_local_quarantine_size_kb=256";
 }
