@@ -445,13 +445,12 @@ void add_rig_commands(CLI::App& app) {
       }
       emulated::Result r = rig.stop();
       if (viewer) viewer->stop();
-      // The summary is the host's report once stopped (every stage drained, the recording closed) and
-      // the session as it is on disk, read back: its frames are the frames merged.
-      const aggregator::Report& rep = r.final_report;
+      // The session as it is on disk (read back once closed) against the frames merged up to the host's
+      // stop (every stage drained, the recording closed): the session line counts what it holds.
       std::optional<record::RunRecording> rec;
-      if (!r.session_dir.empty()) rec = record::read_back(r.session_dir, rep.frames);
+      if (!r.session_dir.empty()) rec = record::read_back(r.session_dir, r.final_report.frames);
       if (*json) {
-        nlohmann::json j = report_json(rep);
+        nlohmann::json j = report_json(r.report);
         if (rec) j["session"] = run_recording_json(*rec);
         j["accuracy"] = accuracy_json(r.accuracy);
         j["emulated"] = {{"nodes", opt->nodes}, {"motion", opt->motion},   {"appearance", opt->appearance},
@@ -462,14 +461,14 @@ void add_rig_commands(CLI::App& app) {
         j["host_rss_kb"] = {{"start", r.host_rss_start_kb}, {"end", r.host_rss_end_kb}};
         fmt::print("{}\n", j.dump(2));
       } else {
-        print_report(rep);
+        print_report(r.report);
         if (rec) fmt::print("{}\n", record::run_recording_line(*rec));
         print_accuracy(r.accuracy);
       }
-      if (rep.frames == 0) throw std::runtime_error("no frame was merged");
-      if (rep.merging_stopped())
+      if (r.report.frames == 0) throw std::runtime_error("no frame was merged");
+      if (r.report.merging_stopped())
         throw std::runtime_error(fmt::format("frames stopped merging after seq {}: {} pulses never merged",
-                                             rep.last_seq, rep.unmerged_pulses()));
+                                             r.report.last_seq, r.report.unmerged_pulses()));
       return;
     }
     // A real rig: the aggregator alone; the edges are on their boards. A rig.toml that cannot be read

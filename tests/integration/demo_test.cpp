@@ -80,11 +80,8 @@ TEST(Eval, JsonHasTheFiguresAndEveryFrameFromTheFirstPoseOnHasOne) {
 TEST(Demo, WritesTheTakeWithTheVirtualRigsFrameNumbersAndFitReFitsItsSession) {
   Tmp tmp;
   const fs::path out = tmp.p / "demo";
-  // 240 frames: wave's first 119 are the fitter's initialization, and the run merges no frame after
-  // its last (the host stops before its edges), so about 120 get a pose (fewer left the wrist check
-  // below to the fitter's first frames after its initialization).
   const Out r =
-      voxcap("demo --motion wave --frames 240 --nodes 3 --grid 96 --out '" + out.string() + "'", tmp.p);
+      voxcap("demo --motion wave --frames 120 --nodes 3 --grid 96 --out '" + out.string() + "'", tmp.p);
   ASSERT_EQ(r.code, 0) << r.out << r.err;
   EXPECT_THAT(r.out, ::testing::HasSubstr("MPJPE"));
   EXPECT_THAT(r.out, ::testing::HasSubstr("trigger -> pose p50"));
@@ -188,7 +185,7 @@ TEST(Demo, WritesTheTakeWithTheVirtualRigsFrameNumbersAndFitReFitsItsSession) {
   ASSERT_TRUE(fs::exists(session / "virtual_rig.json"));
   const nlohmann::json vr = nlohmann::json::parse(std::ifstream(session / "virtual_rig.json"));
   EXPECT_EQ(vr["motion"], "wave");
-  EXPECT_EQ(vr["frames"], 240);
+  EXPECT_EQ(vr["frames"], 120);
   const Out sc = voxcap("fit '" + session.string() + "' --score --json", tmp.p);
   ASSERT_EQ(sc.code, 0) << sc.err;
   const nlohmann::json js = nlohmann::json::parse(sc.out);

@@ -876,13 +876,12 @@ Result EmulatedRig::stop() {
   m.stopped = true;
   r.wall_seconds = std::chrono::duration<double>(Clock::now() - m.t_start).count();
   r.report = m.agg->report();
-  // The host first (STOP to every node, trigger off, pending frames flushed, every stage drained, the
-  // recording closed), then the edges: the final report counts what the session holds, and no frame
-  // is merged without a node that was being terminated.
-  m.agg->stop();
+  for (int k = 0; k < static_cast<int>(m.pids.size()); k++) m.reap(k, SIGTERM, 3.0);
+  m.agg->stop();  // every stage drains its queue; the recording is closed cleanly
+  // What merged until here (the frames pending at r.report, those while the edges stopped) is what
+  // the session holds.
   r.final_report = m.agg->report();
   r.stages = r.final_report.pipeline;
-  for (int k = 0; k < static_cast<int>(m.pids.size()); k++) m.reap(k, SIGTERM, 3.0);
   if (m.scorer) r.accuracy = m.scorer->accuracy();
   if (m.feature_scorer) r.accuracy.features = m.feature_scorer->figures();
   if (m.pose_scorer) r.poses = m.pose_scorer->accuracy();

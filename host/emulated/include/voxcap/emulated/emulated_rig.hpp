@@ -149,9 +149,9 @@ struct Accuracy {
 };
 
 struct Result {
-  aggregator::Report report;  // taken while the run was still going (before the host stops)
-  // Taken once the host stopped: pending frames flushed, every stage drained, the recording closed.
-  // Its frames are what the session holds (the run summaries count these).
+  aggregator::Report report;  // taken while the run was still going (before the edges stop)
+  // Taken once the edges and then the host stopped: pending frames flushed, every stage drained, the
+  // recording closed. Its frames are what the session holds (the session line counts these).
   aggregator::Report final_report;
   pipeline::PipelineReport stages;  // every stage once all drained at stop: what each finally saw
   Accuracy accuracy;
