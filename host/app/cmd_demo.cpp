@@ -36,7 +36,7 @@ struct DemoArgs {
   std::string out;  // demo: where the take and the session go
   bool json = false;
   bool eval = false;
-  std::string vmc;  // --vmc HOST:PORT: the live pose stream out
+  std::string vmc;     // --vmc HOST:PORT: the live pose stream out
   bool view = false;   // serve the live viewer while it runs
   int view_port = -1;  // -1: 8080
 };
@@ -154,9 +154,10 @@ void run_demo(DemoArgs& a) {
   emulated::Result r = rig.stop();
   if (viewer) viewer->stop();
   if (r.report.frames == 0) throw std::runtime_error("no frame was merged");
-  // demo: the session as it is on disk (read back once closed): the summary counts what it holds.
+  // demo: the session as it is on disk (read back once closed) against the frames merged up to the
+  // host's stop (every stage drained, the recording closed): the summary counts what it holds.
   std::optional<record::RunRecording> rec;
-  if (!r.session_dir.empty()) rec = record::read_back(r.session_dir, r.report.frames);
+  if (!r.session_dir.empty()) rec = record::read_back(r.session_dir, r.final_report.frames);
   if (a.json) {
     nlohmann::json j = figures_json(a, r);
     if (rec) j["session"] = run_recording_json(*rec);

@@ -445,9 +445,10 @@ void add_rig_commands(CLI::App& app) {
       }
       emulated::Result r = rig.stop();
       if (viewer) viewer->stop();
-      // The session as it is on disk (read back once closed): the summary counts what it holds.
+      // The session as it is on disk (read back once closed) against the frames merged up to the host's
+      // stop (every stage drained, the recording closed): the session line counts what it holds.
       std::optional<record::RunRecording> rec;
-      if (!r.session_dir.empty()) rec = record::read_back(r.session_dir, r.report.frames);
+      if (!r.session_dir.empty()) rec = record::read_back(r.session_dir, r.final_report.frames);
       if (*json) {
         nlohmann::json j = report_json(r.report);
         if (rec) j["session"] = run_recording_json(*rec);
@@ -506,8 +507,7 @@ void add_rig_commands(CLI::App& app) {
     }
     add_vmc_stage(agg.pipeline(), vmc_options(rig.vmc, *vmc));
     agg.start();  // creates the session folder
-    const std::filesystem::path session_dir =
-        recording ? recording->dir() : viewer->recorder()->state().dir;
+    const std::filesystem::path session_dir = recording ? recording->dir() : viewer->recorder()->state().dir;
     fmt::print("recording to {}\n", session_dir.string());
     auto end =
         std::chrono::steady_clock::now() + std::chrono::duration<double>(*seconds > 0 ? *seconds : 1e12);

@@ -1,7 +1,10 @@
 // The network attacks of issue #13 replayed against the emulated rig (host in this process, one
 // voxcap-edge process per node, all on 127.0.0.1), each with the rig's frames checked afterwards and
 // the attack's count (and, where the edge logs it, its line) checked too. Keyless: a loopback-only rig,
-// so what holds here is what holds without any crypto (the sequence checks and the resource bounds).
+// so what holds here is what holds without any crypto (the sequence checks and the resource bounds);
+// then the same against the keyed rig. After every attack, every frame merged is complete but where
+// an edge itself skipped the hull (expect_every_frame_complete); under the flood, the host's peak
+// memory stays within the bound host/README.md states (HostMemory).
 //
 // Loops are bounded in time; every attack keeps within about a minute under the sanitizers.
 #include <arpa/inet.h>
@@ -16,6 +19,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstring>
 #include <filesystem>
@@ -41,6 +45,36 @@
 #endif
 #endif
 
+#ifdef VC_TEST_ASAN
+// AddressSanitizer keeps freed blocks in a quarantine of up to 256 MB (to catch a use after free), so
+// this process's resident memory grows with how much the rig allocated and freed, not with what it
+// holds: a keyed flood run saw VmHWM rise 47 MB while the heap's live bytes rose 0.3 MB. A quarantine
+// of 8 MB (still catching a use of any of the last 8 MB freed) lets VmHWM, the true peak, measure the
+// host. ASAN_OPTIONS in the environment still overrides it.
+// NOLINTNEXTLINE(bugprone-reserved-identifier): the name is the sanitizer runtime's documented hook
+extern "C" const char* __asan_default_options() {
+  return "quarantine_size_mb=8:thread_local_quarantine_size_kb=256";
+}
+
+namespace {
+// The heap's live bytes and their peak, exactly (every malloc and free of this process, the host's
+// threads included), from the sanitizer's allocator hooks.
+std::atomic<int64_t> g_live_bytes{0}, g_peak_bytes{0};
+void on_malloc(const volatile void*, size_t n) {
+  const int64_t v =
+      g_live_bytes.fetch_add(static_cast<int64_t>(n), std::memory_order_relaxed) + static_cast<int64_t>(n);
+  int64_t p = g_peak_bytes.load(std::memory_order_relaxed);
+  while (v > p && !g_peak_bytes.compare_exchange_weak(p, v, std::memory_order_relaxed)) {
+  }
+}
+void on_free(const volatile void* ptr) {
+  g_live_bytes.fetch_sub(static_cast<int64_t>(__sanitizer_get_allocated_size(const_cast<const void*>(ptr))),
+                         std::memory_order_relaxed);
+}
+const int g_hooks = __sanitizer_install_malloc_and_free_hooks(on_malloc, on_free);
+}  // namespace
+#endif
+
 namespace vc::emulated {
 namespace {
 
@@ -55,7 +89,11 @@ Options options() {
   o.height = 120;
   o.grid = 48;
   o.rate_hz = 60;
-  o.deadline_ms = 150;
+  // A frame waits a second for its hulls, so that the shared machine's load (2 cores, the sanitizers,
+  // a test flooding the host) cannot make the host give up on one that is coming: every frame is then
+  // complete unless an edge never sent its hull (expect_every_frame_complete). At 60 Hz that is 60
+  // frames pending at most, within the assembler's 64.
+  o.deadline_ms = 1000;
   o.missing_policy = "degraded";
   o.truth_every = 0;
   o.edge_binary = VOXCAP_EDGE_BINARY;
@@ -71,28 +109,89 @@ Options keyed_options() {
   return o;
 }
 
-// The frames merged between two reports: at least `at_least` complete, and at most `tolerance` of
-// them degraded, dropped or with a late hull, merging never stopped. The attacks of #13 made every
-// frame after them late (0 complete, 100 % incomplete); the tolerance is for the machine's own load:
-// on 2 shared cores under the sanitizers the rig misses frames without any attack (at a load average
-// of 19, `voxcap rig --emulated` alone had 30 of 600 frames degraded, and EmulatedRig's 600-frame
-// test 6), which says nothing about the attack. The counts are recorded as test properties. (complete is
-// counted as a frame leaves assembly, frames as it leaves the pipeline: a live report has a few in between,
-// so the two are not compared.)
-void expect_complete_since(const aggregator::Report& before, const aggregator::Report& after,
-                           uint64_t at_least, const char* phase, double tolerance = 0.25) {
+// Every frame merged between `before` and `after` is complete, unless the edge itself never sent the
+// hull it misses (Checked-by of #13: "the rig keeps 100 % of frames complete"). Nothing the host does
+// may make one incomplete: no hull late, none dropped from its queue, refused or rejected, no frame
+// evicted or dropped. A node's edge is a real-time process: when a starved machine deschedules it
+// for longer than its pairing window (50 ms) or its frame queue, it skips that pulse and counts it
+// (pulses without frame, queue drops, in its STATS); a frame without that hull is not the host's
+// doing, and no deadline on the host can bring it. The edge counts a skip when it happens and reports
+// it in its STATS once a second (later when starved); the host counts the hull missing when the frame's
+// deadline passes, up to a second later. So they are matched over a span that starts with the edges'
+// run (`base`: a report from when every edge had just started, or had streamed again for over a
+// deadline) and ends with `settled` (settle()): every hull missing since `base` must be one its edge
+// counted as never sent. That frames go on merging is `at_least` (Report::merging_stopped() at one
+// instant is a lag, and a loaded machine lags by seconds).
+void expect_every_frame_complete(const aggregator::Report& base, const aggregator::Report& before,
+                                 const aggregator::Report& after, const aggregator::Report& settled,
+                                 uint64_t at_least, const char* phase) {
   SCOPED_TRACE(phase);
   const uint64_t complete = after.complete - before.complete;
-  const uint64_t incomplete = (after.degraded - before.degraded) + (after.dropped - before.dropped);
-  uint64_t late = 0;
-  for (size_t k = 0; k < after.nodes.size(); k++) late += after.nodes[k].late - before.nodes[k].late;
+  const uint64_t degraded = after.degraded - before.degraded;
   EXPECT_GE(complete, at_least);
-  EXPECT_LE(double(incomplete), tolerance * double(complete))
-      << incomplete << " of " << complete + incomplete;
-  EXPECT_LE(double(late), tolerance * double(complete)) << late << " late hulls: the high-water mark moved?";
-  EXPECT_FALSE(after.merging_stopped());
-  ::testing::Test::RecordProperty(std::string(phase) + ": complete / incomplete / late",
-                                  fmt::format("{} / {} / {}", complete, incomplete, late));
+  EXPECT_EQ(after.dropped - before.dropped, 0u);
+  EXPECT_EQ(after.evicted - before.evicted, 0u) << "frames resolved early: more than 64 pending";
+  uint64_t missing = 0, edge_skipped = 0;
+  for (size_t k = 0; k < after.nodes.size(); k++) {
+    const aggregator::NodeReport &a = after.nodes[k], &b = before.nodes[k], &s = settled.nodes[k],
+                                 &z = base.nodes[k];
+    SCOPED_TRACE(a.name);
+    EXPECT_EQ(a.late - b.late, 0u) << "a hull came after its frame's deadline";
+    EXPECT_EQ(a.host_queue_drops - b.host_queue_drops, 0u);
+    EXPECT_EQ(a.rejected - b.rejected, 0u);
+    EXPECT_EQ(a.unpulsed - b.unpulsed, 0u);
+    uint64_t refused = 0;
+    for (const auto& [why, n] : a.refused) refused += n - (b.refused.count(why) ? b.refused.at(why) : 0);
+    EXPECT_EQ(refused, 0u);
+    const uint64_t skipped = (s.edge_queue_drops - z.edge_queue_drops) +
+                             (s.edge_pulses_without_frame - z.edge_pulses_without_frame);
+    EXPECT_LE(a.missing - z.missing, skipped)
+        << (a.missing - z.missing) << " frames miss this node's hull, its edge skipped only " << skipped;
+    missing += a.missing - b.missing;
+    edge_skipped += skipped;
+  }
+  EXPECT_LE(degraded, missing) << "every degraded frame names its missing node";
+  const std::string line = fmt::format(
+      "{}: {} frames complete, {} without a hull their edge skipped ({} skips counted "
+      "since the edges started)",
+      phase, complete, degraded, edge_skipped);
+  std::printf("%s\n", line.c_str());
+  ::testing::Test::RecordProperty(phase, line);
+}
+
+// Node k, running again after a restart, has sent the hulls of 90 frames and every frame pulsed before
+// its first hull has passed its deadline: a report from which on every frame should have its hull.
+// (A frame pulsed while its edge was starting to stream waits for it and may miss it: a rejoin, not an
+// attack, KilledEdgeIsMissedAndItsRestartRejoins.) Bounded: 20 s.
+// *base: the `base` of expect_every_frame_complete for what follows.
+aggregator::Report streaming_again(EmulatedRig& rig, int k, aggregator::Report* base) {
+  const auto node = static_cast<size_t>(k);
+  const uint64_t hulls = rig.report().nodes[node].hulls;
+  const auto end = Clock::now() + std::chrono::seconds(20);
+  while (rig.report().nodes[node].hulls < hulls + 90 && Clock::now() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  EXPECT_GE(rig.report().nodes[node].hulls, hulls + 90) << "node " << k << " did not stream again";
+  *base = rig.report();  // a frame still waiting now was pulsed after its first hull
+  rig.run_seconds(1.2);  // the deadline, and a little
+  return rig.report();
+}
+
+// The `settled` report of expect_every_frame_complete: once every node's edge has counted (in its
+// STATS) as many skipped pulses since `base` as frames miss its hull in [base, after], or 6 s.
+aggregator::Report settle(EmulatedRig& rig, const aggregator::Report& base, const aggregator::Report& after) {
+  const auto end = Clock::now() + std::chrono::seconds(6);
+  for (;;) {
+    aggregator::Report now = rig.report();
+    bool accounted = true;
+    for (size_t k = 0; k < after.nodes.size(); k++) {
+      const aggregator::NodeReport &a = after.nodes[k], &b = base.nodes[k], &n = now.nodes[k];
+      accounted = accounted &&
+                  a.missing - b.missing <= (n.edge_queue_drops - b.edge_queue_drops) +
+                                               (n.edge_pulses_without_frame - b.edge_pulses_without_frame);
+    }
+    if (accounted || Clock::now() > end) return now;
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
 }
 
 std::string read_file(const fs::path& p) {
@@ -210,6 +309,7 @@ long live_rss_kb() {
 TEST(Attack, ATriggerDatagramWithSeq100000StopsNothing) {
   EmulatedRig rig(options());
   rig.start(60);
+  const aggregator::Report base = rig.report();  // the edges have just started
   rig.run_frames(60, 30);
   config::RigConfig cfg = config::load_rig_config(rig.workdir() / "rig.toml");
   ASSERT_EQ(cfg.trigger.udp.targets.size(), 3u);
@@ -217,8 +317,9 @@ TEST(Attack, ATriggerDatagramWithSeq100000StopsNothing) {
   for (const config::Endpoint& t : cfg.trigger.udp.targets) send_datagram(t.port, 100000);
   rig.run_seconds(2.0);
   const aggregator::Report after = rig.report();
+  const aggregator::Report settled = settle(rig, base, after);
   rig.stop();
-  expect_complete_since(before, after, 60, "after the forged datagram");
+  expect_every_frame_complete(base, before, after, settled, 60, "after the forged datagram");
   EXPECT_LT(after.last_seq, 100000u);
   for (int k = 0; k < 3; k++) {
     const std::string log = read_file(rig.workdir() / fmt::format("edge{}.log", k));
@@ -234,6 +335,7 @@ TEST(Attack, ATriggerDatagramWithSeq100000StopsNothing) {
 TEST(Attack, DuplicateHelloAndAHullWithSeq2Pow62AreRefused) {
   EmulatedRig rig(options());
   rig.start(60);
+  const aggregator::Report base = rig.report();  // the edges have just started
   rig.run_frames(60, 30);
   const aggregator::Report before = rig.report();
   const uint64_t huge = uint64_t{1} << 62;
@@ -250,7 +352,7 @@ TEST(Attack, DuplicateHelloAndAHullWithSeq2Pow62AreRefused) {
   }
   rig.run_seconds(1.0);
   const aggregator::Report after = rig.report();
-  expect_complete_since(before, after, 30, "after the impostors");
+  expect_every_frame_complete(base, before, after, settle(rig, base, after), 30, "after the impostors");
   EXPECT_EQ(after.nodes[1].hellos_refused, 5u);
   EXPECT_EQ(after.nodes[1].joins, 1u);
   EXPECT_TRUE(after.nodes[1].connected);
@@ -282,97 +384,13 @@ TEST(Attack, DuplicateHelloAndAHullWithSeq2Pow62AreRefused) {
   while (!rig.node_running(2) && Clock::now() - t0 < std::chrono::seconds(20))
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   ASSERT_TRUE(rig.node_running(2));
-  // The frames pulsed while it was starting to stream wait for it and may miss it (a rejoin, not the
-  // attack: KilledEdgeIsMissedAndItsRestartRejoins); from a few deadlines on every frame is whole.
-  rig.run_seconds(0.5);
-  const aggregator::Report rejoined = rig.report();
+  aggregator::Report rebase;
+  const aggregator::Report rejoined = streaming_again(rig, 2, &rebase);
   rig.run_seconds(1.0);
+  const aggregator::Report end = rig.report();
+  const aggregator::Report settled = settle(rig, rebase, end);
   Result r = rig.stop();
-  expect_complete_since(rejoined, r.report, 30, "after node 2 rejoined");
-}
-
-// "100 connections each sending 8 MiB took the host from 60 MB to 1.05 GB": now each stranger is cut
-// after its first message's 40-byte header declares more than a HELLO, at most 16 are open at once,
-// and the host's resident memory grows by less than 32 MB while the rig's frames stay complete.
-TEST(Attack, AHundredConnectionsOfEightMebibytesAreBounded) {
-  EmulatedRig rig(options());
-  rig.start(60);
-  rig.run_frames(60, 30);
-  std::vector<uint8_t> junk(8u << 20, 0x5a);
-  {
-    // The first 40 bytes: a valid header declaring an 8 MiB payload (the worst a stranger can say).
-    vc_header hdr{};
-    std::vector<uint8_t> b(64);
-    size_t len = 0;
-    ASSERT_EQ(vc_encode_stop(b.data(), b.size(), &len, &hdr), 0);
-    const uint32_t plen = VC_PROTO_MAX_PAYLOAD;
-    std::memcpy(&b[12], &plen, 4);
-    const uint32_t hc = vc_crc32c(0, b.data(), 36);
-    std::memcpy(&b[36], &hc, 4);
-    std::memcpy(junk.data(), b.data(), VC_PROTO_HEADER_SIZE);
-  }
-  const long rss_before = live_rss_kb();
-  const aggregator::Report before = rig.report();
-  const auto flood_start = Clock::now();
-  std::vector<int> fds;
-  std::vector<size_t> sent;
-  for (int i = 0; i < 100; i++) {
-    int fd = connect_host(rig.host_port());
-    fcntl(fd, F_SETFL, O_NONBLOCK);
-    fds.push_back(fd);
-    sent.push_back(0);
-  }
-  long rss_peak = rss_before;
-  uint64_t total = 0;
-  auto end = Clock::now() + std::chrono::seconds(15);
-  size_t open = fds.size();
-  while (open > 0 && Clock::now() < end) {
-    open = 0;
-    for (size_t i = 0; i < fds.size(); i++) {
-      if (fds[i] < 0) continue;
-      ssize_t n = ::send(fds[i], junk.data() + sent[i], junk.size() - sent[i], MSG_NOSIGNAL | MSG_DONTWAIT);
-      if (n > 0) {
-        sent[i] += static_cast<size_t>(n);
-        total += static_cast<uint64_t>(n);
-      }
-      if ((n < 0 && errno != EAGAIN && errno != EWOULDBLOCK) || sent[i] == junk.size()) {
-        close(fds[i]);
-        fds[i] = -1;
-        continue;
-      }
-      open++;
-    }
-    rss_peak = std::max(rss_peak, live_rss_kb());
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  }
-  for (int& fd : fds)
-    if (fd >= 0) close(fd);
-  const aggregator::Report flood_end = rig.report();
-  const double flood_s = std::chrono::duration<double>(Clock::now() - flood_start).count();
-  rig.run_seconds(1.5);
-  const long rss_after = live_rss_kb();
-  const aggregator::Report after = rig.report();
-  rig.stop();
-  RecordProperty("attack_bytes_sent", std::to_string(total));
-  RecordProperty("rss_growth_peak_kb", std::to_string(rss_peak - rss_before));
-  EXPECT_LT(rss_peak - rss_before, 32 * 1024) << "host memory grew by " << (rss_peak - rss_before) << " kB";
-  EXPECT_LT(rss_after - rss_before, 32 * 1024);
-  EXPECT_GE(after.server.decode_drops - before.server.decode_drops + after.server.prehello_evicted -
-                before.server.prehello_evicted,
-            100u)
-      << "every stranger dropped for its oversize first message or evicted";
-  // While it lasts, the flood (this process copying up to 800 MB into sockets) takes the cores the
-  // edges need: frames go on merging, some miss a node. After it, the rig is whole again. How long it
-  // lasts depends on how fast the host cuts the strangers (a few tenths of a second to several seconds
-  // here), so the frames expected during it are half of those pulsed meanwhile that can have left
-  // assembly (not the last 0.25 s: the 150 ms deadline and a frame); a fixed 30 failed whenever the
-  // host was quick (2 complete frames in a short flood).
-  RecordProperty("flood_seconds", fmt::format("{:.2f}", flood_s));
-  const double settled_s = std::max(0.0, flood_s - 0.25);
-  expect_complete_since(before, flood_end, static_cast<uint64_t>(0.5 * 60 * settled_s), "during the flood",
-                        0.75);
-  expect_complete_since(flood_end, after, 60, "after the flood");
-  for (const auto& n : after.nodes) EXPECT_EQ(n.joins, 1u) << n.name << " was disturbed";
+  expect_every_frame_complete(rebase, rejoined, end, settled, 30, "after node 2 rejoined");
 }
 
 // "after kill -9 of the host, its emulated edges run on forever": they die with it now.
@@ -452,6 +470,7 @@ TEST(Attack, KillNineOfTheHostLeavesNoEdge) {
 TEST(Attack, KeyedRigDropsForgedTriggerDatagrams) {
   EmulatedRig rig(keyed_options());
   rig.start(60);
+  const aggregator::Report base = rig.report();  // the edges have just started
   rig.run_frames(60, 30);
   config::RigConfig cfg = config::load_rig_config(rig.workdir() / "rig.toml");
   ASSERT_FALSE(cfg.key_path.empty());
@@ -475,8 +494,9 @@ TEST(Attack, KeyedRigDropsForgedTriggerDatagrams) {
   }
   rig.run_seconds(2.0);
   const aggregator::Report after = rig.report();
+  const aggregator::Report settled = settle(rig, base, after);
   rig.stop();
-  expect_complete_since(before, after, 60, "after the forged datagrams");
+  expect_every_frame_complete(base, before, after, settled, 60, "after the forged datagrams");
   EXPECT_LT(after.last_seq, 100000u);
   for (int k = 0; k < 3; k++) {
     const std::string log = read_file(rig.workdir() / fmt::format("edge{}.log", k));
@@ -492,6 +512,7 @@ TEST(Attack, KeyedRigDropsForgedTriggerDatagrams) {
 TEST(Attack, KeyedRigRefusesAnImpostorWithoutTheKey) {
   EmulatedRig rig(keyed_options());
   rig.start(60);
+  const aggregator::Report base = rig.report();  // the edges have just started
   rig.run_frames(60, 30);
   const aggregator::Report before = rig.report();
   const uint64_t huge = uint64_t{1} << 62;
@@ -508,15 +529,208 @@ TEST(Attack, KeyedRigRefusesAnImpostorWithoutTheKey) {
   }
   rig.run_seconds(2.0);
   const aggregator::Report after = rig.report();
+  const aggregator::Report settled = settle(rig, base, after);
   rig.stop();
-  expect_complete_since(before, after, 60, "after the impostor");
+  expect_every_frame_complete(base, before, after, settled, 60, "after the impostor");
   EXPECT_GE(after.server.auth_refused - before.server.auth_refused, 5u);
   EXPECT_EQ(after.nodes[1].joins, 1u);
   EXPECT_TRUE(after.nodes[1].connected);
   EXPECT_LT(after.last_seq, huge);
 }
 
-// ---- the keyed rig: memory under the flood, and MAC rejections per node --------------------------------
+// ---- 100 connections of 8 MiB: the host's memory and the rig's frames ---------------------------------
+
+// A field of /proc/self/status in kB (VmRSS, VmHWM), -1 when absent. The host runs in this process.
+long status_kb(const char* field) {
+  std::ifstream f("/proc/self/status");
+  std::string line;
+  const std::string key = std::string(field) + ":";
+  while (std::getline(f, line))
+    if (line.rfind(key, 0) == 0) return std::stol(line.substr(key.size()));
+  return -1;
+}
+
+// The host's memory over an attack: VmHWM (the resident peak, reset at the start: proc(5), clear_refs
+// "5"), and under ASan the heap's live bytes and their exact peak (the allocator hooks above).
+struct HostMemory {
+  long rss_before_kb = 0, hwm_kb = 0, rss_after_kb = 0;
+  bool hwm_reset = false;
+  long rss_peak_kb = 0;  // sampled (where VmHWM cannot be reset)
+  int64_t live_before = 0, live_peak = 0, live_after = 0;
+
+  void start() {
+    rss_before_kb = rss_peak_kb = live_rss_kb();  // ASan's quarantine handed back first
+    std::ofstream f("/proc/self/clear_refs");
+    f << "5";
+    f.flush();
+    hwm_reset = static_cast<bool>(f);
+#ifdef VC_TEST_ASAN
+    live_before = g_live_bytes.load();
+    g_peak_bytes.store(live_before);
+#endif
+  }
+  void sample() {
+    rss_peak_kb = std::max(rss_peak_kb, status_kb("VmRSS"));
+  }
+  void finish() {
+    sample();
+    hwm_kb = hwm_reset ? status_kb("VmHWM") : rss_peak_kb;
+#ifdef VC_TEST_ASAN
+    live_peak = g_peak_bytes.load();
+    live_after = g_live_bytes.load();
+#endif
+    rss_after_kb = live_rss_kb();
+  }
+  long peak_growth_kb() const {
+    return hwm_kb - rss_before_kb;
+  }
+  long live_peak_growth_kb() const {
+    return static_cast<long>((live_peak - live_before) / 1024);
+  }
+  void record(const char* what) const {
+    const std::string line = fmt::format(
+        "{}: host VmRSS before {} kB, VmHWM {} kB ({:+} kB{}), VmRSS after {} kB ({:+} kB); heap live "
+        "before {} kB, peak {:+} kB, after {:+} kB",
+        what, rss_before_kb, hwm_kb, peak_growth_kb(), hwm_reset ? "" : ", sampled", rss_after_kb,
+        rss_after_kb - rss_before_kb, live_before / 1024, live_peak_growth_kb(),
+        (live_after - live_before) / 1024);
+    std::printf("%s\n", line.c_str());
+    ::testing::Test::RecordProperty("host_memory", line);
+  }
+};
+
+// The flood of issue #13: 100 connections, each sending 8 MiB whose first 40 bytes are a valid
+// header declaring the protocol's largest payload (the worst a stranger can say); with keyed_hellos,
+// every other one first says a keyed HELLO for a live node's id (its proof never comes, so it stays a
+// stranger held to a HELLO's size). Bounded: 15 s at most.
+struct FloodResult {
+  uint64_t bytes = 0;
+  double seconds = 0;
+};
+std::vector<uint8_t> eight_mebibytes() {
+  std::vector<uint8_t> junk(8u << 20, 0x5a);
+  {
+    vc_header hdr{};
+    std::vector<uint8_t> b(64);
+    size_t len = 0;
+    EXPECT_EQ(vc_encode_stop(b.data(), b.size(), &len, &hdr), 0);
+    const uint32_t plen = VC_PROTO_MAX_PAYLOAD;
+    std::memcpy(&b[12], &plen, 4);
+    const uint32_t hc = vc_crc32c(0, b.data(), 36);
+    std::memcpy(&b[36], &hc, 4);
+    std::memcpy(junk.data(), b.data(), VC_PROTO_HEADER_SIZE);
+  }
+  return junk;
+}
+FloodResult flood(uint16_t port, bool keyed_hellos, const std::vector<uint8_t>& junk, HostMemory& mem) {
+  FloodResult out;
+  const auto t0 = Clock::now();
+  std::vector<int> fds;
+  std::vector<size_t> sent;
+  for (int i = 0; i < 100; i++) {
+    int fd = connect_host(port);
+    if (keyed_hellos && i % 2 == 0) {
+      vc_header hh{};
+      vc_hello hl{};
+      hl.node_id = static_cast<uint16_t>(i % 3);
+      hl.capabilities = VC_CAP_HULL | VC_CAP_AUTH;
+      hl.camera_count = 2;
+      for (int c = 0; c < 2; c++) {
+        hl.cameras[c].width = 160;
+        hl.cameras[c].height = 120;
+      }
+      hh.node_id = hl.node_id;
+      size_t len = 0;
+      std::vector<uint8_t> h(256);
+      EXPECT_EQ(vc_encode_hello(h.data(), h.size(), &len, &hh, &hl), 0);
+      EXPECT_TRUE(send_all(fd, h.data(), len));
+    }
+    fcntl(fd, F_SETFL, O_NONBLOCK);
+    fds.push_back(fd);
+    sent.push_back(0);
+  }
+  const auto end = Clock::now() + std::chrono::seconds(15);
+  size_t open = fds.size();
+  while (open > 0 && Clock::now() < end) {
+    open = 0;
+    for (size_t i = 0; i < fds.size(); i++) {
+      if (fds[i] < 0) continue;
+      ssize_t n = ::send(fds[i], junk.data() + sent[i], junk.size() - sent[i], MSG_NOSIGNAL | MSG_DONTWAIT);
+      if (n > 0) {
+        sent[i] += static_cast<size_t>(n);
+        out.bytes += static_cast<uint64_t>(n);
+      }
+      if ((n < 0 && errno != EAGAIN && errno != EWOULDBLOCK) || sent[i] == junk.size()) {
+        close(fds[i]);
+        fds[i] = -1;
+        continue;
+      }
+      open++;
+    }
+    mem.sample();
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  for (int& fd : fds)
+    if (fd >= 0) close(fd);
+  out.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  return out;
+}
+
+// "100 connections each sending 8 MiB took the host from 60 MB to 1.05 GB" (and 890 MB kept after):
+// each stranger is now cut after its first message's 40-byte header declares more than a HELLO, at
+// most 16 are open at once. The host's peak resident memory (VmHWM) stays within 32 MiB of what it
+// was before, its live heap within 4 MiB, and every frame merged during and after the flood is
+// complete (expect_every_frame_complete). Keyless (loopback) and keyed, half of the strangers after a
+// keyed HELLO (host/README.md, limits).
+void flood_test(bool keyed) {
+  EmulatedRig rig(keyed ? keyed_options() : options());
+  rig.start(60);
+  const aggregator::Report base = rig.report();  // the edges have just started
+  rig.run_frames(120, 30);
+  const std::vector<uint8_t> junk = eight_mebibytes();  // the test's own, before the host is measured
+  HostMemory mem;
+  mem.start();
+  const aggregator::Report before = rig.report();
+  const FloodResult f = flood(rig.host_port(), keyed, junk, mem);
+  const aggregator::Report flood_end = rig.report();
+  rig.run_seconds(1.5);
+  const aggregator::Report after = rig.report();
+  mem.finish();
+  const aggregator::Report settled = settle(rig, base, after);
+  rig.stop();
+  ::testing::Test::RecordProperty("attack_bytes_sent", std::to_string(f.bytes));
+  ::testing::Test::RecordProperty("flood_seconds", fmt::format("{:.2f}", f.seconds));
+  mem.record(keyed ? "keyed" : "keyless");
+  EXPECT_LT(mem.peak_growth_kb(), 32 * 1024)
+      << "the host's peak RSS grew by " << mem.peak_growth_kb() << " kB";
+  EXPECT_LT(mem.rss_after_kb - mem.rss_before_kb, 32 * 1024);
+#ifdef VC_TEST_ASAN
+  EXPECT_LT(mem.live_peak_growth_kb(), 4 * 1024)
+      << "the host's live heap grew by " << mem.live_peak_growth_kb() << " kB at its peak";
+#endif
+  EXPECT_GE(after.server.decode_drops - before.server.decode_drops + after.server.prehello_evicted -
+                before.server.prehello_evicted,
+            100u)
+      << "every stranger dropped for its oversize message or evicted";
+  if (keyed)
+    EXPECT_EQ(after.server.auth_refused - before.server.auth_refused, 0u)
+        << "no stranger got as far as a proof";
+  // During the flood this process copies up to 800 MB into sockets on the cores the edges need; the
+  // frames still merge whole. How long it lasts depends on how fast the host cuts the strangers.
+  expect_every_frame_complete(base, before, flood_end, settled, 1, "during the flood");
+  expect_every_frame_complete(base, flood_end, after, settled, 30, "after the flood");
+  for (const auto& n : after.nodes) EXPECT_EQ(n.joins, 1u) << n.name << " was disturbed";
+}
+
+TEST(Attack, AHundredConnectionsOfEightMebibytesAreBounded) {
+  flood_test(false);
+}
+
+TEST(Attack, KeyedRigUnderAHundredConnectionsOfEightMebibytesKeepsEveryFrameAndItsMemory) {
+  flood_test(true);
+}
+
+// ---- the keyed rig: MAC rejections per node ---------------------------------------------------------
 
 // The node's side of a keyed connection, from SPEC.md "Authentication" with the proto library only.
 struct KeyedNode {
@@ -673,11 +887,13 @@ TEST(Attack, KeyedRigCountsForgedReplayedAndReorderedMessagesPerNode) {
   while (!rig.node_running(2) && Clock::now() - t0 < std::chrono::seconds(20))
     std::this_thread::sleep_for(std::chrono::milliseconds(10));
   ASSERT_TRUE(rig.node_running(2));
-  rig.run_seconds(0.5);
-  const aggregator::Report rejoined = rig.report();
+  aggregator::Report rebase;
+  const aggregator::Report rejoined = streaming_again(rig, 2, &rebase);
   rig.run_seconds(1.0);
+  const aggregator::Report end = rig.report();
+  const aggregator::Report settled = settle(rig, rebase, end);
   Result r = rig.stop();
-  expect_complete_since(rejoined, r.report, 30, "after node 2 rejoined");
+  expect_every_frame_complete(rebase, rejoined, end, settled, 30, "after node 2 rejoined");
   EXPECT_EQ(r.report.nodes[2].mac_rejected.total(), 3u) << "the counts stay the node's after it rejoined";
 }
 

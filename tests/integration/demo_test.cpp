@@ -7,6 +7,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cstdio>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -90,6 +91,22 @@ TEST(Demo, WritesTheTakeWithTheVirtualRigsFrameNumbersAndFitReFitsItsSession) {
   for (const auto& e : fs::directory_iterator(out))
     if (e.is_directory() && fs::exists(e.path() / "records.vcr")) session = e.path();
   ASSERT_FALSE(session.empty()) << "the session folder";
+  {
+    // The run summary counts what the session holds (#13): its frames are the frames merged once the
+    // host stopped and the recording was drained and closed, not a count taken before the pipeline
+    // drained ("607 frames (of 600 merged)").
+    const std::string head = "session   " + session.string() + ": ";
+    const size_t at = r.out.find(head);
+    ASSERT_NE(at, std::string::npos) << "no session line in:\n" << r.out;
+    const std::string line = r.out.substr(at, r.out.find('\n', at) - at);
+    unsigned long long frames = 0, merged = 0;
+    ASSERT_EQ(std::sscanf(line.c_str() + head.size(), "%llu frames (of %llu merged)", &frames, &merged), 2)
+        << line;
+    EXPECT_EQ(frames, merged) << line;
+    EXPECT_GT(frames, 100u) << line;
+    EXPECT_THAT(line, ::testing::HasSubstr("closed cleanly"));
+    EXPECT_THAT(line, ::testing::Not(::testing::HasSubstr("skipped")));
+  }
 
   // joints.csv frame f is the virtual rig's frame f: the fitted hips there are near the true hips of
   // frame f (the same motion rendered by hw/sim), nearer than those of frames a quarter second away.

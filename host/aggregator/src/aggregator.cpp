@@ -138,7 +138,10 @@ uint64_t Report::unmerged_pulses() const {
 
 bool Report::merging_stopped() const {
   if (!running) return false;
-  const uint64_t allowed = std::max<uint64_t>(64, static_cast<uint64_t>(std::ceil(rate_hz)));
+  // A second of pulses past the deadline: until its deadline a frame may rightly wait for a hull (a
+  // rig with a deadline of a second has 60 pulses unmerged at 60 Hz while every frame is whole).
+  const uint64_t allowed =
+      std::max<uint64_t>(64, static_cast<uint64_t>(std::ceil(rate_hz * (1.0 + deadline_ms / 1000.0))));
   return unmerged_pulses() > allowed;
 }
 
@@ -763,6 +766,7 @@ Report Aggregator::report() const {
   r.origin = origin_;
   r.last_pulse = last_pulse_seq_;
   r.rate_hz = rig_.trigger.rate_hz;
+  r.deadline_ms = rig_.assembly.deadline_ms;
   for (const auto& n : nodes_) {
     NodeReport nr = n->rep;
     nr.connected = n->connected;

@@ -272,6 +272,14 @@ TEST(Report, MergingStoppedWhenMoreThanASecondOfPulsesNeverMerged) {
   EXPECT_TRUE(r.merging_stopped());
   r.rate_hz = 240;  // a second is 240 pulses here
   EXPECT_FALSE(r.merging_stopped());
+  // A frame may wait for its hulls until its deadline: a second past it. A deadline of a second at
+  // 60 Hz lets 120 pulses wait (60 of them rightly, for a slow node), not 64.
+  r.rate_hz = 60;
+  r.deadline_ms = 1000;
+  r.last_seq = 280;
+  EXPECT_FALSE(r.merging_stopped()) << "120 pulses";
+  r.last_seq = 279;
+  EXPECT_TRUE(r.merging_stopped()) << "121 pulses";
 }
 
 TEST(Aggregator, ConfigMessageCarriesTheCalibrationOfTheNodesCameras) {

@@ -878,7 +878,10 @@ Result EmulatedRig::stop() {
   r.report = m.agg->report();
   for (int k = 0; k < static_cast<int>(m.pids.size()); k++) m.reap(k, SIGTERM, 3.0);
   m.agg->stop();  // every stage drains its queue; the recording is closed cleanly
-  r.stages = m.agg->report().pipeline;
+  // What merged until here (the frames pending at r.report, those while the edges stopped) is what
+  // the session holds.
+  r.final_report = m.agg->report();
+  r.stages = r.final_report.pipeline;
   if (m.scorer) r.accuracy = m.scorer->accuracy();
   if (m.feature_scorer) r.accuracy.features = m.feature_scorer->figures();
   if (m.pose_scorer) r.poses = m.pose_scorer->accuracy();

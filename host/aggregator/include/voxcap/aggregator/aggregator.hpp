@@ -141,11 +141,12 @@ struct Report {
   uint64_t origin = 0;
   uint64_t last_pulse = 0;  // seq of the last pulse sent
   double rate_hz = 0;       // the trigger's rate
+  double deadline_ms = 0;   // a frame's assembly deadline ([assembly] deadline_ms)
   // Pulses after the last merged frame that never merged, once the run started.
   uint64_t unmerged_pulses() const;
-  // The run stopped merging: it started, and more than a second of pulses (at least 64) after its last
-  // merged frame (or since its origin, when none merged) never merged. The summary says so and
-  // `voxcap rig` exits non-zero.
+  // The run stopped merging: it started, and more than the deadline plus a second of pulses (at least
+  // 64) after its last merged frame (or since its origin, when none merged) never merged. The summary
+  // says so and `voxcap rig` exits non-zero.
   bool merging_stopped() const;
 };
 

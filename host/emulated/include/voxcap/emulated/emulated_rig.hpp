@@ -149,7 +149,10 @@ struct Accuracy {
 };
 
 struct Result {
-  aggregator::Report report;        // taken while the run was still going (before the edges stop)
+  aggregator::Report report;  // taken while the run was still going (before the edges stop)
+  // Taken once the edges and then the host stopped: pending frames flushed, every stage drained, the
+  // recording closed. Its frames are what the session holds (the session line counts these).
+  aggregator::Report final_report;
   pipeline::PipelineReport stages;  // every stage once all drained at stop: what each finally saw
   Accuracy accuracy;
   PoseAccuracy poses;   // with Options::score_poses
