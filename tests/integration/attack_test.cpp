@@ -194,6 +194,26 @@ aggregator::Report settle(EmulatedRig& rig, const aggregator::Report& base, cons
   }
 }
 
+// Node 2's old connection gone (at most `polls` x 10 ms), its edge restarted and running again, then
+// every frame complete once it streams again; the rig stopped, *result what stop() gave. Call it in
+// ASSERT_NO_FATAL_FAILURE: the node not running again ends the test.
+void rejoin_node_2_and_stop(EmulatedRig& rig, int polls, Result* result) {
+  for (int i = 0; i < polls && rig.report().nodes[2].connected; i++)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  rig.restart_node(2);
+  auto t0 = Clock::now();
+  while (!rig.node_running(2) && Clock::now() - t0 < std::chrono::seconds(20))
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  ASSERT_TRUE(rig.node_running(2));
+  aggregator::Report rebase;
+  const aggregator::Report rejoined = streaming_again(rig, 2, &rebase);
+  rig.run_seconds(1.0);
+  const aggregator::Report end = rig.report();
+  const aggregator::Report settled = settle(rig, rebase, end);
+  *result = rig.stop();
+  expect_every_frame_complete(rebase, rejoined, end, settled, 30, "after node 2 rejoined");
+}
+
 std::string read_file(const fs::path& p) {
   std::ifstream f(p);
   std::stringstream s;
@@ -377,20 +397,8 @@ TEST(Attack, DuplicateHelloAndAHullWithSeq2Pow62AreRefused) {
   EXPECT_EQ(during.nodes[2].refused["not_running"], 1u);
   EXPECT_EQ(during.nodes[2].refused["unpulsed"], 1u);
   close(fd);
-  for (int i = 0; i < 200 && rig.report().nodes[2].connected; i++)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  rig.restart_node(2);
-  auto t0 = Clock::now();
-  while (!rig.node_running(2) && Clock::now() - t0 < std::chrono::seconds(20))
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  ASSERT_TRUE(rig.node_running(2));
-  aggregator::Report rebase;
-  const aggregator::Report rejoined = streaming_again(rig, 2, &rebase);
-  rig.run_seconds(1.0);
-  const aggregator::Report end = rig.report();
-  const aggregator::Report settled = settle(rig, rebase, end);
-  Result r = rig.stop();
-  expect_every_frame_complete(rebase, rejoined, end, settled, 30, "after node 2 rejoined");
+  Result r;
+  ASSERT_NO_FATAL_FAILURE(rejoin_node_2_and_stop(rig, 200, &r));
 }
 
 // "after kill -9 of the host, its emulated edges run on forever": they die with it now.
@@ -880,20 +888,8 @@ TEST(Attack, KeyedRigCountsForgedReplayedAndReorderedMessagesPerNode) {
       EXPECT_TRUE(said) << "no line says the " << reason << " message was dropped";
     }
   }
-  for (int i = 0; i < 300 && rig.report().nodes[2].connected; i++)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  rig.restart_node(2);
-  auto t0 = Clock::now();
-  while (!rig.node_running(2) && Clock::now() - t0 < std::chrono::seconds(20))
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-  ASSERT_TRUE(rig.node_running(2));
-  aggregator::Report rebase;
-  const aggregator::Report rejoined = streaming_again(rig, 2, &rebase);
-  rig.run_seconds(1.0);
-  const aggregator::Report end = rig.report();
-  const aggregator::Report settled = settle(rig, rebase, end);
-  Result r = rig.stop();
-  expect_every_frame_complete(rebase, rejoined, end, settled, 30, "after node 2 rejoined");
+  Result r;
+  ASSERT_NO_FATAL_FAILURE(rejoin_node_2_and_stop(rig, 300, &r));
   EXPECT_EQ(r.report.nodes[2].mac_rejected.total(), 3u) << "the counts stay the node's after it rejoined";
 }
 
