@@ -25,6 +25,7 @@
 
 #include "commands.hpp"
 #include "pose_figures.hpp"
+#include "session_rig.hpp"
 #include "voxcap/aggregator/aggregator.hpp"
 #include "voxcap/base/clock.hpp"
 #include "voxcap/body/joints.hpp"
@@ -175,20 +176,7 @@ void run_fit(const FitArgs& a) {
     throw UsageError("fit: --out DIR is required (a new session folder), unless --score");
   if (!a.frames_csv.empty() && !a.score) throw UsageError("fit: --frames-csv needs --score");
   // The session's own rig.toml and calibration copies: the grid the hulls were carved on.
-  config::RigConfig rig;
-  try {
-    config::LoadOptions lo;
-    lo.load_calibration = false;
-    rig = config::load_rig_config(in / "rig.toml", lo);
-  } catch (const config::ConfigError& e) {
-    throw UsageError(fmt::format("fit: {}/rig.toml: {}", a.session, e.what()));
-  }
-  if (rig.grid.nx <= 0) {
-    const rig::Calibration cal = rig::read_calibration((in / "calibration.yaml").string());
-    if (!cal.grid)
-      throw UsageError(fmt::format("fit: {}: neither rig.toml nor calibration.yaml has a grid", a.session));
-    rig.grid = *cal.grid;
-  }
+  const config::RigConfig rig = session_rig(in, "fit", false);
   const config::FittingOptions options = fitting_options(rig, a);
   fit::Fitter fitter(rig.grid, options, rig.trigger.rate_hz);
 

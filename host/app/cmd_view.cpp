@@ -16,6 +16,7 @@
 #include <CLI/CLI.hpp>
 
 #include "commands.hpp"
+#include "session_rig.hpp"
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/record/recorder.hpp"
 #include "voxcap/rig/calibration.hpp"
@@ -37,31 +38,6 @@ struct ViewArgs {
   std::string bind;
   double seconds = 0;
 };
-
-// The session's rig: its own rig.toml copy, the grid from it or from the calibration copy, the cameras
-// from the calibration copy (rig.toml's `calibration` key still names the original file).
-config::RigConfig session_rig(const fs::path& dir) {
-  config::RigConfig rig;
-  try {
-    config::LoadOptions lo;
-    lo.load_calibration = false;
-    rig = config::load_rig_config(dir / "rig.toml", lo);
-  } catch (const std::exception& e) {
-    throw UsageError(fmt::format("view: {}/rig.toml: {}", dir.string(), e.what()));
-  }
-  try {
-    rig.calibration = rig::read_calibration((dir / "calibration.yaml").string());
-  } catch (const std::exception& e) {
-    throw UsageError(fmt::format("view: {}/calibration.yaml: {}", dir.string(), e.what()));
-  }
-  if (rig.grid.nx <= 0) {
-    if (!rig.calibration.grid)
-      throw UsageError(
-          fmt::format("view: {}: neither rig.toml nor calibration.yaml has a grid", dir.string()));
-    rig.grid = *rig.calibration.grid;
-  }
-  return rig;
-}
 
 void run_view(const ViewArgs& a) {
   fs::path dir = fs::absolute(fs::path(a.session)).lexically_normal();
@@ -91,7 +67,7 @@ void run_view(const ViewArgs& a) {
   if (!check.valid(&why)) throw UsageError("--view-bind: " + why);
   vo.record_switch = false;
   view::Viewer viewer(vo);
-  viewer.serve_session({dir, session_rig(dir)});
+  viewer.serve_session({dir, session_rig(dir, "view", true)});
   std::signal(SIGINT, on_view_signal);
   std::signal(SIGTERM, on_view_signal);
   viewer.start();
