@@ -90,6 +90,9 @@ constexpr double kClosing = 0.02;
 constexpr int kArrival = 15;
 // The confidence factor of a window whose centre is within ambiguous_near of another's.
 constexpr double kNearConfidence = 0.3;  // frames since the two were apart (farther than ambiguous_far)
+// Two touching windows split their blob's pixels (clear_others()) only while each holds at least this
+// share of its reference mass: both parts are in view.
+constexpr double kSideBySideMass = 0.7;
 
 }  // namespace
 
@@ -267,6 +270,8 @@ void CameraTracker::adopt(int f, const cv::Rect& box, const cv::Rect& valid, con
   t.partner = -1;
   t.amb_frames = 0;
   t.since_recovery = recovered ? 0 : opt_.recover_frames;
+  t.mass_ratio = 1;
+  t.uv = t.centre;  // the joint is not known yet: the new blob's centre stands for it (clear_others())
   cv::Point2f uv;
   t.uv = estimate_point(f, box, valid, mask, &uv) ? uv : t.centre;
   t.confidence = recovered ? 1.0f / float(opt_.recover_frames + 1) : 1.0f;
@@ -356,11 +361,82 @@ void CameraTracker::lose(int f) {
   losses_++;
 }
 
+// Skin pixels around feature f's window that belong to another tracked window are not f's: feet
+// standing together in a front view are one skin blob with the shadowed floor between them (inside the
+// edge's mask, of a skin-like hue on a wooden floor), and the other foot's pixels within reach of f's
+// joint estimate pulled its centroid, axes and junction to the middle of the pair (both ankles
+// reported between the feet, ~11 px off and below). A pixel belongs to the window it is nearest to (the
+// distance to the window's box, 0 inside); where two windows overlap, to the one whose joint at the
+// last frame is nearer relative to the window's size (the ankles of two feet are apart where their
+// windows are not, in an oblique view; a small hand window does not take the face from the head's).
+// Only while both windows hold about their own mass (kSideBySideMass): when one part hides the other
+// (a hand in front of the other in a side view) the windows share what is visible and no split is
+// right. Pixels f does not own are cleared in the back-projection over `region`, where only f's joint
+// estimate reads it afterwards; other windows that do not reach into the region own nothing in it.
+void CameraTracker::clear_others(int f, const cv::Rect& window, const cv::Rect& region) {
+  struct Other {
+    cv::Rect window;
+    cv::Point2f joint;
+    float inv_size;
+  };
+  std::array<Other, kFeatures> others{};
+  int n = 0;
+  const Track& t = tracks_[static_cast<std::size_t>(f)];
+  for (int g = 0; g < kFeatures; ++g) {
+    const Track& o = tracks_[static_cast<std::size_t>(g)];
+    const int reach = std::max(o.window.width, o.window.height);
+    const cv::Rect near(o.window.x - reach, o.window.y - reach, o.window.width + 2 * reach,
+                        o.window.height + 2 * reach);
+    if (g == f || !o.active || o.partner == f || (near & region).area() == 0) continue;
+    // Only when both windows hold about their own mass (both parts in view, side by side): when one
+    // part hides the other, the two windows share what is visible and no split is right.
+    if (o.mass_ratio < kSideBySideMass || t.mass_ratio < kSideBySideMass) continue;
+    others[static_cast<std::size_t>(n++)] = {o.window, o.uv, 1.0f / float(std::max({reach, 2}))};
+  }
+  if (n == 0) return;
+  auto box_distance = [](const cv::Rect& r, int x, int y) {
+    const int dx = std::max({r.x - x, 0, x - (r.x + r.width - 1)});
+    const int dy = std::max({r.y - y, 0, y - (r.y + r.height - 1)});
+    return dx * dx + dy * dy;
+  };
+  // In the windows' overlap: the distance to the feature's joint at the last frame (a foot's window
+  // reaches over the other foot's heel in an oblique view; the two ankles do not), per window size.
+  const cv::Point2f mine_joint = t.uv;
+  const float mine_inv = 1.0f / float(std::max({window.width, window.height, 2}));
+  auto joint_distance = [](cv::Point2f j, float inv, int x, int y) {
+    return std::hypot(float(x) - j.x, float(y) - j.y) * inv;
+  };
+  for (int y = region.y; y < region.y + region.height; ++y) {
+    std::uint8_t* p = prob_[y];
+    for (int x = region.x; x < region.x + region.width; ++x) {
+      if (!p[x]) continue;
+      const int mine = box_distance(window, x, y);
+      for (int k = 0; k < n; ++k) {
+        const Other& o = others[static_cast<std::size_t>(k)];
+        const int theirs = box_distance(o.window, x, y);
+        if (theirs < mine ||
+            (theirs == 0 && mine == 0 &&
+             joint_distance(o.joint, o.inv_size, x, y) < joint_distance(mine_joint, mine_inv, x, y))) {
+          p[x] = 0;
+          break;
+        }
+      }
+    }
+  }
+}
+
 bool CameraTracker::estimate_point(int f, const cv::Rect& window, const cv::Rect& valid,
                                    const cv::Mat1b& mask, cv::Point2f* uv) {
   // Only where this frame's HSV and back-projection were computed, one pixel in from the image's edge
   // (the 4-neighbour tests below).
   const cv::Rect inner = valid & cv::Rect(1, 1, prob_.cols - 2, prob_.rows - 2);
+  {
+    const int m = std::max(window.width, window.height), grow = m / 2 + 3;
+    clear_others(
+        f, window,
+        cv::Rect(window.x - grow, window.y - grow, window.width + 2 * grow, window.height + 2 * grow) &
+            inner);
+  }
   const int gx = window.width / 4 + 1, gy = window.height / 4 + 1;
   const cv::Rect e =
       cv::Rect(window.x - gx, window.y - gy, window.width + 2 * gx, window.height + 2 * gy) & inner;
@@ -570,6 +646,7 @@ void CameraTracker::track_one(int f, const cv::Mat3b& rgb, const cv::Mat1b& mask
       area_ratio > 1.0 / opt_.min_area_ratio || inside < opt_.min_inside * 0.5 ||
       moved > float(opt_.max_jump * m + 4.0))
     return lose(f);
+  t.mass_ratio = mass_ratio;
   cv::Point2f uv;
   if (!estimate_point(f, next, roi, mask, &uv)) return lose(f);
   t.velocity = 0.5f * t.velocity + 0.5f * (c - t.centre);

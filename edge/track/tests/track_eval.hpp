@@ -8,6 +8,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
@@ -35,6 +36,8 @@ struct EvalOptions {
   int frame_step = 1;
   Masks masks = Masks::edge;
   bool truth_seeds = true;  // seeds from the truth (else the tracker's own seeder)
+  int trace_feature =
+      -1;  // >= 0: print every camera frame of this feature (cam frame state conf err uv truth)
   TrackerOptions tracker;
 };
 
@@ -205,6 +208,12 @@ inline EvalResult evaluate(const EvalOptions& o) {
         FeatureScore& s = res.features[fs];
         const bool vis = truth[fs].visible;
         const bool trk = rep[fs].state == FeatureState::tracking;
+        if (f == o.trace_feature)
+          std::printf(
+              "trace cam %d frame %d state %d vis %d conf %.2f err %.1f uv %.1f,%.1f truth %.1f,%.1f\n", cam,
+              frame, int(rep[fs].state), int(vis), double(rep[fs].confidence),
+              cv::norm(cv::Point2d(rep[fs].uv) - truth[fs].uv), double(rep[fs].uv.x), double(rep[fs].uv.y),
+              truth[fs].uv.x, truth[fs].uv.y);
         if (vis) {
           s.visible++;
           if (trk) {

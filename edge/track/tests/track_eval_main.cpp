@@ -1,6 +1,8 @@
 // track_eval MOTION [FRAMES] [truth|edge] [seeds|own] [APPEARANCE] [ROOM]: runs the trackers of every
 // camera of the 6-camera virtual rig over a motion and prints, per feature, the 2D error (p50/p95, px)
 // while visible and tracked, visible frames not tracked, losses, frames to recover, and the cost.
+// TRACK_EVAL_TRACE=F (0-4) also prints every camera frame of feature F: state, confidence, error, the
+// reported and the true point (where a tail comes from).
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -17,6 +19,7 @@ int main(int argc, char** argv) {
   if (argc > 4) o.truth_seeds = std::string(argv[4]) != "own";
   if (argc > 5) o.appearance = argv[5];
   if (argc > 6) o.room = argv[6];
+  if (const char* t = std::getenv("TRACK_EVAL_TRACE")) o.trace_feature = std::atoi(t);
   EvalResult r;
   try {
     r = evaluate(o);

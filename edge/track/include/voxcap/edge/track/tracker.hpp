@@ -11,7 +11,9 @@
 //   tracking  — per feature: back-project its model in a search window around the motion-predicted
 //               position, masked by the silhouette; CamShift (Bradski 1998) from the previous window.
 //               The reported point is the feature's JOINT as hw/sim's truth measures it (head centre,
-//               wrist, ankle), estimated from the blob (estimate_point()), not the skin blob's centroid.
+//               wrist, ankle), estimated from the blob (estimate_point()), not the skin blob's centroid;
+//               skin pixels another window owns (feet standing together joined by their shadow) are
+//               not the blob's while both windows hold their own mass (clear_others()).
 //   loss      — the back-projected mass in the window falls below `min_mass_ratio` of what the feature
 //               had while tracked well, the window collapses, it leaves the silhouette, it jumps further
 //               than the motion allows, or it merges with another feature's window (the one that moved
@@ -145,7 +147,8 @@ class CameraTracker {
     double ref_mass = 0, ref_area = 0;
     int lost_frames = 0, since_recovery = 1000;
     float confidence = 0;
-    float moved = 0;  // distance from prediction this frame (merge arbitration)
+    float moved = 0;        // distance from prediction this frame (merge arbitration)
+    double mass_ratio = 1;  // the window's mass against its reference, at its last update
     // Ambiguity (two windows converging) and prediction: where the feature was and how it moved when
     // the ambiguity began or the window was lost; frames since.
     int partner = -1;
@@ -167,6 +170,8 @@ class CameraTracker {
   void lose(int f);
   // HSV and the back-projection of `model` over roi (into hsv_ and prob_ at the same pixels).
   void prepare(const cv::Mat3b& rgb, const cv::Mat1b& mask, const cv::Rect& roi, const ColourModel& model);
+  // Clears the back-projection over `region` where another tracked window owns the pixel (nearer it).
+  void clear_others(int f, const cv::Rect& window, const cv::Rect& region);
   // The feature's joint from the blob in `window`; hsv_ and prob_ are this frame's inside `valid`.
   bool estimate_point(int f, const cv::Rect& window, const cv::Rect& valid, const cv::Mat1b& mask,
                       cv::Point2f* uv);
