@@ -110,6 +110,8 @@ void make_bvh(const std::string& path, const MotionOptions& opt, const BodyDescr
   ho.scale = opt.bvh_scale;
   ho.frame_time_s = opt.bvh_frame_time_s;
   ho.keep_placement = is_own_truth(path);
+  ho.start_within_x_m = opt.bvh_start_within_x_m;
+  ho.start_within_y_m = opt.bvh_start_within_y_m;
   auto clip = std::make_shared<const vc::body::HumanoidClip>(vc::body::read_humanoid(path, ho));
   const BvhMapping& map = clip->map;
   const Skeleton& sk = clip->skeleton;
@@ -224,6 +226,9 @@ bool MotionOptions::valid(std::string* why) const {
     os << "bvh_frame_time_s must be in [0, 10] (0: from the file)";
   } else if (!(bvh_scale >= 0 && bvh_scale <= 100)) {
     os << "bvh_scale must be in [0, 100] (0: by convention)";
+  } else if (!(bvh_start_within_x_m >= 0 && bvh_start_within_x_m <= 1000 && bvh_start_within_y_m >= 0 &&
+               bvh_start_within_y_m <= 1000)) {
+    os << "bvh_start_within_x_m and bvh_start_within_y_m must be in [0, 1000] (0: centred)";
   } else {
     return true;
   }
