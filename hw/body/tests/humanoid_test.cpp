@@ -380,7 +380,6 @@ TEST(BodyHumanoid, ScaleThatMakesTheTruthInfiniteIsRefused) {
   fs::remove(fifo);
 }
 
-
 // Issue #12: a clip that travels further than the capture volume (CMU's walks and runs go 3.4-4.4 m
 // in a line, the volume is 2.5 m) was centred on its path's middle, so it began and ended outside the
 // volume and the initialization pose of the lead-in was never seen by the rig. With start_within_*_m

@@ -44,8 +44,9 @@
 //    face -y in the clip's first frame (left hip and shoulder towards +x). Nothing assumes a T-pose.
 //  - Placement: the root path's x/y bounding box is centred on the origin (then moved, when
 //    HumanoidOptions::start_within_*_m ask it, so the first frame's root is that near the origin)
-//    and the clip's lowest toe joint sits toe_height_m above the floor. HumanoidOptions::keep_placement takes a file in the
-//    world frame as it is (hw/sim does so for a dataset's own truth/motion.bvh).
+//    and the clip's lowest toe joint sits toe_height_m above the floor.
+//    HumanoidOptions::keep_placement takes a file in the world frame as it is (hw/sim does so for a
+//    dataset's own truth/motion.bvh).
 //  - Frames: frame 0 is skipped when it is a converter's synthetic T-pose (all rotation values
 //    integers, unlike frame 1). A frame time within one unit of its last written digit of 1/n
 //    snaps to 1/n (".0083333" = 1/120). cgspeed files of CMU subjects 75, 88, 141, 143 (captured
