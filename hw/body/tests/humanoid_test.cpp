@@ -390,6 +390,7 @@ TEST(BodyHumanoid, ALongPathStartsWithinTheAskedDistanceOfTheAxis) {
   const Skeleton sk = named_skeleton(conventions()[0], &index);
   auto walk = [&sk](double metres) {  // forward (-y of the standard skeleton), 2 cm to the left
     std::vector<Pose> poses;
+    poses.reserve(61);
     for (int i = 0; i < 61; ++i) poses.push_back(rest_pose(sk, {0.02 * i / 60, -metres * i / 60, 0.95}));
     return parse_bvh(format_bvh(sk, poses, 1.0 / 30, BvhWriteOptions{}), "walk.bvh");
   };
