@@ -129,6 +129,12 @@ struct Figures {
 Figures run(const std::string& motion, int cameras, int frames, int step, const Noise& noise, uint64_t seed) {
   sim::SceneOptions so;
   so.motion.source = motion;
+  // The clip's path centred on the volume, as these figures were measured. With hw/sim's start in
+  // the volume (issue #12) a 3.4 m walk ends, and is held for the rest of the 600 frames, 2.5 m out
+  // in front beside the front cameras, where the right foot is triangulated 0.55 m off with
+  // confidence 0.5-0.75 (cmu/02_01 from its frame 270): a limit of the triangulation there, not
+  // of this test's subject.
+  so.motion.bvh_start_within_x_m = so.motion.bvh_start_within_y_m = 0;
   so.rig.cameras = cameras;
   so.rig.distortion = true;
   const sim::Scene scene(so);

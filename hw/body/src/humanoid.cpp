@@ -402,6 +402,9 @@ bool HumanoidOptions::valid(std::string* why) const {
     os << "scale must be in [0, 100] (0: by convention)";
   } else if (!(frame_time_s >= 0 && frame_time_s <= 10)) {
     os << "frame_time_s must be in [0, 10] (0: from the file)";
+  } else if (!(start_within_x_m >= 0 && start_within_x_m <= 1000 && start_within_y_m >= 0 &&
+               start_within_y_m <= 1000)) {
+    os << "start_within_x_m and start_within_y_m must be in [0, 1000] (0: centred)";
   } else {
     return true;
   }
@@ -811,8 +814,10 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
   const glm::dmat3 Rg = opt.keep_placement ? glm::dmat3(1.0) : yaw_to_front(p) * A_axis;
   // Centre the root path, put the lowest toe of the clip at toe_height_m.
   double xmin = HUGE_VAL, xmax = -HUGE_VAL, ymin = HUGE_VAL, ymax = -HUGE_VAL, toe_min = HUGE_VAL;
+  glm::dvec3 root_first(0, 0, 0);
   for (int f = first; f < clip.frames; ++f) {
     forward_kinematics(out.skeleton, placed(f, Rg), &p);
+    if (f == first) root_first = p[0];
     xmin = std::min(xmin, p[0][0]);
     xmax = std::max(xmax, p[0][0]);
     ymin = std::min(ymin, p[0][1]);
@@ -834,6 +839,14 @@ HumanoidClip map_humanoid(BvhClip clip, const std::string& path, const HumanoidO
   map.t_world_m = opt.keep_placement
                       ? glm::dvec3(0, 0, 0)
                       : glm::dvec3(-0.5 * (xmin + xmax), -0.5 * (ymin + ymax), opt.toe_height_m - toe_min);
+  if (!opt.keep_placement) {
+    // The start in the volume: the centred path moved by the first root's excess over the limit.
+    const double limit[2] = {opt.start_within_x_m, opt.start_within_y_m};
+    for (int a = 0; a < 2; ++a) {
+      const double s = root_first[a] + map.t_world_m[a];
+      if (limit[a] > 0 && std::abs(s) > limit[a]) map.t_world_m[a] -= s - std::copysign(limit[a], s);
+    }
+  }
   map.frame_time_s = ft;
   map.first_frame = first;
   map.frames = clip.frames;

@@ -380,5 +380,45 @@ TEST(BodyHumanoid, ScaleThatMakesTheTruthInfiniteIsRefused) {
   fs::remove(fifo);
 }
 
+// Issue #12: a clip that travels further than the capture volume (CMU's walks and runs go 3.4-4.4 m
+// in a line, the volume is 2.5 m) was centred on its path's middle, so it began and ended outside the
+// volume and the initialization pose of the lead-in was never seen by the rig. With start_within_*_m
+// the path is moved just enough for the first frame's root to be that near the axis; a path that
+// already starts there is left centred, and the path's shape is untouched.
+TEST(BodyHumanoid, ALongPathStartsWithinTheAskedDistanceOfTheAxis) {
+  std::array<int, kJointCount> index{};
+  const Skeleton sk = named_skeleton(conventions()[0], &index);
+  auto walk = [&sk](double metres) {  // forward (-y of the standard skeleton), 2 cm to the left
+    std::vector<Pose> poses;
+    poses.reserve(61);
+    for (int i = 0; i < 61; ++i) poses.push_back(rest_pose(sk, {0.02 * i / 60, -metres * i / 60, 0.95}));
+    return parse_bvh(format_bvh(sk, poses, 1.0 / 30, BvhWriteOptions{}), "walk.bvh");
+  };
+  auto root = [](const HumanoidClip& h, int f) {
+    std::vector<glm::dvec3> p;
+    forward_kinematics(h.skeleton, h.frame_pose(f), &p);
+    return p[static_cast<std::size_t>(h.map.anchor[static_cast<std::size_t>(Joint::hips)])];
+  };
+  HumanoidOptions within;
+  within.start_within_x_m = 0.35;
+  within.start_within_y_m = 0.9;
+  const HumanoidClip centred = map_humanoid(walk(4.0), "walk.bvh");
+  const HumanoidClip started = map_humanoid(walk(4.0), "walk.bvh", within);
+  // Centred: the 4 m walk starts 2 m from the axis (outside a 2.5 m volume).
+  EXPECT_NEAR(std::abs(root(centred, 0).y), 2.0, 1e-6);
+  // Moved: it starts 0.9 m from the axis, on the side it walks away from, and walks the same 4 m.
+  EXPECT_NEAR(root(started, 0).y, 0.9, 1e-6);
+  EXPECT_NEAR(root(started, 60).y, 0.9 - 4.0, 1e-6);
+  EXPECT_NEAR(root(started, 0).x, root(centred, 0).x, 1e-9);  // x was within its limit: centred
+  EXPECT_NEAR(root(started, 0).z, root(centred, 0).z, 1e-9);
+  // A 1 m walk starts 0.5 m from the axis: within the limit, centred as before.
+  const HumanoidClip short_centred = map_humanoid(walk(1.0), "walk.bvh");
+  const HumanoidClip short_started = map_humanoid(walk(1.0), "walk.bvh", within);
+  EXPECT_NEAR(glm::length(root(short_started, 0) - root(short_centred, 0)), 0.0, 1e-9);
+  EXPECT_NEAR(root(short_started, 0).y, 0.5, 1e-6);
+  HumanoidOptions bad;
+  bad.start_within_y_m = -1;
+  EXPECT_FALSE(bad.valid(nullptr));
+}
 }  // namespace
 }  // namespace vc::body

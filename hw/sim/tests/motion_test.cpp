@@ -21,6 +21,7 @@
 #include "voxcap/body/humanoid.hpp"
 #include "voxcap/body/testing/shared_clips.hpp"
 #include "voxcap/sim/dataset.hpp"
+#include "voxcap/sim/rig_layout.hpp"
 #include "voxcap/sim/scene.hpp"
 
 namespace vc::sim {
@@ -306,6 +307,44 @@ TEST(SimBvhMotion, ReadsBackItsOwnTruthMotionWithinOneMillimetre) {
     EXPECT_EQ(placed.bvh()->convention, again.bvh()->convention);
     fs::remove_all(dir);
     fs::remove(moved);
+  }
+}
+
+// Issue #12: the rig sees the initialization pose of every clip. A clip that travels further than the
+// volume (a walk or run of 3.4-4.4 m across the 2.5 m volume) was centred on its path's middle, so its
+// lead-in (the init pose, where the path starts) stood outside the volume, the fit never saw the init
+// pose and fell back to a body of average proportions. Every joint of the held init pose of every
+// shared clip lies inside the default volume, and a clip that starts near the axis stays centred.
+TEST(SimBvhMotion, EveryClipStartsInsideTheDefaultVolume) {
+  const auto files = clips();
+  ASSERT_FALSE(files.empty()) << no_clips_message();
+  const RigLayout layout;
+  for (const fs::path& path : files) {
+    SCOPED_TRACE(path.string());
+    MotionOptions opt;
+    opt.source = path.string();
+    const Motion m = Motion::create(opt, BodyDescription{});
+    for (int f = 0; m.clip_time(f) < -opt.lead_blend_s; ++f) {  // the held init pose
+      const BodyPose bp = m.body_pose(f);
+      for (int j = 0; j < kJointCount; ++j)
+        for (int a = 0; a < 2; ++a) {
+          EXPECT_GT(bp.p_world[static_cast<std::size_t>(j)][a], layout.volume_min_m[a]) << f << " " << j;
+          EXPECT_LT(bp.p_world[static_cast<std::size_t>(j)][a], layout.volume_max_m[a]) << f << " " << j;
+        }
+    }
+    // Without the limits the path is centred; a path that starts within them is left so.
+    MotionOptions centred = opt;
+    centred.bvh_start_within_x_m = centred.bvh_start_within_y_m = 0;
+    const Motion c = Motion::create(centred, BodyDescription{});
+    const glm::dvec3 start = m.bvh()->t_world_m, start_centred = c.bvh()->t_world_m;
+    EXPECT_EQ(start.z, start_centred.z);
+    const double moved = glm::length(start - start_centred);
+    if (moved > 0) {  // only when the centred path started outside the limits
+      const cv::Vec3d hips = c.body_pose(0).p(Joint::hips);
+      EXPECT_TRUE(std::abs(hips[0]) > opt.bvh_start_within_x_m - 0.15 ||
+                  std::abs(hips[1]) > opt.bvh_start_within_y_m - 0.15)
+          << "moved " << moved << " m from a centred start at " << hips;
+    }
   }
 }
 

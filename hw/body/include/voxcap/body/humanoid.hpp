@@ -42,9 +42,11 @@
 //    (voxcap sim / rig --bvh-scale).
 //  - Axes: the rest pose's hips->head axis becomes +z, then a rotation about z makes the performer
 //    face -y in the clip's first frame (left hip and shoulder towards +x). Nothing assumes a T-pose.
-//  - Placement: the root path's x/y bounding box is centred on the origin and the clip's lowest
-//    toe joint sits toe_height_m above the floor. HumanoidOptions::keep_placement takes a file in the
-//    world frame as it is (hw/sim does so for a dataset's own truth/motion.bvh).
+//  - Placement: the root path's x/y bounding box is centred on the origin (then moved, when
+//    HumanoidOptions::start_within_*_m ask it, so the first frame's root is that near the origin)
+//    and the clip's lowest toe joint sits toe_height_m above the floor.
+//    HumanoidOptions::keep_placement takes a file in the world frame as it is (hw/sim does so for a
+//    dataset's own truth/motion.bvh).
 //  - Frames: frame 0 is skipped when it is a converter's synthetic T-pose (all rotation values
 //    integers, unlike frame 1). A frame time within one unit of its last written digit of 1/n
 //    snaps to 1/n (".0083333" = 1/120). cgspeed files of CMU subjects 75, 88, 141, 143 (captured
@@ -71,6 +73,13 @@ struct HumanoidOptions {
   // The file is in the world frame already (z up, metres unless scale is given, facing and
   // position as they are): no turn, no centring, no floor (voxcap sim's own truth/motion.bvh).
   bool keep_placement = false;
+  // The performer starts in the capture volume: after the centring, the path is moved as little as
+  // needed for the first frame's root to lie within +-start_within_x_m / _y_m of the origin (0: that
+  // axis stays centred). A clip that travels further than the volume (a 3.5 m walk across a 2.5 m
+  // volume) then starts inside it, where a real take starts with the initialization pose, and
+  // leaves it on the far side, instead of starting and ending outside it with its middle centred.
+  double start_within_x_m = 0;
+  double start_within_y_m = 0;
 
   bool valid(std::string* why) const;
 };

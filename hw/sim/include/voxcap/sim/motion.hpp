@@ -28,6 +28,14 @@ struct MotionOptions {
   double bvh_frame_time_s = 0;  // 0: the file's (see README: CMU subjects captured at 60 fps)
   double bvh_scale = 0;         // metres per BVH unit; 0: by naming convention (README)
   bool loop = false;            // BVH: loop the clip instead of holding its last frame
+  // BVH: the performer starts (lead-in and first frame) at most this far from the volume's axis
+  // along x (their left, the init pose's spread arms) and y (where they face), the path otherwise
+  // centred (hw/body's HumanoidOptions::start_within_*_m): the default 2.5 m volume's half size
+  // less half the init pose's arm span (0.9 m at 1.75 m) in x, less the body's depth and feet
+  // (0.35 m) in y. A clip travelling further than the volume then starts inside it and is counted
+  // in frames_outside_volume once it leaves, instead of taking the init pose outside. 0: centred.
+  double bvh_start_within_x_m = 0.35;
+  double bvh_start_within_y_m = 0.9;
 
   bool valid(std::string* why) const;
 };
