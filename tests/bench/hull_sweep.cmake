@@ -8,7 +8,7 @@
 #
 #   cmake -DVOXCAP_BENCH=build/release/bin/voxcap-bench -P tests/bench/hull_sweep.cmake
 #   cmake -DVOXCAP_BENCH=... -DMOTIONS="wave;walk" -DNODES=3 -DAPPEARANCES=dark -DROOMS=camouflage \
-#         -DFRAMES=10 -DEVERY=59 -DGRID=128 -DSIZE=640x480 -DCARVE=subpixel -DARGS="--shadow-texture-k;1.5;--shadow-flat-margin;0.1" \
+#         -DFRAMES=10 -DEVERY=59 -DGRID=128 -DSIZE=640x480 -DCARVE=subpixel -DARGS="--shadow-texture-k;1.5;--shadow-flat-margin;0.2" \
 #         -DJSON_DIR=/tmp/sweep -DTABLE=sweep.txt -P tests/bench/hull_sweep.cmake
 #
 # Defaults: the whole matrix (wave walk squat turn arms-close cross; 3 and 4 nodes; every appearance

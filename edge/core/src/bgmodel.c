@@ -32,14 +32,16 @@
  *     window, fitted as one scaled copy of the background (P = a * M over all their channels), leave
  *     a residual within k noise sigmas. Lit floor next to a shadow is background in pass A and
  *     outside the fit, so shadow edges pass; body pixels that failed eq. 2 are outside it too.
+ *     Then the flat-patch test (flat_beats_texture), on the luminance L = p_0 + p_1 + p_2: a flat
+ *     patch must not explain the window's L better than the background's L scaled.
  *     Passes A and B run 2 rows ahead of C. Pass B lists each row's candidates with their |p|^2,
- *     p.mu and |mu|^2 (which eq. 2 computes anyway) in a 5-row ring, and adds them to running
- *     column sums (count and three sums per column over the window's rows); a row leaves the sums
- *     when the windows below no longer reach it. A window's sums are then those of its 5 columns,
- *     so the work is a few dozen operations per candidate and nothing per other pixel. Ring and
- *     sums live in the model (48 bytes per pixel of 5 rows + 48 per column: 184 KB at 640 wide),
- *     allocated once by set_params; no allocation per frame. Exact integers (64-bit, the last
- *     comparison 128-bit).
+ *     p.mu and |mu|^2 (which eq. 2 computes anyway) and their L, L * Lmu and Lmu^2 in a 5-row ring,
+ *     and adds them to running column sums (count and six sums per column over the window's rows,
+ *     one 32-byte vector); a row leaves the sums when the windows below no longer reach it. A
+ *     window's sums are then those of its 5 columns, so the work is a few dozen operations per
+ *     candidate and nothing per other pixel. Ring and sums live in the model (32 bytes per pixel of
+ *     5 rows + 32 per column: 123 KB at 640 wide), allocated once by set_params; no allocation per
+ *     frame. Exact integers (64-bit, the last comparisons 128-bit).
  * Model data per pixel for pass A: blo, flo, fhi = 9 bytes, planar by role, interleaved by channel
  * like the image, so that pass A is four streams of bytes; mean is read for band pixels only, sigma
  * for candidates. At 640x480 a frame reads 0.9 MB of pixels and 2.8 MB of model.
@@ -70,14 +72,17 @@
 #define VC_TEXTURE_MIN_PIXELS 3 /* fewer candidates in the window: the per-pixel tests decide */
 
 /* The terms the window tests sum over a window's candidates, one uint32 lane each (enum VC_S_*):
- * the count (1 per candidate), |p|^2, and per channel p_c, p_c mu_c and mu_c^2; the last lane holds
- * a candidate's column (its sum in colsum is never read). 48 bytes, so that adding a candidate to
- * the column sums, and the window's sums, are a few whole-vector operations. */
-enum { VC_S_N, VC_S_PP, VC_S_P, VC_S_PM = VC_S_P + 3, VC_S_MM = VC_S_PM + 3, VC_S_X = VC_S_MM + 3, VC_SUMS };
+ * the count (1 per candidate), |p|^2, p.mu and |mu|^2 (the texture test's), the luminance L = p_0 +
+ * p_1 + p_2, L * Lmu and Lmu^2 with Lmu = mu_0 + mu_1 + mu_2 (the flat-patch test's); the last lane
+ * holds a candidate's column (its sum in colsum is never read). 32 bytes, one vector of the
+ * compiler's vector extension (gcc and clang: two SSE2 or NEON registers, one AVX2), so that adding a
+ * candidate to the column sums, and the window's sums, are whole-vector operations. */
+enum { VC_S_N, VC_S_PP, VC_S_PM, VC_S_MM, VC_S_L, VC_S_LM, VC_S_MML, VC_S_X, VC_SUMS };
+typedef uint32_t vc_sums __attribute__((vector_size(VC_SUMS * sizeof(uint32_t))));
 
 /* A shadow candidate as pass B found it: its terms and its column (t[VC_S_X]). */
 struct vc_cand {
-  uint32_t t[VC_SUMS];
+  vc_sums t;
 };
 
 struct vc_bgmodel {
@@ -100,8 +105,8 @@ struct vc_bgmodel {
   uint64_t flat_q8;  /* Q8.8 the flat-patch test's margin, noise variances per pixel; 0 = test off */
   uint16_t floor_q8; /* Q8.8 sigma floor (rounded), grey levels: the texture test's noise floor */
   /* Scratch of vc_subtract's texture test (allocated by set_params when it is on): */
-  struct vc_cand* cand;        /* [5][w] the candidates of row y (slot y mod 5) with their terms */
-  uint32_t (*colsum)[VC_SUMS]; /* [w + 4] per column: the candidates' count and sums over the window's rows */
+  struct vc_cand* cand; /* [5][w] the candidates of row y (slot y mod 5) with their terms */
+  vc_sums* colsum;      /* [w + 4] per column: the candidates' count and sums over the window's rows */
 };
 
 void vc_subtract_params_default(vc_subtract_params* params) {
@@ -297,8 +302,11 @@ int vc_bgmodel_set_params(vc_bgmodel* m, const vc_subtract_params* p) {
   m->k2_q8 = (uint64_t)llround(p->shadow_texture_k * p->shadow_texture_k * 256.0);
   m->flat_q8 = (uint64_t)llround(p->shadow_flat_margin * 256.0);
   if ((m->k2_q8 != 0 || m->flat_q8 != 0) && m->cand == NULL) {
-    m->cand = malloc((size_t)(2 * VC_TEXTURE_RADIUS + 1) * (size_t)m->width * sizeof(*m->cand));
-    m->colsum = malloc((size_t)(m->width + 2 * VC_TEXTURE_RADIUS) * sizeof(*m->colsum));
+    /* sizes are multiples of the vectors' alignment, as aligned_alloc wants */
+    m->cand = aligned_alloc(sizeof(vc_sums),
+                            (size_t)(2 * VC_TEXTURE_RADIUS + 1) * (size_t)m->width * sizeof(*m->cand));
+    m->colsum =
+        aligned_alloc(sizeof(vc_sums), (size_t)(m->width + 2 * VC_TEXTURE_RADIUS) * sizeof(*m->colsum));
     if (m->cand == NULL || m->colsum == NULL) {
       free(m->cand);
       free(m->colsum);
@@ -516,14 +524,9 @@ static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mea
     for (uint64_t b = bits[wi]; b != 0; b &= b - 1) {
       const int i = wi * 64 + __builtin_ctzll(b);
       const uint8_t *p = px + 3 * i, *mu = mean + 3 * i;
-      uint32_t pm_c[3], mm_c[3];
-      for (int ch = 0; ch < 3; ch++) {
-        pm_c[ch] = (uint32_t)p[ch] * mu[ch];
-        mm_c[ch] = (uint32_t)mu[ch] * mu[ch];
-      }
-      const uint64_t dot = (uint64_t)pm_c[0] + pm_c[1] + pm_c[2];
+      const uint64_t dot = (uint64_t)p[0] * mu[0] + (uint64_t)p[1] * mu[1] + (uint64_t)p[2] * mu[2];
       const uint64_t pp = (uint64_t)p[0] * p[0] + (uint64_t)p[1] * p[1] + (uint64_t)p[2] * p[2];
-      const uint64_t mm = (uint64_t)mm_c[0] + mm_c[1] + mm_c[2];
+      const uint64_t mm = (uint64_t)mu[0] * mu[0] + (uint64_t)mu[1] * mu[1] + (uint64_t)mu[2] * mu[2];
       /* dot, pp, mm < 2^18: dot^2 * 2^24 < 2^60 and c2 * pp * mm <= 2^24 * 2^36 = 2^60. */
       const uint64_t dot16 = dot << 16;
       const unsigned is_shadow =
@@ -531,15 +534,10 @@ static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mea
       out[i] = (uint8_t)(is_shadow - 1u); /* shadow -> 0 (background, or a candidate), else 0xFF */
       band++;
       if (cand != NULL && is_shadow) {
-        uint32_t* t = cand[k].t;
-        t[VC_S_N] = 1;
-        t[VC_S_PP] = (uint32_t)pp;
-        for (int ch = 0; ch < 3; ch++) {
-          t[VC_S_P + ch] = p[ch];
-          t[VC_S_PM + ch] = pm_c[ch];
-          t[VC_S_MM + ch] = mm_c[ch];
-        }
-        t[VC_S_X] = (uint32_t)i;
+        const uint32_t l = (uint32_t)p[0] + p[1] + p[2], lmu = (uint32_t)mu[0] + mu[1] + mu[2];
+        /* the lanes in the order of enum VC_S_*: N, PP, PM, MM, L, LM, MML, X */
+        cand[k].t =
+            (vc_sums){1, (uint32_t)pp, (uint32_t)dot, (uint32_t)mm, l, l * lmu, lmu * lmu, (uint32_t)i};
         k++;
       } else {
         k += (int)is_shadow; /* counted as shadows when the texture test is off */
@@ -551,55 +549,34 @@ static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mea
 }
 
 /* Adds or removes a row's candidates to the column sums: colsum[x + r] holds, for column x, the
- * sums of the terms (enum VC_S_*) over the candidates of the rows in the texture window (< 5 * 3 *
- * 255^2 < 2^20 each). The r columns of zeros on either side make the window's horizontal sum
+ * sums of the terms (enum VC_S_*) over the candidates of the rows in the texture window (< 5 * 765^2
+ * < 2^22 each). The r columns of zeros on either side make the window's horizontal sum
  * branch-free at the image's edges. */
-static void colsum_update(uint32_t (*colsum)[VC_SUMS], const struct vc_cand* cand, int count, bool add) {
-  for (int k = 0; k < count; k++) {
-    uint32_t* restrict c = colsum[cand[k].t[VC_S_X] + VC_TEXTURE_RADIUS];
-    const uint32_t* restrict t = cand[k].t;
-    if (add)
-      for (int j = 0; j < VC_SUMS; j++) c[j] += t[j];
-    else
-      for (int j = 0; j < VC_SUMS; j++) c[j] -= t[j];
-  }
+static void colsum_update(vc_sums* colsum, const struct vc_cand* cand, int count, bool add) {
+  if (add)
+    for (int k = 0; k < count; k++) colsum[cand[k].t[VC_S_X] + VC_TEXTURE_RADIUS] += cand[k].t;
+  else
+    for (int k = 0; k < count; k++) colsum[cand[k].t[VC_S_X] + VC_TEXTURE_RADIUS] -= cand[k].t;
 }
 
 /* The flat-patch test of a window's sums s (enum VC_S_*, n >= 1 candidates, v the noise as in
- * texture_row): whether a flat patch (P_c = b_c, the window's mean colour) explains the candidates'
- * colours better than the background's texture, scaled per channel (P_c = a_c * M_c), by more than
- * the margin (Q8.8 noise variances per pixel):
- *     E_flat - E_gain > margin * n * sum_c s_c^2,   E_flat = sum_c S_c^2 / n,
- *                                                   E_gain = sum_c SPM_c^2 / SMM_c
+ * texture_row), on the luminance L = p_0 + p_1 + p_2 (its noise variance is v, the sum of the
+ * channels'): whether a flat patch (L = b, the window's mean) explains the candidates' luminance
+ * better than the background's, scaled (L = a * Lmu), by more than the margin (Q8.8 noise variances
+ * per pixel):
+ *     E_flat - E_gain > margin * n * v,   E_flat = SL^2 / n,   E_gain = SLM^2 / SMML
  * (both are the energy the model explains, so their difference is the gain model's residual minus
- * the flat model's; both have three parameters). A shadow over a floor with any texture is a scaled
- * copy of it, E_gain wins; skin or cloth over it is smoother than the floor's texture, E_flat wins;
- * over a flat background the two agree within the noise and the margin keeps it a shadow. Exact in
- * 128 bits with Q = SMM_0 SMM_1 SMM_2 (each < 2^21, SMM_c = 0 taken as 1: then SPM_c = 0 too):
- *     (sum_c S_c^2 * Q - n * sum_c SPM_c^2 * Q / SMM_c) * 2^24 > margin_q8 * n^2 * v_q16 * Q
- * (S_c < 2^13, SPM_c < 2^21: the left terms < 2^115, the right < 2^12 * 2^10 * 2^34 * 2^63). */
-static unsigned flat_beats_texture(const uint32_t* s, uint64_t spm, uint64_t smm, uint64_t v,
-                                   uint64_t margin_q8) {
+ * the flat model's; one parameter each). A shadow over a floor with any texture is a scaled copy of
+ * it, E_gain wins; skin or cloth over it is smoother than the floor's texture, E_flat wins; over a
+ * flat background the two agree within the noise and the margin keeps it a shadow. Exact in 128 bits
+ * (SMML = 0 taken as 1: then SLM = 0 too; SL < 2^15, SLM, SMML < 2^24, so both products < 2^54):
+ *     (SL^2 * SMML - n * SLM^2) * 2^24 > margin_q8 * n^2 * v_q16 * SMML */
+static unsigned flat_beats_texture(const vc_sums* s, uint64_t v, uint64_t margin_q8) {
   typedef unsigned __int128 u128;
-  const uint64_t n = s[VC_S_N];
-  uint64_t ss = 0;
-  for (int ch = 0; ch < 3; ch++) ss += (uint64_t)s[VC_S_P + ch] * s[VC_S_P + ch];
-  /* First a bound: one gain for all channels explains no more than one per channel, so E_flat -
-   * (sum PM)^2 / sum MM >= E_flat - E_gain; when the bound is within the margin, so is the test
-   * (a shadow over a texture: the common case, three divisions' worth of products saved).
-   * (sum_c S_c^2 * SMM - n * SPM^2) * 2^24 <= margin_q8 * n^2 * v_q16 * SMM, SMM = sum MM < 2^23. */
-  const u128 smm1 = smm != 0 ? smm : 1;
-  if (((u128)ss * smm1 << 24) <= ((u128)(spm * spm) * n << 24) + (u128)(margin_q8 * n * n * v) * smm1)
-    return 0;
-  uint64_t b[3], a[3];
-  for (int ch = 0; ch < 3; ch++) {
-    b[ch] = s[VC_S_MM + ch] != 0 ? s[VC_S_MM + ch] : 1;
-    a[ch] = (uint64_t)s[VC_S_PM + ch] * s[VC_S_PM + ch];
-  }
-  const uint64_t q = b[0] * b[1] * b[2];
-  const u128 gain = (u128)a[0] * (b[1] * b[2]) + (u128)a[1] * (b[0] * b[2]) + (u128)a[2] * (b[0] * b[1]);
-  const u128 flat = (u128)ss * q;
-  return (flat << 24) > ((gain * n) << 24) + (u128)(margin_q8 * n * n * v) * q;
+  const uint64_t n = (*s)[VC_S_N], sl = (*s)[VC_S_L], slm = (*s)[VC_S_LM];
+  const uint64_t smml = (*s)[VC_S_MML] != 0 ? (*s)[VC_S_MML] : 1;
+  return ((u128)(sl * sl * smml) << 24) >
+         ((u128)(slm * slm * n) << 24) + (u128)(margin_q8 * n * n * v) * smml;
 }
 
 /* The texture tests for the candidates of row t (their list from shadow_row), with colsum holding
@@ -620,16 +597,15 @@ static unsigned flat_beats_texture(const uint32_t* s, uint64_t spm, uint64_t smm
 static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, const uint16_t* sigma_row,
                             const struct vc_cand* cand, int count) {
   const uint64_t k2 = m->k2_q8, fl = m->floor_q8, flat = m->flat_q8;
-  const uint32_t(*colsum)[VC_SUMS] = (const uint32_t(*)[VC_SUMS])m->colsum;
+  const vc_sums* colsum = m->colsum;
   uint32_t shadow = 0, last = UINT32_MAX - 1;
-  uint32_t s[VC_SUMS] = {0}; /* the window sums of the previous candidate (slid when x follows it) */
+  vc_sums s = {0}; /* the window sums of the previous candidate (slid when x follows it) */
   for (int k = 0; k < count; k++) {
     const uint32_t x = cand[k].t[VC_S_X];
     if (x == last + 1) /* the window one column on: add column x + r, drop column x - r - 1 */
-      for (int j = 0; j < VC_SUMS; j++) s[j] += colsum[x + 4][j] - colsum[x - 1][j];
+      s += colsum[x + 4] - colsum[x - 1];
     else /* columns x - r .. x + r: colsum[x] .. colsum[x + 2r] */
-      for (int j = 0; j < VC_SUMS; j++)
-        s[j] = colsum[x][j] + colsum[x + 1][j] + colsum[x + 2][j] + colsum[x + 3][j] + colsum[x + 4][j];
+      s = colsum[x] + colsum[x + 1] + colsum[x + 2] + colsum[x + 3] + colsum[x + 4];
     last = x;
     const uint64_t n = s[VC_S_N];
     unsigned is_shadow = 1;
@@ -639,13 +615,12 @@ static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, const uint16_t* s
         const uint64_t sg = sigma_row[3 * x + ch] > fl ? sigma_row[3 * x + ch] : fl;
         v += sg * sg;
       }
-      const uint64_t spp = s[VC_S_PP], spm = (uint64_t)s[VC_S_PM] + s[VC_S_PM + 1] + s[VC_S_PM + 2],
-                     smm = (uint64_t)s[VC_S_MM] + s[VC_S_MM + 1] + s[VC_S_MM + 2];
+      const uint64_t spp = s[VC_S_PP], spm = s[VC_S_PM], smm = s[VC_S_MM];
       if (k2 != 0) {
         const unsigned __int128 lhs = (unsigned __int128)(spp * smm - spm * spm) << 24;
         is_shadow = lhs <= (unsigned __int128)(k2 * n * v) * smm;
       }
-      if (is_shadow && flat != 0) is_shadow = !flat_beats_texture(s, spm, smm, v, flat);
+      if (is_shadow && flat != 0) is_shadow = !flat_beats_texture(&s, v, flat);
     }
     out[x] = (uint8_t)(is_shadow - 1u);
     shadow += is_shadow;

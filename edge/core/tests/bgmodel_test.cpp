@@ -76,22 +76,25 @@ std::vector<uint8_t> reference_subtract(const vc_bgmodel* m, const vc_subtract_p
     for (int x = 0; x < w; x++) {
       const size_t i = static_cast<size_t>(y) * w + x;
       if (out[i] != kCandidate) continue;
-      double spp = 0, spm = 0, smm = 0, v = 0, sc[3] = {0, 0, 0}, spmc[3] = {0, 0, 0}, smmc[3] = {0, 0, 0};
+      double spp = 0, spm = 0, smm = 0, v = 0, sl = 0, slm = 0, smml = 0;  // L: the luminance p_0 + p_1 + p_2
       int n = 0;
       for (int yy = std::max(0, y - 2); yy <= std::min(h - 1, y + 2); yy++)
         for (int xx = std::max(0, x - 2); xx <= std::min(w - 1, x + 2); xx++) {
           const size_t j = static_cast<size_t>(yy) * w + xx;
           if (out[j] != kCandidate) continue;
           n++;
+          double L = 0, LM = 0;
           for (int c = 0; c < 3; c++) {
             const double P = rgb[3 * j + c], M = mean[3 * j + c];
             spp += P * P;
             spm += P * M;
             smm += M * M;
-            sc[c] += P;
-            spmc[c] += P * M;
-            smmc[c] += M * M;
+            L += P;
+            LM += M;
           }
+          sl += L;
+          slm += L * LM;
+          smml += LM * LM;
         }
       for (int c = 0; c < 3; c++) {  // the noise: n times the centre pixel's
         const double s = std::max(static_cast<double>(sigma_q8[3 * i + c]), floor_q8) / 256.0;
@@ -102,12 +105,8 @@ std::vector<uint8_t> reference_subtract(const vc_bgmodel* m, const vc_subtract_p
         const double ss = smm == 0 ? 0.0 : spp - spm * spm / smm;
         shadow = ss <= p.shadow_texture_k * p.shadow_texture_k * v;
       }
-      if (shadow && p.shadow_flat_margin > 0 && n >= 3) {  // flat patch against scaled texture
-        double flat = 0, gain = 0;
-        for (int c = 0; c < 3; c++) {
-          flat += sc[c] * sc[c] / n;
-          if (smmc[c] > 0) gain += spmc[c] * spmc[c] / smmc[c];
-        }
+      if (shadow && p.shadow_flat_margin > 0 && n >= 3) {  // flat patch against scaled texture, luminance
+        const double flat = sl * sl / n, gain = smml > 0 ? slm * slm / smml : 0.0;
         shadow = flat - gain <= p.shadow_flat_margin * v;
       }
       done[i] = shadow ? 0 : 255;
@@ -165,20 +164,23 @@ std::vector<uint8_t> integer_subtract(const vc_bgmodel* m, const vc_subtract_par
     for (int x = 0; x < w; x++) {
       const size_t i = static_cast<size_t>(y) * w + x;
       if (cls[i] != kCandidate) continue;
-      uint64_t n = 0, spp = 0, spm = 0, smm = 0, sc[3] = {0, 0, 0}, spmc[3] = {0, 0, 0}, smmc[3] = {0, 0, 0};
+      uint64_t n = 0, spp = 0, spm = 0, smm = 0, sl = 0, slm = 0, smml = 0;
       for (int yy = std::max(0, y - 2); yy <= std::min(h - 1, y + 2); yy++)
         for (int xx = std::max(0, x - 2); xx <= std::min(w - 1, x + 2); xx++) {
           const size_t j = static_cast<size_t>(yy) * w + xx;
           if (cls[j] != kCandidate) continue;
           n++;
+          uint64_t L = 0, LM = 0;
           for (int c = 0; c < 3; c++) {
             spp += uint64_t{rgb[3 * j + c]} * rgb[3 * j + c];
             spm += uint64_t{rgb[3 * j + c]} * mean[3 * j + c];
             smm += uint64_t{mean[3 * j + c]} * mean[3 * j + c];
-            sc[c] += rgb[3 * j + c];
-            spmc[c] += uint64_t{rgb[3 * j + c]} * mean[3 * j + c];
-            smmc[c] += uint64_t{mean[3 * j + c]} * mean[3 * j + c];
+            L += rgb[3 * j + c];
+            LM += mean[3 * j + c];
           }
+          sl += L;
+          slm += L * LM;
+          smml += LM * LM;
         }
       bool shadow = true;
       if (n >= 3) {
@@ -191,15 +193,10 @@ std::vector<uint8_t> integer_subtract(const vc_bgmodel* m, const vc_subtract_par
           const unsigned __int128 lhs = static_cast<unsigned __int128>(spp * smm - spm * spm) << 24;
           shadow = lhs <= static_cast<unsigned __int128>(k2 * n * v) * smm;
         }
-        if (shadow && flat_q8 != 0) {  // (sum_c S_c^2 Q - n sum_c SPM_c^2 Q / SMM_c) 2^24 > t n^2 v Q
+        if (shadow && flat_q8 != 0) {  // (SL^2 SMML - n SLM^2) 2^24 > t n^2 v SMML, SMML >= 1
           using u128 = unsigned __int128;
-          u128 q = 1, flat = 0, gain = 0;
-          for (int c = 0; c < 3; c++) q *= std::max<uint64_t>(smmc[c], 1);
-          for (int c = 0; c < 3; c++) {
-            flat += u128{sc[c] * sc[c]} * q;
-            gain += u128{spmc[c] * spmc[c]} * (q / std::max<uint64_t>(smmc[c], 1));
-          }
-          shadow = !((flat << 24) > ((gain * n) << 24) + u128{flat_q8 * n * n * v} * q);
+          const uint64_t q = std::max<uint64_t>(smml, 1);
+          shadow = !((u128{sl * sl * q} << 24) > (u128{slm * slm * n} << 24) + u128{flat_q8 * n * n * v} * q);
         }
       }
       out[i] = shadow ? kBg : kFg;
@@ -619,23 +616,30 @@ TEST_P(SubtractVariants, ShadowOverFaintTextureStaysShadow) {
   vc_subtract_params_default(&p);
   ASSERT_GT(p.shadow_flat_margin, 0.0);
   ModelPtr m = model_of(bg, p);
-  // Shadows of 0.6 and 0.8 over the faint tiles: scaled copies of it, so the texture scaled per
-  // channel explains them better than a flat patch, and both window tests leave them shadow.
+  // Shadows of 0.6 and 0.8 over the faint tiles: scaled copies of it, so the tiles' luminance scaled
+  // explains them better than a flat patch, and both window tests leave them shadow.
   for (double factor : {0.6, 0.8}) {
     const std::vector<uint8_t> frame = render_frame(rng, [&](int x, int y, int c) {
       const bool in = x >= 20 && x < 70 && y >= 15 && y < 55;
       return bg[(static_cast<size_t>(y) * kW + x) * 3 + c] * (in ? factor : 1.0);
     });
-    const std::vector<uint8_t> mask = run(m, frame);
+    std::vector<uint8_t> mask = run(m, frame);
     EXPECT_LE(fg_share(mask, 20, 15, 70, 55), 0.01) << "shadow factor " << factor;
     EXPECT_LE(fg_share(mask, 0, 0, kW, kH), 0.005) << "shadow factor " << factor;
-    // ... and the flat-patch test takes no shadow the texture test alone leaves (at 0.8 that one
-    // calls 0.75 % of it foreground: a few pixels whose window the noise tilts).
+    // ... and the flat-patch test takes hardly any shadow the texture test alone leaves (at 0.8 that
+    // one calls 0.75 % of it foreground: a few pixels whose window the noise tilts; the flat-patch
+    // test on the luminance, one channel, adds up to 0.3 % at 0.6), and what it adds is lone pixels
+    // that the edge's clean-up removes: after it, no more than the texture test alone leaves.
     vc_subtract_params k_only = p;
     k_only.shadow_flat_margin = 0;
     ModelPtr m_k = model_of(bg, k_only);
-    EXPECT_LE(fg_share(mask, 20, 15, 70, 55), fg_share(run(m_k, frame), 20, 15, 70, 55) + 0.001)
+    std::vector<uint8_t> mask_k = run(m_k, frame);
+    EXPECT_LE(fg_share(mask, 20, 15, 70, 55), fg_share(mask_k, 20, 15, 70, 55) + 0.004)
         << "shadow factor " << factor;
+    std::vector<uint8_t> scratch(vc_cleanup_scratch_size(kW));
+    for (std::vector<uint8_t>* mk : {&mask, &mask_k})
+      ASSERT_EQ(vc_cleanup(mk->data(), kW, kH, 1, scratch.data(), scratch.size()), 0);
+    EXPECT_LE(fg_share(mask, 20, 15, 70, 55), fg_share(mask_k, 20, 15, 70, 55)) << "shadow factor " << factor;
   }
 }
 
