@@ -317,6 +317,24 @@ struct Fitter::State {
     return q.z < -0.05 && q.z > -body.spine_m + 0.05 && x * x + y * y < 1;
   }
 
+  // A wrist goal moved out of the torso: a point inside the fitted torso cylinder, from 5 cm below the
+  // neck down to the hip joints (the pelvis is torso too), is moved out along the cylinder's radius
+  // (its height kept) to the cylinder's surface. A hand pressed against the body merges with it in the
+  // images, so its feature is pulled into the body; the hand itself is never inside.
+  Vec3 out_of_torso(const Vec3& p) const {
+    const Mat3& R = l1.R_torso_world;
+    const Vec3 q = glm::transpose(R) * (p - l1.neck_world);
+    if (!(q.z < -0.05 && q.z > -(body.spine_m + body.pelvis_drop_m))) return p;
+    // The wrist's centre lies a forearm's radius off the skin.
+    const double r = body.forearm_radius_m;
+    const double x = q.x / (body.torso_half_width_m + r), y = q.y / (body.torso_half_depth_m + r);
+    const double e = std::sqrt(x * x + y * y);
+    if (e >= 1) return p;
+    // On the axis there is no radial direction: out of the front (where hands are held).
+    const Vec3 out = e > 1e-6 ? Vec3(q.x / e, q.y / e, q.z) : Vec3(0, body.torso_half_depth_m + r, q.z);
+    return l1.neck_world + R * out;
+  }
+
   // Whether p lies inside the other limb of the pair as fitted at t-1 (its own radii): hull there
   // is that limb's, not this one's (legs together, hands crossing).
   bool in_other(int other, const Vec3& p) const {
@@ -789,6 +807,8 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
       predicted = true;
       l1.end_world[li] = s.predict_end(limb, root);
     }
+    // A wrist is never inside the torso (README, "Arms touching the torso").
+    if (is_arm(limb)) l1.end_world[li] = s.out_of_torso(l1.end_world[li]);
   }
   const uint64_t t4 = monotonic_ns();
   s.times.layer1_ns = t4 - t3;

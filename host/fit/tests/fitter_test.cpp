@@ -409,6 +409,52 @@ TEST(Fitter, AHandFeatureInsideTheTorsoIsNotAWrist) {
   EXPECT_LT(sum_fit / 20, 0.1);
 }
 
+// A hand pressed against the body merges with it in the images, and its feature is pulled into the
+// torso, though not deep enough to be taken as lost: the wrist is moved out of the torso.
+TEST(Fitter, AWristFeaturePulledIntoTheTorsoIsMovedOut) {
+  sim::SceneOptions so;
+  so.motion.source = "arms-close";  // hands on the hips first
+  const sim::Scene scene(so);
+  const rig::VoxelGrid grid = *scene.calibration().grid;
+  Fitter fitter(grid, {}, 60);
+  std::mt19937_64 rng(23);
+  const int from = scene.motion().lead_in_frames() + 60, to = from + 20;
+  double sum_fit = 0;
+  int in_torso = 0, feature_in_torso = 0;
+  for (int frame = 0; frame < to; ++frame) {
+    pipeline::Frame f = testing::synthetic_frame(scene, grid, frame, {}, rng);
+    const auto truth = testing::true_pose(scene, frame);
+    const std::vector<sim::Primitive> prims = scene.primitives(frame);
+    auto inside = [&prims](const cv::Vec3d& p) {
+      for (sim::Part part : {sim::Part::chest, sim::Part::abdomen, sim::Part::pelvis})
+        if (prims[static_cast<size_t>(part)].contains(p)) return true;
+      return false;
+    };
+    if (frame >= from) {
+      // The feature 9 cm from the true wrist toward the spine (level): inside the body.
+      const cv::Vec3d w = at(truth, J::r_wrist), spine = 0.5 * (at(truth, J::neck) + at(truth, J::hips));
+      cv::Vec3d in(spine[0] - w[0], spine[1] - w[1], 0);
+      in *= 0.09 / cv::norm(in);
+      for (pipeline::Feature3D& ft : f.features3d)
+        if (ft.feature_id == VC_FEATURE_RIGHT_HAND)
+          for (size_t c = 0; c < 3; ++c) ft.p_world[c] = w[static_cast<int>(c)] + in[static_cast<int>(c)];
+      feature_in_torso += inside(w + in) ? 1 : 0;
+    }
+    const pipeline::Pose pose = fitter.fit(f);
+    if (frame < from) continue;
+    ASSERT_TRUE(pose.valid()) << frame;
+    sum_fit += cv::norm(at(pose, J::r_wrist) - at(truth, J::r_wrist));
+    in_torso += inside(at(pose, J::r_wrist)) ? 1 : 0;
+  }
+  std::printf(
+      "right hand's feature 9 cm into the body for 20 frames (%d of them inside): the fitted wrist %.0f mm, "
+      "%d frames in the torso\n",
+      feature_in_torso, 1000 * sum_fit / 20, in_torso);
+  ASSERT_GE(feature_in_torso, 15);  // the test's premise: the features are inside the body
+  EXPECT_EQ(in_torso, 0);
+  EXPECT_LT(sum_fit / 20, 0.05);
+}
+
 TEST(Fitter, ReinitializesAfterTheHullIsLostAndFitsAgain) {
   sim::SceneOptions so;
   so.motion.source = "walk";
