@@ -863,8 +863,7 @@ void FitStage::process(pipeline::Frame& frame) {
 }
 
 void publish_heading(const pipeline::Pose& pose, uint64_t seq, pipeline::BodyHeading* heading) {
-  if (!heading || (pose.state != pipeline::PoseState::Fitted && pose.state != pipeline::PoseState::Predicted))
-    return;
+  if (!heading || pose.state != pipeline::PoseState::Fitted) return;
   const std::array<double, 9>& R = pose.torso_R_world;  // row-major, columns the performer's axes
   heading->publish(seq, {R[0], R[3], R[6]});
 }

@@ -486,17 +486,19 @@ TEST(Fitter, ReinitializesAfterTheHullIsLostAndFitsAgain) {
 }
 
 // Only a pose fitted to its frame gives the triangulation the body's right: a re-initialized one took
-// its heading from the features' names, the very thing the triangulation checks with it.
+// its heading from the features' names, the very thing the triangulation checks with it, and a
+// predicted one (a limb without its feature) is where the heading went wrong on loaded live takes.
 TEST(FitStage, PublishesTheTorsoRightOfFittedPosesOnly) {
   pipeline::BodyHeading h;
   pipeline::Pose p;
   p.torso_R_world = {0, -1, 0, 1, 0, 0, 0, 0, 1};  // right = world +y
-  for (const pipeline::PoseState s : {pipeline::PoseState::None, pipeline::PoseState::Reinitialized}) {
+  for (const pipeline::PoseState s :
+       {pipeline::PoseState::None, pipeline::PoseState::Predicted, pipeline::PoseState::Reinitialized}) {
     p.state = s;
     publish_heading(p, 5, &h);
     EXPECT_FALSE(h.latest().has_value());
   }
-  p.state = pipeline::PoseState::Predicted;
+  p.state = pipeline::PoseState::Fitted;
   publish_heading(p, 6, &h);
   ASSERT_TRUE(h.latest().has_value());
   EXPECT_EQ(h.latest()->seq, 6u);
