@@ -36,6 +36,7 @@
 #include "voxcap/record/recorder.hpp"
 #include "voxcap/rig/calibration.hpp"
 #include "voxcap/sim/scene.hpp"
+#include "voxcap/triangulate/triangulate_stage.hpp"
 
 namespace vc::cli {
 namespace {
@@ -47,9 +48,34 @@ struct FitArgs {
   std::optional<int> samples, steps, init_frames, reinit_after, predict_frames;
   std::optional<double> span_deg, k, straight_deg, min_cutoff, beta;
   std::string smoothing, body, frames_csv;
-  bool score = false, json = false;
+  bool score = false, json = false, retriangulate = false;
   std::optional<bool> follow_pair_swaps;
 };
+
+// A recorded FEATURES record (one node camera's 2D features) put back into its frame, as the live
+// triangulation stage receives it.
+void add_features(const record::FeatureRecord& r, pipeline::Frame* frame) {
+  pipeline::NodePart* part = nullptr;
+  for (pipeline::NodePart& p : frame->nodes)
+    if (p.node_id == r.node_id) part = &p;
+  if (!part) {
+    frame->nodes.emplace_back();
+    part = &frame->nodes.back();
+    part->node_id = r.node_id;
+  }
+  vc_features msg{};
+  msg.camera = r.camera;
+  for (const record::FeatureRecord::F& f : r.features) {
+    if (msg.feature_count >= VC_PROTO_MAX_FEATURES) break;
+    vc_feature& o = msg.features[msg.feature_count++];
+    o.feature_id = f.id;
+    o.state = f.state;
+    o.u = f.u;
+    o.v = f.v;
+    o.confidence = f.confidence;
+  }
+  part->features.push_back(msg);
+}
 
 config::FittingOptions fitting_options(const config::RigConfig& rig, const FitArgs& a) {
   config::FittingOptions o = rig.fitting;
@@ -175,10 +201,24 @@ void run_fit(const FitArgs& a) {
   if (a.out.empty() && !a.score)
     throw UsageError("fit: --out DIR is required (a new session folder), unless --score");
   if (!a.frames_csv.empty() && !a.score) throw UsageError("fit: --frames-csv needs --score");
+  if (a.retriangulate && (!a.score || !a.out.empty()))
+    throw UsageError("fit: --retriangulate needs --score and no --out (the new 3D features are not written)");
   // The session's own rig.toml and calibration copies: the grid the hulls were carved on.
-  const config::RigConfig rig = session_rig(in, "fit", false);
+  const config::RigConfig rig = session_rig(in, "fit", a.retriangulate);
   const config::FittingOptions options = fitting_options(rig, a);
   fit::Fitter fitter(rig.grid, options, rig.trigger.rate_hz);
+  // --retriangulate: the recorded 2D features triangulated again (host/triangulate, this build's rules),
+  // with the fit's torso right fed back as in the live pipeline; the recorded 3D features are ignored.
+  pipeline::StageContext tctx;
+  tctx.rig = &rig;
+  triangulate::TriangulateStage tri;
+  if (a.retriangulate) {
+    try {
+      tri.configure(tctx);
+    } catch (const std::invalid_argument& e) {
+      throw UsageError(fmt::format("fit --retriangulate: {}", e.what()));
+    }
+  }
 
   // The virtual rig's truth, when scoring: the same scene the edges rendered, on the session's calibration.
   std::optional<VirtualRig> vrig;
@@ -227,9 +267,11 @@ void run_fit(const FitArgs& a) {
   record::PoseRecord pose_rec;
   auto flush = [&] {
     if (!pending) return;
+    if (a.retriangulate) tri.process(frame);
     const uint64_t t0 = vc::monotonic_ns();
     const pipeline::Pose pose = fitter.fit(frame);
     fit_ns += vc::monotonic_ns() - t0;
+    if (a.retriangulate) fit::publish_heading(pose, frame.seq, tctx.body_heading.get());
     if (scorer) {  // offline, the "trigger" is the moment the frame is handed to the fitter
       const fit::StageTimes& st = fitter.times();
       uint64_t l2 = 0;
@@ -256,8 +298,10 @@ void run_fit(const FitArgs& a) {
       frame = record::frame_from_record(*f);
       pending = true;
       append(*f);
+    } else if (const auto* fr = std::get_if<record::FeatureRecord>(&r); fr && a.retriangulate) {
+      if (pending && fr->seq == frame.seq) add_features(*fr, &frame);
     } else if (const auto* f3 = std::get_if<record::Features3DRecord>(&r)) {
-      if (pending && f3->seq == frame.seq) {
+      if (pending && f3->seq == frame.seq && !a.retriangulate) {
         frame.triangulated = true;
         frame.features3d.clear();
         for (const auto& p : f3->features) {
@@ -358,6 +402,10 @@ void add_fit_commands(CLI::App& app) {
   cmd->add_option("--frames-csv", a->frames_csv,
                   "With --score: write every scored frame's per-joint errors (mm) and left/right swaps "
                   "to this CSV");
+  cmd->add_flag("--retriangulate", a->retriangulate,
+                "With --score (no --out): triangulate the recorded 2D features again (this build's "
+                "host/triangulate, the fit's torso right fed back as live) instead of using the recorded "
+                "3D features: a deterministic check of the left/right naming");
   cmd->add_option("--samples", a->samples, "Cylinder samples per limb");
   cmd->add_option("--steps", a->steps, "The method's nu: angles tried per layer-2 search");
   cmd->add_option("--span-deg", a->span_deg, "The method's s: the search covers rho(t-1) +- s degrees");

@@ -874,10 +874,18 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
 void FitStage::configure(const pipeline::StageContext& ctx) {
   if (!ctx.rig) throw std::invalid_argument("fit: no rig configuration");
   fitter_ = std::make_unique<Fitter>(*ctx.rig);
+  heading_ = ctx.body_heading;
 }
 
 void FitStage::process(pipeline::Frame& frame) {
   frame.pose = fitter_->fit(frame);
+  publish_heading(frame.pose, frame.seq, heading_.get());
+}
+
+void publish_heading(const pipeline::Pose& pose, uint64_t seq, pipeline::BodyHeading* heading) {
+  if (!heading || pose.state != pipeline::PoseState::Fitted) return;
+  const std::array<double, 9>& R = pose.torso_R_world;  // row-major, columns the performer's axes
+  heading->publish(seq, {R[0], R[3], R[6]});
 }
 
 }  // namespace vc::fit

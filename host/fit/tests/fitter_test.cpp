@@ -533,6 +533,27 @@ TEST(Fitter, ReinitializesAfterTheHullIsLostAndFitsAgain) {
   EXPECT_LE(1000 * sum_after / n_after, 24);
 }
 
+// Only a pose fitted to its frame gives the triangulation the body's right: a re-initialized one took
+// its heading from the features' names, the very thing the triangulation checks with it, and a
+// predicted one (a limb without its feature) is where the heading went wrong on loaded live takes.
+TEST(FitStage, PublishesTheTorsoRightOfFittedPosesOnly) {
+  pipeline::BodyHeading h;
+  pipeline::Pose p;
+  p.torso_R_world = {0, -1, 0, 1, 0, 0, 0, 0, 1};  // right = world +y
+  for (const pipeline::PoseState s :
+       {pipeline::PoseState::None, pipeline::PoseState::Predicted, pipeline::PoseState::Reinitialized}) {
+    p.state = s;
+    publish_heading(p, 5, &h);
+    EXPECT_FALSE(h.latest().has_value());
+  }
+  p.state = pipeline::PoseState::Fitted;
+  publish_heading(p, 6, &h);
+  ASSERT_TRUE(h.latest().has_value());
+  EXPECT_EQ(h.latest()->seq, 6u);
+  EXPECT_NEAR(h.latest()->right[1], 1.0, 1e-12);
+  publish_heading(p, 7, nullptr);  // no heading to publish to: nothing
+}
+
 TEST(FitStage, FillsThePoseOfEveryFrameAndRefusesBadInput) {
   sim::SceneOptions so;
   so.motion.source = "wave";
@@ -562,6 +583,9 @@ TEST(FitStage, FillsThePoseOfEveryFrameAndRefusesBadInput) {
       EXPECT_LT(f.pose.torso_R_world[0], -0.95);
       EXPECT_LT(f.pose.torso_R_world[4], -0.95);
       EXPECT_GT(f.pose.torso_R_world[8], 0.95);
+      // ... published for the triangulation of the next frames (its check of left and right).
+      const auto h = ctx.body_heading->latest();
+      EXPECT_TRUE(h && h->seq == f.seq && h->right[0] < -0.95) << frame;
       ++fitted;
     }
   }

@@ -6,6 +6,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <condition_variable>
 #include <future>
 #include <mutex>
@@ -262,6 +263,28 @@ TEST(StageRunner, ReportsTimeInProcess) {
   EXPECT_GE(rep.busy_ms_max, rep.busy_ms_mean);
   EXPECT_EQ(rep.overflow, Overflow::Block);
   EXPECT_STREQ(overflow_name(Overflow::DropOldest), "drop-oldest");
+}
+
+// The fit's torso right for the stages before it: level and unit, never going back to an older frame,
+// nothing that has no level direction; one object shared by every copy of a context.
+TEST(BodyHeading, KeepsTheLatestLevelRightAndIsSharedByCopiesOfTheContext) {
+  StageContext a;
+  const StageContext b = a;
+  EXPECT_FALSE(b.body_heading->latest().has_value());
+  a.body_heading->publish(10, {3, 4, 7});
+  auto h = b.body_heading->latest();
+  ASSERT_TRUE(h.has_value());
+  EXPECT_EQ(h->seq, 10u);
+  EXPECT_DOUBLE_EQ(h->right[0], 0.6);
+  EXPECT_DOUBLE_EQ(h->right[1], 0.8);
+  EXPECT_DOUBLE_EQ(h->right[2], 0.0);
+  a.body_heading->publish(9, {1, 0, 0});              // older: ignored
+  a.body_heading->publish(11, {0, 0, 1});             // straight up: no level direction
+  a.body_heading->publish(12, {std::nan(""), 1, 0});  // not finite
+  EXPECT_EQ(b.body_heading->latest()->seq, 10u);
+  a.body_heading->publish(13, {-2, 0, 0});
+  EXPECT_EQ(b.body_heading->latest()->seq, 13u);
+  EXPECT_DOUBLE_EQ(b.body_heading->latest()->right[0], -1.0);
 }
 
 }  // namespace

@@ -26,6 +26,9 @@
 //     by the cameras' kept swaps when at least two cameras whose swap is decided agree, else by the
 //     initialization rule: the performer faces the front cameras, left = up x facing, so the point
 //     further along that direction (from the other point, or from the head) is the left.
+// Then the body's right (the fit's torso right, set_body_right): names that put the right point more
+// than a margin to the left of the left one for kBodyRenameFrames frames in a row are swapped, names
+// that agree by more than the margin are trusted (README, "The body's right").
 // Then each camera's swap is re-decided where its two candidates fit the named points clearly better
 // one way than the other (error ratio below swap_ratio); otherwise it keeps the swap it had.
 //
@@ -50,6 +53,12 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kUncertainCap = 0.45;  // confidence of a point whose left/right naming is not trusted
+// The body's right (README, "The body's right"): a pair's two points count as on their sides when
+// they are this far apart along it (metres; hands: farther than crossed forearms reach, feet: the
+// init pose's stance is 15-25 cm), and names that contradict it this many frames in a row are swapped.
+constexpr double kBodyApartHandsM = 0.30;
+constexpr double kBodyApartFeetM = 0.08;
+constexpr int kBodyRenameFrames = 8;
 
 struct Prepared {
   const rig::Camera* cam = nullptr;
@@ -319,6 +328,39 @@ std::array<pipeline::Feature3D, 5> FeatureTriangulator::process(
   return out;
 }
 
+void FeatureTriangulator::set_body_right(const std::optional<cv::Vec3d>& right) {
+  body_right_.reset();
+  if (!right) return;
+  const cv::Vec3d level((*right)[0], (*right)[1], 0);
+  const double n = cv::norm(level);
+  if (std::isfinite(n) && n > 1e-6) body_right_ = level / n;
+}
+
+void FeatureTriangulator::check_body_right(Pair pair, const cv::Vec3d& a, const cv::Vec3d& b, bool* a_left,
+                                           bool* certain) {
+  PairState& st = pairs_[static_cast<size_t>(pair)];
+  if (!body_right_) {
+    st.against = 0;
+    return;
+  }
+  // How far the point named right is to the right of the one named left, along the body's right.
+  const double lateral = (*a_left ? b - a : a - b).dot(*body_right_);
+  const double apart = pair == Pair::hands ? kBodyApartHandsM : kBodyApartFeetM;
+  if (lateral < -apart) {
+    // Contradicted: untrusted while it lasts (it may be a brief crossing), swapped once it persists.
+    *certain = false;
+    if (++st.against >= kBodyRenameFrames) {
+      *a_left = !*a_left;
+      *certain = true;
+      st.against = 0;
+      ++st.renames;
+    }
+    return;
+  }
+  st.against = 0;
+  if (lateral > apart) *certain = true;  // confirmed by a cue that does not come from the names
+}
+
 void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& frame, Pair pair,
                                      const std::optional<cv::Vec3d>& head,
                                      std::array<pipeline::Feature3D, 5>* out) {
@@ -493,6 +535,7 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
     // naming for the whole take (live `walk` and `squat`), since continuity cannot repair it.
     st.named = certain || found.size() == 2;
   }
+  if (found.size() == 2) check_body_right(pair, found[0].r.p_world, found[1].r.p_world, &a_left, &certain);
   if (!found.empty()) {
     side[a_left ? 0 : 1] = 0;
     if (found.size() == 2) side[a_left ? 1 : 0] = 1;

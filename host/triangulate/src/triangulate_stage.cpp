@@ -1,6 +1,7 @@
 #include "voxcap/triangulate/triangulate_stage.hpp"
 
 #include <algorithm>
+#include <optional>
 #include <stdexcept>
 
 #include "voxcap/config/rig_config.hpp"
@@ -40,6 +41,7 @@ void TriangulateStage::configure(const pipeline::StageContext& ctx) {
     for (const std::string& c : n.cameras) m.rig_camera.push_back(rig.camera_index(c));
     nodes_.push_back(std::move(m));
   }
+  heading_ = ctx.body_heading;
   tri_ =
       std::make_unique<FeatureTriangulator>(rig.calibration.cameras, front_cameras(rig), rig.triangulation);
 }
@@ -68,6 +70,11 @@ void TriangulateStage::process(pipeline::Frame& frame) {
       obs_.push_back(co);
     }
   }
+  std::optional<cv::Vec3d> right;
+  if (heading_)
+    if (const auto h = heading_->latest(); h && h->seq <= frame.seq && frame.seq - h->seq <= kHeadingMaxAge)
+      right = cv::Vec3d(h->right[0], h->right[1], h->right[2]);
+  tri_->set_body_right(right);
   const std::array<pipeline::Feature3D, 5> r = tri_->process(obs_);
   frame.features3d.assign(r.begin(), r.end());
   frame.triangulated = true;

@@ -86,6 +86,14 @@ class FitStage : public pipeline::Stage {
 
  private:
   std::unique_ptr<Fitter> fitter_;
+  std::shared_ptr<pipeline::BodyHeading> heading_;  // the pipeline's: this stage publishes the torso right
 };
+
+// Publishes a fitted pose's torso right (torso_R_world's x column) to `heading`, for the triangulation
+// of later frames to check the hands' and feet's left/right against (host/triangulate/README.md). Only
+// poses fitted to their frame with every feature (Fitted): a re-initialized one took its heading from
+// the features' names, which is what the check must not lean on, and on loaded live takes the heading
+// flipped in stretches of Predicted frames (turn: 217.8 mm with them, 127.1 without).
+void publish_heading(const pipeline::Pose& pose, uint64_t seq, pipeline::BodyHeading* heading);
 
 }  // namespace vc::fit

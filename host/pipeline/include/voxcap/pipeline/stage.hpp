@@ -14,9 +14,11 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 
 #include "voxcap/base/log.hpp"
+#include "voxcap/pipeline/body_heading.hpp"
 #include "voxcap/pipeline/frame.hpp"
 
 namespace vc::config {
@@ -29,6 +31,9 @@ namespace vc::pipeline {
 struct StageContext {
   const config::RigConfig* rig = nullptr;  // the rig being run (nodes, grid, calibration, ...)
   log::Fn log;  // lines are prefixed with the stage's name by the runner; none: spdlog's default logger
+  // The fit's last torso right, shared by every stage of one pipeline (the context is copied to each
+  // stage: they share this one object). The fit publishes it, the triangulation reads it.
+  std::shared_ptr<BodyHeading> body_heading = std::make_shared<BodyHeading>();
 };
 
 class Stage {

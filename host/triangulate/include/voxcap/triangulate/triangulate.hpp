@@ -83,6 +83,13 @@ class FeatureTriangulator {
   // The frame count processed (for tests and figures).
   uint64_t frames() const { return frames_; }
 
+  // The performer's right as the body says, for the frames processed from now on (README, "The
+  // body's right"): a direction in the world (its level part is used), or none. The stage gives the
+  // fit's torso right of a recent frame (pipeline::BodyHeading).
+  void set_body_right(const std::optional<cv::Vec3d>& right);
+  // The times a pair was renamed because its names contradicted the body's right.
+  uint64_t body_renames(Pair pair) const { return pairs_[static_cast<size_t>(pair)].renames; }
+
  private:
   struct Track {
     std::optional<cv::Vec3d> last, before;  // the last two positions (before: the frame before last)
@@ -92,7 +99,12 @@ class FeatureTriangulator {
     Track side[2];         // 0: the performer's left, 1: right
     bool named = false;    // left/right have been named (init rule or swap votes) and are followed
     bool certain = false;  // the naming is trusted (confidence not capped)
+    int against = 0;       // frames in a row the names contradicted the body's right, well apart
+    uint64_t renames = 0;  // renamed by the body's right
   };
+  // The body's right check of a pair named A (found point 0) left when `*a_left`: may rename it and
+  // sets *certain (README, "The body's right").
+  void check_body_right(Pair pair, const cv::Vec3d& a, const cv::Vec3d& b, bool* a_left, bool* certain);
 
   void solve_pair(const std::vector<CameraObservations>& frame, Pair pair,
                   const std::optional<cv::Vec3d>& head, std::array<pipeline::Feature3D, 5>* out);
@@ -105,6 +117,7 @@ class FeatureTriangulator {
   Options opt_;
   std::array<PairState, 2> pairs_{};
   std::vector<std::array<int, 2>> swap_;  // per rig camera, per pair: -1, 0, 1
+  std::optional<cv::Vec3d> body_right_;   // unit, level
   uint64_t frames_ = 0;
 };
 

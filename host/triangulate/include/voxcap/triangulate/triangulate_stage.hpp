@@ -15,6 +15,9 @@ namespace vc::triangulate {
 
 class TriangulateStage : public pipeline::Stage {
  public:
+  // The fit's torso right is used while it is at most this many frames older than the frame named.
+  static constexpr uint64_t kHeadingMaxAge = 30;
+
   std::string name() const override { return "triangulate"; }
   void configure(const pipeline::StageContext& ctx) override;
   void process(pipeline::Frame& frame) override;
@@ -29,7 +32,8 @@ class TriangulateStage : public pipeline::Stage {
   };
   std::vector<NodeMap> nodes_;
   std::unique_ptr<FeatureTriangulator> tri_;
-  std::vector<CameraObservations> obs_;  // kept: no allocation per frame after the first
+  std::vector<CameraObservations> obs_;             // kept: no allocation per frame after the first
+  std::shared_ptr<pipeline::BodyHeading> heading_;  // the fit's torso right (the pipeline's), or null
 };
 
 // The rig camera index of node `node_id`'s camera `camera` in `rig`, or -1.
