@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <vector>
 
 #include <opencv2/imgproc.hpp>
 #include <opencv2/video/tracking.hpp>
@@ -90,6 +91,8 @@ constexpr double kClosing = 0.02;
 constexpr int kArrival = 15;
 // The confidence factor of a window whose centre is within ambiguous_near of another's.
 constexpr double kNearConfidence = 0.3;  // frames since the two were apart (farther than ambiguous_far)
+// The confidence of a window re-acquired from a blob its lost sibling could have been, until settled.
+constexpr float kDoubtConfidence = 0.3f;
 // Two touching windows split their blob's pixels (clear_others()) only while each holds at least this
 // share of its reference mass: both parts are in view.
 constexpr double kSideBySideMass = 0.7;
@@ -345,9 +348,15 @@ void CameraTracker::lose(int f) {
     t.pred_uv = t.predicted_uv(t.amb_frames);
     t.pred_centre = t.predicted_centre(t.amb_frames);
     Track& o = tracks_[static_cast<std::size_t>(t.partner)];
+    // Which of the two the other holds is not known: its confidence ramps up again; of two alike (the
+    // hands, the feet) it is in doubt until f's re-acquisition settles which is which (settle_doubt()).
+    if (feature_kind(f) == feature_kind(t.partner)) {
+      o.doubt = true;
+      o.doubt_pred = o.predicted_centre(o.amb_frames);
+    }
     o.partner = -1;
     o.amb_frames = 0;
-    o.since_recovery = 0;  // which of the two it holds is not known: its confidence ramps up again
+    o.since_recovery = 0;
   } else {
     t.pred_uv = t.uv;
     t.pred_centre = t.centre;
@@ -355,6 +364,7 @@ void CameraTracker::lose(int f) {
   }
   t.partner = -1;
   t.amb_frames = 0;
+  t.doubt = false;
   t.active = false;
   t.lost_frames = 0;
   t.confidence = 0;
@@ -736,21 +746,56 @@ void CameraTracker::part(int a, int b) {
   const double keep = cv::norm(ta.centre - pa) + cv::norm(tb.centre - pb);
   const double swap = cv::norm(ta.centre - pb) + cv::norm(tb.centre - pa);
   if (swap < opt_.swap_ratio * keep) {
-    std::swap(ta.window, tb.window);
-    std::swap(ta.centre, tb.centre);
-    std::swap(ta.uv, tb.uv);
-    std::swap(ta.ref_mass, tb.ref_mass);
-    std::swap(ta.ref_area, tb.ref_area);
-    std::swap(ta.confidence, tb.confidence);
-    swaps_++;
+    swap_windows(a, b);
   } else if (!(keep < opt_.swap_ratio * swap)) {
-    ta.since_recovery = tb.since_recovery = 0;  // neither fits clearly: weigh both low for a while
+    // Neither fits clearly: which holds which is not known. Of two different parts (a hand by the head)
+    // weigh both low for a while; of two alike (the hands, the feet) both are in doubt until a
+    // re-acquisition settles it (settle_doubt()).
+    ta.since_recovery = tb.since_recovery = 0;
+    if (feature_kind(a) == feature_kind(b)) {
+      ta.doubt = tb.doubt = true;
+      ta.doubt_pred = pa;
+      tb.doubt_pred = pb;
+    }
   }
   // Each moves on as it moved before they met.
   ta.velocity = ta.pred_velocity;
   tb.velocity = tb.pred_velocity;
   ta.partner = tb.partner = -1;
   ta.amb_frames = tb.amb_frames = 0;
+}
+
+void CameraTracker::swap_windows(int a, int b) {
+  Track& ta = tracks_[static_cast<std::size_t>(a)];
+  Track& tb = tracks_[static_cast<std::size_t>(b)];
+  std::swap(ta.window, tb.window);
+  std::swap(ta.centre, tb.centre);
+  std::swap(ta.uv, tb.uv);
+  std::swap(ta.ref_mass, tb.ref_mass);
+  std::swap(ta.ref_area, tb.ref_area);
+  std::swap(ta.confidence, tb.confidence);
+  std::swap(ta.velocity, tb.velocity);
+  swaps_++;
+}
+
+// Feature a holds a window in doubt (re-acquired while its sibling b was lost, from a blob b could have
+// been, or left alone when its ambiguous partner b was lost) and b has just been re-acquired, expected
+// at pb: the doubt is settled only when the windows clearly fit the features they are with (each near
+// where it was expected, as two hands parting in part()). Any other verdict, a clear swap included,
+// leaves both in doubt: the expectations are those of windows whose identity was already unsure (on
+// walk and cross a swap here was wrong more often than right).
+void CameraTracker::settle_doubt(int a, int b, cv::Point2f pb) {
+  Track& ta = tracks_[static_cast<std::size_t>(a)];
+  Track& tb = tracks_[static_cast<std::size_t>(b)];
+  const cv::Point2f pa = ta.doubt_pred;
+  const double keep = cv::norm(ta.centre - pa) + cv::norm(tb.centre - pb);
+  const double swap = cv::norm(ta.centre - pb) + cv::norm(tb.centre - pa);
+  if (keep < opt_.swap_ratio * swap) {
+    ta.doubt = tb.doubt = false;
+    return;
+  }
+  tb.doubt = true;
+  tb.doubt_pred = pb;
 }
 
 void CameraTracker::reacquire(const cv::Mat3b& rgb, const cv::Mat1b& mask) {
@@ -762,34 +807,70 @@ void CameraTracker::reacquire(const cv::Mat3b& rgb, const cv::Mat1b& mask) {
   cv::Mat1b blobs = blobs_(roi);
   cv::compare(prob_(roi), opt_.prob_threshold, blobs, cv::CMP_GT);
   const int n = cv::connectedComponentsWithStats(blobs, labels_, stats_, centroids_, 8, CV_32S);
-  std::array<bool, 64> taken{};
+  // Every lost feature's candidate blobs (not held by an active window, within its reach of its
+  // prediction); each feature in turn takes its nearest blob not taken yet.
+  struct Candidate {
+    double d;
+    int f, k;
+  };
+  std::vector<Candidate> cands;
+  auto reach_of = [&](const Track& t) {
+    return std::min(opt_.reach_px + opt_.reach_grow * t.lost_frames, 0.5 * double(image.width)) +
+           std::max(t.window.width, t.window.height);
+  };
+  auto blob_box = [&](int k) {
+    return cv::Rect(stats_(k, cv::CC_STAT_LEFT) + roi.x, stats_(k, cv::CC_STAT_TOP) + roi.y,
+                    stats_(k, cv::CC_STAT_WIDTH), stats_(k, cv::CC_STAT_HEIGHT));
+  };
+  std::array<bool, 64> held{};
+  for (int k = 1; k < n && k < int(held.size()); ++k) {
+    const cv::Rect b = blob_box(k);
+    for (const Track& o : tracks_)
+      if (o.active && ((o.window & b).area() > 0)) held[static_cast<std::size_t>(k)] = true;
+  }
   for (int f = 0; f < kFeatures; ++f) {
-    Track& t = tracks_[static_cast<std::size_t>(f)];
+    const Track& t = tracks_[static_cast<std::size_t>(f)];
     if (!t.seen || t.active) continue;
-    const double reach =
-        std::min(opt_.reach_px + opt_.reach_grow * t.lost_frames, 0.5 * double(image.width)) +
-        std::max(t.window.width, t.window.height);
-    int best = -1;
-    double best_d = reach;
-    for (int k = 1; k < n && k < int(taken.size()); ++k) {
-      if (taken[static_cast<std::size_t>(k)]) continue;
+    const double reach = reach_of(t);
+    for (int k = 1; k < n && k < int(held.size()); ++k) {
+      if (held[static_cast<std::size_t>(k)]) continue;
       const int area = stats_(k, cv::CC_STAT_AREA);
       if (area < opt_.min_blob_px || double(area) < 0.15 * t.ref_area) continue;
-      const cv::Rect b(stats_(k, cv::CC_STAT_LEFT) + roi.x, stats_(k, cv::CC_STAT_TOP) + roi.y,
-                       stats_(k, cv::CC_STAT_WIDTH), stats_(k, cv::CC_STAT_HEIGHT));
-      bool held = false;
-      for (const Track& o : tracks_)
-        if (o.active && ((o.window & b).area() > 0)) held = true;
-      if (held) continue;
-      const double d = cv::norm(centre_of(b) - t.predicted_centre(t.lost_frames));
-      if (d < best_d) best_d = d, best = k;
+      const double d = cv::norm(centre_of(blob_box(k)) - t.predicted_centre(t.lost_frames));
+      if (d < reach) cands.push_back({d, f, k});
     }
-    if (best < 0) continue;
-    taken[static_cast<std::size_t>(best)] = true;
-    const cv::Rect b(stats_(best, cv::CC_STAT_LEFT) + roi.x, stats_(best, cv::CC_STAT_TOP) + roi.y,
-                     stats_(best, cv::CC_STAT_WIDTH), stats_(best, cv::CC_STAT_HEIGHT));
-    adopt(f, b, roi, mask, true);
+  }
+  std::sort(cands.begin(), cands.end(), [](const Candidate& a, const Candidate& b) {
+    return a.f < b.f || (a.f == b.f && (a.d < b.d || (a.d == b.d && a.k < b.k)));
+  });
+  std::array<bool, 64> taken{};
+  std::array<cv::Point2f, kFeatures> expected{};
+  for (int f = 0; f < kFeatures; ++f) {
+    const Track& t = tracks_[static_cast<std::size_t>(f)];
+    expected[static_cast<std::size_t>(f)] = t.predicted_centre(t.lost_frames);
+  }
+  std::array<bool, kFeatures> done{};
+  for (const Candidate& c : cands) {
+    if (taken[static_cast<std::size_t>(c.k)] || done[static_cast<std::size_t>(c.f)]) continue;
+    Track& t = tracks_[static_cast<std::size_t>(c.f)];
+    if (t.active) continue;
+    taken[static_cast<std::size_t>(c.k)] = done[static_cast<std::size_t>(c.f)] = true;
+    const cv::Rect b = blob_box(c.k);
+    adopt(c.f, b, roi, mask, true);
     reacquired_++;
+    // The other hand or foot (same colour, same shape): when it is lost too and this blob was within its
+    // reach, the blob may be its part; when it holds a window in doubt, the two are settled now.
+    for (int g = 0; g < kFeatures; ++g) {
+      if (g == c.f || feature_kind(g) != feature_kind(c.f)) continue;
+      Track& o = tracks_[static_cast<std::size_t>(g)];
+      if (o.active && o.doubt) {
+        settle_doubt(g, c.f, expected[static_cast<std::size_t>(c.f)]);
+      } else if (o.seen && !o.active &&
+                 cv::norm(centre_of(b) - expected[static_cast<std::size_t>(g)]) < reach_of(o)) {
+        t.doubt = true;
+        t.doubt_pred = expected[static_cast<std::size_t>(c.f)];
+      }
+    }
   }
 }
 
@@ -842,6 +923,7 @@ void CameraTracker::process(const cv::Mat3b& rgb, const cv::Mat1b& mask, FrameRe
       r.state = FeatureState::tracking;
       r.uv = t.uv;
       r.confidence = std::clamp(t.confidence, 0.0f, 1.0f) * proximity(f);
+      if (t.doubt) r.confidence = std::min(r.confidence, kDoubtConfidence);
     } else if (t.lost_frames <= opt_.predict_frames) {
       r.state = FeatureState::predicted;
       r.uv = t.predicted_uv(t.lost_frames);

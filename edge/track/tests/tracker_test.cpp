@@ -308,6 +308,61 @@ TEST(CameraTrackerAmbiguity, HandsPassingEachOtherKeepTheirIdentity) {
   }
 }
 
+// Two hands that arrive at each other and then lie on top of each other for longer than the ambiguity
+// lasts (ambiguous_max_frames) are decided on the spot, where either assignment fits as well as the
+// other: no tracker can tell which hand leaves upwards. Until something settles it, neither window
+// may be reported confidently (the host would triangulate a confident wrong 2D point half the time).
+TEST(CameraTrackerAmbiguity, HandsThatLayOnEachOtherAreNotConfidentAfterwards) {
+  cv::Mat3b rgb(120, 200, cv::Vec3b(90, 90, 90));
+  cv::Mat1b mask(120, 200, uchar(0));
+  const int w = 10, h = 12, meet = 20, together = 35, apart_speed = 2;
+  // Hand f's top-left corner at frame i: closing in horizontally, on top of each other, then one
+  // leaves upwards and the other downwards from the same place.
+  auto hand = [&](int f, int i) {
+    if (i < meet) return cv::Point(f == 1 ? 40 + 3 * i : 140 - 3 * i, 48);
+    if (i < together) return cv::Point(90, 48);
+    const int dy = apart_speed * (i - together);
+    return cv::Point(90, f == 1 ? 48 - dy : 48 + dy);
+  };
+  auto draw = [&](int i) {
+    rgb.setTo(cv::Vec3b(90, 90, 90));
+    mask.setTo(0);
+    rgb(cv::Rect(10, 50, 180, 8)).setTo(cv::Vec3b(40, 60, 170));  // the arms' cloth
+    mask(cv::Rect(10, 50, 180, 8)).setTo(255);
+    for (int f : {1, 2}) {
+      const cv::Rect r(hand(f, i), cv::Size(w, h));
+      rgb(r).setTo(cv::Vec3b(215, 165, 135));
+      mask(r).setTo(255);
+    }
+  };
+  int frame = 0;
+  Seeder seeder = [&](const cv::Mat1b&, Seeds* s, std::string*) {
+    *s = Seeds{};
+    for (int f : {1, 2})
+      (*s)[static_cast<std::size_t>(f)] = {true, cv::Point2f(hand(f, frame)) + cv::Point2f(0.5f * w, 6)};
+    return true;
+  };
+  TrackerOptions o;
+  o.init_frames = 1;
+  CameraTracker t(o, seeder);
+  FrameReport rep;
+  int tracked_after = 0;
+  for (frame = 0; frame <= together + 20; ++frame) {
+    draw(frame);
+    t.process(rgb, mask, &rep);
+    ASSERT_TRUE(t.initialised());
+    if (frame < together + 3) continue;  // apart by more than a hand's height from here on
+    for (int f : {1, 2}) {
+      const FeatureReport& r = rep[static_cast<std::size_t>(f)];
+      if (r.state != FeatureState::tracking) continue;
+      tracked_after++;
+      EXPECT_LE(r.confidence, 0.5f) << "frame " << frame << " feature " << f
+                                    << ": which hand it holds cannot be known";
+    }
+  }
+  EXPECT_GT(tracked_after, 10);  // both windows go on tracking a hand, only without confidence
+}
+
 TEST_F(Hostile, ANewImageSizeOrAMismatchedMaskStartsAgainWithoutCrashing) {
   draw();
   TrackerOptions o;

@@ -155,6 +155,10 @@ class CameraTracker {
     int amb_frames = 0;
     cv::Point2f pred_uv{0, 0}, pred_centre{0, 0}, pred_velocity{0, 0};
     cv::Point2f prev_uv{0, 0}, prev_centre{0, 0}, prev_velocity{0, 0};  // before this frame's update
+    // Re-acquired from a blob its lost sibling (the other hand or foot) could have been: which of the two
+    // it holds is not known until the sibling is back (settle_doubt()); where it was expected then.
+    bool doubt = false;
+    cv::Point2f doubt_pred{0, 0};
     cv::Point2f predicted_uv(int frames) const;
     cv::Point2f predicted_centre(int frames) const;
   };
@@ -165,6 +169,8 @@ class CameraTracker {
   void resolve_merges();
   void update_ambiguity();
   void part(int a, int b);
+  void swap_windows(int a, int b);
+  void settle_doubt(int a, int b, cv::Point2f pb);
   float proximity(int f) const;
   void reacquire(const cv::Mat3b& rgb, const cv::Mat1b& mask);
   void lose(int f);
