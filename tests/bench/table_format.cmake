@@ -1,4 +1,4 @@
-# Table helpers of the sweep scripts (rig_accuracy.cmake, hull_sweep.cmake); CMake has integer
+# Table helpers of the sweep scripts (rig_accuracy.cmake, hull_sweep.cmake, clip_accuracy.cmake); CMake has integer
 # arithmetic only.
 
 # A fraction as a percentage with one decimal: "0.98765" -> "98.7".
@@ -28,4 +28,31 @@ function(pad text width out)
     math(EXPR n "${n} + 1")
   endwhile()
   set(${out} "${s}" PARENT_SCOPE)
+endfunction()
+
+# One row of the table: printed now (a long sweep shows its progress) and added to the caller's
+# `lines` (written to TABLE by table_finish()).
+function(table_row text)
+  execute_process(COMMAND ${CMAKE_COMMAND} -E echo "${text}")
+  list(APPEND lines "${text}")
+  set(lines "${lines}" PARENT_SCOPE)
+endfunction()
+
+# A row saying why this item failed: the script goes on, and table_finish() exits 1 at the end.
+function(table_failed_row text)
+  execute_process(COMMAND ${CMAKE_COMMAND} -E echo "${text}")
+  list(APPEND lines "${text}")
+  set(lines "${lines}" PARENT_SCOPE)
+  set(failed 1 PARENT_SCOPE)
+endfunction()
+
+# The end of a sweep: the rows written to TABLE when given; exit 1 when any item failed.
+function(table_finish script)
+  if(TABLE)
+    list(JOIN lines "\n" text)
+    file(WRITE "${TABLE}" "${text}\n")
+  endif()
+  if(failed)
+    message(FATAL_ERROR "${script}: some rows failed (rows above)")
+  endif()
 endfunction()
