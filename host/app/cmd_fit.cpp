@@ -32,6 +32,7 @@
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/emulated/pose_scorer.hpp"
 #include "voxcap/fit/fitter.hpp"
+#include "voxcap/record/from_proto.hpp"
 #include "voxcap/record/pose.hpp"
 #include "voxcap/record/recorder.hpp"
 #include "voxcap/rig/calibration.hpp"
@@ -63,18 +64,7 @@ void add_features(const record::FeatureRecord& r, pipeline::Frame* frame) {
     part = &frame->nodes.back();
     part->node_id = r.node_id;
   }
-  vc_features msg{};
-  msg.camera = r.camera;
-  for (const record::FeatureRecord::F& f : r.features) {
-    if (msg.feature_count >= VC_PROTO_MAX_FEATURES) break;
-    vc_feature& o = msg.features[msg.feature_count++];
-    o.feature_id = f.id;
-    o.state = f.state;
-    o.u = f.u;
-    o.v = f.v;
-    o.confidence = f.confidence;
-  }
-  part->features.push_back(msg);
+  part->features.push_back(record::to_proto(r));
 }
 
 config::FittingOptions fitting_options(const config::RigConfig& rig, const FitArgs& a) {

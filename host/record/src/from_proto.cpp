@@ -18,6 +18,17 @@ void to_record(uint16_t node_id, uint64_t seq, const vc_features& msg, FeatureRe
   }
 }
 
+vc_features to_proto(const FeatureRecord& r) {
+  vc_features msg{};
+  msg.camera = r.camera;
+  msg.feature_count = static_cast<uint16_t>(std::min<size_t>(r.features.size(), VC_PROTO_MAX_FEATURES));
+  for (size_t i = 0; i < msg.feature_count; ++i) {
+    const FeatureRecord::F& f = r.features[i];
+    msg.features[i] = {f.id, f.state, f.u, f.v, f.confidence};
+  }
+  return msg;
+}
+
 std::string stats_json(const vc_stats& msg) {
   nlohmann::ordered_json stages = nlohmann::ordered_json::object();
   for (size_t i = 0; i < std::min<size_t>(msg.stage_count, VC_PROTO_MAX_STAGES); ++i) {

@@ -83,12 +83,18 @@ TEST(RecordAlloc, SteadyStateAppendsDoNotAllocate) {
   delete p;
 }
 
-TEST(RecordAlloc, FeaturesFromTheWireMessage) {
+// A FEATURES message of camera 1 with features 0..2 (states alternating, u = 10 i, v = 20 i).
+vc_features three_features() {
   vc_features msg{};
   msg.camera = 1;
   msg.feature_count = 3;
   for (uint16_t i = 0; i < 3; ++i)
     msg.features[i] = {i, static_cast<uint16_t>(i % 2), 10.0f * i, 20.0f * i, 0.5f};
+  return msg;
+}
+
+TEST(RecordAlloc, FeaturesFromTheWireMessage) {
+  vc_features msg = three_features();
   FeatureRecord r;
   to_record(4, 99, msg, &r);
   EXPECT_EQ(r.seq, 99u);
@@ -99,6 +105,24 @@ TEST(RecordAlloc, FeaturesFromTheWireMessage) {
   msg.feature_count = 1000;  // a bad count cannot read past the array
   to_record(4, 99, msg, &r);
   EXPECT_EQ(r.features.size(), static_cast<size_t>(VC_PROTO_MAX_FEATURES));
+}
+
+TEST(RecordAlloc, FeaturesBackToTheWireMessage) {
+  const vc_features msg = three_features();
+  FeatureRecord r;
+  to_record(4, 99, msg, &r);
+  const vc_features back = to_proto(r);
+  EXPECT_EQ(back.camera, 1u);
+  ASSERT_EQ(back.feature_count, 3u);
+  for (uint16_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(back.features[i].feature_id, i);
+    EXPECT_EQ(back.features[i].state, msg.features[i].state);
+    EXPECT_EQ(back.features[i].u, msg.features[i].u);
+    EXPECT_EQ(back.features[i].v, msg.features[i].v);
+    EXPECT_EQ(back.features[i].confidence, msg.features[i].confidence);
+  }
+  r.features.resize(VC_PROTO_MAX_FEATURES + 5);  // a hostile record cannot write past the array
+  EXPECT_EQ(to_proto(r).feature_count, static_cast<uint16_t>(VC_PROTO_MAX_FEATURES));
 }
 
 TEST(RecordAlloc, StatsFromTheWireMessage) {

@@ -1,4 +1,4 @@
-// Records from the wire messages the host receives (proto/include/voxcap/proto.h): what the
+// Records from the wire messages the host receives (and back) (proto/include/voxcap/proto.h): what the
 // aggregator's sink hands to the Recorder for FEATURES and STATS messages. (A merged frame maps onto
 // FrameRecord field by field.)
 #pragma once
@@ -14,6 +14,10 @@ namespace vc::record {
 // Fills *out from a FEATURES message of node `node_id` for frame `seq`. Reuses out->features'
 // capacity (no allocation in steady state); counts above VC_PROTO_MAX_FEATURES are clamped.
 void to_record(uint16_t node_id, uint64_t seq, const vc_features& msg, FeatureRecord* out);
+
+// The FEATURES message a FeatureRecord was made from (its inverse, for re-running the host's
+// triangulation on a recorded session); features beyond VC_PROTO_MAX_FEATURES are left out.
+vc_features to_proto(const FeatureRecord& r);
 
 // A STATS message as JSON text, stages and counters by their protocol names (unknown ids as
 // "stage_<id>" / "counter_<id>"):
