@@ -238,11 +238,21 @@ bool Assembler::add_features(uint16_t node_id, uint64_t seq, uint64_t t_trigger_
   auto node_it = stats_.nodes.find(node_id);
   if (node_it == stats_.nodes.end()) return false;
   NodeCounters& nc = node_it->second;
+  if (features.camera >= VC_PROTO_MAX_CAMERAS) {
+    nc.features_rejected++;
+    return false;
+  }
   if (!trusted(seq, t_trigger_ns, nc)) return false;
   Pending* p = slot(seq, t_trigger_ns, now_ns, out, nc.features_late);
   if (!p) return false;
   pipeline::NodePart& part = p->parts[node_id];
   part.node_id = node_id;
+  for (const vc_features& f : part.features) {
+    if (f.camera == features.camera) {  // one per camera and frame: a repeat cannot grow the frame
+      nc.features_rejected++;           // nor count its camera twice in the triangulation
+      return false;
+    }
+  }
   part.features.push_back(features);
   nc.features++;
   return true;

@@ -254,6 +254,8 @@ TEST(Assembler, FeaturesJoinTheFrameOfTheirSeqWithoutHoldingItBack) {
   EXPECT_TRUE(a.add_features(1, 10, 1000, features(0, 1.5f), 0, out));  // before any hull of seq 10
   a.add(hull(1, 10, random_bits(1, 0.5)), 0, out);
   EXPECT_TRUE(a.add_features(1, 10, 1000, features(1, 2.5f), 0, out));
+  EXPECT_FALSE(a.add_features(1, 10, 1000, features(1, 9.5f), 0, out)) << "camera 1 twice for one frame";
+  EXPECT_FALSE(a.add_features(1, 10, 1000, features(VC_PROTO_MAX_CAMERAS, 1), 0, out));
   a.add(hull(2, 10, random_bits(2, 0.5)), 0, out);
   a.add(hull(3, 10, random_bits(3, 0.5)), 0, out);
   ASSERT_EQ(out.size(), 1u) << "complete on the last hull: features are not waited for";
@@ -269,6 +271,7 @@ TEST(Assembler, FeaturesJoinTheFrameOfTheirSeqWithoutHoldingItBack) {
   EXPECT_FALSE(a.add_features(9, 11, 1000, features(0, 0), 0, out)) << "not a configured node";
   EXPECT_EQ(a.stats().nodes.at(1).features, 2u);
   EXPECT_EQ(a.stats().nodes.at(3).features_late, 1u);
+  EXPECT_EQ(a.stats().nodes.at(1).features_rejected, 2u);
 }
 
 TEST(Assembler, FramesCarryEveryNodesPartialHullAndTheStatsThatCameBeforeThem) {

@@ -74,6 +74,7 @@ struct NodeCounters {
   uint64_t rejected = 0;              // wrong grid, wrong size, duplicate, inconsistent RLE
   uint64_t features = 0;              // FEATURES messages that joined a frame
   uint64_t features_late = 0;         // FEATURES for a frame already resolved
+  uint64_t features_rejected = 0;     // a second one of a camera for a frame, or a camera >= 8
   uint64_t silhouettes = 0;           // SILHOUETTEs that joined a frame
   uint64_t silhouettes_late = 0;      // SILHOUETTEs for a frame already resolved (or older than all kept)
   uint64_t silhouettes_rejected = 0;  // a second one of a camera for a frame, or a camera >= 8
