@@ -46,7 +46,9 @@ int main(int argc, char** argv) {
     try {
       app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-      return app.exit(e);
+      if (e.get_exit_code() == static_cast<int>(CLI::ExitCodes::Success)) return app.exit(e);  // --help
+      std::fprintf(stderr, "voxcap-host: %s (see --help)\n", e.what());  // bad input: one line, exit 2
+      return 2;
     }
     std::filesystem::path path =
         config.empty() ? vc::config::default_rig_config_path() : std::filesystem::path(config);
@@ -76,8 +78,7 @@ int main(int argc, char** argv) {
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     agg.start();
-    const std::filesystem::path session_dir =
-        recording ? recording->dir() : viewer->recorder()->state().dir;
+    const std::filesystem::path session_dir = recording ? recording->dir() : viewer->recorder()->state().dir;
     fmt::print("voxcap-host: recording to {}\n", session_dir.string());
     auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds > 0 ? seconds : 1e12);
     while (!g_stop && std::chrono::steady_clock::now() < end)

@@ -79,7 +79,7 @@ file(WRITE ${WORK}/keyless_name.toml "${text}")
 set(bad_inputs unknown_subcommand unknown_option bench_repeats_0 grid600 nan_toml fifo_toml wide_yaml
     nested_yaml fifo_session edge_node_id edge_port edge_size bvh_1e308 rig_bvh_scale key_missing key_open
     key_malformed rig_key_open host_key_open keyless_any keyless_name key_new_exists key_check_open
-    rig_vmc demo_vmc vmc_toml)
+    rig_vmc demo_vmc vmc_toml host_unknown_option host_view_port)
 set(cmd_key_new_exists ${VOXCAP} key new ${WORK}/bad.key)
 set(expect_key_new_exists "bad.key: File exists \\(use --force to replace it\\)")
 set(cmd_key_check_open ${VOXCAP} key check ${WORK}/open.key)
@@ -94,6 +94,10 @@ set(cmd_rig_key_open ${VOXCAP} rig --config ${WORK}/key_open.toml --seconds 0.1 
 set(expect_rig_key_open "key: key file .*open.key: mode 644")
 set(cmd_host_key_open ${bin}/voxcap-host --config ${WORK}/key_open.toml --seconds 0.1)
 set(expect_host_key_open "key: key file .*open.key: mode 644")
+set(cmd_host_unknown_option ${bin}/voxcap-host --bogus)
+set(expect_host_unknown_option "voxcap-host: The following argument was not expected: --bogus")
+set(cmd_host_view_port ${bin}/voxcap-host --view-port 70000)
+set(expect_host_view_port "--view-port: Value 70000 not in range 0 to 65535")
 set(cmd_keyless_any ${VOXCAP} config check ${WORK}/keyless_any.toml)
 set(expect_keyless_any "key: a rig without a key may only use loopback addresses")
 set(cmd_keyless_name ${VOXCAP} config check ${WORK}/keyless_name.toml)
