@@ -9,6 +9,7 @@
 #include <glm/matrix.hpp>
 
 #include "voxcap/base/clock.hpp"
+#include "voxcap/fit/heading.hpp"
 
 namespace vc::fit {
 namespace {
@@ -120,6 +121,9 @@ struct Fitter::State {
   std::array<bool, 2> swapped{};
   std::array<uint64_t, 2> swaps{};
   uint64_t one_point_frames = 0;  // a pair's features on one point, one of them taken as lost
+  // The body's own heading (heading.hpp): the feet on the hull, voting on the torso's sign.
+  HeadingVote heading_vote;
+  uint64_t heading_flips = 0;
 
   State(const rig::VoxelGrid& grid, const config::FittingOptions& o, double rate)
       : opt(o), rate_hz(rate > 0 ? rate : 60), hull(grid), pattern(cylinder_sample_pattern(o.samples)) {
@@ -145,6 +149,7 @@ struct Fitter::State {
     yaw_rate = 0;
     turn_candidate_frames = 0;
     swapped = {};
+    heading_vote.reset();
   }
 
   // ---- Torso segmentation: the occupied voxels inside the cylinder placed at (neck, R). ----
@@ -201,7 +206,8 @@ struct Fitter::State {
   // ordered and signed by continuity with R (the previous torso frame). ----
   // `right_hint`: the performer's right as the hands and feet say (level, zero when they do not): the
   // sign of a large turn believed on persistence (the PCA's axis has no sign of its own).
-  Mat3 pca(const Moments& m, const Mat3& R, bool free = false, const Vec3& right_hint = Vec3(0.0)) {
+  Mat3 pca(const Moments& m, const Mat3& R, bool free = false, const Vec3& right_hint = Vec3(0.0),
+           const Vec3& body_right = Vec3(0.0)) {
     double C[3][3];
     for (int r = 0; r < 3; ++r)
       for (int c = 0; c < 3; ++c) C[r][c] = m.cov[r][c];
@@ -239,12 +245,21 @@ struct Fitter::State {
       turn_candidate = xw;
       // Believed only with the hands and feet for a witness: the axis within kHintAgreeDeg of their
       // right, its sign theirs (the PCA's axis has no sign of its own).
-      const bool witnessed = glm::length(right_hint) > 0.05 && glm::length(xw) > 1e-6 &&
-                             std::min(angle_deg(xw, right_hint), angle_deg(-xw, right_hint)) < kHintAgreeDeg;
+      // The feet on the hull (`body_right`, when they tell) witness too, and sign it before the names:
+      // they do not depend on them (a fighting stance turns the feet 45-90 degrees, so either witness
+      // will do).
+      auto agrees = [&xw](const Vec3& h) {
+        return glm::length(h) > 0.05 && glm::length(xw) > 1e-6 &&
+               std::min(angle_deg(xw, h), angle_deg(-xw, h)) < kHintAgreeDeg;
+      };
+      const bool witnessed = agrees(right_hint) || agrees(body_right);
+      const bool body_signs = glm::length(body_right) > 0.05 && glm::length(xw) > 1e-6 &&
+                              std::abs(glm::dot(glm::normalize(xw), glm::normalize(body_right))) > 0.5;
+      const Vec3 sign_by = body_signs ? body_right : right_hint;
       if (turn_candidate_frames < kBelieveTurnFrames || !witnessed) {
         x = glm::normalize(Vec3(1, 0, 0) - z.x * z);
         heading_measured = false;
-      } else if (glm::dot(xw, right_hint) < 0) {
+      } else if (glm::dot(xw, sign_by) < 0) {
         x = -x;
       }
     } else {
@@ -556,8 +571,9 @@ struct Fitter::State {
   // Re-acquire the torso after a failed fit: a wider cylinder below the head, the heading hinted
   // by the feet and hands (else the last one), then a PCA that takes the wider horizontal component
   // for the shoulder line (signed by the hint). Pending until the hull shows a torso.
-  void reacquire(const FeatureSet& f, const std::array<bool, 5>& ok) {
-    Vec3 x = feature_right(f, ok, true);
+  void reacquire(const FeatureSet& f, const std::array<bool, 5>& ok, const FeetCue& cue) {
+    // The feet on the hull first (they do not depend on the names), else the names.
+    Vec3 x = cue.valid ? cue.right() : feature_right(f, ok, true);
     if (glm::length(x) < 0.05) x = level(l1.R_torso_world[0]);
     if (glm::length(x) < 1e-6) x = Vec3(1, 0, 0);
     x = glm::normalize(x);
@@ -576,6 +592,18 @@ struct Fitter::State {
     failing = 0;
     yaw_rate = 0;
     turn_candidate_frames = 0;
+    heading_vote.reset();
+  }
+
+  // The torso turned round (the feet said so): the limbs' histories are in the old frame and on
+  // the wrong sides, so they start again as after a re-acquisition.
+  void turn_round(Mat3* R) {
+    *R = turned_round(*R);
+    l2 = Layer2{};
+    limbs = {};
+    have_last = false;
+    turn_candidate_frames = 0;
+    ++heading_flips;
   }
 };
 
@@ -614,6 +642,9 @@ bool Fitter::pair_swapped(int pair) const {
 
 uint64_t Fitter::late_frames() const {
   return late_frames_;
+}
+uint64_t Fitter::heading_flips() const {
+  return s_->heading_flips;
 }
 
 pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
@@ -669,6 +700,8 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
   };
   for (int pair = 0; pair < 2; ++pair)
     if (s.swapped[static_cast<size_t>(pair)]) swap_pair(pair);
+  // Where the feet point on the hull: the heading cue that does not come from the names.
+  const FeetCue cue = feet_forward(s.hull, f, ok);
 
   pipeline::PoseState state = pipeline::PoseState::Fitted;
   if (!s.initialized) {
@@ -686,11 +719,14 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
       m.body = proportional_body(top);
       const Vec3 z(0, 0, 1);
       Vec3 x(1, 0, 0);
-      if (ok[3] && ok[4] && glm::length(level(f[4] - f[3])) > 0.1) x = glm::normalize(level(f[4] - f[3]));
+      if (cue.valid)
+        x = cue.right();
+      else if (ok[3] && ok[4] && glm::length(level(f[4] - f[3])) > 0.1)
+        x = glm::normalize(level(f[4] - f[3]));
       m.R_torso_world = Mat3(x, glm::cross(z, x), z);
       m.neck_world = f[0] - Vec3(0, 0, m.body.neck_to_head_m);
       s.initialize(m, f[0], &state);
-      s.reacquire(f, ok);
+      s.reacquire(f, ok, cue);
       state = pipeline::PoseState::Fitted;
       --s.body_version;  // reacquire counted one more
     }
@@ -704,13 +740,19 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
   const Vec3 neck_pred = l1.neck_world + shift;
   // The torso frame as predicted for this frame: the last one turned on about the vertical.
   const double cy = std::cos(s.yaw_rate), sy = std::sin(s.yaw_rate);
-  const Mat3 R_pred = Mat3(Vec3(cy, sy, 0), Vec3(-sy, cy, 0), Vec3(0, 0, 1)) * l1.R_torso_world;
+  // Re-acquiring (the hull had no torso when the fit was re-initialized): the feet on the hull, when
+  // they tell, hint the heading the free PCA is signed by, not the names it was re-initialized with.
+  const Mat3 R_pred = s.reacquire_pending && cue.valid
+                          ? Mat3(cue.right(), cue.forward, Vec3(0, 0, 1))
+                          : Mat3(Vec3(cy, sy, 0), Vec3(-sy, cy, 0), Vec3(0, 0, 1)) * l1.R_torso_world;
   const Moments mo = s.segment(neck_pred, R_pred, 1.0);
   const uint64_t t2 = monotonic_ns();
   s.times.segment_ns = t2 - t1;
   const bool torso_ok = mo.n >= std::max(30.0, 0.3 * s.init_torso_voxels);
-  const Mat3 R =
-      torso_ok ? s.pca(mo, R_pred, s.reacquire_pending, State::feature_right(f, ok, true)) : R_pred;
+  // A large turn's witnesses: the names, and the feet on the hull when they tell.
+  Mat3 R = torso_ok ? s.pca(mo, R_pred, s.reacquire_pending, State::feature_right(f, ok, true),
+                            cue.valid ? cue.right() : Vec3(0.0))
+                    : R_pred;
   {  // the turn rate: this frame's turn of the level heading, smoothed; bounded by what is believed
     const Vec3 a = level(l1.R_torso_world[0]), c = level(R[0]);
     const double turn = std::atan2(glm::cross(a, c).z, glm::dot(a, c));
@@ -725,6 +767,9 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
       s.yaw_rate *= 1 - kYawRateGain;
   }
   if (torso_ok) s.reacquire_pending = false;
+  // The torso's sign against the feet (README, "The heading from the body"): turned round when they
+  // point clearly behind it for several frames.
+  if (torso_ok && s.heading_vote.update(R, cue)) s.turn_round(&R);
   const uint64_t t3 = monotonic_ns();
   s.times.pca_ns = t3 - t2;
 
@@ -838,12 +883,15 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
   double confidence = 0.5 * feat + 0.5 * support;
   if (!torso_ok) confidence *= 0.5;
   const bool head_far = ok[0] && glm::length(f[0] - neck) > b.neck_to_head_m + 0.25;
-  // The torso's right against the feet's (they rarely cross): a heading turned the wrong way.
-  const bool heading_wrong = glm::dot(R[0], State::feature_right(f, ok, false)) < -0.05;
+  // A heading turned the wrong way: the torso facing away from where the feet point on the hull;
+  // without that cue, its right against the feet's names (they rarely cross).
+  const bool heading_wrong =
+      cue.valid ? glm::dot(glm::normalize(level(R[1]) + Vec3(1e-9, 0, 0)), cue.forward) < -0.5
+                : glm::dot(R[0], State::feature_right(f, ok, false)) < -0.05;
   const bool failed = !torso_ok || support < 0.3 || head_far || heading_wrong;
   s.failing = failed ? s.failing + 1 : 0;
   if (s.failing >= s.opt.reinit_after_frames) {
-    s.reacquire(f, ok);
+    s.reacquire(f, ok, cue);
     state = pipeline::PoseState::Reinitialized;
   } else if (predicted) {
     state = pipeline::PoseState::Predicted;

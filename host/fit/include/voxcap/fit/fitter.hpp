@@ -67,6 +67,8 @@ class Fitter {
   bool pair_swapped(int pair) const;
   // Frames fitted after a newer one (README: "Frames out of order"), since construction.
   uint64_t late_frames() const;
+  // How often the feet on the hull turned the torso round (README: "The heading from the body").
+  uint64_t heading_flips() const;
 
   struct State;
 
