@@ -32,6 +32,7 @@ constexpr double kDeepInTorso = 0.6;  // a hand feature this deep in the torso c
 constexpr double kOnePointM = 0.06;   // m: a pair's two features this close are one point ...
 constexpr double kOnePointApartM =
     0.2;  // ... that is wrong for one of them when their paths are this far apart
+constexpr double kLumbarLeanDeg = 10;  // the pelvis tilts with the torso's lean beyond this
 
 struct OneEuro {
   bool init = false;
@@ -299,6 +300,21 @@ struct Fitter::State {
       }
     }
     return n;
+  }
+
+  // ---- The pelvis frame (host/fit/README.md, "Legs"): the torso's heading, tilted forward or back
+  // with the torso's lean beyond kLumbarLeanDeg. Bending at the hips (squatting, sitting, picking
+  // something up) the pelvis tilts with the trunk, and the hip joints go back and up with it; the
+  // first few degrees of a lean are the lumbar spine's (and the torso PCA's noise with the arms near
+  // it), so a level pelvis stays level there. No side tilt: the hips stay level left to right. ----
+  static Mat3 pelvis_frame(const Mat3& R_torso) {
+    const Mat3 H = level_heading(R_torso);
+    const Vec3 zt = R_torso[2];
+    const double lean = std::atan2(glm::dot(zt, H[1]), glm::dot(zt, H[2]));  // forward positive
+    const double dz = kLumbarLeanDeg * M_PI / 180;
+    const double p = std::copysign(std::max(0.0, std::abs(lean) - dz), lean);
+    const Vec3 z = std::cos(p) * H[2] + std::sin(p) * H[1], y = std::cos(p) * H[1] - std::sin(p) * H[2];
+    return Mat3(H[0], y, z);
   }
 
   // Whether p lies inside the fitted torso cylinder (at this frame's neck and torso frame).
@@ -741,7 +757,7 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
   }
   const Vec3 head = ok[0] ? f[0] : neck + (l1.head_world - l1.neck_world);
   l1.R_torso_world = R;
-  l1.R_pelvis_world = level_heading(R);
+  l1.R_pelvis_world = s.pelvis_frame(R);
   l1.neck_world = neck;
   l1.head_world = head;
   if (ok[0]) {
