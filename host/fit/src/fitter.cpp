@@ -477,6 +477,31 @@ struct Fitter::State {
     return true;
   }
 
+  // ---- A foot feature against the leg's hull: one off its leg (a drifting or mislabelled track, a
+  // point triangulated from the wrong blobs) leaves the leg's samples outside the hull. Then the leg is
+  // fitted to the hull twice, from the feature and from the end its track predicts (last end + velocity
+  // in the pelvis frame: a feature far off gives the search nothing to find near it), and the end
+  // holding the most samples is taken when it holds kHullBeatsFeature times the feature's. A feature
+  // that lies on its leg is kept as it is. ----
+  Vec3 foot_checked_against_hull(int limb, const Vec3& root, const Vec3& feature) const {
+    const size_t li = static_cast<size_t>(limb);
+    const Mat3& F = limb_frame(l1, limb);
+    const Vec3 bend = F * l2.bend_local[li];
+    const int n_feat = count_limb_at(limb, root, feature, bend);
+    if (n_feat >= kFeatureSupport * static_cast<double>(samples.size())) return feature;
+    Vec3 best = feature;
+    double need = kHullBeatsFeature * n_feat;
+    const Vec3 e = fit_end_to_hull(limb, root, feature);
+    const int n_e = count_limb_at(limb, root, e, bend);
+    if (n_e > need) best = e, need = n_e;
+    const LimbTrack& t = limbs[li];
+    if (t.have && t.lost == 0) {
+      const Vec3 p = fit_end_to_hull(limb, root, root + F * (t.last_local + t.vel_local));
+      if (count_limb_at(limb, root, p, bend) > need) best = p;
+    }
+    return best;
+  }
+
   // ---- A limb without a usable feature: predicted in its root's frame, then fitted to the hull
   // by turning the layer-1 segment up to +-20 degrees about two axes. ----
   Vec3 predict_end(int limb, const Vec3& root) {
@@ -802,22 +827,16 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
     const bool good = ok[li + 1] && glm::length(f[li + 1] - root) <= 1.3 * reach + 0.05 &&
                       !(is_arm(limb) && s.deep_in_torso(f[li + 1]));
     if (good) {
-      const Vec3 local = glm::transpose(F) * (f[li + 1] - root);
+      // A foot feature checked against the leg's hull (README, "A foot feature off its leg"). Not the
+      // arms: near the torso or the other arm few of their samples count, and the check moved correct
+      // wrists (README).
+      const Vec3 end = is_arm(limb) ? f[li + 1] : s.foot_checked_against_hull(limb, root, f[li + 1]);
+      const Vec3 local = glm::transpose(F) * (end - root);
       t.vel_local = t.have && t.lost == 0 ? 0.5 * t.vel_local + 0.5 * (local - t.last_local) : Vec3(0.0);
       t.last_local = local;
       t.have = true;
       t.lost = 0;
-      l1.end_world[li] = f[li + 1];
-      // A foot feature checked against the leg's hull: one off its leg (a drifting or mislabelled track)
-      // leaves the leg's samples outside the hull; when the leg fitted to the hull from it holds clearly
-      // more, that end is taken. Not the arms: near the torso or the other arm few of their samples
-      // count, and the check moved correct wrists (README).
-      const Vec3 bend = F * s.l2.bend_local[li];
-      const int n_feat = s.count_limb_at(limb, root, f[li + 1], bend);
-      if (!is_arm(limb) && n_feat < kFeatureSupport * static_cast<double>(s.samples.size())) {
-        const Vec3 e = s.fit_end_to_hull(limb, root, f[li + 1]);
-        if (s.count_limb_at(limb, root, e, bend) > kHullBeatsFeature * n_feat) l1.end_world[li] = e;
-      }
+      l1.end_world[li] = end;
     } else {
       ++t.lost;
       predicted = true;
