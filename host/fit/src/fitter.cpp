@@ -33,6 +33,7 @@ constexpr double kDeepInTorso = 0.6;  // a hand feature this deep in the torso c
 constexpr double kOnePointM = 0.06;   // m: a pair's two features this close are one point ...
 constexpr double kOnePointApartM =
     0.2;  // ... that is wrong for one of them when their paths are this far apart
+constexpr double kLumbarLeanDeg = 10;  // the pelvis tilts with the torso's lean beyond this
 
 struct OneEuro {
   bool init = false;
@@ -316,6 +317,21 @@ struct Fitter::State {
     return n;
   }
 
+  // ---- The pelvis frame (host/fit/README.md, "Legs"): the torso's heading, tilted forward or back
+  // with the torso's lean beyond kLumbarLeanDeg. Bending at the hips (squatting, sitting, picking
+  // something up) the pelvis tilts with the trunk, and the hip joints go back and up with it; the
+  // first few degrees of a lean are the lumbar spine's (and the torso PCA's noise with the arms near
+  // it), so a level pelvis stays level there. No side tilt: the hips stay level left to right. ----
+  static Mat3 pelvis_frame(const Mat3& R_torso) {
+    const Mat3 H = level_heading(R_torso);
+    const Vec3 zt = R_torso[2];
+    const double lean = std::atan2(glm::dot(zt, H[1]), glm::dot(zt, H[2]));  // forward positive
+    const double dz = kLumbarLeanDeg * M_PI / 180;
+    const double p = std::copysign(std::max(0.0, std::abs(lean) - dz), lean);
+    const Vec3 z = std::cos(p) * H[2] + std::sin(p) * H[1], y = std::cos(p) * H[1] - std::sin(p) * H[2];
+    return Mat3(H[0], y, z);
+  }
+
   // Whether p lies inside the fitted torso cylinder (at this frame's neck and torso frame).
   bool inside_torso(const Vec3& p) const {
     const Vec3 q = glm::transpose(l1.R_torso_world) * (p - l1.neck_world);
@@ -474,6 +490,31 @@ struct Fitter::State {
     last[li] = solve_limb(root, end, L1, L2, dir, best_slack);
     track.straight_frames = last[li].bend_rad < straight_rad ? track.straight_frames + 1 : 0;
     return true;
+  }
+
+  // ---- A foot feature against the leg's hull: one off its leg (a drifting or mislabelled track, a
+  // point triangulated from the wrong blobs) leaves the leg's samples outside the hull. Then the leg is
+  // fitted to the hull twice, from the feature and from the end its track predicts (last end + velocity
+  // in the pelvis frame: a feature far off gives the search nothing to find near it), and the end
+  // holding the most samples is taken when it holds kHullBeatsFeature times the feature's. A feature
+  // that lies on its leg is kept as it is. ----
+  Vec3 foot_checked_against_hull(int limb, const Vec3& root, const Vec3& feature) const {
+    const size_t li = static_cast<size_t>(limb);
+    const Mat3& F = limb_frame(l1, limb);
+    const Vec3 bend = F * l2.bend_local[li];
+    const int n_feat = count_limb_at(limb, root, feature, bend);
+    if (n_feat >= kFeatureSupport * static_cast<double>(samples.size())) return feature;
+    Vec3 best = feature;
+    double need = kHullBeatsFeature * n_feat;
+    const Vec3 e = fit_end_to_hull(limb, root, feature);
+    const int n_e = count_limb_at(limb, root, e, bend);
+    if (n_e > need) best = e, need = n_e;
+    const LimbTrack& t = limbs[li];
+    if (t.have && t.lost == 0) {
+      const Vec3 p = fit_end_to_hull(limb, root, root + F * (t.last_local + t.vel_local));
+      if (count_limb_at(limb, root, p, bend) > need) best = p;
+    }
+    return best;
   }
 
   // ---- A limb without a usable feature: predicted in its root's frame, then fitted to the hull
@@ -786,7 +827,7 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
   }
   const Vec3 head = ok[0] ? f[0] : neck + (l1.head_world - l1.neck_world);
   l1.R_torso_world = R;
-  l1.R_pelvis_world = level_heading(R);
+  l1.R_pelvis_world = s.pelvis_frame(R);
   l1.neck_world = neck;
   l1.head_world = head;
   if (ok[0]) {
@@ -831,22 +872,16 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
     const bool good = ok[li + 1] && glm::length(f[li + 1] - root) <= 1.3 * reach + 0.05 &&
                       !(is_arm(limb) && s.deep_in_torso(f[li + 1]));
     if (good) {
-      const Vec3 local = glm::transpose(F) * (f[li + 1] - root);
+      // A foot feature checked against the leg's hull (README, "A foot feature off its leg"). Not the
+      // arms: near the torso or the other arm few of their samples count, and the check moved correct
+      // wrists (README).
+      const Vec3 end = is_arm(limb) ? f[li + 1] : s.foot_checked_against_hull(limb, root, f[li + 1]);
+      const Vec3 local = glm::transpose(F) * (end - root);
       t.vel_local = t.have && t.lost == 0 ? 0.5 * t.vel_local + 0.5 * (local - t.last_local) : Vec3(0.0);
       t.last_local = local;
       t.have = true;
       t.lost = 0;
-      l1.end_world[li] = f[li + 1];
-      // A foot feature checked against the leg's hull: one off its leg (a drifting or mislabelled track)
-      // leaves the leg's samples outside the hull; when the leg fitted to the hull from it holds clearly
-      // more, that end is taken. Not the arms: near the torso or the other arm few of their samples
-      // count, and the check moved correct wrists (README).
-      const Vec3 bend = F * s.l2.bend_local[li];
-      const int n_feat = s.count_limb_at(limb, root, f[li + 1], bend);
-      if (!is_arm(limb) && n_feat < kFeatureSupport * static_cast<double>(s.samples.size())) {
-        const Vec3 e = s.fit_end_to_hull(limb, root, f[li + 1]);
-        if (s.count_limb_at(limb, root, e, bend) > kHullBeatsFeature * n_feat) l1.end_world[li] = e;
-      }
+      l1.end_world[li] = end;
     } else {
       ++t.lost;
       predicted = true;
