@@ -98,10 +98,12 @@ constexpr float kDoubtConfidence = 0.3f;
 constexpr double kSideBySideMass = 0.7;
 // A part waiting to join its sibling (join_siblings()) takes a free skin blob whose centre is within
 // kJoinReach of the sibling window's size from the sibling's centre (the two parted a moment ago) and
-// whose area is at least kJoinArea of the sibling's reference (learnt on the blob of both).
+// whose area is at least kJoinArea of the sibling's reference (learnt on the blob of both); looked for
+// every kJoinEvery frames (a back-projection and a labelling around the sibling: feet that never part
+// in a view would pay it every frame), so a part joins at most kJoinEvery - 1 frames late.
 constexpr double kJoinReach = 2.5;
 constexpr double kJoinArea = 0.15;
-constexpr int kJoinEvery = 3;
+constexpr int kJoinEvery = 6;
 
 }  // namespace
 
@@ -908,7 +910,7 @@ void CameraTracker::join_siblings(const cv::Mat3b& rgb, const cv::Mat1b& mask) {
     const Track& s = tracks_[static_cast<std::size_t>(g)];
     if (!s.active || s.partner >= 0 || s.doubt) continue;
     const int size = std::max(s.window.width, s.window.height);
-    const int r = int(std::ceil(kJoinReach * size)) + size;
+    const int r = int(std::ceil(kJoinReach * size)) + 2;
     const cv::Point2f sc = s.centre;
     const cv::Rect roi = cv::Rect(int(sc.x) - r, int(sc.y) - r, 2 * r + 1, 2 * r + 1) & image;
     if (roi.area() < opt_.min_blob_px) continue;
