@@ -96,6 +96,14 @@ constexpr float kDoubtConfidence = 0.3f;
 // Two touching windows split their blob's pixels (clear_others()) only while each holds at least this
 // share of its reference mass: both parts are in view.
 constexpr double kSideBySideMass = 0.7;
+// A part waiting to join its sibling (join_siblings()) takes a free skin blob whose centre is within
+// kJoinReach of the sibling window's size from the sibling's centre (the two parted a moment ago) and
+// whose area is at least kJoinArea of the sibling's reference (learnt on the blob of both); looked for
+// every kJoinEvery frames (a back-projection and a labelling around the sibling: feet that never part
+// in a view would pay it every frame), so a part joins at most kJoinEvery - 1 frames late.
+constexpr double kJoinReach = 2.5;
+constexpr double kJoinArea = 0.15;
+constexpr int kJoinEvery = 6;
 
 }  // namespace
 
@@ -229,6 +237,7 @@ void CameraTracker::reset() {
   for (auto& m : models_) m.reset();
   pooled_.reset();
   tracks_ = {};
+  join_tick_ = 0;
   for (auto& row : since_apart_) row.fill(1000);
 }
 
@@ -330,12 +339,16 @@ void CameraTracker::start_tracking(const cv::Mat3b& rgb, const cv::Mat1b& mask, 
                      stats_(best, cv::CC_STAT_WIDTH), stats_(best, cv::CC_STAT_HEIGHT));
     adopt(f, b, roi, mask, false);
   }
-  // Two seeds on one blob (e.g. feet together seen from the side): the blob is one feature's only.
+  // Two seeds on one blob (e.g. feet together seen from the side): the blob is one feature's only. Of
+  // two alike parts (the feet, the hands) the other joins once its part is seen apart (join_siblings()).
   for (int a = 0; a < kFeatures; ++a)
     for (int b = a + 1; b < kFeatures; ++b) {
       Track& ta = tracks_[static_cast<std::size_t>(a)];
       Track& tb = tracks_[static_cast<std::size_t>(b)];
-      if (ta.active && tb.active && iou(ta.window, tb.window) > opt_.merge_iou) tb = Track{};
+      if (ta.active && tb.active && iou(ta.window, tb.window) > opt_.merge_iou) {
+        tb = Track{};
+        tb.joins = feature_kind(a) == feature_kind(b);
+      }
     }
   phase_ = Phase::tracking;
 }
@@ -874,6 +887,73 @@ void CameraTracker::reacquire(const cv::Mat3b& rgb, const cv::Mat1b& mask) {
   }
 }
 
+// A foot (or hand) whose seed fell on its sibling's blob at init (the feet together seen from the side,
+// one behind the other: one blob, which the sibling took) was never tracked in this camera, and the
+// sibling's single window followed whichever of the two parts it happened to keep once they parted —
+// in walking, the front foot or the back one, step after step (a confident window on the wrong foot
+// half the time; the other foot never reported). It joins at the first frame a skin blob no window
+// holds lies beside the sibling's window (its centre within kJoinReach of the window's size, at least
+// kJoinArea of the sibling's reference: a part, not a crumb of floor), while the sibling is tracked
+// and not ambiguous. The two are then named by the seeder's rule, the rule that could not be applied
+// at init: by image side as if the camera faced the performer (the performer's left part on the
+// image's right), and both restart their confidence ramp (the sibling's window may just have changed
+// its name). Looked for every kJoinEvery frames, around the sibling only (feet that never part, as
+// in a squat seen from the side, cost a small labelling every few frames).
+void CameraTracker::join_siblings(const cv::Mat3b& rgb, const cv::Mat1b& mask) {
+  if (++join_tick_ % kJoinEvery != 0) return;
+  const cv::Rect image(0, 0, rgb.cols, rgb.rows);
+  for (int f = 0; f < kFeatures; ++f) {
+    if (!tracks_[static_cast<std::size_t>(f)].joins || tracks_[static_cast<std::size_t>(f)].seen) continue;
+    int g = -1;
+    for (int k = 0; k < kFeatures; ++k)
+      if (k != f && feature_kind(k) == feature_kind(f)) g = k;
+    const Track& s = tracks_[static_cast<std::size_t>(g)];
+    if (!s.active || s.partner >= 0 || s.doubt) continue;
+    const int size = std::max(s.window.width, s.window.height);
+    const int r = int(std::ceil(kJoinReach * size)) + 2;
+    const cv::Point2f sc = s.centre;
+    const cv::Rect roi = cv::Rect(int(sc.x) - r, int(sc.y) - r, 2 * r + 1, 2 * r + 1) & image;
+    if (roi.area() < opt_.min_blob_px) continue;
+    prepare(rgb, mask, roi, pooled_);
+    cv::Mat1b blobs = blobs_(roi);
+    cv::compare(prob_(roi), opt_.prob_threshold, blobs, cv::CMP_GT);
+    const int n = cv::connectedComponentsWithStats(blobs, labels_, stats_, centroids_, 8, CV_32S);
+    auto blob_box = [&](int k) {
+      return cv::Rect(stats_(k, cv::CC_STAT_LEFT) + roi.x, stats_(k, cv::CC_STAT_TOP) + roi.y,
+                      stats_(k, cv::CC_STAT_WIDTH), stats_(k, cv::CC_STAT_HEIGHT));
+    };
+    int best = -1;
+    double best_d = kJoinReach * size;
+    for (int k = 1; k < n; ++k) {
+      const int area = stats_(k, cv::CC_STAT_AREA);
+      if (area < opt_.min_blob_px || double(area) < kJoinArea * s.ref_area) continue;
+      const cv::Rect b = blob_box(k);
+      bool held = false;
+      for (const Track& o : tracks_) held |= o.active && (o.window & b).area() > 0;
+      const double d = cv::norm(centre_of(b) - sc);
+      if (!held && d < best_d) best_d = d, best = k;
+    }
+    if (best < 0) continue;
+    {  // the sibling's reference was learnt on the blob of both parts
+      Track& sib = tracks_[static_cast<std::size_t>(g)];
+      sib.ref_mass = std::max(1.0, cv::sum(prob_(sib.window & roi))[0] / 255.0);
+      sib.ref_area = std::max(1, sib.window.area());
+    }
+    adopt(f, blob_box(best), roi, mask, true);
+    tracks_[static_cast<std::size_t>(f)].joins = false;
+    reacquired_++;
+    // Features 1 and 3 are the performer's left hand and foot: the image's right.
+    const int left = std::min(f, g), right = std::max(f, g);
+    if (tracks_[static_cast<std::size_t>(left)].uv.x < tracks_[static_cast<std::size_t>(right)].uv.x)
+      std::swap(tracks_[static_cast<std::size_t>(left)], tracks_[static_cast<std::size_t>(right)]);
+    for (int k : {f, g}) {
+      Track& t = tracks_[static_cast<std::size_t>(k)];
+      t.since_recovery = 0;
+      t.confidence = std::min(t.confidence, 1.0f / float(opt_.recover_frames + 1));
+    }
+  }
+}
+
 void CameraTracker::process(const cv::Mat3b& rgb, const cv::Mat1b& mask, FrameReport* out) {
   *out = FrameReport{};
   if (rgb.empty() || mask.size() != rgb.size()) return;
@@ -904,9 +984,10 @@ void CameraTracker::process(const cv::Mat3b& rgb, const cv::Mat1b& mask, FrameRe
       if (tracks_[static_cast<std::size_t>(f)].active) track_one(f, rgb, mask);
     update_ambiguity();
     resolve_merges();
-    bool any_lost = false;
-    for (const Track& t : tracks_) any_lost |= t.seen && !t.active;
+    bool any_lost = false, any_joins = false;
+    for (const Track& t : tracks_) any_lost |= t.seen && !t.active, any_joins |= t.joins;
     if (any_lost) reacquire(rgb, mask);
+    if (any_joins) join_siblings(rgb, mask);
     for (Track& t : tracks_)
       if (t.seen && !t.active) t.lost_frames++;
   }

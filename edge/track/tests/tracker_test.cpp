@@ -363,6 +363,70 @@ TEST(CameraTrackerAmbiguity, HandsThatLayOnEachOtherAreNotConfidentAfterwards) {
   EXPECT_GT(tracked_after, 10);  // both windows go on tracking a hand, only without confidence
 }
 
+// The feet together seen from the side, one behind the other: one skin blob at init, on which both
+// seeds fall; one foot takes it, the other has no window. When the performer steps, the feet part:
+// the second foot joins from the blob beside its sibling's window, and the two are named by the
+// seeder's rule (the performer's left foot on the image's right), each window on its own foot. Before:
+// the second foot was never tracked in such a view and the lone window kept whichever foot it
+// happened to (the front foot or the back one, step after step).
+TEST(CameraTrackerJoin, AFootSeededOnItsSiblingsBlobJoinsWhenTheFeetPart) {
+  cv::Mat3b rgb(120, 200, cv::Vec3b(90, 90, 90));
+  cv::Mat1b mask(120, 200, uchar(0));
+  const int still = 80, w = 16, start = 6, speed = 2;
+  // The moving foot's left edge at frame i: behind the still one (4 px apart, one blob) until
+  // `start`, then stepping towards the image's right.
+  auto moving_x = [&](int i) { return still + 4 + std::max(0, i - start) * speed; };
+  auto draw = [&](int i) {
+    rgb.setTo(cv::Vec3b(90, 90, 90));
+    mask.setTo(0);
+    for (int x : {still, moving_x(i)}) {
+      rgb(cv::Rect(x + 2, 70, w - 4, 40)).setTo(cv::Vec3b(60, 60, 80));  // the trouser leg
+      mask(cv::Rect(x + 2, 70, w - 4, 40)).setTo(255);
+    }
+    for (int x : {still, moving_x(i)}) {
+      rgb(cv::Rect(x, 110, w, 6)).setTo(cv::Vec3b(215, 165, 135));  // the foot
+      mask(cv::Rect(x, 110, w, 6)).setTo(255);
+    }
+  };
+  Seeder seeder = [&](const cv::Mat1b&, Seeds* s, std::string*) {
+    *s = Seeds{};
+    (*s)[3] = {true, {float(still + 10), 112}};  // both on the one blob
+    (*s)[4] = {true, {float(still + 10), 112}};
+    return true;
+  };
+  TrackerOptions o;
+  o.init_frames = 1;
+  CameraTracker t(o, seeder);
+  FrameReport rep;
+  int frame = 0;
+  for (; frame < start; ++frame) {
+    draw(frame);
+    t.process(rgb, mask, &rep);
+    ASSERT_TRUE(t.initialised());
+  }
+  EXPECT_EQ(rep[4].state, FeatureState::not_visible);  // one blob: one window
+  bool joined = false;
+  for (; frame < start + 30; ++frame) {
+    draw(frame);
+    t.process(rgb, mask, &rep);
+    if (!joined && rep[4].state == FeatureState::tracking) {
+      joined = true;
+      // Both names may just have changed: neither is confident yet.
+      EXPECT_LT(rep[3].confidence, 0.5f) << "frame " << frame;
+      EXPECT_LT(rep[4].confidence, 0.5f) << "frame " << frame;
+    }
+  }
+  ASSERT_TRUE(joined);
+  const float moving_centre = float(moving_x(frame - 1)) + 0.5f * float(w);
+  const float still_centre = float(still) + 0.5f * float(w);
+  for (int f : {3, 4}) EXPECT_EQ(rep[static_cast<std::size_t>(f)].state, FeatureState::tracking) << f;
+  // The performer's left foot (3) is the one on the image's right, here the moving one.
+  EXPECT_LT(std::abs(rep[3].uv.x - moving_centre), 6.0f) << rep[3].uv.x;
+  EXPECT_LT(std::abs(rep[4].uv.x - still_centre), 6.0f) << rep[4].uv.x;
+  EXPECT_GT(rep[3].confidence, 0.5f);
+  EXPECT_GT(rep[4].confidence, 0.5f);
+}
+
 TEST_F(Hostile, ANewImageSizeOrAMismatchedMaskStartsAgainWithoutCrashing) {
   draw();
   TrackerOptions o;

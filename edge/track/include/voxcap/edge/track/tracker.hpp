@@ -35,6 +35,9 @@
 //               within a reach that grows with the frames lost takes the window. A re-acquired feature is
 //               reported `tracking` with its confidence ramping up over `recover_frames` frames, so the
 //               host can weigh it low at first.
+//   join      — a foot or hand whose seed fell on its sibling's blob at init (the feet together seen from
+//               the side: one blob, one window) joins at the first frame a free skin blob lies beside the
+//               sibling's window; the two are then named by the seeder's image-side rule.
 // Identity is kept over time (a tracker never re-decides which hand it follows from the image side);
 // left and right are the seeder's, by image side as if the camera faced the performer. A freshly lost
 // feature is reported `predicted` (constant velocity, low confidence) for `predict_frames` frames, then
@@ -159,6 +162,10 @@ class CameraTracker {
     // it holds is not known until the sibling is back (settle_doubt()); where it was expected then.
     bool doubt = false;
     cv::Point2f doubt_pred{0, 0};
+    // Seeded at init on the blob of its sibling (the other foot or hand: both seen as one, feet together
+    // in a side view), which took it: joined as soon as a blob of its own kind parts from the sibling's
+    // (join_siblings()).
+    bool joins = false;
     cv::Point2f predicted_uv(int frames) const;
     cv::Point2f predicted_centre(int frames) const;
   };
@@ -173,6 +180,8 @@ class CameraTracker {
   void settle_doubt(int a, int b, cv::Point2f pb);
   float proximity(int f) const;
   void reacquire(const cv::Mat3b& rgb, const cv::Mat1b& mask);
+  // The features waiting to join their sibling (Track::joins) take the free skin blob beside it.
+  void join_siblings(const cv::Mat3b& rgb, const cv::Mat1b& mask);
   void lose(int f);
   // HSV and the back-projection of `model` over roi (into hsv_ and prob_ at the same pixels).
   void prepare(const cv::Mat3b& rgb, const cv::Mat1b& mask, const cv::Rect& roi, const ColourModel& model);
@@ -204,6 +213,7 @@ class CameraTracker {
   cv::Mat1i labels_, stats_;
   cv::Mat1d centroids_;
   std::uint64_t losses_ = 0, reacquired_ = 0, swaps_ = 0;
+  std::uint64_t join_tick_ = 0;  // frames with a feature waiting to join (join_siblings())
 };
 
 }  // namespace vc::track
