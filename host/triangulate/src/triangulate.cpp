@@ -22,11 +22,15 @@
 //     positions (extrapolated at constant velocity over one frame) with the smaller summed distance;
 //     when both assignments cost about the same while A and B are far apart (or the naming is not
 //     trusted), the cameras' kept swaps vote (confirm or correct), and without a vote it is untrusted;
+//     Feet only: a point beyond a side's gate (how far a foot moves since it was last seen) is not
+//     that side, and a point beside the other foot is dropped rather than named; with one point seen,
+//     a point away from where a foot stands still (planted) is the other foot;
 //   - when the pair is named afresh (the first frame, or both sides unseen for identity_gap_frames),
 //     by the cameras' kept swaps when at least two cameras whose swap is decided agree, else by the
 //     initialization rule: the performer faces the front cameras, left = up x facing, so the point
 //     further along that direction (from the other point, or from the head) is the left.
-// Then the body's right (the fit's torso right, set_body_right): names that put the right point more
+// Then the body's right (the fit's torso right, set_body_right; feet only while apart more sideways
+// than fore-aft, a stride being turned sideways by the heading's error): names that put the right point more
 // than a margin to the left of the left one for kBodyRenameFrames frames in a row are swapped, names
 // that agree by more than the margin are trusted (README, "The body's right").
 // Then each camera's swap is re-decided where its two candidates fit the named points clearly better
