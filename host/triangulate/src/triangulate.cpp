@@ -22,11 +22,15 @@
 //     positions (extrapolated at constant velocity over one frame) with the smaller summed distance;
 //     when both assignments cost about the same while A and B are far apart (or the naming is not
 //     trusted), the cameras' kept swaps vote (confirm or correct), and without a vote it is untrusted;
+//     Feet only: a point beyond a side's gate (how far a foot moves since it was last seen) is not
+//     that side, and a point beside the other foot is dropped rather than named; with one point seen,
+//     a point away from where a foot stands still (planted) is the other foot;
 //   - when the pair is named afresh (the first frame, or both sides unseen for identity_gap_frames),
 //     by the cameras' kept swaps when at least two cameras whose swap is decided agree, else by the
 //     initialization rule: the performer faces the front cameras, left = up x facing, so the point
 //     further along that direction (from the other point, or from the head) is the left.
-// Then the body's right (the fit's torso right, set_body_right): names that put the right point more
+// Then the body's right (the fit's torso right, set_body_right; feet only while apart more sideways
+// than fore-aft, a stride being turned sideways by the heading's error): names that put the right point more
 // than a margin to the left of the left one for kBodyRenameFrames frames in a row are swapped, names
 // that agree by more than the margin are trusted (README, "The body's right").
 // Then each camera's swap is re-decided where its two candidates fit the named points clearly better
@@ -59,6 +63,17 @@ constexpr double kUncertainCap = 0.45;  // confidence of a point whose left/righ
 constexpr double kBodyApartHandsM = 0.30;
 constexpr double kBodyApartFeetM = 0.08;
 constexpr int kBodyRenameFrames = 8;
+// Continuity's gate (README, "Left and right"): a point farther than this from a side's prediction
+// (metres, plus the per-frame allowance for each frame the side went unseen) is not that side. A foot
+// or hand moves at most ~10 m/s, 17 cm a frame at 60 Hz.
+constexpr double kGateM = 0.25;
+constexpr double kGatePerFrameM = 0.10;
+// A planted foot (README, "Left and right"): seen kPlantedFrames more times within kStillM of where it
+// stands (the mean of those positions, metres; the feet's points scatter by ~5 cm); a single point
+// farther than kPlantedAwayM from it is the other foot.
+constexpr int kPlantedFrames = 3;
+constexpr double kStillM = 0.06;
+constexpr double kPlantedAwayM = 0.12;
 
 struct Prepared {
   const rig::Camera* cam = nullptr;
@@ -344,8 +359,19 @@ void FeatureTriangulator::check_body_right(Pair pair, const cv::Vec3d& a, const 
     return;
   }
   // How far the point named right is to the right of the one named left, along the body's right.
-  const double lateral = (*a_left ? b - a : a - b).dot(*body_right_);
+  const cv::Vec3d d = *a_left ? b - a : a - b;
+  const double lateral = d.dot(*body_right_);
   const double apart = pair == Pair::hands ? kBodyApartHandsM : kBodyApartFeetM;
+  if (pair == Pair::feet) {
+    // Feet apart fore-aft (a stride): a heading error of θ turns a stride s into a lateral offset
+    // s·sin θ (the fit's torso right is 20-30° off for tens of frames in walking), so the body's right
+    // decides only while the feet are at least as far apart sideways as fore-aft.
+    const cv::Vec3d forward = cv::Vec3d(0, 0, 1).cross(*body_right_);
+    if (std::abs(lateral) < std::abs(d.dot(forward))) {
+      st.against = 0;
+      return;
+    }
+  }
   if (lateral < -apart) {
     // Contradicted: untrusted while it lasts (it may be a brief crossing), swapped once it persists.
     *certain = false;
@@ -477,29 +503,79 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
     return 0;
   };
   bool a_left = true;
+  // Feet: a point farther from a side's prediction than a foot can move since that side was last seen
+  // is not that side (README, "Left and right": a second point triangulated on the same foot, or a
+  // track that jumped to the other foot, must not pull the name across): gate(t) metres, or none when
+  // the side has no prediction. Hands are not gated: crossing hands come within centimetres, and their
+  // names are checked against the body's right with a wide margin.
+  auto gate = [&](const Track& t) {
+    return kGateM + kGatePerFrameM * static_cast<double>(now - t.last_frame - 1);
+  };
+  bool gated[2] = {false, false};  // found[k] fits neither side's gate: dropped for this frame
   if (!found.empty() && follow) {
     const std::optional<cv::Vec3d> pl = predicted(st.side[0]), pr = predicted(st.side[1]);
+    const std::optional<cv::Vec3d> pred[2] = {pl, pr};
     auto dist = [](const cv::Vec3d& a, const std::optional<cv::Vec3d>& b) {
       return b ? cv::norm(a - *b) : 0.5;  // an unknown side costs a fixed 0.5 m
     };
+    // fits[k][s]: found[k] may be side s (within its gate, or the side has no prediction).
+    bool fits[2][2] = {{true, true}, {true, true}};
+    for (size_t k = 0; k < found.size(); ++k)
+      for (int s = 0; s < 2; ++s)
+        fits[k][s] =
+            pair != Pair::feet || !pred[s] || cv::norm(found[k].r.p_world - *pred[s]) <= gate(st.side[s]);
+    // One foot seen: a planted foot does not move (during a step only the swinging foot does), so a
+    // point that lies away from where a foot has stood still is the other foot.
+    if (pair == Pair::feet && found.size() == 1)
+      for (int s = 0; s < 2; ++s)
+        if (!stale(st.side[s]) && st.side[s].still >= kPlantedFrames &&
+            cv::norm(found[0].r.p_world - st.side[s].anchor) > kPlantedAwayM)
+          fits[0][s] = false;
     bool clear = true;
     if (found.size() == 2) {
       const cv::Vec3d& A = found[0].r.p_world;
       const cv::Vec3d& B = found[1].r.p_world;
       const double keep = dist(A, pl) + dist(B, pr), swap = dist(A, pr) + dist(B, pl);
-      a_left = keep <= swap;
-      // Far apart but no clear winner: continuity cannot say which is which.
-      const double apart = cv::norm(A - B);
-      clear = std::abs(keep - swap) >= 0.5 * apart || apart <= 0.1;
+      const bool keep_ok = fits[0][0] && fits[1][1], swap_ok = fits[0][1] && fits[1][0];
+      if (keep_ok || swap_ok || (!fits[0][0] && !fits[0][1]) || (!fits[1][0] && !fits[1][1]) || !(pl && pr)) {
+        a_left = keep_ok && swap_ok ? keep <= swap : keep_ok ? true : swap_ok ? false : keep <= swap;
+        // Far apart but no clear winner: continuity cannot say which is which.
+        const double apart = cv::norm(A - B);
+        clear = std::abs(keep - swap) >= 0.5 * apart || apart <= 0.1;
+        if (!keep_ok && !swap_ok && pl && pr) {
+          // One point fits no side: it is dropped and the other named by the side it fits.
+          auto side_of = [&](int k) {
+            if (fits[k][0] && fits[k][1])
+              return dist(found[static_cast<size_t>(k)].r.p_world, pl) <=
+                             dist(found[static_cast<size_t>(k)].r.p_world, pr)
+                         ? 0
+                         : 1;
+            return fits[k][0] ? 0 : 1;
+          };
+          for (int k = 0; k < 2; ++k) gated[k] = !fits[k][0] && !fits[k][1];
+          if (gated[0] && !gated[1]) a_left = side_of(1) == 1;  // B takes the side it fits
+          if (gated[1] && !gated[0]) a_left = side_of(0) == 0;
+        }
+      } else {
+        // Both points fit only the same side (two points on one foot): the nearer one takes it, the
+        // other is dropped.
+        const int s = fits[0][0] ? 0 : 1;
+        const int keep_k = cv::norm(A - *pred[s]) <= cv::norm(B - *pred[s]) ? 0 : 1;
+        gated[1 - keep_k] = true;
+        a_left = (keep_k == 0) == (s == 0);
+      }
     } else {
       const double dl = dist(found[0].r.p_world, pl), dr = dist(found[0].r.p_world, pr);
-      a_left = dl <= dr;
-      clear = !(pl && pr) || std::abs(dl - dr) >= 0.05;
+      a_left = fits[0][0] && fits[0][1] ? dl <= dr : fits[0][0];
+      gated[0] = !fits[0][0] && !fits[0][1];
+      clear = !(pl && pr) || std::abs(dl - dr) >= 0.05 || !(fits[0][0] && fits[0][1]);
     }
     if (!clear || !certain) {
       // Re-check against the cameras' kept swaps: they confirm or correct; without them the naming
       // stays untrusted (continuity alone cannot repair a wrong naming).
-      const int v = vote();
+      int v = gated[0] || gated[1] ? 0 : vote();
+      // The cameras' kept swaps cannot put a point on a side it does not fit.
+      if ((v > 0 && !fits[0][0]) || (v < 0 && !fits[0][1])) v = 0;
       if (v != 0) {
         a_left = v > 0;
         certain = true;
@@ -535,10 +611,11 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
     // naming for the whole take (live `walk` and `squat`), since continuity cannot repair it.
     st.named = certain || found.size() == 2;
   }
-  if (found.size() == 2) check_body_right(pair, found[0].r.p_world, found[1].r.p_world, &a_left, &certain);
+  if (found.size() == 2 && !gated[0] && !gated[1])
+    check_body_right(pair, found[0].r.p_world, found[1].r.p_world, &a_left, &certain);
   if (!found.empty()) {
-    side[a_left ? 0 : 1] = 0;
-    if (found.size() == 2) side[a_left ? 1 : 0] = 1;
+    if (!gated[0]) side[a_left ? 0 : 1] = 0;
+    if (found.size() == 2 && !gated[1]) side[a_left ? 1 : 0] = 1;
   }
   st.certain = certain;
 
@@ -577,6 +654,20 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
     t.before = (t.last && now - t.last_frame == 1) ? t.last : std::nullopt;
     t.last = fd.r.p_world;
     t.last_frame = now;
+    if (t.still > 0 || t.anchor != cv::Vec3d(0, 0, 0)) {
+      if (cv::norm(fd.r.p_world - t.anchor) <= kStillM) {
+        // The anchor is the mean of the positions where it stood (the last 10): one noisy point does
+        // not move it.
+        const double n = std::min(t.still + 1, 10);
+        t.anchor = (n * t.anchor + fd.r.p_world) / (n + 1);
+        ++t.still;
+      } else {
+        t.anchor = fd.r.p_world;
+        t.still = 0;
+      }
+    } else {
+      t.anchor = fd.r.p_world;
+    }
   }
 
   // Re-decide each camera's swap where its candidates fit the named points clearly one way (only

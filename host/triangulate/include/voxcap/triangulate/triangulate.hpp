@@ -94,6 +94,8 @@ class FeatureTriangulator {
   struct Track {
     std::optional<cv::Vec3d> last, before;  // the last two positions (before: the frame before last)
     uint64_t last_frame = 0;                // frame index of `last`
+    cv::Vec3d anchor{0, 0, 0};              // where the side has stood still (first position seen)
+    int still = 0;                          // later positions within kStillM of `anchor`, in a row
   };
   struct PairState {
     Track side[2];         // 0: the performer's left, 1: right
