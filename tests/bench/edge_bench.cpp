@@ -69,12 +69,15 @@ bool EdgeBenchOptions::valid(std::string* why) const {
 
 namespace {
 
+int g_grow_px = -1;  // EdgeBenchOptions::grow_px of the run (parent and child)
+
 // The parameters of the bench's scene: shadows darken the floor by 45 %, noise sigma is 2.
 vc_subtract_params scene_params() {
   vc_subtract_params p;
   vc_subtract_params_default(&p);
   p.t_upper = 60.0;
   p.t_lower = 3.5;
+  if (g_grow_px >= 0) p.grow_px = g_grow_px;
   p.cos2_angular = std::pow(std::cos(8.0 * M_PI / 180.0), 2);
   p.shadow_min_gain = 0.3;
   p.shadow_max_gain = 1.0;
@@ -272,6 +275,7 @@ std::string child_command(const EdgeBenchOptions& o, const std::string& mode, co
   cmd << shell_quote(self) << " edge --grid " << o.grid << " --frames " << o.frames << " --bg-frames "
       << o.bg_frames << " --width " << o.width << " --height " << o.height << " --child " << mode
       << " --frames-file " << shell_quote(frames);
+  if (o.grow_px >= 0) cmd << " --grow-px " << o.grow_px;
   return cmd.str();
 }
 
@@ -303,6 +307,7 @@ json parse_callgrind_dir(const fs::path& dir) {
 
 json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
                           const std::string& frames_file) {
+  g_grow_px = o.grow_px;
   const EdgeScene scene(o.width, o.height, 1);  // cameras only: nothing is rendered here
   const vc_camera cams[2] = {scene.camera_model(0), scene.camera_model(1)};
   const vc_voxel_grid grid = EdgeScene::grid(o.grid);
@@ -388,6 +393,7 @@ json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
 }
 
 json run_edge_bench(const EdgeBenchOptions& o) {
+  g_grow_px = o.grow_px;
   std::string why;
   if (!o.valid(&why)) throw std::invalid_argument(why);
   const EdgeScene scene(o.width, o.height, 20240611);

@@ -339,6 +339,8 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
   vc_subtract_params_default(&params);
   if (opt.shadow_texture_k >= 0) params.shadow_texture_k = opt.shadow_texture_k;
   if (opt.shadow_flat_margin >= 0) params.shadow_flat_margin = opt.shadow_flat_margin;
+  if (opt.grow_px >= 0) params.grow_px = opt.grow_px;
+  if (opt.grow_sigma > 0) params.grow_sigma = opt.grow_sigma;
   char bad[160];
   if (vc_subtract_params_check(&params, bad, sizeof bad) != 0) throw std::invalid_argument(bad);
 
@@ -467,6 +469,8 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
   out["cleanup_radius_px"] = VC_CLEANUP_RADIUS_PX;
   out["shadow_texture_k"] = params.shadow_texture_k;
   out["shadow_flat_margin"] = params.shadow_flat_margin;
+  out["grow_px"] = params.grow_px;
+  out["grow_sigma"] = params.grow_sigma;
   out["cameras"] = per_camera;
   out["overall"] = to_json(all);
   if (hull) out["hull"] = hull->json();

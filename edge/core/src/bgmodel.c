@@ -104,10 +104,22 @@ struct vc_bgmodel {
   uint64_t k2_q8;    /* Q8.8 k^2 of the texture test; 0 = test off */
   uint64_t flat_q8;  /* Q8.8 the flat-patch test's margin, noise variances per pixel; 0 = test off */
   uint16_t floor_q8; /* Q8.8 sigma floor (rounded), grey levels: the texture test's noise floor */
+  int grow_px;       /* the limb-scale cue's steps; 0 = off */
+  uint64_t grow_q8;  /* Q8.8 grow_sigma^2 */
+  uint32_t* queue;   /* [w*h] the cue's pixels to test, each queued once a frame (when it is on) */
+  uint64_t* fgbits;  /* [h+2][vc_fg_stride(w)] the mask's foreground as bits, for the cue's first
+                      * ring: 64 pixels a word, a zero word before and after each row, a zero row
+                      * above and below the image (grow_ring1) */
+  uint8_t* row_any;  /* [h+2] whether a row of fgbits has foreground */
   /* Scratch of vc_subtract's texture test (allocated by set_params when it is on): */
   struct vc_cand* cand; /* [5][w] the candidates of row y (slot y mod 5) with their terms */
   vc_sums* colsum;      /* [w + 4] per column: the candidates' count and sums over the window's rows */
 };
+
+/* Words per row of the cue's foreground bits: the row's and a zero guard on either side. */
+static size_t vc_fg_stride(int w) {
+  return ((size_t)w + 63) / 64 + 2;
+}
 
 void vc_subtract_params_default(vc_subtract_params* params) {
   if (params == NULL) return;
@@ -120,6 +132,8 @@ void vc_subtract_params_default(vc_subtract_params* params) {
   params->sigma_floor = VC_SUBTRACT_SIGMA_FLOOR;
   params->shadow_texture_k = VC_SUBTRACT_SHADOW_TEXTURE_K;
   params->shadow_flat_margin = VC_SUBTRACT_SHADOW_FLAT_MARGIN;
+  params->grow_px = VC_SUBTRACT_GROW_PX;
+  params->grow_sigma = VC_SUBTRACT_GROW_SIGMA;
 }
 
 int vc_subtract_params_check(const vc_subtract_params* p, char* why, size_t why_len) {
@@ -153,6 +167,13 @@ int vc_subtract_params_check(const vc_subtract_params* p, char* why, size_t why_
   } else if (!(p->shadow_flat_margin >= 0.0 && p->shadow_flat_margin <= VC_SUBTRACT_SHADOW_FLAT_MARGIN_MAX)) {
     bad = "shadow_flat_margin must be in [0, 16] (0 = off)";
     got = p->shadow_flat_margin;
+  } else if (!(p->grow_px >= 0.0 && p->grow_px <= VC_SUBTRACT_GROW_PX_MAX &&
+               p->grow_px == floor(p->grow_px))) {
+    bad = "grow_px must be an integer in [0, 64] (0 = off)";
+    got = p->grow_px;
+  } else if (!(p->grow_sigma > 0.0 && p->grow_sigma <= VC_SUBTRACT_GROW_SIGMA_MAX)) {
+    bad = "grow_sigma must be in (0, 16]";
+    got = p->grow_sigma;
   }
   if (bad == NULL) {
     vc_why_clear(why, why_len);
@@ -201,6 +222,9 @@ void vc_bgmodel_free(vc_bgmodel* m) {
   free(m->fhi);
   free(m->cand);
   free(m->colsum);
+  free(m->queue);
+  free(m->fgbits);
+  free(m->row_any);
   free(m);
 }
 
@@ -315,6 +339,22 @@ int vc_bgmodel_set_params(vc_bgmodel* m, const vc_subtract_params* p) {
       return -ENOMEM;
     }
   }
+  m->grow_px = (int)p->grow_px;
+  m->grow_q8 = (uint64_t)llround(p->grow_sigma * p->grow_sigma * 256.0);
+  if (m->grow_px > 0 && m->queue == NULL) {
+    m->queue = malloc((size_t)m->width * (size_t)m->height * sizeof(*m->queue));
+    m->fgbits = calloc(vc_fg_stride(m->width) * ((size_t)m->height + 2), sizeof(*m->fgbits));
+    m->row_any = malloc((size_t)m->height + 2);
+    if (m->queue == NULL || m->fgbits == NULL || m->row_any == NULL) {
+      free(m->queue);
+      free(m->fgbits);
+      free(m->row_any);
+      m->queue = NULL;
+      m->fgbits = NULL;
+      m->row_any = NULL;
+      return -ENOMEM;
+    }
+  }
   m->c2_q24 = (uint64_t)llround(p->cos2_angular * 16777216.0);
   m->glo_q16 = (uint64_t)llround(p->shadow_min_gain * 65536.0);
   m->ghi_q16 = (uint64_t)llround(p->shadow_max_gain * 65536.0);
@@ -370,14 +410,15 @@ static void classify_span(const uint8_t* restrict px, const uint8_t* restrict bl
   }
 }
 
-/* The band pixels (value 1) of out[x0, n) as bits of `bits` (bit i of word i / 64; the words from
- * x0 / 64 on are overwritten, x0 a multiple of 64). A band byte is the only value whose bit 0
- * differs from its bit 1 (0x00 and 0xFF do not), and the multiply gathers the 8 marks of a word. */
-static int band_bits(const uint8_t* out, int x0, int n, uint64_t* bits) {
+/* The band pixels (value 1) of out[x0, n) as bits of `bits` and the foreground ones (0xFF) as bits
+ * of `fg` (bit i of word i / 64; the words from x0 / 64 on are overwritten, x0 a multiple of 64). A
+ * band byte is the only value whose bit 0 differs from its bit 1 (0x00 and 0xFF do not), a
+ * foreground byte the only one with bit 7, and the multiply gathers the 8 marks of a word. */
+static int band_bits(const uint8_t* out, int x0, int n, uint64_t* bits, uint64_t* fg) {
   const uint64_t lsb = 0x0101010101010101ull;
   uint64_t any = 0;
   for (int x = x0; x < n; x += 64) {
-    uint64_t word = 0;
+    uint64_t word = 0, fword = 0;
     for (int k = 0; k < 64 && x + k < n; k += 8) {
       uint64_t w = 0;
       if (n - (x + k) >= 8)
@@ -386,8 +427,10 @@ static int band_bits(const uint8_t* out, int x0, int n, uint64_t* bits) {
         memcpy(&w, out + x + k, (size_t)(n - (x + k)));
       const uint64_t marks = (w ^ (w >> 1)) & lsb;
       word |= ((marks * 0x0102040810204080ull) >> 56) << k;
+      fword |= ((((w >> 7) & lsb) * 0x0102040810204080ull) >> 56) << k;
     }
     bits[x / 64] = word;
+    if (fg != NULL) fg[x / 64] = fword;
     any |= word;
   }
   return any != 0;
@@ -395,9 +438,10 @@ static int band_bits(const uint8_t* out, int x0, int n, uint64_t* bits) {
 
 static int classify_row_generic(const uint8_t* restrict px, const uint8_t* restrict blo,
                                 const uint8_t* restrict flo, const uint8_t* restrict fhi,
-                                uint8_t* restrict out, uint64_t* restrict bits, int n) {
+                                uint8_t* restrict out, uint64_t* restrict bits, uint64_t* restrict fg,
+                                int n) {
   classify_span(px, blo, flo, fhi, out, 0, n);
-  return band_bits(out, 0, n, bits);
+  return band_bits(out, 0, n, bits, fg);
 }
 
 #if VC_HAVE_AVX2_VARIANT
@@ -419,9 +463,12 @@ VC_TARGET_AVX2 static inline __m256i codes32(const uint8_t* p, const uint8_t* b,
                          _mm256_min_epu8(band, _mm256_set1_epi8(1)));
 }
 
-VC_TARGET_AVX2 static int classify_row_avx2(const uint8_t* restrict px, const uint8_t* restrict blo,
-                                            const uint8_t* restrict flo, const uint8_t* restrict fhi,
-                                            uint8_t* restrict out, uint64_t* restrict bits, int n) {
+/* with_fg is a constant in each of the two callers below, so that the loop without the cue's
+ * foreground bits is the one it was before them. */
+VC_TARGET_AVX2 static inline __attribute__((always_inline)) int classify_avx2(
+    const uint8_t* restrict px, const uint8_t* restrict blo, const uint8_t* restrict flo,
+    const uint8_t* restrict fhi, uint8_t* restrict out, uint64_t* restrict bits, uint64_t* restrict fg, int n,
+    const bool with_fg) {
   const __m256i m0 = _mm256_setr_epi8(0, 3, 6, 9, 12, 15, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, /* A */
                                       0, 3, 6, 9, 12, 15, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1);
   const __m256i m1 = _mm256_setr_epi8(-1, -1, -1, -1, -1, -1, 2, 5, 8, 11, 14, -1, -1, -1, -1, -1, /* B */
@@ -453,14 +500,26 @@ VC_TARGET_AVX2 static int classify_row_avx2(const uint8_t* restrict px, const ui
       bits[x / 64] = mb;
     else
       bits[x / 64] |= mb << 32;
+    if (with_fg) { /* 0xFF: the foreground's sign bits, the word's half (little-endian, as x86 is) */
+      const uint32_t fb32 = (uint32_t)_mm256_movemask_epi8(v);
+      memcpy((uint8_t*)fg + x / 8, &fb32, sizeof(fb32));
+    }
     any |= mb;
   }
   if (n32 < n) { /* the last n % 32 pixels: the portable code, from a multiple of 32 */
     const int x64 = n32 & ~63;
     classify_span(px, blo, flo, fhi, out, n32, n);
-    any |= (uint64_t)band_bits(out, x64, n, bits);
+    any |= (uint64_t)band_bits(out, x64, n, bits, fg);
   }
   return any != 0;
+}
+
+VC_TARGET_AVX2 static int classify_row_avx2(const uint8_t* restrict px, const uint8_t* restrict blo,
+                                            const uint8_t* restrict flo, const uint8_t* restrict fhi,
+                                            uint8_t* restrict out, uint64_t* restrict bits,
+                                            uint64_t* restrict fg, int n) {
+  return fg != NULL ? classify_avx2(px, blo, flo, fhi, out, bits, fg, n, true)
+                    : classify_avx2(px, blo, flo, fhi, out, bits, NULL, n, false);
 }
 #endif
 
@@ -473,7 +532,7 @@ VC_TARGET_AVX2 static int classify_row_avx2(const uint8_t* restrict px, const ui
  * weights 1..128 and summed per half. */
 static int classify_row_neon(const uint8_t* restrict px, const uint8_t* restrict blo,
                              const uint8_t* restrict flo, const uint8_t* restrict fhi, uint8_t* restrict out,
-                             uint64_t* restrict bits, int n) {
+                             uint64_t* restrict bits, uint64_t* restrict fgbits, int n) {
   static const uint8_t weights[16] = {1, 2, 4, 8, 16, 32, 64, 128, 1, 2, 4, 8, 16, 32, 64, 128};
   const uint8x16_t wv = vld1q_u8(weights);
   const uint8x16_t one = vdupq_n_u8(1);
@@ -499,12 +558,21 @@ static int classify_row_neon(const uint8_t* restrict px, const uint8_t* restrict
       bits[x / 64] = mb;
     else
       bits[x / 64] |= mb << (x & 63);
+    if (fgbits != NULL) {
+      const uint8x16_t fmarks = vandq_u8(vceqq_u8(v, vdupq_n_u8(0xFF)), wv);
+      const uint64_t fb = (uint64_t)vaddv_u8(vget_low_u8(fmarks)) | (uint64_t)vaddv_u8(vget_high_u8(fmarks))
+                                                                        << 8;
+      if ((x & 63) == 0)
+        fgbits[x / 64] = fb;
+      else
+        fgbits[x / 64] |= fb << (x & 63);
+    }
     any |= mb;
   }
   if (n16 < n) { /* the last n % 16 pixels: the portable code, from a multiple of 16 */
     const int x64 = n16 & ~63;
     classify_span(px, blo, flo, fhi, out, n16, n);
-    any |= (uint64_t)band_bits(out, x64, n, bits);
+    any |= (uint64_t)band_bits(out, x64, n, bits, fgbits);
   }
   return any != 0;
 }
@@ -516,7 +584,7 @@ static int classify_row_neon(const uint8_t* restrict px, const uint8_t* restrict
  * appended to cand[] with its terms. Returns the number of pixels that passed (the candidates);
  * adds the row's band pixels to *band_count. */
 static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mean, uint8_t* out,
-                      const uint64_t* bits, int n, struct vc_cand* cand, uint32_t* band_count) {
+                      const uint64_t* bits, uint64_t* fg, int n, struct vc_cand* cand, uint32_t* band_count) {
   const uint64_t c2 = m->c2_q24, glo = m->glo_q16, ghi = m->ghi_q16;
   int k = 0;
   uint32_t band = 0;
@@ -532,6 +600,7 @@ static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mea
       const unsigned is_shadow =
           ((dot * dot << 24) >= c2 * pp * mm) & (dot16 >= glo * mm) & (dot16 <= ghi * mm);
       out[i] = (uint8_t)(is_shadow - 1u); /* shadow -> 0 (background, or a candidate), else 0xFF */
+      if (!is_shadow && fg != NULL) fg[wi] |= 1ull << (i & 63);
       band++;
       if (cand != NULL && is_shadow) {
         const uint32_t l = (uint32_t)p[0] + p[1] + p[2], lmu = (uint32_t)mu[0] + mu[1] + mu[2];
@@ -594,7 +663,7 @@ static unsigned flat_beats_texture(const vc_sums* s, uint64_t v, uint64_t margin
  * a shadow, which copies it, from a body, which is smoother than it. With fewer than
  * VC_TEXTURE_MIN_PIXELS candidates in the window the per-pixel tests decide (shadow). A candidate
  * that fails becomes foreground. Returns the number of shadows. */
-static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, const uint16_t* sigma_row,
+static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, uint64_t* fg, const uint16_t* sigma_row,
                             const struct vc_cand* cand, int count) {
   const uint64_t k2 = m->k2_q8, fl = m->floor_q8, flat = m->flat_q8;
   const vc_sums* colsum = m->colsum;
@@ -623,9 +692,118 @@ static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, const uint16_t* s
       if (is_shadow && flat != 0) is_shadow = !flat_beats_texture(&s, v, flat);
     }
     out[x] = (uint8_t)(is_shadow - 1u);
+    if (!is_shadow && fg != NULL) fg[x / 64] |= 1ull << (x & 63);
     shadow += is_shadow;
   }
   return shadow;
+}
+
+/* ---- the limb-scale cue (bgmodel.h: grow_px, grow_sigma) ---------------------------------------- */
+
+/* Mask marks while the cue runs: queued (tested or to be), and grown (weak, joined); both end as 0
+ * or 0xFF. Foreground proper is 0xFF, so the scan's neighbour counts see only it. */
+enum { VC_GROW_QUEUED = 1, VC_GROW_WEAK = 0xFE };
+
+/* Whether background pixel i (pixel index; px its colour) is weak: eq. 1's background in every
+ * channel (not a shadow verdict of the band: p >= blo) and |p - mu|^2 >= grow_sigma^2 * sum_c s_c^2
+ * (s_c floored sigma, Q8.8): d2 * 2^24 >= grow_q8 * v_q16, d2 < 2^18, v < 2^34, grow_q8 <= 2^16. */
+static unsigned grow_weak(const vc_bgmodel* m, const uint8_t* px, size_t i) {
+  const uint8_t *mu = m->mean + 3 * i, *blo = m->blo + 3 * i;
+  const uint16_t* sg = m->sigma_q8 + 3 * i;
+  const uint64_t fl = m->floor_q8;
+  uint64_t d2 = 0, v = 0;
+  unsigned in_band = 0;
+  for (int c = 0; c < 3; c++) {
+    const int64_t d = (int64_t)px[c] - mu[c];
+    const uint64_t s = sg[c] > fl ? sg[c] : fl;
+    in_band |= px[c] < blo[c];
+    d2 += (uint64_t)(d * d);
+    v += s * s;
+  }
+  return !in_band & ((d2 << 24) >= m->grow_q8 * v);
+}
+
+/* Queues the first ring: background pixels with at least 2 foreground pixels among their 8
+ * neighbours (an edge of a region, not a lone speckle: a straight edge gives 3, a convex corner 2, a
+ * speckle's neighbour 1), marking them queued. Works on the rows' foreground bits (`fg`: exactly the
+ * mask's 0xFF pixels, 64 a word, `stride` words a row, with a zero word before and after each row
+ * and a zero row above and below the image), from rows whose 3-row neighbourhood has foreground:
+ * the 8 neighbours' bits are shifts of the 3 rows' words, "at least two" two bitwise accumulators.
+ * Returns the count. */
+static size_t grow_ring1(uint8_t* mk, const uint64_t* fg, size_t stride, uint8_t* row_any, int w, int h,
+                         uint32_t* q) {
+  const int words = (w + 63) / 64;
+  const uint64_t last = w % 64 ? ~0ull >> (64 - w % 64) : ~0ull; /* the last word's pixels */
+  size_t n = 0;
+  row_any[0] = row_any[h + 1] = 0; /* the zero rows */
+  for (int y = 0; y < h; y++) {
+    const uint64_t* c = fg + (size_t)(y + 1) * stride + 1;
+    uint64_t any = 0;
+    for (int wi = 0; wi < words; wi++) any |= c[wi];
+    row_any[y + 1] = any != 0;
+  }
+  for (int y = 0; y < h; y++) {
+    if (!(row_any[y] | row_any[y + 1] | row_any[y + 2])) continue;
+    const uint64_t* c = fg + (size_t)(y + 1) * stride + 1;
+    const uint64_t *u = c - stride, *d = c + stride;
+    uint64_t up = 0, cp = 0, dp = 0, uc = u[0], cc = c[0], dc = d[0];
+    for (int wi = 0; wi < words; wi++) {
+      const uint64_t un = u[wi + 1], cn = c[wi + 1], dn = d[wi + 1]; /* the guard word after the row: 0 */
+      if ((uc | cc | dc | ((up | cp | dp) >> 63) | ((un | cn | dn) << 63)) != 0) {
+        const uint64_t nb[8] = {(uc << 1) | (up >> 63),
+                                uc,
+                                (uc >> 1) | (un << 63),
+                                (cc << 1) | (cp >> 63),
+                                (cc >> 1) | (cn << 63),
+                                (dc << 1) | (dp >> 63),
+                                dc,
+                                (dc >> 1) | (dn << 63)};
+        uint64_t ones = 0, twos = 0;
+        for (int k = 0; k < 8; k++) {
+          twos |= ones & nb[k];
+          ones |= nb[k];
+        }
+        uint64_t front = twos & ~cc & (wi + 1 < words ? ~0ull : last);
+        for (; front != 0; front &= front - 1) {
+          const size_t i = (size_t)y * (size_t)w + (size_t)wi * 64 + (size_t)__builtin_ctzll(front);
+          mk[i] = VC_GROW_QUEUED;
+          q[n++] = (uint32_t)i;
+        }
+      }
+      up = uc, uc = un, cp = cc, cc = cn, dp = dc, dc = dn;
+    }
+  }
+  return n;
+}
+
+/* The cue over a finished mask: ring 1 from the scan, then up to grow_px rings of breadth-first
+ * search through weak pixels (4-connected), then the marks back to 0 / 0xFF. Returns the pixels
+ * grown. */
+static uint32_t grow_mask(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t* mk) {
+  const int w = m->width, h = m->height;
+  uint32_t* q = m->queue;
+  size_t n = grow_ring1(mk, m->fgbits, vc_fg_stride(w), m->row_any, w, h, q), head = 0;
+  uint32_t grown = 0;
+  for (int ring = 1; ring <= m->grow_px && head < n; ring++) {
+    const size_t end = n;
+    for (; head < end; head++) {
+      const uint32_t i = q[head];
+      const int y = (int)(i / (uint32_t)w), x = (int)(i - (uint32_t)y * (uint32_t)w);
+      if (!grow_weak(m, rgb + (size_t)y * stride + 3 * (size_t)x, i)) continue;
+      mk[i] = VC_GROW_WEAK;
+      grown++;
+      if (ring == m->grow_px) continue;
+      const uint32_t nb[4] = {i - 1, i + 1, i - (uint32_t)w, i + (uint32_t)w};
+      const unsigned ok[4] = {x > 0, x<w - 1, y> 0, y < h - 1};
+      for (int k = 0; k < 4; k++)
+        if (ok[k] && mk[nb[k]] == 0) {
+          mk[nb[k]] = VC_GROW_QUEUED;
+          q[n++] = nb[k];
+        }
+    }
+  }
+  for (size_t k = 0; k < n; k++) mk[q[k]] = mk[q[k]] == VC_GROW_WEAK ? 0xFF : 0;
+  return grown;
 }
 
 int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t* mask,
@@ -633,7 +811,8 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
   if (m == NULL || rgb == NULL || mask == NULL || stride < (size_t)m->width * 3) return -EINVAL;
   if (!m->ready) return -EAGAIN;
   int (*classify)(const uint8_t* restrict, const uint8_t* restrict, const uint8_t* restrict,
-                  const uint8_t* restrict, uint8_t* restrict, uint64_t* restrict, int) = classify_row_generic;
+                  const uint8_t* restrict, uint8_t* restrict, uint64_t* restrict, uint64_t* restrict, int) =
+      classify_row_generic;
 #if VC_HAVE_AVX2_VARIANT
   if (vc__use_avx2()) classify = classify_row_avx2;
 #endif
@@ -645,6 +824,8 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
   const bool texture = m->k2_q8 != 0 || m->flat_q8 != 0;
   uint64_t bits[VC_MAX_DIM / 64] = {0}; /* the band pixels of the row in pass A and B; pass A
                                          * writes the words of the row, zeroed for the analyser */
+  const bool grow = m->grow_px > 0 && w > 2 && h > 2;
+  const size_t fgs = vc_fg_stride(w);
   uint32_t band = 0, shadow = 0;
   int count[2 * VC_TEXTURE_RADIUS + 1] = {0}; /* candidates of row y in cand slot y mod rows */
   if (texture) memset(m->colsum, 0, (size_t)(w + 2 * r) * sizeof(*m->colsum));
@@ -656,9 +837,10 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
       const size_t off = (size_t)y * row;
       uint8_t* out = mask + (size_t)y * (size_t)w;
       struct vc_cand* cand = texture ? m->cand + (size_t)(y % rows) * (size_t)w : NULL;
+      uint64_t* fg = grow ? m->fgbits + (size_t)(y + 1) * fgs + 1 : NULL;
       int k = 0;
-      if (classify(px, m->blo + off, m->flo + off, m->fhi + off, out, bits, w))
-        k = shadow_row(m, px, m->mean + off, out, bits, w, cand, &band);
+      if (classify(px, m->blo + off, m->flo + off, m->fhi + off, out, bits, fg, w))
+        k = shadow_row(m, px, m->mean + off, out, bits, fg, w, cand, &band);
       if (!texture) {
         shadow += (uint32_t)k;
         continue;
@@ -670,16 +852,19 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
     if (t < 0) continue;
     const struct vc_cand* cand_t = m->cand + (size_t)(t % rows) * (size_t)w;
     shadow +=
-        texture_row(m, mask + (size_t)t * (size_t)w, m->sigma_q8 + (size_t)t * row, cand_t, count[t % rows]);
+        texture_row(m, mask + (size_t)t * (size_t)w, grow ? m->fgbits + (size_t)(t + 1) * fgs + 1 : NULL,
+                    m->sigma_q8 + (size_t)t * row, cand_t, count[t % rows]);
     const int gone = t - r; /* the windows of rows after t no longer reach row t - r */
     if (gone >= 0) {
       colsum_update(m->colsum, m->cand + (size_t)(gone % rows) * (size_t)w, count[gone % rows], false);
       count[gone % rows] = 0;
     }
   }
+  const uint32_t grown = grow ? grow_mask(m, rgb, stride, mask) : 0;
   if (stats != NULL) {
     stats->band = band;
     stats->shadow = shadow;
+    stats->grown = grown;
   }
   return 0;
 }

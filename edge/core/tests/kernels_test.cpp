@@ -114,6 +114,7 @@ TEST_P(KernelVariant, SubtractEqualsGenericBitForBit) {
         p.t_upper = tu(rng);
         p.shadow_texture_k = round == 1 ? 0.0 : 1.5;
         p.shadow_flat_margin = round == 1 ? 0.0 : 0.1;
+        p.grow_px = round == 1 ? 0.0 : 3.0;  // the limb-scale cue's foreground bits from each variant
       }
       ASSERT_EQ(vc_bgmodel_set_params(m.get(), &p), 0);
       const size_t stride = static_cast<size_t>(w) * 3 + static_cast<size_t>(round) * 5;
