@@ -129,6 +129,7 @@ struct EdgePipeline {
   std::vector<uint8_t> mask[2], scratch, bits, rle;
   size_t rle_len = 0;
   vc_subtract_stats sub_stats[2]{};
+  uint32_t grown[2]{};
   vc_carve_stats carve_stats{};
   double carver_setup_ms = 0;
 
@@ -169,8 +170,12 @@ struct EdgePipeline {
   void subtract(int c, const uint8_t* rgb) {
     check(vc_subtract(bg[c].get(), rgb, 3 * size_t(w), mask[c].data(), &sub_stats[c]), "subtract");
   }
-  void cleanup(int c) {
-    check(vc_cleanup(mask[c].data(), w, h, 1, scratch.data(), scratch.size()), "cleanup");
+  // The clean-up and the limb-scale cue after it (vc_mask_frame's second half), on the frame the
+  // mask came from.
+  void cleanup(int c, const uint8_t* rgb) {
+    check(vc_cleanup_grow(bg[c].get(), rgb, 3 * size_t(w), mask[c].data(), 1, scratch.data(), scratch.size(),
+                          &grown[c]),
+          "cleanup");
   }
   void carve() {
     check(vc_carver_run(carver.get(), mask[0].data(), mask[1].data(), bits.data(), &carve_stats), "carve");
@@ -332,7 +337,7 @@ json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
       for (int c = 0; c < 2; c++) {
         reader.next(frame[c]);
         edge.subtract(c, frame[c].data());
-        edge.cleanup(c);
+        edge.cleanup(c, frame[c].data());
       }
       edge.carve();
       edge.encode();
@@ -373,13 +378,13 @@ json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
   stage("cleanup", [&] {
     for (int c = 0; c < 2; c++) {
       edge.mask[c] = raw_mask[c];  // the filter works in place: start from the same input
-      edge.cleanup(c);
+      edge.cleanup(c, frame[c].data());
     }
   });
   stage("copy_masks", [&] {  // what the clean-up stage spends on resetting its input
     for (int c = 0; c < 2; c++) edge.mask[c] = raw_mask[c];
   });
-  for (int c = 0; c < 2; c++) edge.cleanup(c);
+  for (int c = 0; c < 2; c++) edge.cleanup(c, frame[c].data());
   stage("carve", [&] { edge.carve(); });
   for (OtherRule& r : edge.others)
     stage((std::string("carve_") + r.name).c_str(), [&] { edge.carve_other(r); });
@@ -457,7 +462,7 @@ json run_edge_bench(const EdgeBenchOptions& o) {
       edge.subtract(c, fr[size_t(src) * 2 + c].data());
       sub += ns_since(t0);
       t0 = Clock::now();
-      edge.cleanup(c);
+      edge.cleanup(c, fr[size_t(src) * 2 + c].data());
       clean += ns_since(t0);
     }
     auto t0 = Clock::now();

@@ -390,9 +390,11 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
       if (vc_subtract(s.model.get(), rgb.data, rgb.step, s.mask.data(), &st) != 0)
         throw std::runtime_error("vc_subtract failed");
       raw = s.mask;  // before the clean-up, for the lost pixels' causes
-      if (vc_cleanup_radius(s.mask.data(), s.width, s.height, VC_CLEANUP_RADIUS_PX, scratch.data(),
-                            scratch.size()) != 0)
-        throw std::runtime_error("vc_cleanup_radius failed");
+      uint32_t grown = 0;  // vc_mask_frame's second half: the clean-up, then the limb-scale cue
+      if (vc_cleanup_grow(s.model.get(), rgb.data, rgb.step, s.mask.data(), VC_CLEANUP_RADIUS_PX, scratch.data(),
+                          scratch.size(), &grown) != 0)
+        throw std::runtime_error("vc_cleanup_grow failed");
+      st.grown = grown;
       label_parts(scene, f, s.index, sil, &label);
       Counts fc;
       const size_t n = s.mask.size();

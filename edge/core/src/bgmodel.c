@@ -55,6 +55,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "cleanup_bits.h"
 #include "dispatch.h"
 #include "voxcap/why.h"
 
@@ -735,13 +736,7 @@ static size_t grow_ring1(uint8_t* mk, const uint64_t* fg, size_t stride, uint8_t
   const int words = (w + 63) / 64;
   const uint64_t last = w % 64 ? ~0ull >> (64 - w % 64) : ~0ull; /* the last word's pixels */
   size_t n = 0;
-  row_any[0] = row_any[h + 1] = 0; /* the zero rows */
-  for (int y = 0; y < h; y++) {
-    const uint64_t* c = fg + (size_t)(y + 1) * stride + 1;
-    uint64_t any = 0;
-    for (int wi = 0; wi < words; wi++) any |= c[wi];
-    row_any[y + 1] = any != 0;
-  }
+  row_any[0] = row_any[h + 1] = 0; /* the zero rows; the image's rows come from the clean-up */
   for (int y = 0; y < h; y++) {
     if (!(row_any[y] | row_any[y + 1] | row_any[y + 2])) continue;
     const uint64_t* c = fg + (size_t)(y + 1) * stride + 1;
@@ -824,8 +819,6 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
   const bool texture = m->k2_q8 != 0 || m->flat_q8 != 0;
   uint64_t bits[VC_MAX_DIM / 64] = {0}; /* the band pixels of the row in pass A and B; pass A
                                          * writes the words of the row, zeroed for the analyser */
-  const bool grow = m->grow_px > 0 && w > 2 && h > 2;
-  const size_t fgs = vc_fg_stride(w);
   uint32_t band = 0, shadow = 0;
   int count[2 * VC_TEXTURE_RADIUS + 1] = {0}; /* candidates of row y in cand slot y mod rows */
   if (texture) memset(m->colsum, 0, (size_t)(w + 2 * r) * sizeof(*m->colsum));
@@ -837,10 +830,9 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
       const size_t off = (size_t)y * row;
       uint8_t* out = mask + (size_t)y * (size_t)w;
       struct vc_cand* cand = texture ? m->cand + (size_t)(y % rows) * (size_t)w : NULL;
-      uint64_t* fg = grow ? m->fgbits + (size_t)(y + 1) * fgs + 1 : NULL;
       int k = 0;
-      if (classify(px, m->blo + off, m->flo + off, m->fhi + off, out, bits, fg, w))
-        k = shadow_row(m, px, m->mean + off, out, bits, fg, w, cand, &band);
+      if (classify(px, m->blo + off, m->flo + off, m->fhi + off, out, bits, NULL, w))
+        k = shadow_row(m, px, m->mean + off, out, bits, NULL, w, cand, &band);
       if (!texture) {
         shadow += (uint32_t)k;
         continue;
@@ -852,19 +844,43 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
     if (t < 0) continue;
     const struct vc_cand* cand_t = m->cand + (size_t)(t % rows) * (size_t)w;
     shadow +=
-        texture_row(m, mask + (size_t)t * (size_t)w, grow ? m->fgbits + (size_t)(t + 1) * fgs + 1 : NULL,
-                    m->sigma_q8 + (size_t)t * row, cand_t, count[t % rows]);
+        texture_row(m, mask + (size_t)t * (size_t)w, NULL, m->sigma_q8 + (size_t)t * row, cand_t, count[t % rows]);
     const int gone = t - r; /* the windows of rows after t no longer reach row t - r */
     if (gone >= 0) {
       colsum_update(m->colsum, m->cand + (size_t)(gone % rows) * (size_t)w, count[gone % rows], false);
       count[gone % rows] = 0;
     }
   }
-  const uint32_t grown = grow ? grow_mask(m, rgb, stride, mask) : 0;
   if (stats != NULL) {
     stats->band = band;
     stats->shadow = shadow;
-    stats->grown = grown;
+    stats->grown = 0;
   }
   return 0;
+}
+
+int vc_cleanup_grow(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t* mask, int radius,
+                    uint8_t* scratch, size_t scratch_len, uint32_t* grown) {
+  if (grown != NULL) *grown = 0;
+  if (m == NULL || rgb == NULL || mask == NULL || stride < (size_t)m->width * 3) return -EINVAL;
+  if (!m->ready) return -EAGAIN;
+  const int w = m->width, h = m->height;
+  const bool grow = m->grow_px > 0 && w > 2 && h > 2;
+  const size_t fgs = vc_fg_stride(w);
+  const int rc = vc__cleanup_radius_bits(mask, w, h, radius, scratch, scratch_len,
+                                         grow ? m->fgbits + fgs + 1 : NULL, fgs, grow ? m->row_any + 1 : NULL);
+  if (rc < 0 || !grow) return rc;
+  const uint32_t n = grow_mask(m, rgb, stride, mask);
+  if (grown != NULL) *grown = n;
+  return 0;
+}
+
+int vc_mask_frame(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t* mask, int radius,
+                  uint8_t* scratch, size_t scratch_len, vc_subtract_stats* stats) {
+  int rc = vc_subtract(m, rgb, stride, mask, stats);
+  if (rc < 0) return rc;
+  uint32_t grown = 0;
+  rc = vc_cleanup_grow(m, rgb, stride, mask, radius, scratch, scratch_len, &grown);
+  if (stats != NULL) stats->grown = grown;
+  return rc;
 }

@@ -827,7 +827,7 @@ TEST(SubtractParams, GainsAndTextureKAreBounded) {
 
 // ---- the limb-scale cue (grow_px, grow_sigma) -----------------------------------------------------
 
-// The cue of bgmodel.h on a mask the subtraction left without it, in plain loops: the first ring is
+// The cue of bgmodel.h on a clean mask (subtracted and cleaned up without it), in plain loops: the first ring is
 // the background pixels with at least 2 foreground pixels among their 8 neighbours, each ring's weak
 // pixels (eq. 1's background in every channel and |p - mu|^2 >= grow_sigma^2 sum_c s_c^2, in the
 // kernel's integers) become foreground and queue their 4-neighbours that are background and not yet
@@ -889,6 +889,13 @@ std::vector<uint8_t> reference_grow(const vc_bgmodel* m, const vc_subtract_param
   return mask;
 }
 
+// The edge's whole sequence (vc_mask_frame: subtraction, 3x3 clean-up, the cue when it is on).
+std::vector<uint8_t> run_frame(const ModelPtr& m, const std::vector<uint8_t>& rgb, vc_subtract_stats* st = nullptr) {
+  std::vector<uint8_t> mask(static_cast<size_t>(kW) * kH), scratch(vc_cleanup_scratch_size(kW));
+  EXPECT_EQ(vc_mask_frame(m.get(), rgb.data(), 3 * kW, mask.data(), 1, scratch.data(), scratch.size(), st), 0);
+  return mask;
+}
+
 // Faint beige tiles (the camouflage room's floor at a pixel's scale), a body block that the
 // subtraction sees (darker, another hue), a strip of "skin" beside it that is the floor's colour
 // lifted by 4 grey levels per channel (2 noise sigmas: eq. 1 calls most of it background), a floor
@@ -919,14 +926,17 @@ TEST_P(SubtractVariants, LimbScaleCueKeepsCamouflagedSkinJoinedToTheBody) {
   ModelPtr off = model_of(s.bg, p);
   p.grow_px = 4;
   ModelPtr on = model_of(s.bg, p);
-  const std::vector<uint8_t> without = run(off, s.frame), with = run(on, s.frame);
+  const std::vector<uint8_t> without = run_frame(off, s.frame), with = run_frame(on, s.frame);
+  // vc_subtract alone leaves the cue to the clean-up's step (stats.grown 0, the same mask):
+  EXPECT_EQ(run(on, s.frame), run(off, s.frame));
   // The strip, 4 pixels wide, within the cue's reach of the body: eq. 1 keeps a quarter of its pixels
-  // (where the noise lifts a channel over 3.5 sigma), the cue most of the rest (a pixel the noise
-  // takes back under 1.5 pooled sigmas ends its row's path).
+  // (where the noise lifts a channel over 3.5 sigma) and the clean-up few of those, the cue most of
+  // the rest (a pixel the noise takes back under 1.5 pooled sigmas ends its row's path).
   EXPECT_LE(fg_share(without, 46, 10, 50, 60), 0.5);
   EXPECT_GE(fg_share(with, 46, 10, 50, 60), 0.75);  // 0.82 here, against 0.25 without the cue
   EXPECT_GE(fg_share(with, 46, 10, 50, 60), fg_share(without, 46, 10, 50, 60) + 0.4);
-  EXPECT_EQ(fg_share(with, 30, 10, 46, 60), 1.0);  // the body itself
+  EXPECT_GE(fg_share(with, 30, 10, 46, 60), 0.99);  // the body itself (the clean-up rounds its corners)
+  EXPECT_GE(fg_share(with, 30, 10, 46, 60), fg_share(without, 30, 10, 46, 60));
   // The floor shadow touching the body is in the band, which the cue does not enter ...
   EXPECT_LE(fg_share(with, 14, 10, 30, 60), fg_share(without, 14, 10, 30, 60) + 0.005);
   EXPECT_LE(fg_share(with, 14, 10, 30, 60), 0.01);
@@ -944,13 +954,12 @@ TEST_P(SubtractVariants, LimbScaleCueEqualsItsPlainReference) {
     vc_subtract_params_default(&p);
     p.grow_px = 0;
     ModelPtr off = model_of(s.bg, p);
-    const std::vector<uint8_t> base = run(off, s.frame);
+    const std::vector<uint8_t> base = run_frame(off, s.frame);  // subtracted and cleaned, no cue
     p.grow_px = 1 + round % 5;
     p.grow_sigma = round < 3 ? 1.5 : 0.8 + 0.4 * round;
     ModelPtr on = model_of(s.bg, p);
     vc_subtract_stats st{};
-    std::vector<uint8_t> mask(base.size());
-    ASSERT_EQ(vc_subtract(on.get(), s.frame.data(), 3 * kW, mask.data(), &st), 0);
+    const std::vector<uint8_t> mask = run_frame(on, s.frame, &st);
     const std::vector<uint8_t> ref = reference_grow(on.get(), p, s.frame, base);
     EXPECT_EQ(mask, ref) << "round " << round;
     size_t grown = 0;

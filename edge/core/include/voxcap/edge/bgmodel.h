@@ -191,6 +191,24 @@ typedef struct vc_subtract_stats {
 int vc_subtract(const vc_bgmodel* model, const uint8_t* rgb, size_t stride, uint8_t* mask,
                 vc_subtract_stats* stats);
 
+/* The limb-scale cue runs on the clean mask, after the clean-up, not in vc_subtract (which leaves
+ * stats->grown 0): its first ring is the background pixels of the clean mask with at least 2
+ * foreground 8-neighbours, from the clean mask's foreground bits that the clean-up writes in its own
+ * pass over each row (no scan of its own), so the speckles the clean-up removes seed nothing.
+ *
+ * vc_cleanup_grow: vc_cleanup_radius(mask, width, height, radius, scratch, scratch_len) (cleanup.h)
+ * and then the cue (when the model's grow_px > 0) against the frame `rgb` the mask came from; *grown
+ * (may be NULL) the pixels it added. Returns 0, -EINVAL on a bad argument, -EAGAIN before
+ * vc_bgmodel_set_params(). No allocation, integers only.
+ *
+ * vc_mask_frame: the edge's whole silhouette, vc_subtract and then vc_cleanup_grow; everything that
+ * makes a silhouette from a frame (the edge daemon, host/calib's carve, the benches) calls this, so
+ * that they all run the same sequence. stats->grown is the cue's count. */
+int vc_cleanup_grow(const vc_bgmodel* model, const uint8_t* rgb, size_t stride, uint8_t* mask, int radius,
+                    uint8_t* scratch, size_t scratch_len, uint32_t* grown);
+int vc_mask_frame(const vc_bgmodel* model, const uint8_t* rgb, size_t stride, uint8_t* mask, int radius,
+                  uint8_t* scratch, size_t scratch_len, vc_subtract_stats* stats);
+
 /* Name of the kernel variant in use ("generic", "avx2" or "neon"). */
 const char* vc_edge_kernel_name(void);
 
