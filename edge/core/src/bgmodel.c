@@ -112,6 +112,8 @@ struct vc_bgmodel {
                       * ring: 64 pixels a word, a zero word before and after each row, a zero row
                       * above and below the image (grow_ring1) */
   uint8_t* row_any;  /* [h+2] whether a row of fgbits has foreground */
+  uint32_t* grow_d2; /* [w*h] the cue's weak test's least |p - mu|^2 per pixel (set_params) */
+  int16_t* span;     /* [h+2][2] a row of fgbits' first and last word with foreground (grow_ring1) */
   /* Scratch of vc_subtract's texture test (allocated by set_params when it is on): */
   struct vc_cand* cand; /* [5][w] the candidates of row y (slot y mod 5) with their terms */
   vc_sums* colsum;      /* [w + 4] per column: the candidates' count and sums over the window's rows */
@@ -226,6 +228,8 @@ void vc_bgmodel_free(vc_bgmodel* m) {
   free(m->queue);
   free(m->fgbits);
   free(m->row_any);
+  free(m->span);
+  free(m->grow_d2);
   free(m);
 }
 
@@ -346,14 +350,31 @@ int vc_bgmodel_set_params(vc_bgmodel* m, const vc_subtract_params* p) {
     m->queue = malloc((size_t)m->width * (size_t)m->height * sizeof(*m->queue));
     m->fgbits = calloc(vc_fg_stride(m->width) * ((size_t)m->height + 2), sizeof(*m->fgbits));
     m->row_any = malloc((size_t)m->height + 2);
-    if (m->queue == NULL || m->fgbits == NULL || m->row_any == NULL) {
+    m->span = malloc(2 * ((size_t)m->height + 2) * sizeof(*m->span));
+    m->grow_d2 = malloc((size_t)m->width * (size_t)m->height * sizeof(*m->grow_d2));
+    if (m->queue == NULL || m->fgbits == NULL || m->row_any == NULL || m->span == NULL || m->grow_d2 == NULL) {
       free(m->queue);
       free(m->fgbits);
       free(m->row_any);
+      free(m->span);
+      free(m->grow_d2);
       m->queue = NULL;
       m->fgbits = NULL;
       m->row_any = NULL;
+      m->span = NULL;
+      m->grow_d2 = NULL;
       return -ENOMEM;
+    }
+  }
+  if (m->grow_px > 0) { /* d2 * 2^24 >= grow_q8 * v  <=>  d2 >= ceil(grow_q8 * v / 2^24) (d2 < 2^18) */
+    for (size_t i = 0; i < n / 3; i++) { /* n: the model's values, 3 a pixel */
+      uint64_t v = 0;
+      for (int c = 0; c < 3; c++) {
+        const uint64_t sg = m->sigma_q8[3 * i + c] > floor_q8 ? m->sigma_q8[3 * i + c] : floor_q8;
+        v += sg * sg;
+      }
+      const uint64_t t = (m->grow_q8 * v + (1ull << 24) - 1) >> 24;
+      m->grow_d2[i] = (uint32_t)(t > (1ull << 20) ? (1ull << 20) : t);
     }
   }
   m->c2_q24 = (uint64_t)llround(p->cos2_angular * 16777216.0);
@@ -707,21 +728,13 @@ enum { VC_GROW_QUEUED = 1, VC_GROW_WEAK = 0xFE };
 
 /* Whether background pixel i (pixel index; px its colour) is weak: eq. 1's background in every
  * channel (not a shadow verdict of the band: p >= blo) and |p - mu|^2 >= grow_sigma^2 * sum_c s_c^2
- * (s_c floored sigma, Q8.8): d2 * 2^24 >= grow_q8 * v_q16, d2 < 2^18, v < 2^34, grow_q8 <= 2^16. */
+ * (s_c floored sigma, Q8.8): d2 * 2^24 >= grow_q8 * v_q16, d2 < 2^18, v < 2^34, grow_q8 <= 2^16, as
+ * d2 >= grow_d2[i], the least such d2 that set_params computed. */
 static unsigned grow_weak(const vc_bgmodel* m, const uint8_t* px, size_t i) {
   const uint8_t *mu = m->mean + 3 * i, *blo = m->blo + 3 * i;
-  const uint16_t* sg = m->sigma_q8 + 3 * i;
-  const uint64_t fl = m->floor_q8;
-  uint64_t d2 = 0, v = 0;
-  unsigned in_band = 0;
-  for (int c = 0; c < 3; c++) {
-    const int64_t d = (int64_t)px[c] - mu[c];
-    const uint64_t s = sg[c] > fl ? sg[c] : fl;
-    in_band |= px[c] < blo[c];
-    d2 += (uint64_t)(d * d);
-    v += s * s;
-  }
-  return !in_band & ((d2 << 24) >= m->grow_q8 * v);
+  const int d0 = (int)px[0] - mu[0], d1 = (int)px[1] - mu[1], d2 = (int)px[2] - mu[2];
+  const unsigned in_band = (px[0] < blo[0]) | (px[1] < blo[1]) | (px[2] < blo[2]);
+  return !in_band & ((uint32_t)(d0 * d0 + d1 * d1 + d2 * d2) >= m->grow_d2[i]);
 }
 
 /* Queues the first ring: background pixels with at least 2 foreground pixels among their 8
@@ -731,41 +744,50 @@ static unsigned grow_weak(const vc_bgmodel* m, const uint8_t* px, size_t i) {
  * and a zero row above and below the image), from rows whose 3-row neighbourhood has foreground:
  * the 8 neighbours' bits are shifts of the 3 rows' words, "at least two" two bitwise accumulators.
  * Returns the count. */
-static size_t grow_ring1(uint8_t* mk, const uint64_t* fg, size_t stride, uint8_t* row_any, int w, int h,
-                         uint32_t* q) {
+static size_t grow_ring1(uint8_t* mk, const uint64_t* fg, size_t stride, uint8_t* row_any, int16_t* span,
+                         int w, int h, uint32_t* q) {
   const int words = (w + 63) / 64;
   const uint64_t last = w % 64 ? ~0ull >> (64 - w % 64) : ~0ull; /* the last word's pixels */
   size_t n = 0;
   row_any[0] = row_any[h + 1] = 0; /* the zero rows; the image's rows come from the clean-up */
+  /* Each row's first and last word with foreground (span[2r], span[2r+1]), so that a row's scan
+   * covers only the words its 3-row neighbourhood's foreground reaches, plus one either side. */
+  for (int r = 0; r < h + 2; r++) {
+    int16_t lo = (int16_t)words, hi = -1;
+    if (row_any[r]) {
+      const uint64_t* c = fg + (size_t)r * stride + 1;
+      while (c[lo - 1] == 0) lo--; /* from the right: the last non-zero word */
+      hi = (int16_t)(lo - 1);
+      lo = 0;
+      while (c[lo] == 0) lo++;
+    }
+    span[2 * r] = lo;
+    span[2 * r + 1] = hi;
+  }
   for (int y = 0; y < h; y++) {
     if (!(row_any[y] | row_any[y + 1] | row_any[y + 2])) continue;
+    int lo = span[2 * y], hi = span[2 * y + 1];
+    for (int r = y + 1; r <= y + 2; r++) {
+      lo = span[2 * r] < lo ? span[2 * r] : lo;
+      hi = span[2 * r + 1] > hi ? span[2 * r + 1] : hi;
+    }
+    const int w0 = lo > 0 ? lo - 1 : 0, w1 = hi + 1 < words ? hi + 1 : words - 1;
     const uint64_t* c = fg + (size_t)(y + 1) * stride + 1;
     const uint64_t *u = c - stride, *d = c + stride;
-    uint64_t up = 0, cp = 0, dp = 0, uc = u[0], cc = c[0], dc = d[0];
-    for (int wi = 0; wi < words; wi++) {
-      const uint64_t un = u[wi + 1], cn = c[wi + 1], dn = d[wi + 1]; /* the guard word after the row: 0 */
-      if ((uc | cc | dc | ((up | cp | dp) >> 63) | ((un | cn | dn) << 63)) != 0) {
-        const uint64_t nb[8] = {(uc << 1) | (up >> 63),
-                                uc,
-                                (uc >> 1) | (un << 63),
-                                (cc << 1) | (cp >> 63),
-                                (cc >> 1) | (cn << 63),
-                                (dc << 1) | (dp >> 63),
-                                dc,
-                                (dc >> 1) | (dn << 63)};
-        uint64_t ones = 0, twos = 0;
-        for (int k = 0; k < 8; k++) {
-          twos |= ones & nb[k];
-          ones |= nb[k];
-        }
-        uint64_t front = twos & ~cc & (wi + 1 < words ? ~0ull : last);
+    /* the words before w0: the guard word when w0 is 0 */
+    uint64_t cp = c[w0 - 1], cc = c[w0];
+    for (int wi = w0; wi <= w1; wi++) {
+      const uint64_t cn = c[wi + 1], uc = u[wi], dc = d[wi]; /* c[words]: the guard word after the row, 0 */
+      if (cc != ~0ull && (uc | cc | dc | (cp >> 63) | (cn << 63)) != 0) {
+        const uint64_t near = uc | dc | (cc << 1) | (cp >> 63) | (cc >> 1) | (cn << 63); /* 4-neighbours */
+        uint64_t front = near & ~cc & (wi + 1 < words ? ~0ull : last);
         for (; front != 0; front &= front - 1) {
           const size_t i = (size_t)y * (size_t)w + (size_t)wi * 64 + (size_t)__builtin_ctzll(front);
           mk[i] = VC_GROW_QUEUED;
           q[n++] = (uint32_t)i;
         }
       }
-      up = uc, uc = un, cp = cc, cc = cn, dp = dc, dc = dn;
+      cp = cc, cc = cn;
     }
   }
   return n;
@@ -777,14 +799,14 @@ static size_t grow_ring1(uint8_t* mk, const uint64_t* fg, size_t stride, uint8_t
 static uint32_t grow_mask(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t* mk) {
   const int w = m->width, h = m->height;
   uint32_t* q = m->queue;
-  size_t n = grow_ring1(mk, m->fgbits, vc_fg_stride(w), m->row_any, w, h, q), head = 0;
+  size_t n = grow_ring1(mk, m->fgbits, vc_fg_stride(w), m->row_any, m->span, w, h, q), head = 0;
   uint32_t grown = 0;
   for (int ring = 1; ring <= m->grow_px && head < n; ring++) {
     const size_t end = n;
     for (; head < end; head++) {
       const uint32_t i = q[head];
       const int y = (int)(i / (uint32_t)w), x = (int)(i - (uint32_t)y * (uint32_t)w);
-      if (!grow_weak(m, rgb + (size_t)y * stride + 3 * (size_t)x, i)) continue;
+      if (!grow_weak(m, rgb + (size_t)y * stride + 3 * (size_t)x, i)) continue; /* x, y: the pixel's row */
       mk[i] = VC_GROW_WEAK;
       grown++;
       if (ring == m->grow_px) continue;

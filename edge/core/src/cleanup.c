@@ -97,6 +97,36 @@ VC_TARGET_AVX2 static int bits_avx2(const uint8_t* out, int w, uint64_t* bits) {
 }
 #endif
 
+#if VC_HAVE_AVX2_VARIANT
+/* row_avx2 for the clean-up's last pass when the bits are wanted: the majority's compare gives the
+ * row's bytes and, by movemask, its bits (the bits of the last w % 32 pixels from bits_generic). */
+VC_TARGET_AVX2 static int row_bits_avx2(const uint8_t* restrict up, const uint8_t* restrict mid,
+                                        const uint8_t* restrict down, uint8_t* restrict vs, uint8_t* restrict out,
+                                        int w, uint64_t* bits) {
+  vsum_body(up, mid, down, vs, w);
+  const int n32 = w & ~31;
+  const __m256i four = _mm256_set1_epi8(4);
+  uint64_t any = 0;
+  bits[(w - 1) / 64] = 0; /* the last word's pixels past the width when the halves do not fill it */
+  for (int x = 0; x < n32; x += 32) {
+    const __m256i a = _mm256_loadu_si256((const __m256i*)(const void*)(vs + x));
+    const __m256i b = _mm256_loadu_si256((const __m256i*)(const void*)(vs + x + 1));
+    const __m256i c = _mm256_loadu_si256((const __m256i*)(const void*)(vs + x + 2));
+    const __m256i m = _mm256_cmpgt_epi8(_mm256_add_epi8(_mm256_add_epi8(a, b), c), four); /* sums <= 9 */
+    _mm256_storeu_si256((__m256i*)(void*)(out + x), m);
+    const uint32_t mb = (uint32_t)_mm256_movemask_epi8(m);
+    memcpy((uint8_t*)bits + x / 8, &mb, sizeof(mb));
+    any |= mb;
+  }
+  if (n32 < w) {
+    hmaj_body(vs + n32, out + n32, w - n32);
+    const int x64 = n32 & ~63;
+    any |= (uint64_t)bits_generic(out + x64, w - x64, bits + x64 / 64); /* the whole word again */
+  }
+  return any != 0;
+}
+#endif
+
 static int (*select_bits(void))(const uint8_t*, int, uint64_t*) {
 #if VC_HAVE_AVX2_VARIANT
   if (vc__use_avx2()) return bits_avx2;
@@ -132,9 +162,19 @@ static int cleanup3_bits(uint8_t* mask, int width, int height, int iterations, u
     for (int y = 0; y < height; y++) {
       uint8_t* out = mask + (size_t)y * w;
       const uint8_t* down = y + 1 < height ? out + w : cur; /* row h replicates row h-1 */
-      row(prev, cur, down, vs, out, width);
-      if (bits != NULL && it + 1 == iterations) /* the row is final: its bits while it is in cache */
-        row_any[y] = (uint8_t)to_bits(out, width, bits + (size_t)y * bits_stride);
+      if (bits == NULL || it + 1 < iterations) {
+        row(prev, cur, down, vs, out, width);
+      } else { /* the last pass: the row is final, its bits from the same pass */
+#if VC_HAVE_AVX2_VARIANT
+        if (to_bits == bits_avx2) {
+          row_any[y] = (uint8_t)row_bits_avx2(prev, cur, down, vs, out, width, bits + (size_t)y * bits_stride);
+        } else
+#endif
+        {
+          row(prev, cur, down, vs, out, width);
+          row_any[y] = (uint8_t)to_bits(out, width, bits + (size_t)y * bits_stride);
+        }
+      }
       /* Slide the window: the original of row y becomes "previous", row y+1 (still unfiltered
        * in the mask) becomes "current". */
       uint8_t* t = prev;

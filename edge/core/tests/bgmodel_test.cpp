@@ -828,7 +828,7 @@ TEST(SubtractParams, GainsAndTextureKAreBounded) {
 // ---- the limb-scale cue (grow_px, grow_sigma) -----------------------------------------------------
 
 // The cue of bgmodel.h on a clean mask (subtracted and cleaned up without it), in plain loops: the first ring is
-// the background pixels with at least 2 foreground pixels among their 8 neighbours, each ring's weak
+// the background pixels with a foreground 4-neighbour, each ring's weak
 // pixels (eq. 1's background in every channel and |p - mu|^2 >= grow_sigma^2 sum_c s_c^2, in the
 // kernel's integers) become foreground and queue their 4-neighbours that are background and not yet
 // queued, for grow_px rings.
@@ -860,12 +860,13 @@ std::vector<uint8_t> reference_grow(const vc_bgmodel* m, const vc_subtract_param
     for (int x = 0; x < w; x++) {
       const size_t i = static_cast<size_t>(y) * w + x;
       if (mask[i] != 0) continue;
-      int n = 0;
-      for (int dy = -1; dy <= 1; dy++)
-        for (int dx = -1; dx <= 1; dx++)
-          if ((dx || dy) && x + dx >= 0 && x + dx < w && y + dy >= 0 && y + dy < h)
-            n += mask[static_cast<size_t>(y + dy) * w + x + dx] == 255;
-      if (n >= 2) ring.push_back(i);
+      int n = 0;  // foreground 4-neighbours
+      for (int k = 0; k < 4; k++) {
+        const int dx = k == 0 ? -1 : k == 1 ? 1 : 0, dy = k == 2 ? -1 : k == 3 ? 1 : 0;
+        if (x + dx >= 0 && x + dx < w && y + dy >= 0 && y + dy < h)
+          n += mask[static_cast<size_t>(y + dy) * w + x + dx] == 255;
+      }
+      if (n >= 1) ring.push_back(i);
     }
   for (size_t i : ring) queued[i] = 1;
   for (int step = 1; step <= steps && !ring.empty(); step++) {
