@@ -722,9 +722,9 @@ static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, uint64_t* fg, con
 
 /* ---- the limb-scale cue (bgmodel.h: grow_px, grow_sigma) ---------------------------------------- */
 
-/* Mask marks while the cue runs: queued (tested or to be), and grown (weak, joined); both end as 0
- * or 0xFF. Foreground proper is 0xFF, so the scan's neighbour counts see only it. */
-enum { VC_GROW_QUEUED = 1, VC_GROW_WEAK = 0xFE };
+/* The mask's mark while the cue runs: queued, to be tested (a pixel that fails goes back to 0, one
+ * that passes becomes 0xFF at once; the first ring is found before any is marked). */
+enum { VC_GROW_QUEUED = 1 };
 
 /* Whether background pixel i (pixel index; px its colour) is weak: eq. 1's background in every
  * channel (not a shadow verdict of the band: p >= blo) and |p - mu|^2 >= grow_sigma^2 * sum_c s_c^2
@@ -751,7 +751,8 @@ static size_t grow_ring1(uint8_t* mk, const uint64_t* fg, size_t stride, uint8_t
   size_t n = 0;
   row_any[0] = row_any[h + 1] = 0; /* the zero rows; the image's rows come from the clean-up */
   /* Each row's first and last word with foreground (span[2r], span[2r+1]), so that a row's scan
-   * covers only the words its 3-row neighbourhood's foreground reaches, plus one either side. */
+   * covers only the words its 3-row neighbourhood's foreground reaches (and the 4-neighbours of its
+   * own). */
   for (int r = 0; r < h + 2; r++) {
     int16_t lo = (int16_t)words, hi = -1;
     if (row_any[r]) {
@@ -771,8 +772,10 @@ static size_t grow_ring1(uint8_t* mk, const uint64_t* fg, size_t stride, uint8_t
       lo = span[2 * r] < lo ? span[2 * r] : lo;
       hi = span[2 * r + 1] > hi ? span[2 * r + 1] : hi;
     }
-    const int w0 = lo > 0 ? lo - 1 : 0, w1 = hi + 1 < words ? hi + 1 : words - 1;
     const uint64_t* c = fg + (size_t)(y + 1) * stride + 1;
+    /* the word before (after) the span holds seeds only when the row's own first (last) pixel of the
+     * span is foreground: the rows above and below have nothing there */
+    const int w0 = lo > 0 && (c[lo] & 1u) ? lo - 1 : lo, w1 = hi + 1 < words && (c[hi] >> 63) ? hi + 1 : hi;
     const uint64_t *u = c - stride, *d = c + stride;
     /* the words before w0: the guard word when w0 is 0 */
     uint64_t cp = c[w0 - 1], cc = c[w0];
@@ -798,6 +801,7 @@ static size_t grow_ring1(uint8_t* mk, const uint64_t* fg, size_t stride, uint8_t
  * grown. */
 static uint32_t grow_mask(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t* mk) {
   const int w = m->width, h = m->height;
+  const bool packed = stride == 3 * (size_t)w; /* pixel i at rgb + 3 i, no division to find its row */
   uint32_t* q = m->queue;
   size_t n = grow_ring1(mk, m->fgbits, vc_fg_stride(w), m->row_any, m->span, w, h, q), head = 0;
   uint32_t grown = 0;
@@ -805,11 +809,15 @@ static uint32_t grow_mask(const vc_bgmodel* m, const uint8_t* rgb, size_t stride
     const size_t end = n;
     for (; head < end; head++) {
       const uint32_t i = q[head];
-      const int y = (int)(i / (uint32_t)w), x = (int)(i - (uint32_t)y * (uint32_t)w);
-      if (!grow_weak(m, rgb + (size_t)y * stride + 3 * (size_t)x, i)) continue; /* x, y: the pixel's row */
-      mk[i] = VC_GROW_WEAK;
+      const uint8_t* px = packed ? rgb + 3 * (size_t)i : rgb + (size_t)(i / (uint32_t)w) * stride + 3 * (size_t)(i % (uint32_t)w);
+      if (!grow_weak(m, px, i)) { /* unmarked at once: a later ring may queue it again, and it fails again */
+        mk[i] = 0;
+        continue;
+      }
+      mk[i] = 0xFF;
       grown++;
       if (ring == m->grow_px) continue;
+      const int y = (int)(i / (uint32_t)w), x = (int)(i - (uint32_t)y * (uint32_t)w);
       const uint32_t nb[4] = {i - 1, i + 1, i - (uint32_t)w, i + (uint32_t)w};
       const unsigned ok[4] = {x > 0, x<w - 1, y> 0, y < h - 1};
       for (int k = 0; k < 4; k++)
@@ -819,7 +827,7 @@ static uint32_t grow_mask(const vc_bgmodel* m, const uint8_t* rgb, size_t stride
         }
     }
   }
-  for (size_t k = 0; k < n; k++) mk[q[k]] = mk[q[k]] == VC_GROW_WEAK ? 0xFF : 0;
+  for (; head < n; head++) mk[q[head]] = 0; /* queued beyond the last ring, never tested */
   return grown;
 }
 

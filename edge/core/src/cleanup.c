@@ -11,6 +11,7 @@
 #include "voxcap/edge/cleanup.h"
 
 #include <errno.h>
+#include <stdbool.h>
 #include <stdint.h>
 #include <string.h>
 
@@ -51,14 +52,6 @@ static void row_generic(const uint8_t* restrict up, const uint8_t* restrict mid,
   hmaj_body(vs, out, w);
 }
 
-#if VC_HAVE_AVX2_VARIANT
-VC_TARGET_AVX2 static void row_avx2(const uint8_t* restrict up, const uint8_t* restrict mid,
-                                    const uint8_t* restrict down, uint8_t* restrict vs, uint8_t* restrict out,
-                                    int w) {
-  vsum_body(up, mid, down, vs, w);
-  hmaj_body(vs, out, w);
-}
-#endif
 
 /* A final row's foreground (bytes 0 / 255) as bits (cleanup_bits.h); returns whether it has any. The
  * multiply gathers the 8 sign bits of a word. */
@@ -98,32 +91,58 @@ VC_TARGET_AVX2 static int bits_avx2(const uint8_t* out, int w, uint64_t* bits) {
 #endif
 
 #if VC_HAVE_AVX2_VARIANT
-/* row_avx2 for the clean-up's last pass when the bits are wanted: the majority's compare gives the
- * row's bytes and, by movemask, its bits (the bits of the last w % 32 pixels from bits_generic). */
-VC_TARGET_AVX2 static int row_bits_avx2(const uint8_t* restrict up, const uint8_t* restrict mid,
-                                        const uint8_t* restrict down, uint8_t* restrict vs, uint8_t* restrict out,
-                                        int w, uint64_t* bits) {
-  vsum_body(up, mid, down, vs, w);
+/* One row of the 3x3 filter in 32-byte vectors: the vertical sums (min(v, 1) makes 0/nonzero a 0/1
+ * count), then the majority's compare, which gives the row's bytes and, when `bits` is wanted (the
+ * clean-up's last pass), by movemask its foreground bits (cleanup_bits.h); the last w % 32 pixels in
+ * the portable code. with_bits is a constant in each caller. */
+VC_TARGET_AVX2 static inline __attribute__((always_inline)) int row_avx2_impl(
+    const uint8_t* restrict up, const uint8_t* restrict mid, const uint8_t* restrict down, uint8_t* restrict vs,
+    uint8_t* restrict out, int w, uint64_t* bits, const bool with_bits) {
+  const __m256i one = _mm256_set1_epi8(1), four = _mm256_set1_epi8(4);
   const int n32 = w & ~31;
-  const __m256i four = _mm256_set1_epi8(4);
+  for (int x = 0; x < n32; x += 32) {
+    const __m256i a = _mm256_min_epu8(_mm256_loadu_si256((const __m256i*)(const void*)(up + x)), one);
+    const __m256i b = _mm256_min_epu8(_mm256_loadu_si256((const __m256i*)(const void*)(mid + x)), one);
+    const __m256i c = _mm256_min_epu8(_mm256_loadu_si256((const __m256i*)(const void*)(down + x)), one);
+    _mm256_storeu_si256((__m256i*)(void*)(vs + 1 + x), _mm256_add_epi8(_mm256_add_epi8(a, b), c));
+  }
+  for (int x = n32; x < w; x++) vs[x + 1] = (uint8_t)(bit(up[x]) + bit(mid[x]) + bit(down[x]));
+  vs[0] = vs[1];
+  vs[w + 1] = vs[w];
   uint64_t any = 0;
-  bits[(w - 1) / 64] = 0; /* the last word's pixels past the width when the halves do not fill it */
+  if (with_bits) bits[(w - 1) / 64] = 0; /* the last word's pixels past the width when the halves do not fill it */
   for (int x = 0; x < n32; x += 32) {
     const __m256i a = _mm256_loadu_si256((const __m256i*)(const void*)(vs + x));
     const __m256i b = _mm256_loadu_si256((const __m256i*)(const void*)(vs + x + 1));
     const __m256i c = _mm256_loadu_si256((const __m256i*)(const void*)(vs + x + 2));
     const __m256i m = _mm256_cmpgt_epi8(_mm256_add_epi8(_mm256_add_epi8(a, b), c), four); /* sums <= 9 */
     _mm256_storeu_si256((__m256i*)(void*)(out + x), m);
-    const uint32_t mb = (uint32_t)_mm256_movemask_epi8(m);
-    memcpy((uint8_t*)bits + x / 8, &mb, sizeof(mb));
-    any |= mb;
+    if (with_bits) {
+      const uint32_t mb = (uint32_t)_mm256_movemask_epi8(m);
+      memcpy((uint8_t*)bits + x / 8, &mb, sizeof(mb));
+      any |= mb;
+    }
   }
   if (n32 < w) {
     hmaj_body(vs + n32, out + n32, w - n32);
-    const int x64 = n32 & ~63;
-    any |= (uint64_t)bits_generic(out + x64, w - x64, bits + x64 / 64); /* the whole word again */
+    if (with_bits) {
+      const int x64 = n32 & ~63;
+      any |= (uint64_t)bits_generic(out + x64, w - x64, bits + x64 / 64); /* the whole word again */
+    }
   }
   return any != 0;
+}
+
+VC_TARGET_AVX2 static void row_avx2(const uint8_t* restrict up, const uint8_t* restrict mid,
+                                    const uint8_t* restrict down, uint8_t* restrict vs, uint8_t* restrict out,
+                                    int w) {
+  (void)row_avx2_impl(up, mid, down, vs, out, w, NULL, false);
+}
+
+VC_TARGET_AVX2 static int row_bits_avx2(const uint8_t* restrict up, const uint8_t* restrict mid,
+                                        const uint8_t* restrict down, uint8_t* restrict vs, uint8_t* restrict out,
+                                        int w, uint64_t* bits) {
+  return row_avx2_impl(up, mid, down, vs, out, w, bits, true);
 }
 #endif
 

@@ -122,7 +122,7 @@ typedef struct vc_subtract_params {
  * (the first ring is a scan of the whole mask's bits, and the bench's scene has noise speckles in
  * most rows), so the edge frame would be 10.74 M instructions against the 9.80 M budget of #10
  * (edge/core/README.md). Off, the foreground bits are not kept and it costs 0.12 per pixel. */
-#define VC_SUBTRACT_GROW_PX 0.0
+#define VC_SUBTRACT_GROW_PX 4.0
 #define VC_SUBTRACT_GROW_PX_MAX 64.0
 #define VC_SUBTRACT_GROW_SIGMA 1.5 /* the value measured with grow_px 4 */
 #define VC_SUBTRACT_GROW_SIGMA_MAX 16.0
