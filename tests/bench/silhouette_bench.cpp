@@ -389,10 +389,10 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
       vc_subtract_stats st{};
       if (vc_subtract(s.model.get(), rgb.data, rgb.step, s.mask.data(), &st) != 0)
         throw std::runtime_error("vc_subtract failed");
-      raw = s.mask;  // before the clean-up, for the lost pixels' causes
+      raw = s.mask;        // before the clean-up, for the lost pixels' causes
       uint32_t grown = 0;  // vc_mask_frame's second half: the clean-up, then the limb-scale cue
-      if (vc_cleanup_grow(s.model.get(), rgb.data, rgb.step, s.mask.data(), VC_CLEANUP_RADIUS_PX, scratch.data(),
-                          scratch.size(), &grown) != 0)
+      if (vc_cleanup_grow(s.model.get(), rgb.data, rgb.step, s.mask.data(), VC_CLEANUP_RADIUS_PX,
+                          scratch.data(), scratch.size(), &grown) != 0)
         throw std::runtime_error("vc_cleanup_grow failed");
       st.grown = grown;
       label_parts(scene, f, s.index, sil, &label);
@@ -476,7 +476,7 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
   out["cameras"] = per_camera;
   out["overall"] = to_json(all);
   if (hull) out["hull"] = hull->json();
-  out["source"] = "edge masks (vc_subtract + vc_cleanup_radius) vs hw/sim truth";
+  out["source"] = "edge masks (vc_subtract + vc_cleanup_grow: clean-up and limb-scale cue) vs hw/sim truth";
   return out;
 }
 

@@ -352,7 +352,8 @@ int vc_bgmodel_set_params(vc_bgmodel* m, const vc_subtract_params* p) {
     m->row_any = malloc((size_t)m->height + 2);
     m->span = malloc(2 * ((size_t)m->height + 2) * sizeof(*m->span));
     m->grow_d2 = malloc((size_t)m->width * (size_t)m->height * sizeof(*m->grow_d2));
-    if (m->queue == NULL || m->fgbits == NULL || m->row_any == NULL || m->span == NULL || m->grow_d2 == NULL) {
+    if (m->queue == NULL || m->fgbits == NULL || m->row_any == NULL || m->span == NULL ||
+        m->grow_d2 == NULL) {
       free(m->queue);
       free(m->fgbits);
       free(m->row_any);
@@ -809,7 +810,8 @@ static uint32_t grow_mask(const vc_bgmodel* m, const uint8_t* rgb, size_t stride
     const size_t end = n;
     for (; head < end; head++) {
       const uint32_t i = q[head];
-      const uint8_t* px = packed ? rgb + 3 * (size_t)i : rgb + (size_t)(i / (uint32_t)w) * stride + 3 * (size_t)(i % (uint32_t)w);
+      const uint8_t* px = packed ? rgb + 3 * (size_t)i
+                                 : rgb + (size_t)(i / (uint32_t)w) * stride + 3 * (size_t)(i % (uint32_t)w);
       if (!grow_weak(m, px, i)) { /* unmarked at once: a later ring may queue it again, and it fails again */
         mk[i] = 0;
         continue;
@@ -873,8 +875,8 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
     const int t = y - r;
     if (t < 0) continue;
     const struct vc_cand* cand_t = m->cand + (size_t)(t % rows) * (size_t)w;
-    shadow +=
-        texture_row(m, mask + (size_t)t * (size_t)w, NULL, m->sigma_q8 + (size_t)t * row, cand_t, count[t % rows]);
+    shadow += texture_row(m, mask + (size_t)t * (size_t)w, NULL, m->sigma_q8 + (size_t)t * row, cand_t,
+                          count[t % rows]);
     const int gone = t - r; /* the windows of rows after t no longer reach row t - r */
     if (gone >= 0) {
       colsum_update(m->colsum, m->cand + (size_t)(gone % rows) * (size_t)w, count[gone % rows], false);
@@ -897,8 +899,9 @@ int vc_cleanup_grow(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint
   const int w = m->width, h = m->height;
   const bool grow = m->grow_px > 0 && w > 2 && h > 2;
   const size_t fgs = vc_fg_stride(w);
-  const int rc = vc__cleanup_radius_bits(mask, w, h, radius, scratch, scratch_len,
-                                         grow ? m->fgbits + fgs + 1 : NULL, fgs, grow ? m->row_any + 1 : NULL);
+  const int rc =
+      vc__cleanup_radius_bits(mask, w, h, radius, scratch, scratch_len, grow ? m->fgbits + fgs + 1 : NULL,
+                              fgs, grow ? m->row_any + 1 : NULL);
   if (rc < 0 || !grow) return rc;
   const uint32_t n = grow_mask(m, rgb, stride, mask);
   if (grown != NULL) *grown = n;

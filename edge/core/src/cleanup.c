@@ -52,7 +52,6 @@ static void row_generic(const uint8_t* restrict up, const uint8_t* restrict mid,
   hmaj_body(vs, out, w);
 }
 
-
 /* A final row's foreground (bytes 0 / 255) as bits (cleanup_bits.h); returns whether it has any. The
  * multiply gathers the 8 sign bits of a word. */
 static int bits_generic(const uint8_t* out, int w, uint64_t* bits) {
@@ -78,7 +77,8 @@ VC_TARGET_AVX2 static int bits_avx2(const uint8_t* out, int w, uint64_t* bits) {
   uint64_t any = 0;
   bits[(w - 1) / 64] = 0; /* the last word's pixels past the width when the halves do not fill it */
   for (int x = 0; x < n32; x += 32) {
-    const uint32_t b = (uint32_t)_mm256_movemask_epi8(_mm256_loadu_si256((const __m256i*)(const void*)(out + x)));
+    const uint32_t b =
+        (uint32_t)_mm256_movemask_epi8(_mm256_loadu_si256((const __m256i*)(const void*)(out + x)));
     memcpy((uint8_t*)bits + x / 8, &b, sizeof(b));
     any |= b;
   }
@@ -96,8 +96,8 @@ VC_TARGET_AVX2 static int bits_avx2(const uint8_t* out, int w, uint64_t* bits) {
  * clean-up's last pass), by movemask its foreground bits (cleanup_bits.h); the last w % 32 pixels in
  * the portable code. with_bits is a constant in each caller. */
 VC_TARGET_AVX2 static inline __attribute__((always_inline)) int row_avx2_impl(
-    const uint8_t* restrict up, const uint8_t* restrict mid, const uint8_t* restrict down, uint8_t* restrict vs,
-    uint8_t* restrict out, int w, uint64_t* bits, const bool with_bits) {
+    const uint8_t* restrict up, const uint8_t* restrict mid, const uint8_t* restrict down,
+    uint8_t* restrict vs, uint8_t* restrict out, int w, uint64_t* bits, const bool with_bits) {
   const __m256i one = _mm256_set1_epi8(1), four = _mm256_set1_epi8(4);
   const int n32 = w & ~31;
   for (int x = 0; x < n32; x += 32) {
@@ -110,7 +110,8 @@ VC_TARGET_AVX2 static inline __attribute__((always_inline)) int row_avx2_impl(
   vs[0] = vs[1];
   vs[w + 1] = vs[w];
   uint64_t any = 0;
-  if (with_bits) bits[(w - 1) / 64] = 0; /* the last word's pixels past the width when the halves do not fill it */
+  if (with_bits)
+    bits[(w - 1) / 64] = 0; /* the last word's pixels past the width when the halves do not fill it */
   for (int x = 0; x < n32; x += 32) {
     const __m256i a = _mm256_loadu_si256((const __m256i*)(const void*)(vs + x));
     const __m256i b = _mm256_loadu_si256((const __m256i*)(const void*)(vs + x + 1));
@@ -140,8 +141,8 @@ VC_TARGET_AVX2 static void row_avx2(const uint8_t* restrict up, const uint8_t* r
 }
 
 VC_TARGET_AVX2 static int row_bits_avx2(const uint8_t* restrict up, const uint8_t* restrict mid,
-                                        const uint8_t* restrict down, uint8_t* restrict vs, uint8_t* restrict out,
-                                        int w, uint64_t* bits) {
+                                        const uint8_t* restrict down, uint8_t* restrict vs,
+                                        uint8_t* restrict out, int w, uint64_t* bits) {
   return row_avx2_impl(up, mid, down, vs, out, w, bits, true);
 }
 #endif
@@ -155,7 +156,7 @@ static int (*select_bits(void))(const uint8_t*, int, uint64_t*) {
 
 /* vc_cleanup with the bits of the last pass (cleanup_bits.h). */
 static int cleanup3_bits(uint8_t* mask, int width, int height, int iterations, uint8_t* scratch,
-                             size_t scratch_len, uint64_t* bits, size_t bits_stride, uint8_t* row_any) {
+                         size_t scratch_len, uint64_t* bits, size_t bits_stride, uint8_t* row_any) {
   if (mask == NULL || scratch == NULL || width < 1 || height < 1 || iterations < 0 ||
       scratch_len < vc_cleanup_scratch_size(width))
     return -EINVAL;
@@ -186,7 +187,8 @@ static int cleanup3_bits(uint8_t* mask, int width, int height, int iterations, u
       } else { /* the last pass: the row is final, its bits from the same pass */
 #if VC_HAVE_AVX2_VARIANT
         if (to_bits == bits_avx2) {
-          row_any[y] = (uint8_t)row_bits_avx2(prev, cur, down, vs, out, width, bits + (size_t)y * bits_stride);
+          row_any[y] =
+              (uint8_t)row_bits_avx2(prev, cur, down, vs, out, width, bits + (size_t)y * bits_stride);
         } else
 #endif
         {

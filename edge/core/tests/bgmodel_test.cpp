@@ -827,11 +827,10 @@ TEST(SubtractParams, GainsAndTextureKAreBounded) {
 
 // ---- the limb-scale cue (grow_px, grow_sigma) -----------------------------------------------------
 
-// The cue of bgmodel.h on a clean mask (subtracted and cleaned up without it), in plain loops: the first ring is
-// the background pixels with a foreground 4-neighbour, each ring's weak
-// pixels (eq. 1's background in every channel and |p - mu|^2 >= grow_sigma^2 sum_c s_c^2, in the
-// kernel's integers) become foreground and queue their 4-neighbours that are background and not yet
-// queued, for grow_px rings.
+// The cue of bgmodel.h on a clean mask (subtracted and cleaned up without it), in plain loops: the first ring
+// is the background pixels with a foreground 4-neighbour, each ring's weak pixels (eq. 1's background in
+// every channel and |p - mu|^2 >= grow_sigma^2 sum_c s_c^2, in the kernel's integers) become foreground and
+// queue their 4-neighbours that are background and not yet queued, for grow_px rings.
 std::vector<uint8_t> reference_grow(const vc_bgmodel* m, const vc_subtract_params& p,
                                     const std::vector<uint8_t>& rgb, std::vector<uint8_t> mask) {
   const int w = vc_bgmodel_width(m), h = vc_bgmodel_height(m);
@@ -891,9 +890,11 @@ std::vector<uint8_t> reference_grow(const vc_bgmodel* m, const vc_subtract_param
 }
 
 // The edge's whole sequence (vc_mask_frame: subtraction, 3x3 clean-up, the cue when it is on).
-std::vector<uint8_t> run_frame(const ModelPtr& m, const std::vector<uint8_t>& rgb, vc_subtract_stats* st = nullptr) {
+std::vector<uint8_t> run_frame(const ModelPtr& m, const std::vector<uint8_t>& rgb,
+                               vc_subtract_stats* st = nullptr) {
   std::vector<uint8_t> mask(static_cast<size_t>(kW) * kH), scratch(vc_cleanup_scratch_size(kW));
-  EXPECT_EQ(vc_mask_frame(m.get(), rgb.data(), 3 * kW, mask.data(), 1, scratch.data(), scratch.size(), st), 0);
+  EXPECT_EQ(vc_mask_frame(m.get(), rgb.data(), 3 * kW, mask.data(), 1, scratch.data(), scratch.size(), st),
+            0);
   return mask;
 }
 

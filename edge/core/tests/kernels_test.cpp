@@ -125,7 +125,8 @@ TEST_P(KernelVariant, SubtractEqualsGenericBitForBit) {
             std::vector<uint8_t> scratch(vc_cleanup_scratch_size(w));
             vc_subtract_stats st{};
             // The whole sequence: the cue after the clean-up, from the clean-up's bits of each variant.
-            EXPECT_EQ(vc_mask_frame(m.get(), frame.data(), stride, mask.data(), 1, scratch.data(), scratch.size(), &st),
+            EXPECT_EQ(vc_mask_frame(m.get(), frame.data(), stride, mask.data(), 1, scratch.data(),
+                                    scratch.size(), &st),
                       0);
             return std::make_pair(mask, std::make_pair(st.band, st.shadow + 1000000u * st.grown));
           },

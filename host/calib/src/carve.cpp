@@ -379,8 +379,8 @@ Hull CarveSession::carve(int f, std::vector<cv::Mat>* masks_out) {
         const std::size_t need = vc_cleanup_radius_scratch_size(cam.width, VC_CLEANUP_RADIUS_PX);
         if (impl_->scratch.size() < need) impl_->scratch.resize(need);
         // The edge's sequence (subtraction, clean-up, limb-scale cue), as the edge daemon runs it.
-        if (vc_mask_frame(c.model, rgb.data, rgb.step, masks[m].data, VC_CLEANUP_RADIUS_PX, impl_->scratch.data(),
-                          impl_->scratch.size(), nullptr) != 0)
+        if (vc_mask_frame(c.model, rgb.data, rgb.step, masks[m].data, VC_CLEANUP_RADIUS_PX,
+                          impl_->scratch.data(), impl_->scratch.size(), nullptr) != 0)
           throw CarveError("camera '" + cam.name + "': subtraction failed");
         break;
       }

@@ -111,17 +111,16 @@ typedef struct vc_subtract_params {
  * |p - mu|^2 >= grow_sigma^2 * sum_c s_c^2 (s_c = max(sigma_c, sigma_floor): off the background by
  * grow_sigma noise sigmas in every channel on average, which the per-channel T_l test does not see
  * when no channel alone leaves the noise); a weak pixel becomes foreground when a 4-connected path
- * of weak pixels of at most grow_px steps joins it to the foreground, starting from a background
- * pixel with at least 2 foreground pixels among its 8 neighbours (a lone noise speckle seeds
- * nothing). Skin of the floor's own colour is a little off it everywhere, the sensor noise alone
- * reaches the threshold in few pixels and not in connected runs, and a shadow's pixels are in the
- * band, so a floor shadow touching the feet is not grown into. Exact integers, no allocation per
- * frame (the model holds a queue of width * height indices and the mask's foreground as bits).
- * Off by default (grow_px 0): on the issue #10 matrix grow_px 4, grow_sigma 1.5 takes the cells
- * missing a target from 29 to 13 (every foot >= 97 %), but it costs 1.8 instructions per pixel
- * (the first ring is a scan of the whole mask's bits, and the bench's scene has noise speckles in
- * most rows), so the edge frame would be 10.74 M instructions against the 9.80 M budget of #10
- * (edge/core/README.md). Off, the foreground bits are not kept and it costs 0.12 per pixel. */
+ * of weak pixels of at most grow_px steps joins it to the clean mask's foreground. It runs after the
+ * clean-up (vc_cleanup_grow, vc_mask_frame below; vc_subtract alone does not grow), so the noise
+ * speckles the clean-up removes seed nothing. Skin of the floor's own colour is a little off it
+ * everywhere, the sensor noise alone reaches the threshold in few pixels and not in connected runs,
+ * and a shadow's pixels are in the band, so a floor shadow touching the feet is not grown into.
+ * Exact integers, no allocation per frame (the model holds a queue of width * height indices, each
+ * pixel's least |p - mu|^2 for the test, and the clean mask's foreground as bits, which the clean-up
+ * writes in its own pass). On by default, grow_px 4: on the issue #10 matrix it takes the cells
+ * missing a target from 29 to 14 (every foot >= 99.4 %), and the edge frame of `voxcap bench edge`
+ * stays within #10's budget (9.795 M instructions against 9.80: edge/core/README.md). */
 #define VC_SUBTRACT_GROW_PX 4.0
 #define VC_SUBTRACT_GROW_PX_MAX 64.0
 #define VC_SUBTRACT_GROW_SIGMA 1.5 /* the value measured with grow_px 4 */
@@ -129,7 +128,7 @@ typedef struct vc_subtract_params {
 
 /* Fills the defaults of voxcap/subtraction.h (the ones the host's rig.toml starts from): T_u 60,
  * T_l 3.5, T_angular 8 degrees, alpha in [0.45, 1.0], sigma floor 1.0, texture k 1.5; and the
- * flat-patch margin 0.2 (VC_SUBTRACT_SHADOW_FLAT_MARGIN above); the limb-scale cue off (grow_px 0,
+ * flat-patch margin 0.2 (VC_SUBTRACT_SHADOW_FLAT_MARGIN above); the limb-scale cue on (grow_px 4,
  * grow_sigma 1.5: VC_SUBTRACT_GROW_* above). */
 void vc_subtract_params_default(vc_subtract_params* params);
 
