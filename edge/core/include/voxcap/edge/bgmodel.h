@@ -119,7 +119,7 @@ typedef struct vc_subtract_params {
  * Exact integers, no allocation per frame (the model holds a queue of width * height indices, each
  * pixel's least |p - mu|^2 for the test, and the clean mask's foreground as bits, which the clean-up
  * writes in its own pass). On by default, grow_px 4: on the issue #10 matrix it takes the cells
- * missing a target from 29 to 15 (every foot >= 98.7 %), and the edge frame of `voxcap bench edge`
+ * missing a target from 29 to 16 (every foot >= 98.7 %), and the edge frame of `voxcap bench edge`
  * stays within #10's budget (9.795 M instructions against 9.80: edge/core/README.md). */
 #define VC_SUBTRACT_GROW_PX 4.0
 #define VC_SUBTRACT_GROW_PX_MAX 64.0
