@@ -626,9 +626,9 @@ int vc_node_process_frame(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
     if (rc < 0) return rc;
   }
   uint64_t t1 = now_ns();
-  for (int c = 0; c < VC_NODE_CAMS; c++) {
-    int rc = vc_cleanup_radius(n->masks[c], n->cams[c].width, n->cams[c].height, n->cleanup_radius,
-                               n->scratch, n->scratch_len);
+  for (int c = 0; c < VC_NODE_CAMS; c++) { /* vc_mask_frame's second half: the clean-up, then the cue */
+    int rc = vc_cleanup_grow(n->bg[c], rgb[c], stride[c], n->masks[c], n->cleanup_radius, n->scratch,
+                             n->scratch_len, NULL);
     if (rc < 0) return rc;
   }
   uint64_t t2 = now_ns();

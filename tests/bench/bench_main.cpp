@@ -184,6 +184,10 @@ void add_edge_command(CLI::App& app) {
   edge->add_flag("--no-callgrind", args->no_callgrind, "Skip the instruction counts (no valgrind child)");
   edge->add_flag("--no-rss", args->no_rss, "Skip the peak-memory child");
   edge->add_option(
+          "--grow-px", args->opt.grow_px,
+          "The subtraction's limb-scale cue, pixels (0 = off; default that of voxcap/edge/bgmodel.h)")
+      ->check(CLI::Range(0, static_cast<int>(VC_SUBTRACT_GROW_PX_MAX)));
+  edge->add_option(
           "--child", args->child,
           "Internal: run as the benchmark's own measuring child (rss, rss-footprint, rss-subpixel or "
           "callgrind); not for users")
@@ -334,6 +338,14 @@ void add_silhouettes_command(CLI::App& app) {
                   "The flat-patch test's margin (noise variances per pixel; 0 = off; default that of "
                   "voxcap/edge/bgmodel.h)")
       ->check(CLI::Range(0.0, VC_SUBTRACT_SHADOW_FLAT_MARGIN_MAX));
+  sil->add_option("--grow-px", opt->grow_px,
+                  "The limb-scale cue's reach (4-connected pixels; 0 = off; default that of "
+                  "voxcap/edge/bgmodel.h)")
+      ->check(CLI::Range(0, static_cast<int>(VC_SUBTRACT_GROW_PX_MAX)));
+  sil->add_option("--grow-sigma", opt->grow_sigma,
+                  "The limb-scale cue's weak pixel (noise sigmas pooled over the channels; default that "
+                  "of voxcap/edge/bgmodel.h)")
+      ->check(CLI::Range(0.01, VC_SUBTRACT_GROW_SIGMA_MAX));
   sil->add_option("--nodes", opt->nodes,
                   "Score a rig of N nodes (2 cameras each, all of them): each node's hull carved from its "
                   "masks, merged, against the true occupancy (0 = masks only)")

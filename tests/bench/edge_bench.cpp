@@ -69,12 +69,15 @@ bool EdgeBenchOptions::valid(std::string* why) const {
 
 namespace {
 
+int g_grow_px = -1;  // EdgeBenchOptions::grow_px of the run (parent and child)
+
 // The parameters of the bench's scene: shadows darken the floor by 45 %, noise sigma is 2.
 vc_subtract_params scene_params() {
   vc_subtract_params p;
   vc_subtract_params_default(&p);
   p.t_upper = 60.0;
   p.t_lower = 3.5;
+  if (g_grow_px >= 0) p.grow_px = g_grow_px;
   p.cos2_angular = std::pow(std::cos(8.0 * M_PI / 180.0), 2);
   p.shadow_min_gain = 0.3;
   p.shadow_max_gain = 1.0;
@@ -126,6 +129,7 @@ struct EdgePipeline {
   std::vector<uint8_t> mask[2], scratch, bits, rle;
   size_t rle_len = 0;
   vc_subtract_stats sub_stats[2]{};
+  uint32_t grown[2]{};
   vc_carve_stats carve_stats{};
   double carver_setup_ms = 0;
 
@@ -166,8 +170,12 @@ struct EdgePipeline {
   void subtract(int c, const uint8_t* rgb) {
     check(vc_subtract(bg[c].get(), rgb, 3 * size_t(w), mask[c].data(), &sub_stats[c]), "subtract");
   }
-  void cleanup(int c) {
-    check(vc_cleanup(mask[c].data(), w, h, 1, scratch.data(), scratch.size()), "cleanup");
+  // The clean-up and the limb-scale cue after it (vc_mask_frame's second half), on the frame the
+  // mask came from.
+  void cleanup(int c, const uint8_t* rgb) {
+    check(vc_cleanup_grow(bg[c].get(), rgb, 3 * size_t(w), mask[c].data(), 1, scratch.data(), scratch.size(),
+                          &grown[c]),
+          "cleanup");
   }
   void carve() {
     check(vc_carver_run(carver.get(), mask[0].data(), mask[1].data(), bits.data(), &carve_stats), "carve");
@@ -272,6 +280,7 @@ std::string child_command(const EdgeBenchOptions& o, const std::string& mode, co
   cmd << shell_quote(self) << " edge --grid " << o.grid << " --frames " << o.frames << " --bg-frames "
       << o.bg_frames << " --width " << o.width << " --height " << o.height << " --child " << mode
       << " --frames-file " << shell_quote(frames);
+  if (o.grow_px >= 0) cmd << " --grow-px " << o.grow_px;
   return cmd.str();
 }
 
@@ -303,6 +312,7 @@ json parse_callgrind_dir(const fs::path& dir) {
 
 json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
                           const std::string& frames_file) {
+  g_grow_px = o.grow_px;
   const EdgeScene scene(o.width, o.height, 1);  // cameras only: nothing is rendered here
   const vc_camera cams[2] = {scene.camera_model(0), scene.camera_model(1)};
   const vc_voxel_grid grid = EdgeScene::grid(o.grid);
@@ -327,7 +337,7 @@ json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
       for (int c = 0; c < 2; c++) {
         reader.next(frame[c]);
         edge.subtract(c, frame[c].data());
-        edge.cleanup(c);
+        edge.cleanup(c, frame[c].data());
       }
       edge.carve();
       edge.encode();
@@ -368,13 +378,13 @@ json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
   stage("cleanup", [&] {
     for (int c = 0; c < 2; c++) {
       edge.mask[c] = raw_mask[c];  // the filter works in place: start from the same input
-      edge.cleanup(c);
+      edge.cleanup(c, frame[c].data());
     }
   });
   stage("copy_masks", [&] {  // what the clean-up stage spends on resetting its input
     for (int c = 0; c < 2; c++) edge.mask[c] = raw_mask[c];
   });
-  for (int c = 0; c < 2; c++) edge.cleanup(c);
+  for (int c = 0; c < 2; c++) edge.cleanup(c, frame[c].data());
   stage("carve", [&] { edge.carve(); });
   for (OtherRule& r : edge.others)
     stage((std::string("carve_") + r.name).c_str(), [&] { edge.carve_other(r); });
@@ -388,6 +398,7 @@ json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
 }
 
 json run_edge_bench(const EdgeBenchOptions& o) {
+  g_grow_px = o.grow_px;
   std::string why;
   if (!o.valid(&why)) throw std::invalid_argument(why);
   const EdgeScene scene(o.width, o.height, 20240611);
@@ -451,7 +462,7 @@ json run_edge_bench(const EdgeBenchOptions& o) {
       edge.subtract(c, fr[size_t(src) * 2 + c].data());
       sub += ns_since(t0);
       t0 = Clock::now();
-      edge.cleanup(c);
+      edge.cleanup(c, fr[size_t(src) * 2 + c].data());
       clean += ns_since(t0);
     }
     auto t0 = Clock::now();

@@ -21,6 +21,7 @@ struct EdgeBenchOptions {
   int height = 480;
   bool callgrind = true;  // instruction counts via a child under valgrind --tool=callgrind
   bool rss = true;        // peak resident memory via a child that runs only the edge pipeline
+  int grow_px = -1;       // the subtraction's limb-scale cue (bgmodel.h grow_px); < 0: its default
   std::string self_exe;   // the voxcap-bench binary, re-run as the measuring child ("" = /proc/self/exe)
 
   bool valid(std::string* why) const;

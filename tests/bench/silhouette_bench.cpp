@@ -339,6 +339,8 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
   vc_subtract_params_default(&params);
   if (opt.shadow_texture_k >= 0) params.shadow_texture_k = opt.shadow_texture_k;
   if (opt.shadow_flat_margin >= 0) params.shadow_flat_margin = opt.shadow_flat_margin;
+  if (opt.grow_px >= 0) params.grow_px = opt.grow_px;
+  if (opt.grow_sigma > 0) params.grow_sigma = opt.grow_sigma;
   char bad[160];
   if (vc_subtract_params_check(&params, bad, sizeof bad) != 0) throw std::invalid_argument(bad);
 
@@ -387,10 +389,12 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
       vc_subtract_stats st{};
       if (vc_subtract(s.model.get(), rgb.data, rgb.step, s.mask.data(), &st) != 0)
         throw std::runtime_error("vc_subtract failed");
-      raw = s.mask;  // before the clean-up, for the lost pixels' causes
-      if (vc_cleanup_radius(s.mask.data(), s.width, s.height, VC_CLEANUP_RADIUS_PX, scratch.data(),
-                            scratch.size()) != 0)
-        throw std::runtime_error("vc_cleanup_radius failed");
+      raw = s.mask;        // before the clean-up, for the lost pixels' causes
+      uint32_t grown = 0;  // vc_mask_frame's second half: the clean-up, then the limb-scale cue
+      if (vc_cleanup_grow(s.model.get(), rgb.data, rgb.step, s.mask.data(), VC_CLEANUP_RADIUS_PX,
+                          scratch.data(), scratch.size(), &grown) != 0)
+        throw std::runtime_error("vc_cleanup_grow failed");
+      st.grown = grown;
       label_parts(scene, f, s.index, sil, &label);
       Counts fc;
       const size_t n = s.mask.size();
@@ -467,10 +471,12 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
   out["cleanup_radius_px"] = VC_CLEANUP_RADIUS_PX;
   out["shadow_texture_k"] = params.shadow_texture_k;
   out["shadow_flat_margin"] = params.shadow_flat_margin;
+  out["grow_px"] = params.grow_px;
+  out["grow_sigma"] = params.grow_sigma;
   out["cameras"] = per_camera;
   out["overall"] = to_json(all);
   if (hull) out["hull"] = hull->json();
-  out["source"] = "edge masks (vc_subtract + vc_cleanup_radius) vs hw/sim truth";
+  out["source"] = "edge masks (vc_subtract + vc_cleanup_grow: clean-up and limb-scale cue) vs hw/sim truth";
   return out;
 }
 

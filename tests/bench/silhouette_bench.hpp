@@ -32,6 +32,8 @@ struct SilhouetteBenchOptions {
   int bg_frames = 30;              // empty-room frames learnt (VC_BACKGROUND_FRAMES)
   double shadow_texture_k = -1;    // < 0: the default of voxcap/subtraction.h; 0 = texture test off
   double shadow_flat_margin = -1;  // < 0: the default of voxcap/edge/bgmodel.h; 0 = flat-patch test off
+  int grow_px = -1;                // < 0: the default of voxcap/edge/bgmodel.h; 0 = limb-scale cue off
+  double grow_sigma = -1;          // < 0: the default of voxcap/edge/bgmodel.h
   std::string png_dir;             // when set: the worst frame of each camera as a PNG here
   int nodes = 0;                   // > 0: a rig of this many nodes (rig_cameras = 2 * nodes, all cameras) ...
   int grid = 128;                  // ... carved into a grid^3 over the emulated rig's volume ...

@@ -55,6 +55,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "cleanup_bits.h"
 #include "dispatch.h"
 #include "voxcap/why.h"
 
@@ -104,10 +105,24 @@ struct vc_bgmodel {
   uint64_t k2_q8;    /* Q8.8 k^2 of the texture test; 0 = test off */
   uint64_t flat_q8;  /* Q8.8 the flat-patch test's margin, noise variances per pixel; 0 = test off */
   uint16_t floor_q8; /* Q8.8 sigma floor (rounded), grey levels: the texture test's noise floor */
+  int grow_px;       /* the limb-scale cue's steps; 0 = off */
+  uint64_t grow_q8;  /* Q8.8 grow_sigma^2 */
+  uint32_t* queue;   /* [w*h] the cue's pixels to test, each queued once a frame (when it is on) */
+  uint64_t* fgbits;  /* [h+2][vc_fg_stride(w)] the mask's foreground as bits, for the cue's first
+                      * ring: 64 pixels a word, a zero word before and after each row, a zero row
+                      * above and below the image (grow_ring1) */
+  uint8_t* row_any;  /* [h+2] whether a row of fgbits has foreground */
+  uint32_t* grow_d2; /* [w*h] the cue's weak test's least |p - mu|^2 per pixel (set_params) */
+  int16_t* span;     /* [h+2][2] a row of fgbits' first and last word with foreground (grow_ring1) */
   /* Scratch of vc_subtract's texture test (allocated by set_params when it is on): */
   struct vc_cand* cand; /* [5][w] the candidates of row y (slot y mod 5) with their terms */
   vc_sums* colsum;      /* [w + 4] per column: the candidates' count and sums over the window's rows */
 };
+
+/* Words per row of the cue's foreground bits: the row's and a zero guard on either side. */
+static size_t vc_fg_stride(int w) {
+  return ((size_t)w + 63) / 64 + 2;
+}
 
 void vc_subtract_params_default(vc_subtract_params* params) {
   if (params == NULL) return;
@@ -120,6 +135,8 @@ void vc_subtract_params_default(vc_subtract_params* params) {
   params->sigma_floor = VC_SUBTRACT_SIGMA_FLOOR;
   params->shadow_texture_k = VC_SUBTRACT_SHADOW_TEXTURE_K;
   params->shadow_flat_margin = VC_SUBTRACT_SHADOW_FLAT_MARGIN;
+  params->grow_px = VC_SUBTRACT_GROW_PX;
+  params->grow_sigma = VC_SUBTRACT_GROW_SIGMA;
 }
 
 int vc_subtract_params_check(const vc_subtract_params* p, char* why, size_t why_len) {
@@ -153,6 +170,13 @@ int vc_subtract_params_check(const vc_subtract_params* p, char* why, size_t why_
   } else if (!(p->shadow_flat_margin >= 0.0 && p->shadow_flat_margin <= VC_SUBTRACT_SHADOW_FLAT_MARGIN_MAX)) {
     bad = "shadow_flat_margin must be in [0, 16] (0 = off)";
     got = p->shadow_flat_margin;
+  } else if (!(p->grow_px >= 0.0 && p->grow_px <= VC_SUBTRACT_GROW_PX_MAX &&
+               p->grow_px == floor(p->grow_px))) {
+    bad = "grow_px must be an integer in [0, 64] (0 = off)";
+    got = p->grow_px;
+  } else if (!(p->grow_sigma > 0.0 && p->grow_sigma <= VC_SUBTRACT_GROW_SIGMA_MAX)) {
+    bad = "grow_sigma must be in (0, 16]";
+    got = p->grow_sigma;
   }
   if (bad == NULL) {
     vc_why_clear(why, why_len);
@@ -201,6 +225,11 @@ void vc_bgmodel_free(vc_bgmodel* m) {
   free(m->fhi);
   free(m->cand);
   free(m->colsum);
+  free(m->queue);
+  free(m->fgbits);
+  free(m->row_any);
+  free(m->span);
+  free(m->grow_d2);
   free(m);
 }
 
@@ -315,6 +344,40 @@ int vc_bgmodel_set_params(vc_bgmodel* m, const vc_subtract_params* p) {
       return -ENOMEM;
     }
   }
+  m->grow_px = (int)p->grow_px;
+  m->grow_q8 = (uint64_t)llround(p->grow_sigma * p->grow_sigma * 256.0);
+  if (m->grow_px > 0 && m->queue == NULL) {
+    m->queue = malloc((size_t)m->width * (size_t)m->height * sizeof(*m->queue));
+    m->fgbits = calloc(vc_fg_stride(m->width) * ((size_t)m->height + 2), sizeof(*m->fgbits));
+    m->row_any = malloc((size_t)m->height + 2);
+    m->span = malloc(2 * ((size_t)m->height + 2) * sizeof(*m->span));
+    m->grow_d2 = malloc((size_t)m->width * (size_t)m->height * sizeof(*m->grow_d2));
+    if (m->queue == NULL || m->fgbits == NULL || m->row_any == NULL || m->span == NULL ||
+        m->grow_d2 == NULL) {
+      free(m->queue);
+      free(m->fgbits);
+      free(m->row_any);
+      free(m->span);
+      free(m->grow_d2);
+      m->queue = NULL;
+      m->fgbits = NULL;
+      m->row_any = NULL;
+      m->span = NULL;
+      m->grow_d2 = NULL;
+      return -ENOMEM;
+    }
+  }
+  if (m->grow_px > 0) { /* d2 * 2^24 >= grow_q8 * v  <=>  d2 >= ceil(grow_q8 * v / 2^24) (d2 < 2^18) */
+    for (size_t i = 0; i < n / 3; i++) { /* n: the model's values, 3 a pixel */
+      uint64_t v = 0;
+      for (int c = 0; c < 3; c++) {
+        const uint64_t sg = m->sigma_q8[3 * i + c] > floor_q8 ? m->sigma_q8[3 * i + c] : floor_q8;
+        v += sg * sg;
+      }
+      const uint64_t t = (m->grow_q8 * v + (1ull << 24) - 1) >> 24;
+      m->grow_d2[i] = (uint32_t)(t > (1ull << 20) ? (1ull << 20) : t);
+    }
+  }
   m->c2_q24 = (uint64_t)llround(p->cos2_angular * 16777216.0);
   m->glo_q16 = (uint64_t)llround(p->shadow_min_gain * 65536.0);
   m->ghi_q16 = (uint64_t)llround(p->shadow_max_gain * 65536.0);
@@ -370,14 +433,15 @@ static void classify_span(const uint8_t* restrict px, const uint8_t* restrict bl
   }
 }
 
-/* The band pixels (value 1) of out[x0, n) as bits of `bits` (bit i of word i / 64; the words from
- * x0 / 64 on are overwritten, x0 a multiple of 64). A band byte is the only value whose bit 0
- * differs from its bit 1 (0x00 and 0xFF do not), and the multiply gathers the 8 marks of a word. */
-static int band_bits(const uint8_t* out, int x0, int n, uint64_t* bits) {
+/* The band pixels (value 1) of out[x0, n) as bits of `bits` and the foreground ones (0xFF) as bits
+ * of `fg` (bit i of word i / 64; the words from x0 / 64 on are overwritten, x0 a multiple of 64). A
+ * band byte is the only value whose bit 0 differs from its bit 1 (0x00 and 0xFF do not), a
+ * foreground byte the only one with bit 7, and the multiply gathers the 8 marks of a word. */
+static int band_bits(const uint8_t* out, int x0, int n, uint64_t* bits, uint64_t* fg) {
   const uint64_t lsb = 0x0101010101010101ull;
   uint64_t any = 0;
   for (int x = x0; x < n; x += 64) {
-    uint64_t word = 0;
+    uint64_t word = 0, fword = 0;
     for (int k = 0; k < 64 && x + k < n; k += 8) {
       uint64_t w = 0;
       if (n - (x + k) >= 8)
@@ -386,8 +450,10 @@ static int band_bits(const uint8_t* out, int x0, int n, uint64_t* bits) {
         memcpy(&w, out + x + k, (size_t)(n - (x + k)));
       const uint64_t marks = (w ^ (w >> 1)) & lsb;
       word |= ((marks * 0x0102040810204080ull) >> 56) << k;
+      fword |= ((((w >> 7) & lsb) * 0x0102040810204080ull) >> 56) << k;
     }
     bits[x / 64] = word;
+    if (fg != NULL) fg[x / 64] = fword;
     any |= word;
   }
   return any != 0;
@@ -395,9 +461,10 @@ static int band_bits(const uint8_t* out, int x0, int n, uint64_t* bits) {
 
 static int classify_row_generic(const uint8_t* restrict px, const uint8_t* restrict blo,
                                 const uint8_t* restrict flo, const uint8_t* restrict fhi,
-                                uint8_t* restrict out, uint64_t* restrict bits, int n) {
+                                uint8_t* restrict out, uint64_t* restrict bits, uint64_t* restrict fg,
+                                int n) {
   classify_span(px, blo, flo, fhi, out, 0, n);
-  return band_bits(out, 0, n, bits);
+  return band_bits(out, 0, n, bits, fg);
 }
 
 #if VC_HAVE_AVX2_VARIANT
@@ -419,9 +486,12 @@ VC_TARGET_AVX2 static inline __m256i codes32(const uint8_t* p, const uint8_t* b,
                          _mm256_min_epu8(band, _mm256_set1_epi8(1)));
 }
 
-VC_TARGET_AVX2 static int classify_row_avx2(const uint8_t* restrict px, const uint8_t* restrict blo,
-                                            const uint8_t* restrict flo, const uint8_t* restrict fhi,
-                                            uint8_t* restrict out, uint64_t* restrict bits, int n) {
+/* with_fg is a constant in each of the two callers below, so that the loop without the cue's
+ * foreground bits is the one it was before them. */
+VC_TARGET_AVX2 static inline __attribute__((always_inline)) int classify_avx2(
+    const uint8_t* restrict px, const uint8_t* restrict blo, const uint8_t* restrict flo,
+    const uint8_t* restrict fhi, uint8_t* restrict out, uint64_t* restrict bits, uint64_t* restrict fg, int n,
+    const bool with_fg) {
   const __m256i m0 = _mm256_setr_epi8(0, 3, 6, 9, 12, 15, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, /* A */
                                       0, 3, 6, 9, 12, 15, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1);
   const __m256i m1 = _mm256_setr_epi8(-1, -1, -1, -1, -1, -1, 2, 5, 8, 11, 14, -1, -1, -1, -1, -1, /* B */
@@ -453,14 +523,26 @@ VC_TARGET_AVX2 static int classify_row_avx2(const uint8_t* restrict px, const ui
       bits[x / 64] = mb;
     else
       bits[x / 64] |= mb << 32;
+    if (with_fg) { /* 0xFF: the foreground's sign bits, the word's half (little-endian, as x86 is) */
+      const uint32_t fb32 = (uint32_t)_mm256_movemask_epi8(v);
+      memcpy((uint8_t*)fg + x / 8, &fb32, sizeof(fb32));
+    }
     any |= mb;
   }
   if (n32 < n) { /* the last n % 32 pixels: the portable code, from a multiple of 32 */
     const int x64 = n32 & ~63;
     classify_span(px, blo, flo, fhi, out, n32, n);
-    any |= (uint64_t)band_bits(out, x64, n, bits);
+    any |= (uint64_t)band_bits(out, x64, n, bits, fg);
   }
   return any != 0;
+}
+
+VC_TARGET_AVX2 static int classify_row_avx2(const uint8_t* restrict px, const uint8_t* restrict blo,
+                                            const uint8_t* restrict flo, const uint8_t* restrict fhi,
+                                            uint8_t* restrict out, uint64_t* restrict bits,
+                                            uint64_t* restrict fg, int n) {
+  return fg != NULL ? classify_avx2(px, blo, flo, fhi, out, bits, fg, n, true)
+                    : classify_avx2(px, blo, flo, fhi, out, bits, NULL, n, false);
 }
 #endif
 
@@ -473,7 +555,7 @@ VC_TARGET_AVX2 static int classify_row_avx2(const uint8_t* restrict px, const ui
  * weights 1..128 and summed per half. */
 static int classify_row_neon(const uint8_t* restrict px, const uint8_t* restrict blo,
                              const uint8_t* restrict flo, const uint8_t* restrict fhi, uint8_t* restrict out,
-                             uint64_t* restrict bits, int n) {
+                             uint64_t* restrict bits, uint64_t* restrict fgbits, int n) {
   static const uint8_t weights[16] = {1, 2, 4, 8, 16, 32, 64, 128, 1, 2, 4, 8, 16, 32, 64, 128};
   const uint8x16_t wv = vld1q_u8(weights);
   const uint8x16_t one = vdupq_n_u8(1);
@@ -499,12 +581,21 @@ static int classify_row_neon(const uint8_t* restrict px, const uint8_t* restrict
       bits[x / 64] = mb;
     else
       bits[x / 64] |= mb << (x & 63);
+    if (fgbits != NULL) {
+      const uint8x16_t fmarks = vandq_u8(vceqq_u8(v, vdupq_n_u8(0xFF)), wv);
+      const uint64_t fb = (uint64_t)vaddv_u8(vget_low_u8(fmarks)) | (uint64_t)vaddv_u8(vget_high_u8(fmarks))
+                                                                        << 8;
+      if ((x & 63) == 0)
+        fgbits[x / 64] = fb;
+      else
+        fgbits[x / 64] |= fb << (x & 63);
+    }
     any |= mb;
   }
   if (n16 < n) { /* the last n % 16 pixels: the portable code, from a multiple of 16 */
     const int x64 = n16 & ~63;
     classify_span(px, blo, flo, fhi, out, n16, n);
-    any |= (uint64_t)band_bits(out, x64, n, bits);
+    any |= (uint64_t)band_bits(out, x64, n, bits, fgbits);
   }
   return any != 0;
 }
@@ -516,7 +607,7 @@ static int classify_row_neon(const uint8_t* restrict px, const uint8_t* restrict
  * appended to cand[] with its terms. Returns the number of pixels that passed (the candidates);
  * adds the row's band pixels to *band_count. */
 static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mean, uint8_t* out,
-                      const uint64_t* bits, int n, struct vc_cand* cand, uint32_t* band_count) {
+                      const uint64_t* bits, uint64_t* fg, int n, struct vc_cand* cand, uint32_t* band_count) {
   const uint64_t c2 = m->c2_q24, glo = m->glo_q16, ghi = m->ghi_q16;
   int k = 0;
   uint32_t band = 0;
@@ -532,6 +623,7 @@ static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mea
       const unsigned is_shadow =
           ((dot * dot << 24) >= c2 * pp * mm) & (dot16 >= glo * mm) & (dot16 <= ghi * mm);
       out[i] = (uint8_t)(is_shadow - 1u); /* shadow -> 0 (background, or a candidate), else 0xFF */
+      if (!is_shadow && fg != NULL) fg[wi] |= 1ull << (i & 63);
       band++;
       if (cand != NULL && is_shadow) {
         const uint32_t l = (uint32_t)p[0] + p[1] + p[2], lmu = (uint32_t)mu[0] + mu[1] + mu[2];
@@ -594,7 +686,7 @@ static unsigned flat_beats_texture(const vc_sums* s, uint64_t v, uint64_t margin
  * a shadow, which copies it, from a body, which is smoother than it. With fewer than
  * VC_TEXTURE_MIN_PIXELS candidates in the window the per-pixel tests decide (shadow). A candidate
  * that fails becomes foreground. Returns the number of shadows. */
-static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, const uint16_t* sigma_row,
+static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, uint64_t* fg, const uint16_t* sigma_row,
                             const struct vc_cand* cand, int count) {
   const uint64_t k2 = m->k2_q8, fl = m->floor_q8, flat = m->flat_q8;
   const vc_sums* colsum = m->colsum;
@@ -623,9 +715,122 @@ static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, const uint16_t* s
       if (is_shadow && flat != 0) is_shadow = !flat_beats_texture(&s, v, flat);
     }
     out[x] = (uint8_t)(is_shadow - 1u);
+    if (!is_shadow && fg != NULL) fg[x / 64] |= 1ull << (x & 63);
     shadow += is_shadow;
   }
   return shadow;
+}
+
+/* ---- the limb-scale cue (bgmodel.h: grow_px, grow_sigma) ---------------------------------------- */
+
+/* The mask's mark while the cue runs: queued, to be tested (a pixel that fails goes back to 0, one
+ * that passes becomes 0xFF at once; the first ring is found before any is marked). */
+enum { VC_GROW_QUEUED = 1 };
+
+/* Whether background pixel i (pixel index; px its colour) is weak: eq. 1's background in every
+ * channel (not a shadow verdict of the band: p >= blo) and |p - mu|^2 >= grow_sigma^2 * sum_c s_c^2
+ * (s_c floored sigma, Q8.8): d2 * 2^24 >= grow_q8 * v_q16, d2 < 2^18, v < 2^34, grow_q8 <= 2^16, as
+ * d2 >= grow_d2[i], the least such d2 that set_params computed. */
+static unsigned grow_weak(const vc_bgmodel* m, const uint8_t* px, size_t i) {
+  const uint8_t *mu = m->mean + 3 * i, *blo = m->blo + 3 * i;
+  const int d0 = (int)px[0] - mu[0], d1 = (int)px[1] - mu[1], d2 = (int)px[2] - mu[2];
+  const unsigned in_band = (px[0] < blo[0]) | (px[1] < blo[1]) | (px[2] < blo[2]);
+  return !in_band & ((uint32_t)(d0 * d0 + d1 * d1 + d2 * d2) >= m->grow_d2[i]);
+}
+
+/* Queues the first ring: background pixels with at least 2 foreground pixels among their 8
+ * neighbours (an edge of a region, not a lone speckle: a straight edge gives 3, a convex corner 2, a
+ * speckle's neighbour 1), marking them queued. Works on the rows' foreground bits (`fg`: exactly the
+ * mask's 0xFF pixels, 64 a word, `stride` words a row, with a zero word before and after each row
+ * and a zero row above and below the image), from rows whose 3-row neighbourhood has foreground:
+ * the 8 neighbours' bits are shifts of the 3 rows' words, "at least two" two bitwise accumulators.
+ * Returns the count. */
+static size_t grow_ring1(uint8_t* mk, const uint64_t* fg, size_t stride, uint8_t* row_any, int16_t* span,
+                         int w, int h, uint32_t* q) {
+  const int words = (w + 63) / 64;
+  const uint64_t last = w % 64 ? ~0ull >> (64 - w % 64) : ~0ull; /* the last word's pixels */
+  size_t n = 0;
+  row_any[0] = row_any[h + 1] = 0; /* the zero rows; the image's rows come from the clean-up */
+  /* Each row's first and last word with foreground (span[2r], span[2r+1]), so that a row's scan
+   * covers only the words its 3-row neighbourhood's foreground reaches (and the 4-neighbours of its
+   * own). */
+  for (int r = 0; r < h + 2; r++) {
+    int16_t lo = (int16_t)words, hi = -1;
+    if (row_any[r]) {
+      const uint64_t* c = fg + (size_t)r * stride + 1;
+      while (c[lo - 1] == 0) lo--; /* from the right: the last non-zero word */
+      hi = (int16_t)(lo - 1);
+      lo = 0;
+      while (c[lo] == 0) lo++;
+    }
+    span[2 * r] = lo;
+    span[2 * r + 1] = hi;
+  }
+  for (int y = 0; y < h; y++) {
+    if (!(row_any[y] | row_any[y + 1] | row_any[y + 2])) continue;
+    int lo = span[2 * y], hi = span[2 * y + 1];
+    for (int r = y + 1; r <= y + 2; r++) {
+      lo = span[2 * r] < lo ? span[2 * r] : lo;
+      hi = span[2 * r + 1] > hi ? span[2 * r + 1] : hi;
+    }
+    const uint64_t* c = fg + (size_t)(y + 1) * stride + 1;
+    /* the word before (after) the span holds seeds only when the row's own first (last) pixel of the
+     * span is foreground: the rows above and below have nothing there */
+    const int w0 = lo > 0 && (c[lo] & 1u) ? lo - 1 : lo, w1 = hi + 1 < words && (c[hi] >> 63) ? hi + 1 : hi;
+    const uint64_t *u = c - stride, *d = c + stride;
+    /* the words before w0: the guard word when w0 is 0 */
+    uint64_t cp = c[w0 - 1], cc = c[w0];
+    for (int wi = w0; wi <= w1; wi++) {
+      const uint64_t cn = c[wi + 1], uc = u[wi], dc = d[wi]; /* c[words]: the guard word after the row, 0 */
+      if (cc != ~0ull && (uc | cc | dc | (cp >> 63) | (cn << 63)) != 0) {
+        const uint64_t near = uc | dc | (cc << 1) | (cp >> 63) | (cc >> 1) | (cn << 63); /* 4-neighbours */
+        uint64_t front = near & ~cc & (wi + 1 < words ? ~0ull : last);
+        for (; front != 0; front &= front - 1) {
+          const size_t i = (size_t)y * (size_t)w + (size_t)wi * 64 + (size_t)__builtin_ctzll(front);
+          mk[i] = VC_GROW_QUEUED;
+          q[n++] = (uint32_t)i;
+        }
+      }
+      cp = cc, cc = cn;
+    }
+  }
+  return n;
+}
+
+/* The cue over a finished mask: ring 1 from the scan, then up to grow_px rings of breadth-first
+ * search through weak pixels (4-connected), then the marks back to 0 / 0xFF. Returns the pixels
+ * grown. */
+static uint32_t grow_mask(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t* mk) {
+  const int w = m->width, h = m->height;
+  const bool packed = stride == 3 * (size_t)w; /* pixel i at rgb + 3 i, no division to find its row */
+  uint32_t* q = m->queue;
+  size_t n = grow_ring1(mk, m->fgbits, vc_fg_stride(w), m->row_any, m->span, w, h, q), head = 0;
+  uint32_t grown = 0;
+  for (int ring = 1; ring <= m->grow_px && head < n; ring++) {
+    const size_t end = n;
+    for (; head < end; head++) {
+      const uint32_t i = q[head];
+      const uint8_t* px = packed ? rgb + 3 * (size_t)i
+                                 : rgb + (size_t)(i / (uint32_t)w) * stride + 3 * (size_t)(i % (uint32_t)w);
+      if (!grow_weak(m, px, i)) { /* unmarked at once: a later ring may queue it again, and it fails again */
+        mk[i] = 0;
+        continue;
+      }
+      mk[i] = 0xFF;
+      grown++;
+      if (ring == m->grow_px) continue;
+      const int y = (int)(i / (uint32_t)w), x = (int)(i - (uint32_t)y * (uint32_t)w);
+      const uint32_t nb[4] = {i - 1, i + 1, i - (uint32_t)w, i + (uint32_t)w};
+      const unsigned ok[4] = {x > 0, x<w - 1, y> 0, y < h - 1};
+      for (int k = 0; k < 4; k++)
+        if (ok[k] && mk[nb[k]] == 0) {
+          mk[nb[k]] = VC_GROW_QUEUED;
+          q[n++] = nb[k];
+        }
+    }
+  }
+  for (; head < n; head++) mk[q[head]] = 0; /* queued beyond the last ring, never tested */
+  return grown;
 }
 
 int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t* mask,
@@ -633,7 +838,8 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
   if (m == NULL || rgb == NULL || mask == NULL || stride < (size_t)m->width * 3) return -EINVAL;
   if (!m->ready) return -EAGAIN;
   int (*classify)(const uint8_t* restrict, const uint8_t* restrict, const uint8_t* restrict,
-                  const uint8_t* restrict, uint8_t* restrict, uint64_t* restrict, int) = classify_row_generic;
+                  const uint8_t* restrict, uint8_t* restrict, uint64_t* restrict, uint64_t* restrict, int) =
+      classify_row_generic;
 #if VC_HAVE_AVX2_VARIANT
   if (vc__use_avx2()) classify = classify_row_avx2;
 #endif
@@ -657,8 +863,8 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
       uint8_t* out = mask + (size_t)y * (size_t)w;
       struct vc_cand* cand = texture ? m->cand + (size_t)(y % rows) * (size_t)w : NULL;
       int k = 0;
-      if (classify(px, m->blo + off, m->flo + off, m->fhi + off, out, bits, w))
-        k = shadow_row(m, px, m->mean + off, out, bits, w, cand, &band);
+      if (classify(px, m->blo + off, m->flo + off, m->fhi + off, out, bits, NULL, w))
+        k = shadow_row(m, px, m->mean + off, out, bits, NULL, w, cand, &band);
       if (!texture) {
         shadow += (uint32_t)k;
         continue;
@@ -669,8 +875,8 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
     const int t = y - r;
     if (t < 0) continue;
     const struct vc_cand* cand_t = m->cand + (size_t)(t % rows) * (size_t)w;
-    shadow +=
-        texture_row(m, mask + (size_t)t * (size_t)w, m->sigma_q8 + (size_t)t * row, cand_t, count[t % rows]);
+    shadow += texture_row(m, mask + (size_t)t * (size_t)w, NULL, m->sigma_q8 + (size_t)t * row, cand_t,
+                          count[t % rows]);
     const int gone = t - r; /* the windows of rows after t no longer reach row t - r */
     if (gone >= 0) {
       colsum_update(m->colsum, m->cand + (size_t)(gone % rows) * (size_t)w, count[gone % rows], false);
@@ -680,6 +886,34 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
   if (stats != NULL) {
     stats->band = band;
     stats->shadow = shadow;
+    stats->grown = 0;
   }
   return 0;
+}
+
+int vc_cleanup_grow(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t* mask, int radius,
+                    uint8_t* scratch, size_t scratch_len, uint32_t* grown) {
+  if (grown != NULL) *grown = 0;
+  if (m == NULL || rgb == NULL || mask == NULL || stride < (size_t)m->width * 3) return -EINVAL;
+  if (!m->ready) return -EAGAIN;
+  const int w = m->width, h = m->height;
+  const bool grow = m->grow_px > 0 && w > 2 && h > 2;
+  const size_t fgs = vc_fg_stride(w);
+  const int rc =
+      vc__cleanup_radius_bits(mask, w, h, radius, scratch, scratch_len, grow ? m->fgbits + fgs + 1 : NULL,
+                              fgs, grow ? m->row_any + 1 : NULL);
+  if (rc < 0 || !grow) return rc;
+  const uint32_t n = grow_mask(m, rgb, stride, mask);
+  if (grown != NULL) *grown = n;
+  return 0;
+}
+
+int vc_mask_frame(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t* mask, int radius,
+                  uint8_t* scratch, size_t scratch_len, vc_subtract_stats* stats) {
+  int rc = vc_subtract(m, rgb, stride, mask, stats);
+  if (rc < 0) return rc;
+  uint32_t grown = 0;
+  rc = vc_cleanup_grow(m, rgb, stride, mask, radius, scratch, scratch_len, &grown);
+  if (stats != NULL) stats->grown = grown;
+  return rc;
 }

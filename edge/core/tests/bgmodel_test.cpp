@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -821,6 +822,171 @@ TEST(SubtractParams, GainsAndTextureKAreBounded) {
   p.shadow_flat_margin = VC_SUBTRACT_SHADOW_FLAT_MARGIN_MAX + 1;
   EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), -EINVAL);
   p.shadow_flat_margin = 0;
+  EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), 0);
+}
+
+// ---- the limb-scale cue (grow_px, grow_sigma) -----------------------------------------------------
+
+// The cue of bgmodel.h on a clean mask (subtracted and cleaned up without it), in plain loops: the first ring
+// is the background pixels with a foreground 4-neighbour, each ring's weak pixels (eq. 1's background in
+// every channel and |p - mu|^2 >= grow_sigma^2 sum_c s_c^2, in the kernel's integers) become foreground and
+// queue their 4-neighbours that are background and not yet queued, for grow_px rings.
+std::vector<uint8_t> reference_grow(const vc_bgmodel* m, const vc_subtract_params& p,
+                                    const std::vector<uint8_t>& rgb, std::vector<uint8_t> mask) {
+  const int w = vc_bgmodel_width(m), h = vc_bgmodel_height(m);
+  const uint8_t* mean = vc_bgmodel_mean(m);
+  const uint16_t* sigma_q8 = vc_bgmodel_sigma_q8(m);
+  const uint64_t floor_q8 = static_cast<uint64_t>(std::llround(p.sigma_floor * 256.0));
+  const uint64_t grow_q8 = static_cast<uint64_t>(std::llround(p.grow_sigma * p.grow_sigma * 256.0));
+  auto weak = [&](size_t i) {
+    uint64_t d2 = 0, v = 0;
+    for (int c = 0; c < 3; c++) {
+      const double sigma = std::max(sigma_q8[3 * i + c] / 256.0, p.sigma_floor);
+      const int tl = static_cast<int>(std::min(255.0, std::ceil(p.t_lower * sigma) - 1.0));
+      if (rgb[3 * i + c] < std::max(mean[3 * i + c] - tl, 0)) return false;  // the shadow band
+      const int64_t d = static_cast<int64_t>(rgb[3 * i + c]) - mean[3 * i + c];
+      const uint64_t s = std::max<uint64_t>(sigma_q8[3 * i + c], floor_q8);
+      d2 += static_cast<uint64_t>(d * d);
+      v += s * s;
+    }
+    return (d2 << 24) >= grow_q8 * v;
+  };
+  const int steps = static_cast<int>(p.grow_px);
+  if (steps == 0 || w < 3 || h < 3) return mask;
+  std::vector<uint8_t> queued(mask.size(), 0);
+  std::vector<size_t> ring;
+  for (int y = 0; y < h; y++)
+    for (int x = 0; x < w; x++) {
+      const size_t i = static_cast<size_t>(y) * w + x;
+      if (mask[i] != 0) continue;
+      int n = 0;  // foreground 4-neighbours
+      for (int k = 0; k < 4; k++) {
+        const int dx = k == 0 ? -1 : k == 1 ? 1 : 0, dy = k == 2 ? -1 : k == 3 ? 1 : 0;
+        if (x + dx >= 0 && x + dx < w && y + dy >= 0 && y + dy < h)
+          n += mask[static_cast<size_t>(y + dy) * w + x + dx] == 255;
+      }
+      if (n >= 1) ring.push_back(i);
+    }
+  for (size_t i : ring) queued[i] = 1;
+  for (int step = 1; step <= steps && !ring.empty(); step++) {
+    std::vector<size_t> next;
+    for (size_t i : ring) {
+      if (!weak(i)) continue;
+      mask[i] = 255;
+      const int x = static_cast<int>(i % w), y = static_cast<int>(i / w);
+      const int nx[4] = {x - 1, x + 1, x, x}, ny[4] = {y, y, y - 1, y + 1};
+      for (int k = 0; k < 4; k++) {
+        if (nx[k] < 0 || nx[k] >= w || ny[k] < 0 || ny[k] >= h) continue;
+        const size_t j = static_cast<size_t>(ny[k]) * w + nx[k];
+        if (mask[j] == 0 && !queued[j]) {
+          queued[j] = 1;
+          next.push_back(j);
+        }
+      }
+    }
+    ring.swap(next);
+  }
+  return mask;
+}
+
+// The edge's whole sequence (vc_mask_frame: subtraction, 3x3 clean-up, the cue when it is on).
+std::vector<uint8_t> run_frame(const ModelPtr& m, const std::vector<uint8_t>& rgb,
+                               vc_subtract_stats* st = nullptr) {
+  std::vector<uint8_t> mask(static_cast<size_t>(kW) * kH), scratch(vc_cleanup_scratch_size(kW));
+  EXPECT_EQ(vc_mask_frame(m.get(), rgb.data(), 3 * kW, mask.data(), 1, scratch.data(), scratch.size(), st),
+            0);
+  return mask;
+}
+
+// Faint beige tiles (the camouflage room's floor at a pixel's scale), a body block that the
+// subtraction sees (darker, another hue), a strip of "skin" beside it that is the floor's colour
+// lifted by 4 grey levels per channel (2 noise sigmas: eq. 1 calls most of it background), a floor
+// shadow touching the block's other side, and far from all of it the floor alone.
+struct CueScene {
+  std::vector<uint8_t> bg, frame;
+};
+CueScene cue_scene(std::mt19937& rng) {
+  CueScene s;
+  s.bg = faint_tiles(rng);
+  s.frame = render_frame(rng, [&](int x, int y, int c) {
+    const double b = s.bg[(static_cast<size_t>(y) * kW + x) * 3 + c];
+    if (y < 10 || y >= 60) return b;
+    if (x >= 30 && x < 46) return std::array<double, 3>{120, 60, 40}[static_cast<size_t>(c)];  // the body
+    if (x >= 46 && x < 50) return b + 4.0;                                                     // camouflaged
+    if (x >= 14 && x < 30) return b * 0.6;                                                     // its shadow
+    return b;
+  });
+  return s;
+}
+
+TEST_P(SubtractVariants, LimbScaleCueKeepsCamouflagedSkinJoinedToTheBody) {
+  std::mt19937 rng(41);
+  const CueScene s = cue_scene(rng);
+  vc_subtract_params p;
+  vc_subtract_params_default(&p);
+  p.grow_px = 0;
+  ModelPtr off = model_of(s.bg, p);
+  p.grow_px = 4;
+  ModelPtr on = model_of(s.bg, p);
+  const std::vector<uint8_t> without = run_frame(off, s.frame), with = run_frame(on, s.frame);
+  // vc_subtract alone leaves the cue to the clean-up's step (stats.grown 0, the same mask):
+  EXPECT_EQ(run(on, s.frame), run(off, s.frame));
+  // The strip, 4 pixels wide, within the cue's reach of the body: eq. 1 keeps a quarter of its pixels
+  // (where the noise lifts a channel over 3.5 sigma) and the clean-up few of those, the cue most of
+  // the rest (a pixel the noise takes back under 1.5 pooled sigmas ends its row's path).
+  EXPECT_LE(fg_share(without, 46, 10, 50, 60), 0.5);
+  EXPECT_GE(fg_share(with, 46, 10, 50, 60), 0.75);  // 0.82 here, against 0.25 without the cue
+  EXPECT_GE(fg_share(with, 46, 10, 50, 60), fg_share(without, 46, 10, 50, 60) + 0.4);
+  EXPECT_GE(fg_share(with, 30, 10, 46, 60), 0.99);  // the body itself (the clean-up rounds its corners)
+  EXPECT_GE(fg_share(with, 30, 10, 46, 60), fg_share(without, 30, 10, 46, 60));
+  // The floor shadow touching the body is in the band, which the cue does not enter ...
+  EXPECT_LE(fg_share(with, 14, 10, 30, 60), fg_share(without, 14, 10, 30, 60) + 0.005);
+  EXPECT_LE(fg_share(with, 14, 10, 30, 60), 0.01);
+  // ... and the floor's noise alone does not form regions for it to grow from: beyond the strip's
+  // reach (4 pixels past it) the cue adds nothing, and the empty rows keep their few speckles.
+  EXPECT_EQ(fg_share(with, 55, 0, kW, kH), fg_share(without, 55, 0, kW, kH));
+  EXPECT_LE(fg_share(with, 0, 0, kW, 8), 0.005);
+}
+
+TEST_P(SubtractVariants, LimbScaleCueEqualsItsPlainReference) {
+  std::mt19937 rng(43);
+  for (int round = 0; round < 6; round++) {
+    const CueScene s = cue_scene(rng);
+    vc_subtract_params p;
+    vc_subtract_params_default(&p);
+    p.grow_px = 0;
+    ModelPtr off = model_of(s.bg, p);
+    const std::vector<uint8_t> base = run_frame(off, s.frame);  // subtracted and cleaned, no cue
+    p.grow_px = 1 + round % 5;
+    p.grow_sigma = round < 3 ? 1.5 : 0.8 + 0.4 * round;
+    ModelPtr on = model_of(s.bg, p);
+    vc_subtract_stats st{};
+    const std::vector<uint8_t> mask = run_frame(on, s.frame, &st);
+    const std::vector<uint8_t> ref = reference_grow(on.get(), p, s.frame, base);
+    EXPECT_EQ(mask, ref) << "round " << round;
+    size_t grown = 0;
+    for (size_t i = 0; i < mask.size(); i++) grown += mask[i] != base[i];
+    EXPECT_EQ(st.grown, grown);
+    EXPECT_GT(grown, 0u);
+  }
+}
+
+TEST(SubtractParams, LimbScaleCueRanges) {
+  vc_subtract_params p;
+  vc_subtract_params_default(&p);
+  EXPECT_EQ(p.grow_px, VC_SUBTRACT_GROW_PX);
+  EXPECT_EQ(p.grow_sigma, VC_SUBTRACT_GROW_SIGMA);
+  char why[160];
+  p.grow_px = 2.5;
+  EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), -EINVAL);
+  EXPECT_NE(std::string(why).find("grow_px"), std::string::npos) << why;
+  p.grow_px = VC_SUBTRACT_GROW_PX_MAX + 1;
+  EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), -EINVAL);
+  p.grow_px = 3;
+  p.grow_sigma = 0;
+  EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), -EINVAL);
+  EXPECT_NE(std::string(why).find("grow_sigma"), std::string::npos) << why;
+  p.grow_sigma = 2;
   EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), 0);
 }
 

@@ -376,13 +376,12 @@ Hull CarveSession::carve(int f, std::vector<cv::Mat>* masks_out) {
       case MaskSource::Background: {
         const cv::Mat rgb = to_rgb(read_image(c.images[fi], cv::IMREAD_COLOR, cam));
         masks[m] = cv::Mat(cam.height, cam.width, CV_8U);
-        if (vc_subtract(c.model, rgb.data, rgb.step, masks[m].data, nullptr) != 0)
-          throw CarveError("camera '" + cam.name + "': subtraction failed");
         const std::size_t need = vc_cleanup_radius_scratch_size(cam.width, VC_CLEANUP_RADIUS_PX);
         if (impl_->scratch.size() < need) impl_->scratch.resize(need);
-        if (vc_cleanup_radius(masks[m].data, cam.width, cam.height, VC_CLEANUP_RADIUS_PX,
-                              impl_->scratch.data(), impl_->scratch.size()) != 0)
-          throw CarveError("camera '" + cam.name + "': clean-up failed");
+        // The edge's sequence (subtraction, clean-up, limb-scale cue), as the edge daemon runs it.
+        if (vc_mask_frame(c.model, rgb.data, rgb.step, masks[m].data, VC_CLEANUP_RADIUS_PX,
+                          impl_->scratch.data(), impl_->scratch.size(), nullptr) != 0)
+          throw CarveError("camera '" + cam.name + "': subtraction failed");
         break;
       }
     }
