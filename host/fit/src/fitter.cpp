@@ -921,8 +921,7 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
   // A heading turned the wrong way: the torso facing away from where the feet point on the hull;
   // without that cue, its right against the feet's names (they rarely cross).
   const bool heading_wrong =
-      cue.valid ? glm::dot(glm::normalize(level(R[1]) + Vec3(1e-9, 0, 0)), cue.forward) < -0.5
-                : glm::dot(R[0], State::feature_right(f, ok, false)) < -0.05;
+      cue.valid ? faces_away(R, cue) : glm::dot(R[0], State::feature_right(f, ok, false)) < -0.05;
   const bool failed = !torso_ok || support < 0.3 || head_far || heading_wrong;
   s.failing = failed ? s.failing + 1 : 0;
   if (s.failing >= s.opt.reinit_after_frames) {

@@ -72,12 +72,17 @@ FeetCue feet_forward(const HullBits& hull, const FeatureSet& f, const std::array
   return cue;
 }
 
-bool HeadingVote::update(const Mat3& R, const FeetCue& cue) {
+bool faces_away(const Mat3& R, const FeetCue& cue) {
   if (!cue.valid) return false;
   const Vec3 y(R[1].x, R[1].y, 0);
   const double ly = glm::length(y);
-  if (ly < 1e-6) return false;
-  if (glm::dot(y / ly, cue.forward) < kAgainstCos) {
+  return ly >= 1e-6 && glm::dot(y / ly, cue.forward) < kAgainstCos;
+}
+
+bool HeadingVote::update(const Mat3& R, const FeetCue& cue) {
+  // No verdict (cue invalid, torso lying flat): the count stays as it is.
+  if (!cue.valid || glm::length(Vec3(R[1].x, R[1].y, 0)) < 1e-6) return false;
+  if (faces_away(R, cue)) {
     if (++against_ >= kFlipFrames) {
       against_ = 0;
       return true;

@@ -27,6 +27,11 @@ struct FeetCue {
 // within 60 degrees of each other; forward is their sum's direction.
 FeetCue feet_forward(const HullBits& hull, const FeatureSet& f, const std::array<bool, 5>& ok);
 
+// Whether the torso (R's columns: right, forward, up) faces away from where the valid cue's feet point:
+// its level forward more than 120 degrees from theirs. False without a verdict (cue invalid, torso
+// lying flat).
+bool faces_away(const Mat3& R, const FeetCue& cue);
+
 // The sign vote: the torso's forward (level) against the feet's, frame after frame. Disagreeing
 // clearly (more than 120 degrees apart) for kFlipFrames valid frames in a row says the torso's sign
 // is wrong (its shoulder line right, its sign continuity carried a swap): flip() turns it round.
