@@ -35,6 +35,7 @@ struct EvalOptions {
   int frames = 240;     // frames to run (from first_frame)
   int frame_step = 1;
   Masks masks = Masks::edge;
+  int grow_px = -1;  // the edge's limb-scale cue (bgmodel.h grow_px) for edge masks; < 0: the edge's default
   bool truth_seeds = true;  // seeds from the truth (else the tracker's own seeder)
   int trace_feature =
       -1;  // >= 0: print every camera frame of this feature (cam frame state conf err uv truth)
@@ -177,8 +178,9 @@ inline EvalResult evaluate(const EvalOptions& o) {
       vc_bgmodel_finish(bg);
       vc_subtract_params p;
       vc_subtract_params_default(&p);
-      vc_bgmodel_set_params(bg, &p);
-      scratch.resize(vc_cleanup_radius_scratch_size(W, 1));
+      if (o.grow_px >= 0) p.grow_px = o.grow_px;
+      if (vc_bgmodel_set_params(bg, &p) < 0) throw std::runtime_error("bad subtraction parameters");
+      scratch.resize(vc_cleanup_radius_scratch_size(W, VC_CLEANUP_RADIUS_PX));
     }
     std::unique_ptr<vc_bgmodel, void (*)(vc_bgmodel*)> bg_owner(bg, vc_bgmodel_free);
     cv::Mat rgb, sil;
@@ -190,8 +192,9 @@ inline EvalResult evaluate(const EvalOptions& o) {
     for (int i = 0; i < o.frames; ++i, frame += o.frame_step) {
       scene.render(frame, cam, rgb, &sil);
       if (bg) {
-        vc_subtract(bg, rgb.data, rgb.step, mask.data, nullptr);
-        vc_cleanup_radius(mask.data, W, H, 1, scratch.data(), scratch.size());
+        // the edge's silhouette as the node makes it (edge/daemon/node.c): subtraction, clean-up, cue
+        vc_mask_frame(bg, rgb.data, rgb.step, mask.data, VC_CLEANUP_RADIUS_PX, scratch.data(), scratch.size(),
+                      nullptr);
       } else {
         sil.copyTo(mask);
       }

@@ -1,8 +1,9 @@
 // track_eval MOTION [FRAMES] [truth|edge] [seeds|own] [APPEARANCE] [ROOM]: runs the trackers of every
 // camera of the 6-camera virtual rig over a motion and prints, per feature, the 2D error (p50/p95, px)
 // while visible and tracked, visible frames not tracked, losses, frames to recover, and the cost.
-// TRACK_EVAL_TRACE=F (0-4) also prints every camera frame of feature F: state, confidence, error, the
-// reported and the true point (where a tail comes from).
+// TRACK_EVAL_GROW_PX=N makes the edge masks with the limb-scale cue at N pixels (0: off; unset: the
+// edge's default). TRACK_EVAL_TRACE=F (0-4) also prints every camera frame of feature F: state,
+// confidence, error, the reported and the true point (where a tail comes from).
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
@@ -20,6 +21,7 @@ int main(int argc, char** argv) {
   if (argc > 5) o.appearance = argv[5];
   if (argc > 6) o.room = argv[6];
   if (const char* t = std::getenv("TRACK_EVAL_TRACE")) o.trace_feature = std::atoi(t);
+  if (const char* g = std::getenv("TRACK_EVAL_GROW_PX")) o.grow_px = std::atoi(g);
   EvalResult r;
   try {
     r = evaluate(o);
@@ -28,8 +30,9 @@ int main(int argc, char** argv) {
     return 1;
   }
   static const char* names[] = {"head", "left_hand", "right_hand", "left_foot", "right_foot"};
-  std::printf("%s: %d frames x %d cameras, %s masks, %s seeds\n", o.motion.c_str(), o.frames, o.cameras,
-              o.masks == Masks::truth ? "true" : "edge", o.truth_seeds ? "true" : "own");
+  std::printf("%s: %d frames x %d cameras, %s masks, %s seeds, grow_px %d\n", o.motion.c_str(), o.frames,
+              o.cameras, o.masks == Masks::truth ? "true" : "edge", o.truth_seeds ? "true" : "own",
+              o.grow_px);
   std::printf("%-11s %7s %7s %8s %9s %7s %9s %11s %6s %5s %13s %17s\n", "feature", "p50_px", "p95_px",
               "visible", "untracked", "losses", "rec_max", "unrecovered", ">25px", "conf", "bias_px",
               "pred p50/p95");
