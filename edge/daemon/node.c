@@ -42,6 +42,10 @@ struct vc_node {
 
   vc_carver* carver;
   uint8_t* masks[VC_NODE_CAMS];
+  /* The tracker's masks: masks[] without the limb-scale cue's pixels (vc_mask_ungrown), made in a
+   * frame whose cue grew some; NULL when the cue is off. grown[]: the cue's pixels this frame. */
+  uint8_t* track_masks[VC_NODE_CAMS];
+  uint32_t grown[VC_NODE_CAMS];
   uint8_t* scratch;
   size_t scratch_len;
   uint8_t* bitset;
@@ -122,6 +126,7 @@ void vc_node_free(vc_node* n) {
   vc_carver_free(n->carver);
   for (int c = 0; c < VC_NODE_CAMS; c++) {
     free(n->masks[c]);
+    free(n->track_masks[c]);
     free(n->silbits[c]);
     free(n->silbuf[c]);
     free(n->framebuf[c]);
@@ -219,12 +224,18 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
       n->cams[0].width > n->cams[1].width ? n->cams[0].width : n->cams[1].width, (int)cfg->cleanup_radius_px);
   uint8_t* scratch = malloc(scratch_len);
   uint8_t* masks[VC_NODE_CAMS] = {NULL, NULL};
+  uint8_t* track_masks[VC_NODE_CAMS] = {NULL, NULL};
+  bool track_ok = true;
   uint8_t *silbits[VC_NODE_CAMS] = {NULL, NULL}, *silbuf[VC_NODE_CAMS] = {NULL, NULL};
   size_t silcap[VC_NODE_CAMS] = {0, 0};
   uint16_t silw[VC_NODE_CAMS] = {0, 0}, silh[VC_NODE_CAMS] = {0, 0};
   bool sil_ok = true;
   for (int c = 0; c < VC_NODE_CAMS; c++) {
     masks[c] = calloc((size_t)n->cams[c].width * (size_t)n->cams[c].height, 1);
+    if (sub.grow_px > 0) {
+      track_masks[c] = malloc((size_t)n->cams[c].width * (size_t)n->cams[c].height);
+      track_ok = track_ok && track_masks[c];
+    }
     if (!cfg->silhouette_every) continue;
     const int s = cfg->silhouette_scale; /* cameras are <= 16384 wide and high: so are the masks */
     silw[c] = (uint16_t)((n->cams[c].width + s - 1) / s);
@@ -235,13 +246,14 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
     silbuf[c] = malloc(silcap[c]);
     sil_ok = sil_ok && silbits[c] && silbuf[c];
   }
-  if (!bitset || !msgbuf || !scratch || !masks[0] || !masks[1] || !sil_ok) {
+  if (!bitset || !msgbuf || !scratch || !masks[0] || !masks[1] || !sil_ok || !track_ok) {
     vc_why(why, why_len, "CONFIG: out of memory");
     free(bitset);
     free(msgbuf);
     free(scratch);
     for (int c = 0; c < VC_NODE_CAMS; c++) {
       free(masks[c]);
+      free(track_masks[c]);
       free(silbits[c]);
       free(silbuf[c]);
     }
@@ -263,6 +275,9 @@ int vc_node_configure(vc_node* n, const vc_config* cfg, char* why, size_t why_le
   for (int c = 0; c < VC_NODE_CAMS; c++) {
     free(n->masks[c]);
     n->masks[c] = masks[c];
+    free(n->track_masks[c]);
+    n->track_masks[c] = track_masks[c];
+    n->grown[c] = 0;
     free(n->silbits[c]);
     n->silbits[c] = silbits[c];
     free(n->silbuf[c]);
@@ -537,7 +552,16 @@ static void produce_features(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
                              vc_node_output* out) {
   vc_features feats[VC_NODE_CAMS];
   memset(feats, 0, sizeof(feats));
-  const uint8_t* const masks[VC_NODE_CAMS] = {n->masks[0], n->masks[1]};
+  /* The tracker gets the silhouette without the limb-scale cue (bgmodel.h: VC_MASK_GROWN), the carver
+   * and the SILHOUETTEs the grown one; a frame the cue left alone needs no copy. */
+  const uint8_t* masks[VC_NODE_CAMS];
+  for (int c = 0; c < VC_NODE_CAMS; c++) {
+    masks[c] = n->masks[c];
+    if (n->grown[c] > 0 && n->track_masks[c] != NULL) {
+      vc_mask_ungrown(n->masks[c], (size_t)n->cams[c].width * (size_t)n->cams[c].height, n->track_masks[c]);
+      masks[c] = n->track_masks[c];
+    }
+  }
   int k = n->producer.track(n->producer.user, seq, rgb, stride, masks, n->cams, feats);
   if (k < 0 || k > VC_NODE_CAMS) {
     n->counters.features_failed++;
@@ -628,7 +652,7 @@ int vc_node_process_frame(vc_node* n, uint64_t seq, uint64_t t_trigger_ns,
   uint64_t t1 = now_ns();
   for (int c = 0; c < VC_NODE_CAMS; c++) { /* vc_mask_frame's second half: the clean-up, then the cue */
     int rc = vc_cleanup_grow(n->bg[c], rgb[c], stride[c], n->masks[c], n->cleanup_radius, n->scratch,
-                             n->scratch_len, NULL);
+                             n->scratch_len, &n->grown[c]);
     if (rc < 0) return rc;
   }
   uint64_t t2 = now_ns();

@@ -81,9 +81,10 @@ void vc_node_stop(vc_node* node);
  * returns into one FEATURES message per camera for the same seq. */
 typedef struct vc_features_producer {
   /* Tracks head, hands and feet in one frame pair: rgb/stride the frames, mask the node's silhouettes
-   * (cams[c].width x height bytes, 0/255). Fills out[0..n-1] (camera, feature_count, features) and
-   * returns n (0..VC_NODE_CAMS), or a negative errno (the frame's HULL is still sent). Runs on the
-   * pipeline thread; everything it is given is valid during the call only. */
+   * (cams[c].width x height bytes, 0/255) before the limb-scale cue: the clean-up's foreground only,
+   * without the rim the cue grows for the carver (edge/core bgmodel.h: VC_MASK_GROWN). Fills out[0..n-1]
+   * (camera, feature_count, features) and returns n (0..VC_NODE_CAMS), or a negative errno (the frame's HULL
+   * is still sent). Runs on the pipeline thread; everything it is given is valid during the call only. */
   int (*track)(void* user, uint64_t seq, const uint8_t* const rgb[VC_NODE_CAMS],
                const size_t stride[VC_NODE_CAMS], const uint8_t* const mask[VC_NODE_CAMS],
                const vc_node_camera cams[VC_NODE_CAMS], vc_features out[VC_NODE_CAMS]);
@@ -141,8 +142,9 @@ bool vc_node_grabbing(const vc_node* node);
 int vc_node_frames(vc_node* node, uint64_t seq, uint64_t t_trigger_ns, const uint8_t* const rgb[VC_NODE_CAMS],
                    const size_t stride[VC_NODE_CAMS], vc_node_output* out);
 
-/* The silhouettes of the last processed frame (width x height bytes each, 0/255), for feature
- * tracking and diagnostics; NULL before the first frame. Valid until the next call on the node. */
+/* The silhouettes of the last processed frame as carved (width x height bytes each: 0, 255, and 128
+ * for the limb-scale cue's pixels: edge/core bgmodel.h), for diagnostics; NULL before the first frame. Valid
+ * until the next call on the node. */
 const uint8_t* vc_node_mask(const vc_node* node, int cam);
 /* The bitset of the last carved hull and its voxel count (NULL/0 before the first frame). */
 const uint8_t* vc_node_bitset(const vc_node* node, uint64_t* voxels);

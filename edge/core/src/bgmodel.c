@@ -724,7 +724,7 @@ static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, uint64_t* fg, con
 /* ---- the limb-scale cue (bgmodel.h: grow_px, grow_sigma) ---------------------------------------- */
 
 /* The mask's mark while the cue runs: queued, to be tested (a pixel that fails goes back to 0, one
- * that passes becomes 0xFF at once; the first ring is found before any is marked). */
+ * that passes becomes VC_MASK_GROWN at once; the first ring is found before any is marked). */
 enum { VC_GROW_QUEUED = 1 };
 
 /* Whether background pixel i (pixel index; px its colour) is weak: eq. 1's background in every
@@ -798,7 +798,7 @@ static size_t grow_ring1(uint8_t* mk, const uint64_t* fg, size_t stride, uint8_t
 }
 
 /* The cue over a finished mask: ring 1 from the scan, then up to grow_px rings of breadth-first
- * search through weak pixels (4-connected), then the marks back to 0 / 0xFF. Returns the pixels
+ * search through weak pixels (4-connected), then the marks back to 0 / VC_MASK_GROWN. Returns the pixels
  * grown. */
 static uint32_t grow_mask(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t* mk) {
   const int w = m->width, h = m->height;
@@ -816,7 +816,7 @@ static uint32_t grow_mask(const vc_bgmodel* m, const uint8_t* rgb, size_t stride
         mk[i] = 0;
         continue;
       }
-      mk[i] = 0xFF;
+      mk[i] = VC_MASK_GROWN;
       grown++;
       if (ring == m->grow_px) continue;
       const int y = (int)(i / (uint32_t)w), x = (int)(i - (uint32_t)y * (uint32_t)w);
@@ -916,4 +916,8 @@ int vc_mask_frame(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_
   rc = vc_cleanup_grow(m, rgb, stride, mask, radius, scratch, scratch_len, &grown);
   if (stats != NULL) stats->grown = grown;
   return rc;
+}
+
+void vc_mask_ungrown(const uint8_t* mask, size_t len, uint8_t* out) {
+  for (size_t i = 0; i < len; i++) out[i] = (uint8_t)(0u - (unsigned)(mask[i] == VC_MASK_FG));
 }

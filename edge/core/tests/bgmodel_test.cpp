@@ -872,7 +872,7 @@ std::vector<uint8_t> reference_grow(const vc_bgmodel* m, const vc_subtract_param
     std::vector<size_t> next;
     for (size_t i : ring) {
       if (!weak(i)) continue;
-      mask[i] = 255;
+      mask[i] = VC_MASK_GROWN;
       const int x = static_cast<int>(i % w), y = static_cast<int>(i / w);
       const int nx[4] = {x - 1, x + 1, x, x}, ny[4] = {y, y, y - 1, y + 1};
       for (int k = 0; k < 4; k++) {
@@ -968,6 +968,14 @@ TEST_P(SubtractVariants, LimbScaleCueEqualsItsPlainReference) {
     for (size_t i = 0; i < mask.size(); i++) grown += mask[i] != base[i];
     EXPECT_EQ(st.grown, grown);
     EXPECT_GT(grown, 0u);
+    // The cue's pixels are VC_MASK_GROWN, the clean mask's VC_MASK_FG; without the cue's, the mask
+    // is the clean one (what the edge's tracker gets), in place or not.
+    std::vector<uint8_t> ungrown(mask.size(), 0x5A);
+    vc_mask_ungrown(mask.data(), mask.size(), ungrown.data());
+    EXPECT_EQ(ungrown, base) << "round " << round;
+    std::vector<uint8_t> in_place = mask;
+    vc_mask_ungrown(in_place.data(), in_place.size(), in_place.data());
+    EXPECT_EQ(in_place, base) << "round " << round;
   }
 }
 

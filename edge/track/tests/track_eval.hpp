@@ -192,9 +192,11 @@ inline EvalResult evaluate(const EvalOptions& o) {
     for (int i = 0; i < o.frames; ++i, frame += o.frame_step) {
       scene.render(frame, cam, rgb, &sil);
       if (bg) {
-        // the edge's silhouette as the node makes it (edge/daemon/node.c): subtraction, clean-up, cue
+        // the edge's silhouette as the node makes it (edge/daemon/node.c): subtraction, clean-up, cue;
+        // and as the node gives it to its tracker, without the cue's pixels
         vc_mask_frame(bg, rgb.data, rgb.step, mask.data, VC_CLEANUP_RADIUS_PX, scratch.data(), scratch.size(),
                       nullptr);
+        vc_mask_ungrown(mask.data, mask.total(), mask.data);
       } else {
         sil.copyTo(mask);
       }

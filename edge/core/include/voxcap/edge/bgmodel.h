@@ -9,7 +9,8 @@
  *                         vc_bgmodel_free(m)
  *
  * Pixels are interleaved RGB24 (uint8 R, G, B), rows `stride` bytes apart. Masks are uint8, one byte
- * per pixel, rows `width` bytes apart: 0 = background (including shadow), 255 = foreground.
+ * per pixel, rows `width` bytes apart: 0 = background (including shadow), 255 = foreground
+ * (VC_MASK_FG); after the limb-scale cue also 128 (VC_MASK_GROWN, below).
  *
  * Classification of pixel p against mean mu and standard deviation sigma (per channel c; sigma
  * raised to sigma_floor; g_lo, g_hi = shadow_min_gain, shadow_max_gain <= 1):
@@ -209,6 +210,20 @@ int vc_cleanup_grow(const vc_bgmodel* model, const uint8_t* rgb, size_t stride, 
                     uint8_t* scratch, size_t scratch_len, uint32_t* grown);
 int vc_mask_frame(const vc_bgmodel* model, const uint8_t* rgb, size_t stride, uint8_t* mask, int radius,
                   uint8_t* scratch, size_t scratch_len, vc_subtract_stats* stats);
+
+/* The values of a mask after the cue: the subtraction and clean-up's foreground is VC_MASK_FG, the
+ * pixels the cue added VC_MASK_GROWN. Carving, RLE and the SILHOUETTE message take any non-zero byte
+ * as foreground (the hull and the host see the grown silhouette); the edge's tracker takes only
+ * VC_MASK_FG (vc_mask_ungrown): its windows are masked by the silhouette and its seeds and
+ * re-acquisitions come from the silhouette's shape and skin blobs, which a grown rim of up to grow_px
+ * pixels changes (given the grown mask, track_eval squat's hands went untracked in 461 and 457 of
+ * 1671 views, against 212 and 198: edge/core/README.md). */
+#define VC_MASK_FG 255
+#define VC_MASK_GROWN 128
+
+/* The mask without the cue's pixels: out[i] = 255 where mask[i] is VC_MASK_FG, else 0 (len bytes;
+ * out may be mask). What the edge daemon gives its tracker. */
+void vc_mask_ungrown(const uint8_t* mask, size_t len, uint8_t* out);
 
 /* Name of the kernel variant in use ("generic", "avx2" or "neon"). */
 const char* vc_edge_kernel_name(void);
