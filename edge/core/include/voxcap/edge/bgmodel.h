@@ -119,20 +119,22 @@ typedef struct vc_subtract_params {
  * and a shadow's pixels are in the band, so a floor shadow touching the feet is not grown into.
  * Exact integers, no allocation per frame (the model holds a queue of width * height indices, each
  * pixel's least |p - mu|^2 for the test, and the clean mask's foreground as bits, which the clean-up
- * writes in its own pass). Off by default (grow_px 0): with grow_px 4 the issue #10 matrix's cells
- * missing a target go from 29 to 16 (every foot >= 98.7 %) and the edge frame of `voxcap bench edge`
- * stays within #10's budget (9.795 M instructions against 9.80: edge/core/README.md), but live on the
- * emulated rig the grown rims cost the hands' tracking: `voxcap demo --motion squat` 34.9 -> 64.8 mm
- * MPJPE (wrists 160-195 mm, hands swapped), so it stays a bench option until that is understood. */
-#define VC_SUBTRACT_GROW_PX 0.0
+ * writes in its own pass). The pixels it adds are VC_MASK_GROWN (below): the carver takes them, the
+ * edge's tracker does not. On by default, grow_px 4: on the issue #10 matrix the cells missing a
+ * target go from 29 to 16 (every foot >= 98.7 %), and the edge frame of `voxcap bench edge` stays
+ * within #10's budget (9.795 M instructions against 9.80: edge/core/README.md). It was off while the
+ * tracker saw the grown rims (live, `voxcap demo --motion squat` 34.9 -> 64.8 mm MPJPE, hands
+ * swapped; offline, track_eval's hands untracked in 2-5x as many views on all six motions); given the
+ * mask without them, track_eval is the same with the cue as without it. */
+#define VC_SUBTRACT_GROW_PX 4.0
 #define VC_SUBTRACT_GROW_PX_MAX 64.0
 #define VC_SUBTRACT_GROW_SIGMA 1.5 /* the value measured with grow_px 4 */
 #define VC_SUBTRACT_GROW_SIGMA_MAX 16.0
 
 /* Fills the defaults of voxcap/subtraction.h (the ones the host's rig.toml starts from): T_u 60,
  * T_l 3.5, T_angular 8 degrees, alpha in [0.45, 1.0], sigma floor 1.0, texture k 1.5; and the
- * flat-patch margin 0.2 (VC_SUBTRACT_SHADOW_FLAT_MARGIN above); the limb-scale cue off (grow_px 0;
- * grow_sigma 1.5 for when it is on: VC_SUBTRACT_GROW_* above). */
+ * flat-patch margin 0.2 (VC_SUBTRACT_SHADOW_FLAT_MARGIN above); the limb-scale cue on (grow_px 4,
+ * grow_sigma 1.5: VC_SUBTRACT_GROW_* above). */
 void vc_subtract_params_default(vc_subtract_params* params);
 
 /* 0 if the parameters are usable, -EINVAL otherwise. The reason, when why is given (NULL/0 when not
