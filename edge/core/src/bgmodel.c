@@ -433,15 +433,14 @@ static void classify_span(const uint8_t* restrict px, const uint8_t* restrict bl
   }
 }
 
-/* The band pixels (value 1) of out[x0, n) as bits of `bits` and the foreground ones (0xFF) as bits
- * of `fg` (bit i of word i / 64; the words from x0 / 64 on are overwritten, x0 a multiple of 64). A
- * band byte is the only value whose bit 0 differs from its bit 1 (0x00 and 0xFF do not), a
- * foreground byte the only one with bit 7, and the multiply gathers the 8 marks of a word. */
-static int band_bits(const uint8_t* out, int x0, int n, uint64_t* bits, uint64_t* fg) {
+/* The band pixels (value 1) of out[x0, n) as bits of `bits` (bit i of word i / 64; the words from
+ * x0 / 64 on are overwritten, x0 a multiple of 64). A band byte is the only value whose bit 0 differs
+ * from its bit 1 (0x00 and 0xFF do not), and the multiply gathers the 8 marks of a word. */
+static int band_bits(const uint8_t* out, int x0, int n, uint64_t* bits) {
   const uint64_t lsb = 0x0101010101010101ull;
   uint64_t any = 0;
   for (int x = x0; x < n; x += 64) {
-    uint64_t word = 0, fword = 0;
+    uint64_t word = 0;
     for (int k = 0; k < 64 && x + k < n; k += 8) {
       uint64_t w = 0;
       if (n - (x + k) >= 8)
@@ -450,10 +449,8 @@ static int band_bits(const uint8_t* out, int x0, int n, uint64_t* bits, uint64_t
         memcpy(&w, out + x + k, (size_t)(n - (x + k)));
       const uint64_t marks = (w ^ (w >> 1)) & lsb;
       word |= ((marks * 0x0102040810204080ull) >> 56) << k;
-      fword |= ((((w >> 7) & lsb) * 0x0102040810204080ull) >> 56) << k;
     }
     bits[x / 64] = word;
-    if (fg != NULL) fg[x / 64] = fword;
     any |= word;
   }
   return any != 0;
@@ -461,10 +458,9 @@ static int band_bits(const uint8_t* out, int x0, int n, uint64_t* bits, uint64_t
 
 static int classify_row_generic(const uint8_t* restrict px, const uint8_t* restrict blo,
                                 const uint8_t* restrict flo, const uint8_t* restrict fhi,
-                                uint8_t* restrict out, uint64_t* restrict bits, uint64_t* restrict fg,
-                                int n) {
+                                uint8_t* restrict out, uint64_t* restrict bits, int n) {
   classify_span(px, blo, flo, fhi, out, 0, n);
-  return band_bits(out, 0, n, bits, fg);
+  return band_bits(out, 0, n, bits);
 }
 
 #if VC_HAVE_AVX2_VARIANT
@@ -486,12 +482,9 @@ VC_TARGET_AVX2 static inline __m256i codes32(const uint8_t* p, const uint8_t* b,
                          _mm256_min_epu8(band, _mm256_set1_epi8(1)));
 }
 
-/* with_fg is a constant in each of the two callers below, so that the loop without the cue's
- * foreground bits is the one it was before them. */
-VC_TARGET_AVX2 static inline __attribute__((always_inline)) int classify_avx2(
-    const uint8_t* restrict px, const uint8_t* restrict blo, const uint8_t* restrict flo,
-    const uint8_t* restrict fhi, uint8_t* restrict out, uint64_t* restrict bits, uint64_t* restrict fg, int n,
-    const bool with_fg) {
+VC_TARGET_AVX2 static int classify_row_avx2(const uint8_t* restrict px, const uint8_t* restrict blo,
+                                            const uint8_t* restrict flo, const uint8_t* restrict fhi,
+                                            uint8_t* restrict out, uint64_t* restrict bits, int n) {
   const __m256i m0 = _mm256_setr_epi8(0, 3, 6, 9, 12, 15, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1, /* A */
                                       0, 3, 6, 9, 12, 15, -1, -1, -1, -1, -1, -1, -1, -1, -1, -1);
   const __m256i m1 = _mm256_setr_epi8(-1, -1, -1, -1, -1, -1, 2, 5, 8, 11, 14, -1, -1, -1, -1, -1, /* B */
@@ -523,26 +516,14 @@ VC_TARGET_AVX2 static inline __attribute__((always_inline)) int classify_avx2(
       bits[x / 64] = mb;
     else
       bits[x / 64] |= mb << 32;
-    if (with_fg) { /* 0xFF: the foreground's sign bits, the word's half (little-endian, as x86 is) */
-      const uint32_t fb32 = (uint32_t)_mm256_movemask_epi8(v);
-      memcpy((uint8_t*)fg + x / 8, &fb32, sizeof(fb32));
-    }
     any |= mb;
   }
   if (n32 < n) { /* the last n % 32 pixels: the portable code, from a multiple of 32 */
     const int x64 = n32 & ~63;
     classify_span(px, blo, flo, fhi, out, n32, n);
-    any |= (uint64_t)band_bits(out, x64, n, bits, fg);
+    any |= (uint64_t)band_bits(out, x64, n, bits);
   }
   return any != 0;
-}
-
-VC_TARGET_AVX2 static int classify_row_avx2(const uint8_t* restrict px, const uint8_t* restrict blo,
-                                            const uint8_t* restrict flo, const uint8_t* restrict fhi,
-                                            uint8_t* restrict out, uint64_t* restrict bits,
-                                            uint64_t* restrict fg, int n) {
-  return fg != NULL ? classify_avx2(px, blo, flo, fhi, out, bits, fg, n, true)
-                    : classify_avx2(px, blo, flo, fhi, out, bits, NULL, n, false);
 }
 #endif
 
@@ -555,7 +536,7 @@ VC_TARGET_AVX2 static int classify_row_avx2(const uint8_t* restrict px, const ui
  * weights 1..128 and summed per half. */
 static int classify_row_neon(const uint8_t* restrict px, const uint8_t* restrict blo,
                              const uint8_t* restrict flo, const uint8_t* restrict fhi, uint8_t* restrict out,
-                             uint64_t* restrict bits, uint64_t* restrict fgbits, int n) {
+                             uint64_t* restrict bits, int n) {
   static const uint8_t weights[16] = {1, 2, 4, 8, 16, 32, 64, 128, 1, 2, 4, 8, 16, 32, 64, 128};
   const uint8x16_t wv = vld1q_u8(weights);
   const uint8x16_t one = vdupq_n_u8(1);
@@ -581,21 +562,12 @@ static int classify_row_neon(const uint8_t* restrict px, const uint8_t* restrict
       bits[x / 64] = mb;
     else
       bits[x / 64] |= mb << (x & 63);
-    if (fgbits != NULL) {
-      const uint8x16_t fmarks = vandq_u8(vceqq_u8(v, vdupq_n_u8(0xFF)), wv);
-      const uint64_t fb = (uint64_t)vaddv_u8(vget_low_u8(fmarks)) | (uint64_t)vaddv_u8(vget_high_u8(fmarks))
-                                                                        << 8;
-      if ((x & 63) == 0)
-        fgbits[x / 64] = fb;
-      else
-        fgbits[x / 64] |= fb << (x & 63);
-    }
     any |= mb;
   }
   if (n16 < n) { /* the last n % 16 pixels: the portable code, from a multiple of 16 */
     const int x64 = n16 & ~63;
     classify_span(px, blo, flo, fhi, out, n16, n);
-    any |= (uint64_t)band_bits(out, x64, n, bits, fgbits);
+    any |= (uint64_t)band_bits(out, x64, n, bits);
   }
   return any != 0;
 }
@@ -607,7 +579,7 @@ static int classify_row_neon(const uint8_t* restrict px, const uint8_t* restrict
  * appended to cand[] with its terms. Returns the number of pixels that passed (the candidates);
  * adds the row's band pixels to *band_count. */
 static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mean, uint8_t* out,
-                      const uint64_t* bits, uint64_t* fg, int n, struct vc_cand* cand, uint32_t* band_count) {
+                      const uint64_t* bits, int n, struct vc_cand* cand, uint32_t* band_count) {
   const uint64_t c2 = m->c2_q24, glo = m->glo_q16, ghi = m->ghi_q16;
   int k = 0;
   uint32_t band = 0;
@@ -623,7 +595,6 @@ static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mea
       const unsigned is_shadow =
           ((dot * dot << 24) >= c2 * pp * mm) & (dot16 >= glo * mm) & (dot16 <= ghi * mm);
       out[i] = (uint8_t)(is_shadow - 1u); /* shadow -> 0 (background, or a candidate), else 0xFF */
-      if (!is_shadow && fg != NULL) fg[wi] |= 1ull << (i & 63);
       band++;
       if (cand != NULL && is_shadow) {
         const uint32_t l = (uint32_t)p[0] + p[1] + p[2], lmu = (uint32_t)mu[0] + mu[1] + mu[2];
@@ -686,7 +657,7 @@ static unsigned flat_beats_texture(const vc_sums* s, uint64_t v, uint64_t margin
  * a shadow, which copies it, from a body, which is smoother than it. With fewer than
  * VC_TEXTURE_MIN_PIXELS candidates in the window the per-pixel tests decide (shadow). A candidate
  * that fails becomes foreground. Returns the number of shadows. */
-static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, uint64_t* fg, const uint16_t* sigma_row,
+static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, const uint16_t* sigma_row,
                             const struct vc_cand* cand, int count) {
   const uint64_t k2 = m->k2_q8, fl = m->floor_q8, flat = m->flat_q8;
   const vc_sums* colsum = m->colsum;
@@ -715,7 +686,6 @@ static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, uint64_t* fg, con
       if (is_shadow && flat != 0) is_shadow = !flat_beats_texture(&s, v, flat);
     }
     out[x] = (uint8_t)(is_shadow - 1u);
-    if (!is_shadow && fg != NULL) fg[x / 64] |= 1ull << (x & 63);
     shadow += is_shadow;
   }
   return shadow;
@@ -838,8 +808,7 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
   if (m == NULL || rgb == NULL || mask == NULL || stride < (size_t)m->width * 3) return -EINVAL;
   if (!m->ready) return -EAGAIN;
   int (*classify)(const uint8_t* restrict, const uint8_t* restrict, const uint8_t* restrict,
-                  const uint8_t* restrict, uint8_t* restrict, uint64_t* restrict, uint64_t* restrict, int) =
-      classify_row_generic;
+                  const uint8_t* restrict, uint8_t* restrict, uint64_t* restrict, int) = classify_row_generic;
 #if VC_HAVE_AVX2_VARIANT
   if (vc__use_avx2()) classify = classify_row_avx2;
 #endif
@@ -863,8 +832,8 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
       uint8_t* out = mask + (size_t)y * (size_t)w;
       struct vc_cand* cand = texture ? m->cand + (size_t)(y % rows) * (size_t)w : NULL;
       int k = 0;
-      if (classify(px, m->blo + off, m->flo + off, m->fhi + off, out, bits, NULL, w))
-        k = shadow_row(m, px, m->mean + off, out, bits, NULL, w, cand, &band);
+      if (classify(px, m->blo + off, m->flo + off, m->fhi + off, out, bits, w))
+        k = shadow_row(m, px, m->mean + off, out, bits, w, cand, &band);
       if (!texture) {
         shadow += (uint32_t)k;
         continue;
@@ -875,8 +844,8 @@ int vc_subtract(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t*
     const int t = y - r;
     if (t < 0) continue;
     const struct vc_cand* cand_t = m->cand + (size_t)(t % rows) * (size_t)w;
-    shadow += texture_row(m, mask + (size_t)t * (size_t)w, NULL, m->sigma_q8 + (size_t)t * row, cand_t,
-                          count[t % rows]);
+    shadow +=
+        texture_row(m, mask + (size_t)t * (size_t)w, m->sigma_q8 + (size_t)t * row, cand_t, count[t % rows]);
     const int gone = t - r; /* the windows of rows after t no longer reach row t - r */
     if (gone >= 0) {
       colsum_update(m->colsum, m->cand + (size_t)(gone % rows) * (size_t)w, count[gone % rows], false);
