@@ -34,6 +34,8 @@ constexpr double kOnePointM = 0.06;   // m: a pair's two features this close are
 constexpr double kOnePointApartM =
     0.2;  // ... that is wrong for one of them when their paths are this far apart
 constexpr double kLumbarLeanDeg = 10;  // the pelvis tilts with the torso's lean beyond this
+constexpr int kNearReachSteps = 4;     // cm: a limb near full reach is tried this much bent (1 cm steps) ...
+constexpr int kNearReachDirs = 12;     // ... in this many directions about its root-to-end line
 
 struct OneEuro {
   bool init = false;
@@ -332,10 +334,11 @@ struct Fitter::State {
     return Mat3(H[0], y, z);
   }
 
-  // Whether p lies inside the fitted torso cylinder (at this frame's neck and torso frame).
-  bool inside_torso(const Vec3& p) const {
+  // Whether p lies inside the fitted torso cylinder (at this frame's neck and torso frame), widened
+  // by widen_m.
+  bool inside_torso(const Vec3& p, double widen_m = 0) const {
     const Vec3 q = glm::transpose(l1.R_torso_world) * (p - l1.neck_world);
-    const double x = q.x / body.torso_half_width_m, y = q.y / body.torso_half_depth_m;
+    const double x = q.x / (body.torso_half_width_m + widen_m), y = q.y / (body.torso_half_depth_m + widen_m);
     return q.z < 0 && q.z > -body.spine_m && x * x + y * y < 1;
   }
 
@@ -400,6 +403,7 @@ struct Fitter::State {
     if (now.bend_rad < straight_rad) {  // the method: keep rho(t-1)
       ++limbs[li].straight_frames;
       last[li] = now;
+      bend_near_reach(limb, root, end, bend_world);
       return false;
     }
     const Vec3 seg = end - root;
@@ -490,6 +494,48 @@ struct Fitter::State {
     last[li] = solve_limb(root, end, L1, L2, dir, best_slack);
     track.straight_frames = last[li].bend_rad < straight_rad ? track.straight_frames + 1 : 0;
     return true;
+  }
+
+  // ---- Near full reach the law of cosines cannot tell the bend: a limb 1 cm short of full reach
+  // has its hinge ~5 cm off the root-to-end line (a hanging arm's elbow bent 20 degrees), so 1 cm of
+  // error in the measured lengths, the root or the end feature straightens it. There the hull decides:
+  // the hinge placed as for a goal 1 to kNearReachSteps cm nearer than the end (the lower segment then
+  // reaches the end, that much longer than measured), in kNearReachDirs directions about the segment;
+  // the placement with the most samples in the hull wins over the straight limb when it holds more. ----
+  void bend_near_reach(int limb, const Vec3& root, const Vec3& end, const Vec3& bend_world) {
+    const size_t li = static_cast<size_t>(limb);
+    const double L1 = body.upper_m(limb), L2 = body.lower_m(limb);
+    const Vec3 seg = end - root;
+    const double d = glm::length(seg);
+    if (d < 1e-6) return;
+    const Vec3 u = seg / d;
+    Vec3 e1 = bend_world - glm::dot(bend_world, u) * u;
+    if (glm::length(e1) < 1e-6) e1 = glm::cross(u, std::abs(u.z) < 0.9 ? Vec3(0, 0, 1) : Vec3(1, 0, 0));
+    e1 = glm::normalize(e1);
+    const Vec3 e2 = glm::cross(u, e1);
+    int best = count_limb(limb, last[li].root, last[li].hinge, last[li].end);
+    if (best == static_cast<int>(samples.size())) return;  // nothing can hold more
+    double best_slack = 0;
+    Vec3 best_dir(0.0);
+    for (int c = 1; c <= kNearReachSteps; ++c) {
+      const double dd = std::min(d, L1 + L2) - 0.01 * c;
+      if (dd <= std::abs(L1 - L2) + 0.01) break;
+      const double a = (L1 * L1 - L2 * L2 + dd * dd) / (2 * dd);
+      const double h = std::sqrt(std::max(0.0, L1 * L1 - a * a));
+      for (int l = 0; l < kNearReachDirs; ++l) {
+        const double xi = 2 * M_PI * l / kNearReachDirs;
+        const Vec3 dir = std::cos(xi) * e1 + std::sin(xi) * e2;
+        const Vec3 hinge = root + a * u + h * dir;
+        // An elbow's centre lies the upper arm's radius off the torso's skin at the least.
+        if (is_arm(limb) && inside_torso(hinge, body.upper_arm_radius_m)) continue;
+        const int k = count_limb(limb, root, hinge, end);
+        if (k > best) best = k, best_slack = dd - d, best_dir = dir;
+      }
+    }
+    if (best_slack >= 0) return;
+    l2.bend_local[li] = glm::transpose(limb_frame(l1, limb)) * best_dir;
+    l2.slack_m[li] = best_slack;
+    last[li] = solve_limb(root, end, L1, L2, best_dir, best_slack);
   }
 
   // ---- A foot feature against the leg's hull: one off its leg (a drifting or mislabelled track, a

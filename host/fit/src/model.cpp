@@ -63,7 +63,7 @@ LimbPose solve_limb(const Vec3& root, const Vec3& end, double upper_m, double lo
   LimbPose p{root, root, end, 0};
   const Vec3 seg0 = end - root;
   const double d0 = glm::length(seg0);
-  const double d = d0 + std::max(0.0, slack_m);
+  const double d = std::max(1e-6, d0 + slack_m);
   const Vec3 seg = d0 > 1e-9 ? seg0 * (d / d0) : seg0;
   const double reach = upper_m + lower_m;
   if (d0 < 1e-9) {  // degenerate: fold along the bend direction

@@ -30,16 +30,13 @@ TEST(FitInit, MeasuresTheSimBodyOnTheInitFrames) {
   for (const Case c : {Case{1.75, 0.02}, Case{1.60, 0.02}, Case{1.90, 0.02}, Case{1.75, 0.015}}) {
     SCOPED_TRACE(::testing::Message() << "height " << c.height_m << " voxel " << c.voxel_m);
     sim::SceneOptions so;
-    so.motion.source = "wave";
     so.body = sim::BodyDescription::adult(c.height_m);
     so.rig.voxel_m = c.voxel_m;
-    const sim::Scene scene(so);
-    const rig::VoxelGrid grid = *scene.calibration().grid;
-    HullBits hull(grid);
-    std::mt19937_64 rng(7);
+    testing::SyntheticTake take("wave", 7, so);
+    HullBits hull(take.grid());
     std::vector<InitMeasurement> ms;
     for (int frame = 0; frame < 10; ++frame) {
-      const pipeline::Frame f = testing::synthetic_frame(scene, grid, frame, {}, rng);
+      const pipeline::Frame f = take.frame(frame);
       ASSERT_TRUE(hull.decode(f.rle));
       const FeatureSet fs = features_of(f);
       std::string why;
@@ -88,15 +85,12 @@ TEST(FitInit, MeasuresTheSimBodyOnTheInitFrames) {
 // top, which gave a 20 cm longer spine and 10 cm shorter thighs on the emulated rig (hips 232 mm off
 // on wave). The phantom's top far from the usual crotch height is taken for what it is.
 TEST(FitInit, APhantomBetweenTheLegsIsNotTheCrotch) {
-  sim::SceneOptions so;
-  so.motion.source = "wave";
-  const sim::Scene scene(so);
-  const rig::VoxelGrid grid = *scene.calibration().grid;
+  testing::SyntheticTake take("wave", 7);
+  const rig::VoxelGrid& grid = take.grid();
   HullBits hull(grid);
-  std::mt19937_64 rng(7);
   std::vector<InitMeasurement> ms;
   for (int frame = 0; frame < 10; ++frame) {
-    const pipeline::Frame f = testing::synthetic_frame(scene, grid, frame, {}, rng);
+    const pipeline::Frame f = take.frame(frame);
     ASSERT_TRUE(hull.decode(f.rle));
     const FeatureSet fs = features_of(f);
     // Fill the gap between the legs from 0.5 to 0.65 m, where it closes in a carved hull (open below).
@@ -120,22 +114,17 @@ TEST(FitInit, APhantomBetweenTheLegsIsNotTheCrotch) {
     ms.push_back(*m);
   }
   const BodyModel& b = combine_measurements(ms).body;
-  const sim::BodyDescription& t = so.body;
+  const sim::BodyDescription t = sim::SceneOptions{}.body;  // the take's body
   EXPECT_NEAR(b.thigh_m + b.shank_m, t.thigh_m + t.shank_m, 0.04);
   EXPECT_NEAR(b.thigh_m, t.thigh_m, 0.04);
   EXPECT_NEAR(b.spine_m, t.hips_to_spine_m + t.spine_to_neck_m, 0.04);
 }
 
 TEST(FitInit, OtherPosesAreNotTakenForTheInitPose) {
-  sim::SceneOptions so;
-  so.motion.source = "walk";
-  const sim::Scene scene(so);
-  const rig::VoxelGrid grid = *scene.calibration().grid;
-  std::mt19937_64 rng(8);
+  testing::SyntheticTake take("walk", 8);
   int refused = 0, n = 0;
-  for (int frame = scene.motion().lead_in_frames() + 10; frame < scene.motion().lead_in_frames() + 300;
-       frame += 10) {
-    const pipeline::Frame f = testing::synthetic_frame(scene, grid, frame, {}, rng);
+  for (int frame = take.lead_in() + 10; frame < take.lead_in() + 300; frame += 10) {
+    const pipeline::Frame f = take.frame(frame);
     refused += looks_like_init_pose(features_of(f)) ? 0 : 1;
     ++n;
   }

@@ -81,8 +81,9 @@ struct Layer1 {
 // pelvis for legs); it needs not be perpendicular to the segment (its perpendicular part is used).
 struct Layer2 {
   std::array<Vec3, kLimbCount> bend_local{Vec3(0, -1, 0), Vec3(0, -1, 0), Vec3(0, 1, 0), Vec3(0, 1, 0)};
-  // Per limb, how much longer (metres, >= 0) than the root-to-goal distance the law of cosines takes
-  // the layer-1 segment: the fitter's answer to noisy goals near full reach (README, "Layer 2").
+  // Per limb, how much longer (metres) than the root-to-goal distance the law of cosines takes the
+  // layer-1 segment: > 0 the fitter's answer to noisy goals of a straight limb, < 0 to a bend near full
+  // reach that the measured lengths cannot tell (README, "Near-straight limbs", "Near full reach").
   std::array<double, kLimbCount> slack_m{};
 };
 
@@ -99,7 +100,8 @@ Vec3 pelvis_centre(const BodyModel& body, const Layer1& l1);
 // The hinge on the circle of the law of cosines at bend direction `bend_world` (any vector not along
 // the segment; its part perpendicular to the segment is used). The end stays at `end` even when it
 // is out of reach (then the hinge lies on the segment, in proportion to the two lengths). With
-// slack_m > 0 the hinge is placed as if the end were that much further along the segment.
+// slack_m != 0 the hinge is placed as if the end were that much further along the segment (nearer,
+// when negative: the lower segment then reaches the end that much longer than lower_m).
 LimbPose solve_limb(const Vec3& root, const Vec3& end, double upper_m, double lower_m, const Vec3& bend_world,
                     double slack_m = 0);
 // The root frame of a limb (R_torso for arms, R_pelvis for legs).

@@ -10,6 +10,8 @@
 #include <cstdint>
 #include <random>
 #include <stdexcept>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "voxcap/body/joints.hpp"
@@ -147,5 +149,60 @@ inline double mpjpe(const pipeline::Pose& pose,
   }
   return sum / static_cast<double>(truth.size());
 }
+
+// A pose joint's position, as cv::Vec3d (fitted pose or truth).
+inline cv::Vec3d joint(const pipeline::Pose& p, pipeline::PoseJoint j) {
+  const auto& v = p.p_world[static_cast<size_t>(j)];
+  return {v[0], v[1], v[2]};
+}
+inline cv::Vec3d joint(const std::array<cv::Vec3d, pipeline::kPoseJointCount>& t, pipeline::PoseJoint j) {
+  return t[static_cast<size_t>(j)];
+}
+
+// The 3D feature `id` (vc_feature_id) of a frame, to edit (a test's fault injection); nullptr if absent.
+inline pipeline::Feature3D* feature(pipeline::Frame* f, int id) {
+  for (pipeline::Feature3D& ft : f->features3d)
+    if (ft.feature_id == id) return &ft;
+  return nullptr;
+}
+inline cv::Vec3d position(const pipeline::Feature3D& ft) {
+  return {ft.p_world[0], ft.p_world[1], ft.p_world[2]};
+}
+inline void set_position(pipeline::Feature3D* ft, const cv::Vec3d& p) {
+  for (size_t c = 0; c < 3; ++c) ft->p_world[c] = p[static_cast<int>(c)];
+}
+
+// One motion of hw/sim (a built-in name or a BVH file) on its default rig and grid, with the features'
+// noise generator: what the fit tests start from. Frames are generated in any order, each from the
+// one generator (so a take's noise depends on the order frames are asked for, as the tests' did).
+class SyntheticTake {
+ public:
+  explicit SyntheticTake(const std::string& motion, uint64_t seed, sim::SceneOptions options = {})
+      : scene_(with_motion(std::move(options), motion)), grid_(*scene_.calibration().grid), rng_(seed) {}
+
+  const sim::Scene& scene() const { return scene_; }
+  const rig::VoxelGrid& grid() const { return grid_; }
+  int lead_in() const { return scene_.motion().lead_in_frames(); }
+  int frames() const { return scene_.motion().natural_frames(); }  // lead-in + one cycle (or the clip)
+
+  // Frame `i`: true occupancy as the hull, noisy true features (synthetic_frame).
+  pipeline::Frame frame(int i, const FeatureNoise& noise = {}) {
+    return synthetic_frame(scene_, grid_, i, noise, rng_);
+  }
+  // Frame `i` with the hull carved from the true silhouettes of the rig's cameras (carved_frame).
+  pipeline::Frame carved_frame(int i, const FeatureNoise& noise, std::vector<cv::Mat>* masks) {
+    return testing::carved_frame(scene_, grid_, i, noise, rng_, masks);
+  }
+  std::array<cv::Vec3d, pipeline::kPoseJointCount> truth(int i) const { return true_pose(scene_, i); }
+
+ private:
+  static sim::SceneOptions with_motion(sim::SceneOptions o, const std::string& motion) {
+    o.motion.source = motion;
+    return o;
+  }
+  sim::Scene scene_;
+  rig::VoxelGrid grid_;
+  std::mt19937_64 rng_;
+};
 
 }  // namespace vc::fit::testing
