@@ -528,8 +528,8 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
     // point that lies away from where a foot has stood still is the other foot.
     if (pair == Pair::feet && found.size() == 1)
       for (int s = 0; s < 2; ++s)
-        if (!stale(st.side[s]) && st.side[s].still >= kPlantedFrames &&
-            cv::norm(found[0].r.p_world - st.side[s].anchor) > kPlantedAwayM)
+        if (!stale(st.side[s]) && st.side[s].anchor && st.side[s].still >= kPlantedFrames &&
+            cv::norm(found[0].r.p_world - *st.side[s].anchor) > kPlantedAwayM)
           fits[0][s] = false;
     bool clear = true;
     if (found.size() == 2) {
@@ -654,19 +654,15 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
     t.before = (t.last && now - t.last_frame == 1) ? t.last : std::nullopt;
     t.last = fd.r.p_world;
     t.last_frame = now;
-    if (t.still > 0 || t.anchor != cv::Vec3d(0, 0, 0)) {
-      if (cv::norm(fd.r.p_world - t.anchor) <= kStillM) {
-        // The anchor is the mean of the positions where it stood (the last 10): one noisy point does
-        // not move it.
-        const double n = std::min(t.still + 1, 10);
-        t.anchor = (n * t.anchor + fd.r.p_world) / (n + 1);
-        ++t.still;
-      } else {
-        t.anchor = fd.r.p_world;
-        t.still = 0;
-      }
+    if (t.anchor && cv::norm(fd.r.p_world - *t.anchor) <= kStillM) {
+      // The anchor is the mean of the positions where it stood (the last 10): one noisy point does
+      // not move it.
+      const double n = std::min(t.still + 1, 10);
+      t.anchor = (n * *t.anchor + fd.r.p_world) / (n + 1);
+      ++t.still;
     } else {
-      t.anchor = fd.r.p_world;
+      t.anchor = fd.r.p_world;  // the first position seen, or it moved: it stands here from now on
+      t.still = 0;
     }
   }
 

@@ -94,7 +94,7 @@ class FeatureTriangulator {
   struct Track {
     std::optional<cv::Vec3d> last, before;  // the last two positions (before: the frame before last)
     uint64_t last_frame = 0;                // frame index of `last`
-    cv::Vec3d anchor{0, 0, 0};              // where the side has stood still (first position seen)
+    std::optional<cv::Vec3d> anchor;        // where the side has stood still (none before it is seen)
     int still = 0;                          // later positions within kStillM of `anchor`, in a row
   };
   struct PairState {
