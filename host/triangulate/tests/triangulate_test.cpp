@@ -373,19 +373,28 @@ void count_feet(const sim::Scene& scene, int f, const std::array<pipeline::Featu
   }
 }
 
+// The feet tests' set-up: `walk`, the default rig (front cameras 0 and 1), 1 px noise.
+sim::SceneOptions walking() {
+  sim::SceneOptions so;
+  so.motion.source = "walk";
+  return so;
+}
+struct WalkingFeet {
+  explicit WalkingFeet(uint64_t seed) : rng(seed) { noise.sigma_px = 1.0; }
+  sim::Scene scene{walking()};
+  FeatureTriangulator tri{scene.calibration().cameras, {0, 1}, Options{}};
+  Noise noise;
+  std::mt19937_64 rng;
+  FeetFigures fig;
+};
+
 // For one frame now and then, while the feet are a stride apart, every camera's left foot track sits
 // 10 cm beside the right foot (two tracks on one foot: cmu/02_01 live). The point it gives is farther
 // from the left foot's prediction than a foot moves in a frame, so it is not named left; without the
 // gate it took the left name and continuity then kept both feet swapped.
 TEST(FeatureTriangulator, APointBesideTheOtherFootDoesNotTakeTheName) {
-  sim::SceneOptions so;
-  so.motion.source = "walk";
-  const sim::Scene scene(so);
-  FeatureTriangulator tri(scene.calibration().cameras, {0, 1}, Options{});
-  std::mt19937_64 rng(51);
-  Noise n;
-  n.sigma_px = 1.0;
-  FeetFigures fig;
+  WalkingFeet w(51);
+  auto& [scene, tri, n, rng, fig] = w;
   int ghosts = 0;
   for (int f = 0; f < 420; ++f) {
     auto obs = testing::observe(scene, f, n, rng);
@@ -421,14 +430,8 @@ TEST(FeatureTriangulator, APointBesideTheOtherFootDoesNotTakeTheName) {
 // fore-aft then lies 25 cm "sideways" along it, against the names half the time. Feet apart more
 // fore-aft than sideways are not judged by it; without that the feet were renamed on every other step.
 TEST(FeatureTriangulator, ABodysRightTurned30DegreesDoesNotRenameStrides) {
-  sim::SceneOptions so;
-  so.motion.source = "walk";
-  const sim::Scene scene(so);
-  FeatureTriangulator tri(scene.calibration().cameras, {0, 1}, Options{});
-  std::mt19937_64 rng(52);
-  Noise n;
-  n.sigma_px = 1.0;
-  FeetFigures fig;
+  WalkingFeet w(52);
+  auto& [scene, tri, n, rng, fig] = w;
   const double a = 30.0 * 3.14159265358979 / 180.0;
   for (int f = 0; f < 420; ++f) {
     const auto obs = testing::observe(scene, f, n, rng);
