@@ -16,6 +16,10 @@ constexpr double kMinReachM = 0.03;          // m: mean offset per foot the cue 
 constexpr double kMaxReachM = 0.14;          // ... and at most (further: the feature is not at its ankle)
 constexpr double kFeetAgreeCos = 0.5;        // the two feet's offsets within 60 degrees of each other
 constexpr int kMinFootVoxels = 3;
+// m: an ankle higher above the floor (z = 0) than this is in the air (a kick, a jump): its foot points
+// wherever the leg swings it, not where the body stands facing (a standing ankle is 8-16 cm up, a
+// walking step's swinging one up to ~30 cm; cmu/02_06's kicks put it at 0.66-0.81 m).
+constexpr double kMaxAnkleHeightM = 0.35;
 constexpr double kAgainstCos = -0.5;  // torso forward and feet forward more than 120 degrees apart
 
 }  // namespace
@@ -27,7 +31,7 @@ FeetCue feet_forward(const HullBits& hull, const FeatureSet& f, const std::array
   std::array<bool, 2> have{false, false};
   for (int side = 0; side < 2; ++side) {
     const size_t fi = 3 + static_cast<size_t>(side), oi = 4 - static_cast<size_t>(side);
-    if (!ok[fi]) continue;
+    if (!ok[fi] || f[fi].z > kMaxAnkleHeightM) continue;
     const Vec3 a = f[fi];
     const bool other = ok[oi];
     const Vec3 o = f[oi];
@@ -80,8 +84,13 @@ bool faces_away(const Mat3& R, const FeetCue& cue) {
 }
 
 bool HeadingVote::update(const Mat3& R, const FeetCue& cue) {
-  // No verdict (cue invalid, torso lying flat): the count stays as it is.
-  if (!cue.valid || glm::length(Vec3(R[1].x, R[1].y, 0)) < 1e-6) return false;
+  // No verdict (cue invalid, torso lying flat): the count stays as it is, for at most kMaxGapFrames
+  // frames: a verdict older than that says nothing about the torso now.
+  if (!cue.valid || glm::length(Vec3(R[1].x, R[1].y, 0)) < 1e-6) {
+    if (++gap_ > kMaxGapFrames) against_ = 0;
+    return false;
+  }
+  gap_ = 0;
   if (faces_away(R, cue)) {
     if (++against_ >= kFlipFrames) {
       against_ = 0;

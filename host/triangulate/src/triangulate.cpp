@@ -63,6 +63,10 @@ constexpr double kUncertainCap = 0.45;  // confidence of a point whose left/righ
 constexpr double kBodyApartHandsM = 0.30;
 constexpr double kBodyApartFeetM = 0.08;
 constexpr int kBodyRenameFrames = 8;
+// The body's right turned by more than this from one given value to the next (degrees) turned round
+// at once: a body turns at most ~3 degrees a frame, ~90 over the 30 frames a heading may be old; a
+// fit whose torso sign flipped (a re-initialization, the heading vote) turns it by ~180.
+constexpr double kBodyTurnedRoundDeg = 135;
 // Continuity's gate (README, "Left and right"): a point farther than this from a side's prediction
 // (metres, plus the per-frame allowance for each frame the side went unseen) is not that side. A foot
 // or hand moves at most ~10 m/s, 17 cm a frame at 60 Hz.
@@ -348,13 +352,26 @@ void FeatureTriangulator::set_body_right(const std::optional<cv::Vec3d>& right) 
   if (!right) return;
   const cv::Vec3d level((*right)[0], (*right)[1], 0);
   const double n = cv::norm(level);
-  if (std::isfinite(n) && n > 1e-6) body_right_ = level / n;
+  if (!(std::isfinite(n) && n > 1e-6)) return;
+  body_right_ = level / n;
+  // Turned round at once: a pair the body confirmed before is named as it was (the names are followed
+  // frame by frame), so the body, not the names, jumped; the body has no say on that pair until it
+  // turns round again (README, "The body's right").
+  if (last_right_ && last_right_->dot(*body_right_) < std::cos(kBodyTurnedRoundDeg * kPi / 180))
+    for (PairState& st : pairs_) {
+      if (st.turned)
+        st.turned = false;
+      else if (st.verdict > 0)
+        st.turned = true;
+      st.against = 0;
+    }
+  last_right_ = body_right_;
 }
 
 void FeatureTriangulator::check_body_right(Pair pair, const cv::Vec3d& a, const cv::Vec3d& b, bool* a_left,
                                            bool* certain) {
   PairState& st = pairs_[static_cast<size_t>(pair)];
-  if (!body_right_) {
+  if (!body_right_ || st.turned) {
     st.against = 0;
     return;
   }
@@ -375,6 +392,7 @@ void FeatureTriangulator::check_body_right(Pair pair, const cv::Vec3d& a, const 
   if (lateral < -apart) {
     // Contradicted: untrusted while it lasts (it may be a brief crossing), swapped once it persists.
     *certain = false;
+    st.verdict = -1;
     if (++st.against >= kBodyRenameFrames) {
       *a_left = !*a_left;
       *certain = true;
@@ -384,7 +402,10 @@ void FeatureTriangulator::check_body_right(Pair pair, const cv::Vec3d& a, const 
     return;
   }
   st.against = 0;
-  if (lateral > apart) *certain = true;  // confirmed by a cue that does not come from the names
+  if (lateral > apart) {  // confirmed by a cue that does not come from the names
+    *certain = true;
+    st.verdict = 1;
+  }
 }
 
 void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& frame, Pair pair,
@@ -528,8 +549,8 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
     // point that lies away from where a foot has stood still is the other foot.
     if (pair == Pair::feet && found.size() == 1)
       for (int s = 0; s < 2; ++s)
-        if (!stale(st.side[s]) && st.side[s].still >= kPlantedFrames &&
-            cv::norm(found[0].r.p_world - st.side[s].anchor) > kPlantedAwayM)
+        if (!stale(st.side[s]) && st.side[s].anchor && st.side[s].still >= kPlantedFrames &&
+            cv::norm(found[0].r.p_world - *st.side[s].anchor) > kPlantedAwayM)
           fits[0][s] = false;
     bool clear = true;
     if (found.size() == 2) {
@@ -654,19 +675,15 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
     t.before = (t.last && now - t.last_frame == 1) ? t.last : std::nullopt;
     t.last = fd.r.p_world;
     t.last_frame = now;
-    if (t.still > 0 || t.anchor != cv::Vec3d(0, 0, 0)) {
-      if (cv::norm(fd.r.p_world - t.anchor) <= kStillM) {
-        // The anchor is the mean of the positions where it stood (the last 10): one noisy point does
-        // not move it.
-        const double n = std::min(t.still + 1, 10);
-        t.anchor = (n * t.anchor + fd.r.p_world) / (n + 1);
-        ++t.still;
-      } else {
-        t.anchor = fd.r.p_world;
-        t.still = 0;
-      }
+    if (t.anchor && cv::norm(fd.r.p_world - *t.anchor) <= kStillM) {
+      // The anchor is the mean of the positions where it stood (the last 10): one noisy point does
+      // not move it.
+      const double n = std::min(t.still + 1, 10);
+      t.anchor = (n * *t.anchor + fd.r.p_world) / (n + 1);
+      ++t.still;
     } else {
-      t.anchor = fd.r.p_world;
+      t.anchor = fd.r.p_world;  // the first position seen, or it moved: it stands here from now on
+      t.still = 0;
     }
   }
 

@@ -24,7 +24,8 @@ struct FeetCue {
 // 16 cm down) within 24 cm level of it, nearer it than the other ankle: their mean level offset from
 // the ankle points along the foot. The cue is valid when both feet give one, each 3 to 14 cm long (a
 // lifted foot pointing down gives a short one; a longer one is a feature that is not at its ankle),
-// within 60 degrees of each other; forward is their sum's direction.
+// within 60 degrees of each other; forward is their sum's direction. An ankle more than 35 cm above the
+// floor (z = 0) is in the air (a kick, a jump) and gives none: its foot points where the leg swings.
 FeetCue feet_forward(const HullBits& hull, const FeatureSet& f, const std::array<bool, 5>& ok);
 
 // Whether the torso (R's columns: right, forward, up) faces away from where the valid cue's feet point:
@@ -35,18 +36,25 @@ bool faces_away(const Mat3& R, const FeetCue& cue);
 // The sign vote: the torso's forward (level) against the feet's, frame after frame. Disagreeing
 // clearly (more than 120 degrees apart) for kFlipFrames valid frames in a row says the torso's sign
 // is wrong (its shoulder line right, its sign continuity carried a swap): flip() turns it round.
+// Frames without a verdict keep the count for at most kMaxGapFrames in a row (cmu/02_06: seven votes
+// of a kick and an eighth 160 frames later turned a correct torso round).
 class HeadingVote {
  public:
   static constexpr int kFlipFrames = 8;
+  static constexpr int kMaxGapFrames = 30;
   // Returns true when the torso (R's columns: right, forward, up) should be turned round by 180
   // degrees about the vertical. Invalid cues leave the count as it is (the feet are often in the air
-  // or merged for a few frames).
+  // or merged for a few frames), for kMaxGapFrames calls in a row; after that it starts again.
   bool update(const Mat3& R, const FeetCue& cue);
-  void reset() { against_ = 0; }
+  void reset() {
+    against_ = 0;
+    gap_ = 0;
+  }
   int against() const { return against_; }
 
  private:
   int against_ = 0;
+  int gap_ = 0;  // update() calls without a verdict since the last one
 };
 
 // R turned round about its spine: right and forward negated.

@@ -94,7 +94,7 @@ class FeatureTriangulator {
   struct Track {
     std::optional<cv::Vec3d> last, before;  // the last two positions (before: the frame before last)
     uint64_t last_frame = 0;                // frame index of `last`
-    cv::Vec3d anchor{0, 0, 0};              // where the side has stood still (first position seen)
+    std::optional<cv::Vec3d> anchor;        // where the side has stood still (none before it is seen)
     int still = 0;                          // later positions within kStillM of `anchor`, in a row
   };
   struct PairState {
@@ -103,6 +103,8 @@ class FeatureTriangulator {
     bool certain = false;  // the naming is trusted (confidence not capped)
     int against = 0;       // frames in a row the names contradicted the body's right, well apart
     uint64_t renames = 0;  // renamed by the body's right
+    int verdict = 0;       // the body's right's last verdict on the names: 1 confirmed, -1 contradicted
+    bool turned = false;   // confirmed, then the body's right turned round at once: it has no say
   };
   // The body's right check of a pair named A (found point 0) left when `*a_left`: may rename it and
   // sets *certain (README, "The body's right").
@@ -120,6 +122,7 @@ class FeatureTriangulator {
   std::array<PairState, 2> pairs_{};
   std::vector<std::array<int, 2>> swap_;  // per rig camera, per pair: -1, 0, 1
   std::optional<cv::Vec3d> body_right_;   // unit, level
+  std::optional<cv::Vec3d> last_right_;   // the last body's right given (kept while none is given)
   uint64_t frames_ = 0;
 };
 
