@@ -106,7 +106,7 @@ struct Fitter::State {
   bool have_head = false;
   Vec3 last_head{0.0};
   int failing = 0;
-  uint32_t trunk_off = 0;  // the last frames' trunk off the hull (failure.hpp), bit 0 the last one
+  uint32_t trunk_off = 0;          // the last frames' trunk off the hull (failure.hpp), bit 0 the last one
   bool reacquire_pending = false;  // re-initialized on a hull without a torso: the next torso decides
   // The torso's turn about the vertical (radians per frame, smoothed): the next frame's cylinder and
   // the PCA's reference are the last torso frame turned on by it (a turning performer is met, not

@@ -19,7 +19,8 @@ namespace {
 
 using J = pipeline::PoseJoint;
 
-std::array<Vec3, pipeline::kPoseJointCount> to_vec3(const std::array<cv::Vec3d, pipeline::kPoseJointCount>& t) {
+std::array<Vec3, pipeline::kPoseJointCount> to_vec3(
+    const std::array<cv::Vec3d, pipeline::kPoseJointCount>& t) {
   std::array<Vec3, pipeline::kPoseJointCount> out{};
   for (size_t j = 0; j < t.size(); ++j) out[j] = Vec3(t[j][0], t[j][1], t[j][2]);
   return out;
@@ -57,7 +58,8 @@ TEST(TrunkInHull, TheTrueTrunkIsNeverOffTheTrueHull) {
       scene.occupancy(grid, frame, &bits);
       hull.assign(bits);
       const TrunkInHull t = trunk_in_hull(hull, to_vec3(testing::true_pose(scene, frame)));
-      EXPECT_FALSE(trunk_off_hull(t)) << motion << " frame " << frame << ": " << t.occupied << "/" << t.counted;
+      EXPECT_FALSE(trunk_off_hull(t))
+          << motion << " frame " << frame << ": " << t.occupied << "/" << t.counted;
       worst = std::min(worst, t.occupied);
       ++frames;
     }
@@ -97,8 +99,10 @@ TEST(TrunkInHull, ATrunkLeftTurnedAwayFromTheBodyIsOffTheHull) {
       scene.occupancy(grid, frame, &bits);
       hull.assign(bits);
       const auto truth = to_vec3(testing::true_pose(scene, frame));
-      const Vec3 right = glm::normalize(truth[static_cast<size_t>(J::r_hip)] - truth[static_cast<size_t>(J::l_hip)]);
-      const Vec3 up = glm::normalize(truth[static_cast<size_t>(J::neck)] - truth[static_cast<size_t>(J::hips)]);
+      const Vec3 right =
+          glm::normalize(truth[static_cast<size_t>(J::r_hip)] - truth[static_cast<size_t>(J::l_hip)]);
+      const Vec3 up =
+          glm::normalize(truth[static_cast<size_t>(J::neck)] - truth[static_cast<size_t>(J::hips)]);
       const Vec3 fwd = glm::normalize(glm::cross(up, right));
       for (const Vec3& axis : {right, -right, fwd, -fwd}) {
         // Sideways by 60 degrees the lower spine can lie along a spread arm: 90 and more there.
@@ -106,8 +110,8 @@ TEST(TrunkInHull, ATrunkLeftTurnedAwayFromTheBodyIsOffTheHull) {
         for (double deg : {60.0, 90.0, 120.0}) {
           if (deg < 90 && !forward_or_back) continue;
           const TrunkInHull t = trunk_in_hull(hull, trunk_turned(truth, axis, deg));
-          EXPECT_TRUE(trunk_off_hull(t)) << motion << " frame " << frame << " " << deg << " deg: " << t.occupied
-                                         << "/" << t.counted;
+          EXPECT_TRUE(trunk_off_hull(t))
+              << motion << " frame " << frame << " " << deg << " deg: " << t.occupied << "/" << t.counted;
         }
         EXPECT_FALSE(trunk_off_hull(trunk_in_hull(hull, trunk_turned(truth, axis, 10))))
             << motion << " frame " << frame;
@@ -152,7 +156,8 @@ TEST(TrunkInHull, AGoodFitIsNeverReacquired) {
       ++fitted;
       reinit += pose.state == pipeline::PoseState::Reinitialized ? 1 : 0;
       std::array<Vec3, pipeline::kPoseJointCount> p{};
-      for (size_t j = 0; j < p.size(); ++j) p[j] = Vec3(pose.p_world[j][0], pose.p_world[j][1], pose.p_world[j][2]);
+      for (size_t j = 0; j < p.size(); ++j)
+        p[j] = Vec3(pose.p_world[j][0], pose.p_world[j][1], pose.p_world[j][2]);
       hull.decode(f.rle);
       off += trunk_off_hull(trunk_in_hull(hull, p)) ? 1 : 0;
     }

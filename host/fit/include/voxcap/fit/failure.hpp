@@ -13,8 +13,8 @@
 namespace vc::fit {
 
 // The fitted trunk against the hull: points along the lower half of the spine down to the pelvis
-// centre, and the two hip joints. A visual hull contains the body, so on a good fit they lie in occupied voxels
-// but for the hull's rare holes; a torso left lying or turned away from where the body is (hips 0.3 m
+// centre, and the two hip joints. A visual hull contains the body, so on a good fit they lie in occupied
+// voxels but for the hull's rare holes; a torso left lying or turned away from where the body is (hips 0.3 m
 // and more from the hull's column) leaves most of them in empty space.
 struct TrunkInHull {
   int counted = 0;   // points inside the grid (a point outside the volume gives no verdict)
