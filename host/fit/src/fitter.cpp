@@ -2,6 +2,7 @@
 #include "voxcap/fit/fitter.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <stdexcept>
 
@@ -9,6 +10,7 @@
 #include <glm/matrix.hpp>
 
 #include "voxcap/base/clock.hpp"
+#include "voxcap/fit/failure.hpp"
 #include "voxcap/fit/heading.hpp"
 
 namespace vc::fit {
@@ -106,6 +108,7 @@ struct Fitter::State {
   bool have_head = false;
   Vec3 last_head{0.0};
   int failing = 0;
+  uint32_t trunk_off = 0;          // the last frames' trunk off the hull (failure.hpp), bit 0 the last one
   bool reacquire_pending = false;  // re-initialized on a hull without a torso: the next torso decides
   // The torso's turn about the vertical (radians per frame, smoothed): the next frame's cylinder and
   // the PCA's reference are the last torso frame turned on by it (a turning performer is met, not
@@ -147,6 +150,7 @@ struct Fitter::State {
     have_last = false;
     have_head = false;
     failing = 0;
+    trunk_off = 0;
     euro = {};
     have_seq = false;
     yaw_rate = 0;
@@ -968,10 +972,15 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
   // without that cue, its right against the feet's names (they rarely cross).
   const bool heading_wrong =
       cue.valid ? faces_away(R, cue) : glm::dot(R[0], State::feature_right(f, ok, false)) < -0.05;
-  const bool failed = !torso_ok || support < 0.3 || head_far || heading_wrong;
+  // The trunk off the hull (failure.hpp): a torso the PCA tilted or turned away from the body. Only
+  // where the cylinder held a torso: a hull without one is the check above's (no body to be off).
+  const bool trunk_off = torso_ok && trunk_off_hull(trunk_in_hull(s.hull, joints));
+  const bool failed = !torso_ok || support < 0.3 || head_far || heading_wrong || trunk_off;
   s.failing = failed ? s.failing + 1 : 0;
-  if (s.failing >= s.opt.reinit_after_frames) {
+  s.trunk_off = ((s.trunk_off << 1) | (trunk_off ? 1u : 0u)) & ((1u << kTrunkOffHullWindow) - 1);
+  if (s.failing >= s.opt.reinit_after_frames || std::popcount(s.trunk_off) >= kTrunkOffHullFrames) {
     s.reacquire(f, ok, cue);
+    s.trunk_off = 0;
     state = pipeline::PoseState::Reinitialized;
   } else if (predicted) {
     state = pipeline::PoseState::Predicted;
