@@ -42,6 +42,12 @@ Out voxcap(const std::string& args, const fs::path& scratch) {
   return {WIFEXITED(st) ? WEXITSTATUS(st) : -1, slurp(o), slurp(e)};
 }
 
+// The end of `voxcap fit --score`'s swaps line.
+std::string fmt_flips(uint64_t flips, uint64_t reinit) {
+  return "the feet turned the torso round " + std::to_string(flips) + " times (heading_flips), " +
+         std::to_string(reinit) + " frames re-initialized (reinitialized_frames)";
+}
+
 struct Tmp {
   fs::path p;
   Tmp() {
@@ -190,11 +196,21 @@ TEST(Demo, WritesTheTakeWithTheVirtualRigsFrameNumbersAndFitReFitsItsSession) {
   ASSERT_EQ(sc.code, 0) << sc.err;
   const nlohmann::json js = nlohmann::json::parse(sc.out);
   const nlohmann::json& lv = vr["live"];
-  for (const char* key : {"mpjpe_mm", "per_joint_mm", "pa_mpjpe_mm", "frames", "fitted_frames", "fps",
-                          "latency_ms", "arm_in_torso_frames", "frames_outside_volume", "init_frames",
-                          "scored_frames", "fit_stage_ms", "live"})
+  for (const char* key :
+       {"mpjpe_mm", "per_joint_mm", "pa_mpjpe_mm", "frames", "fitted_frames", "fps", "latency_ms",
+        "arm_in_torso_frames", "frames_outside_volume", "init_frames", "scored_frames", "fit_stage_ms",
+        "live", "reinitialized_frames", "heading_flips", "lr_swap_frames", "fit_pair_swaps"})
     EXPECT_TRUE(js.contains(key)) << key;
   EXPECT_EQ(js["offline"], true);
+  // The fit's own corrections: re-initializations (the same poses: the live run's count) and how often
+  // the feet turned the torso round (Fitter::heading_flips), also on the text's swaps line.
+  EXPECT_EQ(js["reinitialized_frames"], lv["reinitialized_frames"]);
+  EXPECT_TRUE(js["heading_flips"].is_number_unsigned()) << js["heading_flips"];
+  const Out st = voxcap("fit '" + session.string() + "' --score", tmp.p);
+  ASSERT_EQ(st.code, 0) << st.err;
+  EXPECT_THAT(st.out, ::testing::HasSubstr(fmt_flips(js["heading_flips"].get<uint64_t>(),
+                                                     js["reinitialized_frames"].get<uint64_t>())))
+      << st.out;
   EXPECT_EQ(js["frames"], lv["frames"]);
   EXPECT_EQ(js["fitted_frames"], lv["fitted_frames"]);
   EXPECT_EQ(js["scored_frames"], lv["scored_frames"]);
