@@ -393,8 +393,11 @@ void add_fit_commands(CLI::App& app) {
                 "fit's own time per frame, `live` the recorded run's figures");
   cmd->add_flag("--json", a->json,
                 "With --score: the figures as one JSON object (voxcap eval's keys, reinitialized_frames "
-                "among them: frames whose pose is a re-initialization; lr_swap_frames, fit_pair_swaps, "
-                "heading_flips: how often the feet on the hull turned the torso round, host/fit/README.md)");
+                "among them: frames whose pose is a re-initialization; offline: true, session, rig {...}, "
+                "live (the recorded run's figures), lr_swap_frames {any, hands, feet, shoulders, hips}, "
+                "fit_pair_swaps {hands, feet}, heading_flips: how often the feet on the hull turned the "
+                "torso round, host/fit/README.md; fit_stage_ms {decode, segment, pca, layer1, layer2, "
+                "total: {p50, p99, max}})");
   cmd->add_option("--frames-csv", a->frames_csv,
                   "With --score: write every scored frame's per-joint errors (mm) and left/right swaps "
                   "to this CSV");
