@@ -217,7 +217,8 @@ void add_demo_commands(CLI::App& app) {
   add_rig_options(d, *demo);
   d->add_option("--out", demo->out, "Output folder (default ./voxcap-demo)");
   d->add_flag("--json", demo->json,
-              "Print the figures as JSON (the keys of voxcap eval --json, and session {dir, frames, "
+              "Print the figures as JSON (the keys of voxcap eval --json: mpjpe_mm ... latency_ms, "
+              "pipeline_drops, merged_latency_ms, stages, rig, wall_seconds; and session {dir, frames, "
               "merged_frames, frames_not_recorded, records, skipped_records, skipped_bytes, truncated_bytes, "
               "closed_cleanly, stop, damage[]}: the recorded session read back once closed)");
   d->callback([demo] { run_demo(*demo); });
@@ -239,8 +240,9 @@ void add_demo_commands(CLI::App& app) {
       "outside the grid's box: counted, left out of the errors), arm_in_torso_frames (a fitted elbow or "
       "wrist "
       "inside the true torso volume), predicted_frames, reinitialized_frames, fps (poses per second), "
-      "latency_ms {p50, p99, max} (trigger -> pose), pipeline_drops {stage: frames}, rig {...}, "
-      "wall_seconds");
+      "latency_ms {p50, p99, max} (trigger -> pose), pipeline_drops {stage: frames}, merged_latency_ms "
+      "{p50, p99, max} (trigger -> merged), stages {stage: {busy_ms_mean, busy_ms_max, queue_max}} (time in "
+      "process(), most queued), rig {...}, wall_seconds");
   add_rig_options(e, *eval);
   e->add_flag("--json", eval->json, "Print the figures as one JSON object");
   e->callback([eval] { run_demo(*eval); });

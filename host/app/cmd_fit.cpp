@@ -10,7 +10,9 @@
 // the figures do not depend on the machine's load: the way to iterate on the fitter. It also counts
 // the frames with a left/right swap (`lr_swap_frames`: a pair of fitted joints nearer the other side's
 // true joints than their own, per limb pair) and, with `--frames-csv FILE`, writes every scored frame's
-// per-joint errors: where in a take the error is.
+// per-joint errors: where in a take the error is. `heading_flips` is how often the fit turned the torso
+// round because the feet on the hull pointed the other way (Fitter::heading_flips), beside eval's
+// `reinitialized_frames`: the two ways the fit corrects itself, which a score alone does not show.
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -334,6 +336,7 @@ void run_fit(const FitArgs& a) {
       j["live"] = vrig->live;
       j["lr_swap_frames"] = audit->json();
       j["fit_pair_swaps"] = {{"hands", fitter.pair_swaps()[0]}, {"feet", fitter.pair_swaps()[1]}};
+      j["heading_flips"] = fitter.heading_flips();
       nlohmann::json stages = nlohmann::json::object();
       for (size_t i = 0; i < kStageNames.size(); ++i)
         stages[kStageNames[i]] = {{"p50", stage_ns[i].percentile_ms(0.5)},
@@ -347,8 +350,10 @@ void run_fit(const FitArgs& a) {
       print_pose_figures(acc, vrig->rig.rate_hz, "fit time");
       fmt::print(
           "swaps       left/right swapped on {} (fitted pairs against the truth); the fit swapped the "
-          "hands' features {} times, the feet's {} times\n",
-          audit->line(), fitter.pair_swaps()[0], fitter.pair_swaps()[1]);
+          "hands' features {} times, the feet's {} times; the feet turned the torso round {} times "
+          "(heading_flips), {} frames re-initialized (reinitialized_frames)\n",
+          audit->line(), fitter.pair_swaps()[0], fitter.pair_swaps()[1], fitter.heading_flips(),
+          acc.reinitialized_frames);
       std::string stages;
       for (size_t i = 0; i < kStageNames.size(); ++i)
         stages += fmt::format(" {} {:.3f}/{:.3f}/{:.3f}", kStageNames[i], stage_ns[i].percentile_ms(0.5),
@@ -387,8 +392,12 @@ void add_fit_commands(CLI::App& app) {
                 "with its virtual_rig.json): the figures of voxcap eval; latency_ms and fps are then the "
                 "fit's own time per frame, `live` the recorded run's figures");
   cmd->add_flag("--json", a->json,
-                "With --score: the figures as one JSON object (voxcap eval's keys, lr_swap_frames, "
-                "fit_pair_swaps)");
+                "With --score: the figures as one JSON object (voxcap eval's keys, reinitialized_frames "
+                "among them: frames whose pose is a re-initialization; offline: true, session, rig {...}, "
+                "live (the recorded run's figures), lr_swap_frames {any, hands, feet, shoulders, hips}, "
+                "fit_pair_swaps {hands, feet}, heading_flips: how often the feet on the hull turned the "
+                "torso round, host/fit/README.md; fit_stage_ms {decode, segment, pca, layer1, layer2, "
+                "total: {p50, p99, max}})");
   cmd->add_option("--frames-csv", a->frames_csv,
                   "With --score: write every scored frame's per-joint errors (mm) and left/right swaps "
                   "to this CSV");

@@ -3,7 +3,8 @@
 # deterministically from the recorded session (`voxcap fit SESSION --score --json --frames-csv`), one
 # table (stdout, and TABLE when given): clip, rig frames run, frames_outside_volume, MPJPE, PA-MPJPE,
 # the three worst joints, frames with a left/right swap against the truth (any pair; hands, feet),
-# reinitialized_frames. Each clip runs for the 1.5 s lead-in plus its first MAX_S seconds (20) or the
+# reinitialized_frames, heading_flips (how often the feet on the hull turned the torso round; "-" from a
+# voxcap without the key). Each clip runs for the 1.5 s lead-in plus its first MAX_S seconds (20) or the
 # whole clip when shorter: the virtual rig plays a clip in real time (frame f at f / 60 s, the clip's
 # 120 Hz frames slerped to the camera rate; a 4 s clip is 240 rig frames after the lead-in), so the
 # length comes from the clip's frame count and the frame time the rig uses (read back from a one-frame
@@ -120,7 +121,7 @@ function(clip_rig_frames clip probe_dir out)
   set(${out} "${frames}" PARENT_SCOPE)
 endfunction()
 
-set(header "clip                                   frames outside  MPJPE  PA-MPJPE | worst joints (mm)                          | lr_swap any hands feet | reinit")
+set(header "clip                                   frames outside  MPJPE  PA-MPJPE | worst joints (mm)                          | lr_swap any hands feet | reinit  flips")
 set(lines "${header}")
 execute_process(COMMAND ${CMAKE_COMMAND} -E echo "${header}")
 set(failed 0)
@@ -168,6 +169,10 @@ foreach(clip IN LISTS CLIPS)
   string(JSON mpjpe GET "${out}" mpjpe_mm)
   string(JSON pa GET "${out}" pa_mpjpe_mm)
   string(JSON reinit GET "${out}" reinitialized_frames)
+  string(JSON flips ERROR_VARIABLE flips_err GET "${out}" heading_flips)
+  if(flips_err)
+    set(flips "-")
+  endif()
   string(JSON sw_any GET "${out}" lr_swap_frames any)
   string(JSON sw_hands GET "${out}" lr_swap_frames hands)
   string(JSON sw_feet GET "${out}" lr_swap_frames feet)
@@ -201,7 +206,8 @@ foreach(clip IN LISTS CLIPS)
   pad("${sw_hands}" 6 c_sh)
   pad("${sw_feet}" 5 c_sf)
   pad("${reinit}" 7 c_r)
-  string(APPEND row " ${c_frames} ${c_out} ${c_m} ${c_p} | ${worst} | ${c_sa}${c_sh}${c_sf} | ${c_r}")
+  pad("${flips}" 6 c_hf)
+  string(APPEND row " ${c_frames} ${c_out} ${c_m} ${c_p} | ${worst} | ${c_sa}${c_sh}${c_sf} | ${c_r}${c_hf}")
   table_row("${row}")
 endforeach()
 table_finish(clip_accuracy)

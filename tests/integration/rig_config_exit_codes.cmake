@@ -79,7 +79,7 @@ file(WRITE ${WORK}/keyless_name.toml "${text}")
 set(bad_inputs unknown_subcommand unknown_option bench_repeats_0 grid600 nan_toml fifo_toml wide_yaml
     nested_yaml fifo_session edge_node_id edge_port edge_size bvh_1e308 rig_bvh_scale key_missing key_open
     key_malformed rig_key_open host_key_open keyless_any keyless_name key_new_exists key_check_open
-    rig_vmc demo_vmc vmc_toml host_unknown_option host_view_port)
+    rig_vmc demo_vmc vmc_toml host_unknown_option host_view_port host_heartbeat rig_heartbeat)
 set(cmd_key_new_exists ${VOXCAP} key new ${WORK}/bad.key)
 set(expect_key_new_exists "bad.key: File exists \\(use --force to replace it\\)")
 set(cmd_key_check_open ${VOXCAP} key check ${WORK}/open.key)
@@ -137,6 +137,13 @@ set(expect_demo_vmc "--vmc: port must be 1-65535")
 file(WRITE ${WORK}/vmc.toml "${good}\n[vmc]\nenabled = true\nrate_hz = 500\n")
 set(cmd_vmc_toml ${VOXCAP} config check ${WORK}/vmc.toml)
 set(expect_vmc_toml "vmc.rate_hz: must be in \\(0, 240\\], got 500")
+# rig.toml [network] heartbeat options (host/session's, set by the user): voxcap-host and voxcap rig.
+string(REPLACE "port = 7600" "port = 7600\nheartbeat_interval_ms = 500\nheartbeat_timeout_ms = 400" text "${good}")
+file(WRITE ${WORK}/heartbeat.toml "${text}")
+set(cmd_host_heartbeat ${bin}/voxcap-host --config ${WORK}/heartbeat.toml --seconds 0.1)
+set(expect_host_heartbeat "heartbeat.toml: network.heartbeat_timeout_ms: must be larger than heartbeat_interval_ms \\(500\\)")
+set(cmd_rig_heartbeat ${VOXCAP} rig --config ${WORK}/heartbeat.toml --seconds 0.1 --record ${WORK}/rec)
+set(expect_rig_heartbeat "network.heartbeat_timeout_ms: must be larger than heartbeat_interval_ms \\(500\\) and at most 600000, got 400 \\(line [0-9]+\\)")
 
 foreach(c ${bad_inputs})
   execute_process(COMMAND ${cmd_${c}} OUTPUT_VARIABLE out ERROR_VARIABLE err RESULT_VARIABLE rc TIMEOUT 60)

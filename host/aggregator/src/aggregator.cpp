@@ -226,6 +226,9 @@ Aggregator::Aggregator(config::RigConfig rig, Options options)
   session::ServerOptions so;
   so.listen = rig_.network.listen;
   so.port = rig_.network.port;
+  // rig.toml [network]: how often the host says HEARTBEAT and how long a silent node is kept.
+  so.heartbeat_interval_ms = rig_.network.heartbeat_interval_ms;
+  so.heartbeat_timeout_ms = rig_.network.heartbeat_timeout_ms;
   // The rig key (proto/SPEC.md "Authentication"): the sessions prove it and seal every message, the
   // udp trigger signs its datagrams. Without one the rig is loopback-only (RigConfig::valid) and says so.
   if (!rig_.key_path.empty()) {

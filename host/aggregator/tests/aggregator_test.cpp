@@ -965,6 +965,32 @@ TEST(Aggregator, KeyedHelloReplacesOnlyADeadConnectionOfItsNode) {
   EXPECT_TRUE(said) << "the replacement is logged";
 }
 
+// rig.toml [network] heartbeat_interval_ms and heartbeat_timeout_ms reach the session server: a node
+// silent for longer than the server's default timeout (2 s) stays connected under a rig's 60 s.
+TEST(Aggregator, TheRigsHeartbeatTimeoutIsTheSessionServers) {
+  TmpDir tmp;
+  Options o;
+  o.start_trigger = false;
+  o.log = [](log::Level, const std::string&) {};
+  config::RigConfig rig = make_rig(tmp.p);
+  ASSERT_EQ(rig.network.heartbeat_timeout_ms, session::ServerOptions{}.heartbeat_timeout_ms);
+  rig.network.heartbeat_timeout_ms = 60'000;
+  Aggregator agg(rig, o);
+  agg.start();
+  FakeEdge e(agg.port(), 1);
+  ASSERT_EQ(e.expect(VC_MSG_CONFIG), 0);
+  ASSERT_TRUE(agg.report().nodes[0].connected);
+  // Silent past the default timeout (and a loaded machine's poll delays): with it the node is dropped.
+  std::this_thread::sleep_for(
+      std::chrono::milliseconds(session::ServerOptions{}.heartbeat_timeout_ms + 1500));
+  const Report r = agg.report();
+  EXPECT_TRUE(r.nodes[0].connected);
+  EXPECT_EQ(r.nodes[0].leaves, 0u);
+  EXPECT_EQ(r.server.timeouts, 0u);
+  EXPECT_GE(e.expect(VC_MSG_HEARTBEAT), 0) << "the host still talks to it";
+  agg.stop();
+}
+
 // Deliver 1: a keyless rig (allowed only when every address is loopback: RigConfig::valid) says so
 // in its log.
 TEST(Aggregator, AKeylessRigSaysSoInItsLog) {

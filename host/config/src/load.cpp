@@ -629,6 +629,10 @@ RigConfig parse_rig_config(std::string_view toml_text, const std::filesystem::pa
     Reader r(*t, "network", ctx);
     r.get("listen", &c.network.listen);
     r.get_int("port", &c.network.port, 1, 65535);
+    // Narrowed to int here; the finer bounds are NetworkOptions::valid's (its message says why).
+    constexpr int64_t kHi = NetworkOptions::kMaxHeartbeatTimeoutMs;
+    r.get_int("heartbeat_interval_ms", &c.network.heartbeat_interval_ms, 0, kHi);
+    r.get_int("heartbeat_timeout_ms", &c.network.heartbeat_timeout_ms, 0, kHi);
     r.finish();
   }
   if (const toml::table* t = top.table("hil")) {

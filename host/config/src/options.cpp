@@ -276,6 +276,15 @@ bool NetworkOptions::valid(std::string* why) const {
   if (listen != "any" && !is_ipv4(listen))
     return fail(why, fmt::format("listen: must be a numeric IPv4 address or \"any\", got \"{}\"", listen));
   if (port == 0) return fail(why, "port: must be 1-65535");
+  if (heartbeat_interval_ms < 10 || heartbeat_interval_ms > kMaxHeartbeatIntervalMs)
+    return fail(why, fmt::format("heartbeat_interval_ms: must be in [10, {}] (proto/SPEC.md: a HEARTBEAT at "
+                                 "least once per second), got {}",
+                                 kMaxHeartbeatIntervalMs, heartbeat_interval_ms));
+  if (heartbeat_timeout_ms <= heartbeat_interval_ms || heartbeat_timeout_ms > kMaxHeartbeatTimeoutMs)
+    return fail(why,
+                fmt::format("heartbeat_timeout_ms: must be larger than heartbeat_interval_ms ({}) and at "
+                            "most {}, got {}",
+                            heartbeat_interval_ms, kMaxHeartbeatTimeoutMs, heartbeat_timeout_ms));
   return true;
 }
 

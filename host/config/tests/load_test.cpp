@@ -79,6 +79,8 @@ TEST(LoadRigConfig, ValidConfigFillsEverySection) {
   EXPECT_EQ(c.recording.dir, "takes");
   EXPECT_EQ(c.network.listen, "any");
   EXPECT_EQ(c.network.port, 7650);
+  EXPECT_EQ(c.network.heartbeat_interval_ms, 100);
+  EXPECT_EQ(c.network.heartbeat_timeout_ms, 1500);
   EXPECT_TRUE(c.warnings.empty()) << c.warnings.front();
   std::string why;
   EXPECT_TRUE(c.valid(&why)) << why;
@@ -103,6 +105,8 @@ targets = ["127.0.0.1:7700"]
   EXPECT_DOUBLE_EQ(c.subtraction.t_upper, SubtractionOptions{}.t_upper);
   EXPECT_EQ(c.assembly.missing_node_policy, MissingNodePolicy::Drop);
   EXPECT_EQ(c.network.port, 7600);
+  EXPECT_EQ(c.network.heartbeat_interval_ms, 250);  // host/session's defaults
+  EXPECT_EQ(c.network.heartbeat_timeout_ms, 2000);
   EXPECT_EQ(c.recording.dir, "recordings");
   // Legal but worth a word: calibrated cameras no node drives.
   EXPECT_THAT(c.warnings,
@@ -390,6 +394,22 @@ std::vector<BadCase> bad_cases() {
       {"listen", edit("listen = \"any\"", "listen = \"example.org\""),
        "network.listen: must be a numeric IPv4 address or \"any\""},
       {"port", edit("port = 7650", "port = 0"), "network.port: must be in [1, 65535], got 0"},
+      {"heartbeat interval too short", edit("heartbeat_interval_ms = 100", "heartbeat_interval_ms = 5"),
+       "network.heartbeat_interval_ms: must be in [10, 1000] (proto/SPEC.md: a HEARTBEAT at least once per "
+       "second), got 5 (line"},
+      {"heartbeat interval too long", edit("heartbeat_interval_ms = 100", "heartbeat_interval_ms = 1500"),
+       "network.heartbeat_interval_ms: must be in [10, 1000]"},
+      {"heartbeat interval type", edit("heartbeat_interval_ms = 100", "heartbeat_interval_ms = 0.1"),
+       "network.heartbeat_interval_ms: expected an integer, got a floating-point number"},
+      {"heartbeat timeout not above interval",
+       edit("heartbeat_timeout_ms = 1500", "heartbeat_timeout_ms = 100"),
+       "network.heartbeat_timeout_ms: must be larger than heartbeat_interval_ms (100) and at most 600000, "
+       "got "
+       "100"},
+      {"heartbeat timeout huge", edit("heartbeat_timeout_ms = 1500", "heartbeat_timeout_ms = 99999999999"),
+       "network.heartbeat_timeout_ms: must be in [0, 600000], got 99999999999"},
+      {"heartbeat timeout negative", edit("heartbeat_timeout_ms = 1500", "heartbeat_timeout_ms = -1"),
+       "network.heartbeat_timeout_ms: must be in [0, 600000], got -1"},
       {"node id missing", edit("id = \"node1\"\n", ""), "nodes[1].id: missing"},
       {"node id chars", edit("id = \"node1\"", "id = \"node 1\""), "nodes[1].id: only letters, digits"},
       {"node id duplicate", edit("id = \"node2\"", "id = \"node0\""),

@@ -145,6 +145,23 @@ TEST(SubtractionAndAssembly, Limits) {
   EXPECT_TRUE(n.valid(&why));
   n.listen = "0.0.0.0";
   EXPECT_TRUE(n.valid(&why));
+  // The heartbeat: host/session's bounds (interval >= 10, timeout above it), the interval at most the
+  // protocol's second (proto/SPEC.md), the timeout at most edge.toml's host_timeout_ms bound.
+  EXPECT_EQ(n.heartbeat_interval_ms, 250);
+  EXPECT_EQ(n.heartbeat_timeout_ms, 2000);
+  n.heartbeat_interval_ms = 9;
+  EXPECT_FALSE(n.valid(&why));
+  EXPECT_THAT(why, StartsWith("heartbeat_interval_ms: "));
+  n.heartbeat_interval_ms = 1001;
+  EXPECT_FALSE(n.valid(&why));
+  n.heartbeat_interval_ms = 1000;
+  n.heartbeat_timeout_ms = 1000;
+  EXPECT_FALSE(n.valid(&why));
+  EXPECT_THAT(why, StartsWith("heartbeat_timeout_ms: "));
+  n.heartbeat_timeout_ms = 1001;
+  EXPECT_TRUE(n.valid(&why)) << why;
+  n.heartbeat_timeout_ms = 600'001;
+  EXPECT_FALSE(n.valid(&why));
 }
 
 }  // namespace

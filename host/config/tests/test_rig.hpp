@@ -125,6 +125,8 @@ dir = "takes"
 [network]
 listen = "any"
 port = 7650
+heartbeat_interval_ms = 100
+heartbeat_timeout_ms = 1500
 )";
 }
 

@@ -265,6 +265,8 @@ class HelloWatch : public session::Handler {
     session::ServerOptions so;
     so.listen = rig.network.listen;
     so.port = rig.network.port;
+    so.heartbeat_interval_ms = rig.network.heartbeat_interval_ms;  // as the host would watch the boards
+    so.heartbeat_timeout_ms = rig.network.heartbeat_timeout_ms;
     so.key = std::move(host_key);
     keyed_ = !so.key.empty();
     server_ = std::make_unique<session::Server>(so, *this, [](log::Level, const std::string&) {});

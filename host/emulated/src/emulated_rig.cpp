@@ -576,8 +576,10 @@ void write_rig_toml(const config::RigConfig& c, const fs::path& path) {
   t.insert("assembly", toml::table{{"deadline_ms", c.assembly.deadline_ms},
                                    {"missing_node_policy",
                                     std::string(config::to_string(c.assembly.missing_node_policy))}});
-  t.insert("network",
-           toml::table{{"listen", c.network.listen}, {"port", static_cast<int64_t>(c.network.port)}});
+  t.insert("network", toml::table{{"listen", c.network.listen},
+                                  {"port", static_cast<int64_t>(c.network.port)},
+                                  {"heartbeat_interval_ms", c.network.heartbeat_interval_ms},
+                                  {"heartbeat_timeout_ms", c.network.heartbeat_timeout_ms}});
   {
     std::ofstream f(path);
     f << "# Written by voxcap's emulated rig from its RigConfig (host/emulated).\n" << t << "\n";
@@ -586,6 +588,8 @@ void write_rig_toml(const config::RigConfig& c, const fs::path& path) {
   const config::RigConfig back = config::load_rig_config(path);
   bool same = back.nodes.size() == c.nodes.size() && back.trigger.udp.targets == c.trigger.udp.targets &&
               back.subtraction.t_upper == c.subtraction.t_upper && back.network.port == c.network.port &&
+              back.network.heartbeat_interval_ms == c.network.heartbeat_interval_ms &&
+              back.network.heartbeat_timeout_ms == c.network.heartbeat_timeout_ms &&
               back.grid.nx == c.grid.nx && back.assembly.deadline_ms == c.assembly.deadline_ms &&
               back.carving.rule == c.carving.rule && back.silhouettes.every == c.silhouettes.every &&
               back.silhouettes.scale == c.silhouettes.scale && back.tracking.nodes == c.tracking.nodes;

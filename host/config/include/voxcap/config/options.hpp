@@ -113,10 +113,20 @@ struct RecordingOptions {
   bool valid(std::string* why) const;
 };
 
-// Where the host listens for the edges' TCP connections.
+// Where the host listens for the edges' TCP connections, and how it watches them (host/session's
+// ServerOptions takes these). The host sends HEARTBEAT every heartbeat_interval_ms and drops a node
+// silent for heartbeat_timeout_ms. The edges keep their own clock (edge.toml [link] heartbeat_ms, 250,
+// and host_timeout_ms, 3000: an edge reconnects when the host is silent that long), so the interval
+// stays at most a second (proto/SPEC.md: HEARTBEAT at least once per second; within the edges'
+// 3 s), and the timeout must exceed the interval (session::ServerOptions::valid's rule).
 struct NetworkOptions {
+  static constexpr int kMaxHeartbeatIntervalMs = 1000;
+  static constexpr int kMaxHeartbeatTimeoutMs = 600'000;  // edge.toml's host_timeout_ms bound
+
   std::string listen = "127.0.0.1";  // IPv4 address or "any" (0.0.0.0)
   uint16_t port = 7600;
+  int heartbeat_interval_ms = 250;  // [10, 1000]
+  int heartbeat_timeout_ms = 2000;  // (interval, 600000]
 
   bool valid(std::string* why) const;
 };
