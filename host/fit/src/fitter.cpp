@@ -968,10 +968,9 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
   double confidence = 0.5 * feat + 0.5 * support;
   if (!torso_ok) confidence *= 0.5;
   const bool head_far = ok[0] && glm::length(f[0] - neck) > b.neck_to_head_m + 0.25;
-  // A heading turned the wrong way: the torso facing away from where the feet point on the hull;
-  // without that cue, its right against the feet's names (they rarely cross).
-  const bool heading_wrong =
-      cue.valid ? faces_away(R, cue) : glm::dot(R[0], State::feature_right(f, ok, false)) < -0.05;
+  // A heading turned the wrong way: the torso facing away from where the feet point on the hull. Without
+  // that cue no verdict: the feet's names come from this torso's right (README, "Turning round").
+  const bool heading_wrong = cue.valid && faces_away(R, cue);
   // The trunk off the hull (failure.hpp): a torso the PCA tilted or turned away from the body. Only
   // where the cylinder held a torso: a hull without one is the check above's (no body to be off).
   const bool trunk_off = torso_ok && trunk_off_hull(trunk_in_hull(s.hull, joints));
