@@ -782,6 +782,11 @@ Imported parse_import(Format format, const std::string& text, const std::string&
   if (!options.valid(&why)) throw ImportError(path + ": " + why);
   if (text.size() > kMaxImportBytes)
     throw ImportError(path + ": larger than " + std::to_string(kMaxImportBytes) + " bytes");
+  // Every format here is text. A NUL byte is not, and OpenCV's FileStorage reads its in-memory XML and
+  // YAML as a C string: "<?xml version=" followed by NULs crashed it (a null read in libopencv_core
+  // 4.6, found by calib_fuzz_import).
+  if (const std::size_t nul = text.find('\0'); nul != std::string::npos)
+    throw ImportError(path + ": a NUL byte at offset " + std::to_string(nul) + ": not a text file");
   if ((format == Format::Qualisys || format == Format::Panoptic || format == Format::Middlebury) &&
       options.unit_m)
     throw ImportError(path + ": " + format_name(format) +

@@ -302,5 +302,20 @@ TEST(CalibImport, FormatNames) {
   EXPECT_FALSE(parse_format("colmap").has_value());
 }
 
+// Every format is text: a NUL byte is refused before any parser sees it (OpenCV's FileStorage read
+// "<?xml version=" followed by NULs as a C string and crashed: calib_fuzz_import's find).
+TEST(CalibImport, ANulByteIsNotACalibrationFile) {
+  const std::string xml = std::string("<?xml version=") + std::string(80, '\0') +
+                          "\"1.0\"?>\n<opencv_storage>\n<width>640</width>\n</opencv_storage>\n";
+  for (Format f : {Format::OpenCV, Format::Qualisys, Format::Panoptic, Format::Toml, Format::Middlebury}) {
+    try {
+      parse(f, xml, "cal.xml", ImportOptions{});
+      ADD_FAILURE() << "a file with NUL bytes was accepted";
+    } catch (const ImportError& e) {
+      EXPECT_NE(std::string(e.what()).find("a NUL byte at offset 14"), std::string::npos) << e.what();
+    }
+  }
+}
+
 }  // namespace
 }  // namespace vc::calib
