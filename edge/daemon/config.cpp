@@ -177,8 +177,8 @@ void parse_edge_toml(const std::string& text, const std::string& path, EdgeSetti
 }
 
 void EdgeSettings::validate() const {
-  auto bad = [](const std::string& name, const std::string& what) {
-    throw ConfigError(fmt::format("{}: {}", name, what));
+  auto bad = [](const std::string& name, const std::string& what) {  // what may quote a value with '\n'
+    throw ConfigError(one_line(fmt::format("{}: {}", name, what)));
   };
   if (node_id < 0 || node_id > 65535) bad("node_id", fmt::format("must be in 0..65535, got {}", node_id));
   if (host.empty()) bad("host.address", "must not be empty");

@@ -110,6 +110,10 @@ TEST(EdgeConfig, ErrorsNameTheKey) {
             std::string::npos);
   EXPECT_NE(load_error("[trigger\n").find(".toml:"), std::string::npos);  // parse error with position
   EXPECT_NE(load_error("next_key = \"rig.key.next\"\n").find("next_key: needs key"), std::string::npos);
+  // A value quoted in the error stays on one line (edge_fuzz_edge_toml's find: a "\n" in a backend).
+  const std::string e = load_error("[[cameras]]\nbackend=\"sim\\nx\"\ndevice=\"x\"\n[[cameras]]\n");
+  EXPECT_NE(e.find("cameras[0].backend"), std::string::npos) << e;
+  EXPECT_EQ(e.find('\n'), std::string::npos) << e;
 }
 
 // A rotation under way: both key files, relative to edge.toml's folder, read and handed to the link and

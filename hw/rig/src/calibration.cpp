@@ -259,6 +259,7 @@ void check_yaml_limits(std::string_view text, const std::string& path) {
   bool opens = false;                   // the last block line opens children
   bool flow = false;                    // a "[" open from an earlier line
   bool content = false;                 // a non-blank line seen
+  bool ended = false;                   // a "..." document end seen: only "---" may follow
   int line = 0;
   std::size_t pos = 0;
   while (pos < text.size()) {
@@ -286,8 +287,12 @@ void check_yaml_limits(std::string_view text, const std::string& path) {
       const std::size_t k = l.find_first_not_of(' ', 3);
       if (k != std::string_view::npos && !(k > 3 && l[k] == '#'))
         fail(path, where, "text after the document marker " + std::string(l.substr(0, 3)));
+      ended = l[0] == '.';
       continue;
     }
+    // Content after a document end without a new "---" is no YAML document, and OpenCV 4.6's parser
+    // can loop on it (rig_fuzz_calibration's find: "...", then "# v0:", then " -  versionA#]").
+    if (ended) fail(path, where, "text after the document end marker ... (start a document with ---)");
     if (flow) {
       flow = YamlLine(l, i, path, where).items();
       continue;

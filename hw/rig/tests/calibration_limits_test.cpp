@@ -124,6 +124,8 @@ TEST(RigCalibrationLimits, OnlyTheSubsetOpenCvWritesReachesItsParser) {
             "rig.yaml: line 2: text after the document marker ---");
   EXPECT_EQ(error_of_text("%YAML:1.0\n--- dt: d\n 2, 1,\n 1, 3p"),
             "rig.yaml: line 2: text after the document marker ---");
+  EXPECT_EQ(error_of_text("%YAML:1.0\n# v0 # vox0 ]\ncam6:\n -  vers0\n...\n# v0:\n -  versionA#]\n"),
+            "rig.yaml: line 7: text after the document end marker ... (start a document with ---)");
   EXPECT_EQ(error_of_text("%YAML:1.0\n---\n c\"\"\"\"\"\"\"%YAML:1.0\n"),
             "rig.yaml: line 3: expected 'key: value' or '- value'");
   EXPECT_EQ(error_of_text("%YAML:1.0\n - 0\n--\n-"),
