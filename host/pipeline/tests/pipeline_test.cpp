@@ -44,7 +44,8 @@ class Probe : public Stage {
     }
     if (throw_on && f.seq == throw_on) throw std::runtime_error("bad frame");
     if (sleep_ms) std::this_thread::sleep_for(std::chrono::milliseconds(sleep_ms));
-    f.occupied += 1;  // a chain stage may change the frame
+    if (mutates) f.occupied += 1;  // a chain stage may change the frame
+    saw_occupied.push_back(f.occupied);
   }
   void stop() override { calls.push_back("stop"); }
 
@@ -73,6 +74,9 @@ class Probe : public Stage {
   const config::RigConfig* rig = nullptr;
   uint64_t throw_on = 0;
   int sleep_ms = 0;
+  // Only chain stages may change a frame: consumers share it read-only and run at the same time.
+  bool mutates = false;  // set on chain stages
+  std::vector<uint64_t> saw_occupied;  // f.occupied as this stage left it, per frame
   std::mutex mu;
   std::condition_variable cv;
   bool open = true;
@@ -99,6 +103,7 @@ TEST(Pipeline, EveryStageSeesFramesInOrderThroughTheChainAndEveryConsumer) {
   Probe& b = p.then(std::make_unique<Probe>("b"), {4, Overflow::Block});
   Probe& c = p.tap(std::make_unique<Probe>("c"), {4, Overflow::Block});
   Probe& d = p.tap(std::make_unique<Probe>("d"), {4, Overflow::Block});
+  a.mutates = b.mutates = true;
   EXPECT_THROW(p.then(std::make_unique<Probe>("late"), {}), std::logic_error);
   p.start();
   EXPECT_THROW(p.tap(std::make_unique<Probe>("after-start"), {}), std::logic_error);
@@ -112,7 +117,11 @@ TEST(Pipeline, EveryStageSeesFramesInOrderThroughTheChainAndEveryConsumer) {
     EXPECT_EQ(s->seqs(), range(1, 201)) << s->name();
     EXPECT_EQ(s->calls, (std::vector<std::string>{"configure", "start", "stop"})) << s->name();
   }
-  for (const FramePtr& f : frames) EXPECT_EQ(f->occupied, 4u) << "each stage ran once on frame " << f->seq;
+  for (const FramePtr& f : frames) EXPECT_EQ(f->occupied, 2u) << "each chain stage ran once on frame " << f->seq;
+  EXPECT_EQ(a.saw_occupied, std::vector<uint64_t>(200, 1u)) << "a runs first";
+  EXPECT_EQ(b.saw_occupied, std::vector<uint64_t>(200, 2u)) << "b runs after a";
+  for (Probe* s : {&c, &d})
+    EXPECT_EQ(s->saw_occupied, std::vector<uint64_t>(200, 2u)) << s->name() << " sees frames after the chain";
   PipelineReport r = p.report();
   ASSERT_EQ(r.stages.size(), 4u);
   EXPECT_EQ(r.stages[0].name, "a");
