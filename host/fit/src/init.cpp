@@ -235,13 +235,22 @@ std::optional<InitMeasurement> measure_init_frame(const HullBits& hull, const Fe
   const double usual_crotch_z = ankle_z + 0.47 * (top_z - ankle_z);
   const bool crotch_ok = crotch_z > 0 && std::abs(crotch_z - usual_crotch_z) <= 0.05 * (top_z - ankle_z);
   if (!crotch_ok) crotch_z = usual_crotch_z;  // legs touching all the way, or a phantom between them
-  double leg_frac[2], t_up[2], t_lo[2];
+  // The knee's split of the crotch -> ankle profile: about 0.45 of it in adults (0.40-0.50), further
+  // in stylised or retargeted skeletons (0.53 in a public BVH clip whose thighs are 1.3 shanks). A
+  // step outside 0.33-0.57 is a hull artefact (a phantom volume near either end of the profile), as
+  // for the elbow, and a leg without a step says nothing: each leg counts only when it stepped within.
+  constexpr double usual_knee_frac = 0.45, knee_frac_span = 0.12;
+  double knee_frac_sum = 0, t_up[2], t_lo[2];
+  int knee_steps = 0;
   for (int s = 0; s < 2; ++s) {
     const Vec3 ankle = s == 0 ? la : ra;
     const Vec3 hip_guess(ankle.x, ankle.y, crotch_z);
     const double side = s == 0 ? -1 : 1;
     const LimbProfile p = limb_profile(hull, hip_guess, ankle, 0.14, side * x, 0.5, 0.075, 0.055);
-    leg_frac[s] = p.hinge_fraction;
+    if (p.stepped && std::abs(p.hinge_fraction - usual_knee_frac) <= knee_frac_span) {
+      knee_frac_sum += p.hinge_fraction;
+      ++knee_steps;
+    }
     t_up[s] = p.upper_radius;
     t_lo[s] = p.lower_radius;
   }
@@ -250,10 +259,7 @@ std::optional<InitMeasurement> measure_init_frame(const HullBits& hull, const Fe
   b.shank_radius_m = std::sqrt(2.0) * 0.5 * (t_lo[0] + t_lo[1]);
   const double hip_z = crotch_z + b.thigh_radius_m;
   const double leg = hip_z - ankle_z;
-  // The knee's fraction is of the crotch -> ankle profile.
-  double knee_frac = 0.5 * (leg_frac[0] + leg_frac[1]);
-  // The knee's split of the crotch -> ankle profile: about 0.45 of it; far from that, an artefact.
-  if (std::abs(knee_frac - 0.45) > 0.08) knee_frac = 0.45;
+  const double knee_frac = knee_steps > 0 ? knee_frac_sum / knee_steps : usual_knee_frac;
   const double knee_z = crotch_z - knee_frac * (crotch_z - ankle_z);
   b.thigh_m = hip_z - knee_z;
   b.shank_m = leg - b.thigh_m;

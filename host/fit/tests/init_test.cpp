@@ -80,6 +80,31 @@ TEST(FitInit, MeasuresTheSimBodyOnTheInitFrames) {
   }
 }
 
+// The knee is measured where the leg's profile steps, not put at the usual split: a skeleton whose
+// thighs are 1.3 times its shanks (as in some retargeted BVH clips) keeps its own knee. With the
+// split held to 0.45 +- 0.08 of the crotch -> ankle profile the thigh came out 6 cm short here.
+TEST(FitInit, LongThighsKeepTheirOwnKnee) {
+  sim::SceneOptions so;
+  so.body = sim::BodyDescription::adult(1.80);
+  const double leg = so.body.thigh_m + so.body.shank_m;
+  so.body.thigh_m = 0.565 * leg;
+  so.body.shank_m = leg - so.body.thigh_m;
+  testing::SyntheticTake take("wave", 7, so);
+  HullBits hull(take.grid());
+  std::vector<InitMeasurement> ms;
+  for (int frame = 0; frame < 10; ++frame) {
+    const pipeline::Frame f = take.frame(frame);
+    ASSERT_TRUE(hull.decode(f.rle));
+    std::string why;
+    const auto m = measure_init_frame(hull, features_of(f), &why);
+    ASSERT_TRUE(m) << why;
+    ms.push_back(*m);
+  }
+  const BodyModel& b = combine_measurements(ms).body;
+  EXPECT_NEAR(b.thigh_m + b.shank_m, leg, 0.02);
+  EXPECT_NEAR(b.thigh_m, so.body.thigh_m, 0.03);
+}
+
 // A carved hull of legs held together is filled between them far below the crotch (the few views
 // that see through the gap cannot carve it): a midline scan then finds the "crotch" at the phantom's
 // top, which gave a 20 cm longer spine and 10 cm shorter thighs on the emulated rig (hips 232 mm off
