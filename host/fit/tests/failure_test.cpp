@@ -8,7 +8,6 @@
 
 #include <cmath>
 #include <cstdio>
-#include <random>
 #include <vector>
 
 #include "voxcap/fit/fitter.hpp"
@@ -45,19 +44,26 @@ std::array<Vec3, pipeline::kPoseJointCount> trunk_turned(std::array<Vec3, pipeli
 
 const char* const kMotions[] = {"arms-close", "cross", "squat", "turn", "walk", "wave"};
 
+// The true occupancy of `take`'s frame as the hull; `bits` is reused between calls.
+void true_hull(const testing::SyntheticTake& take, int frame, HullBits* hull, std::vector<uint8_t>* bits) {
+  take.scene().occupancy(take.grid(), frame, bits);
+  hull->assign(*bits);
+}
+
+// The true pose's joints of `take`'s frame.
+std::array<Vec3, pipeline::kPoseJointCount> true_joints(const testing::SyntheticTake& take, int frame) {
+  return to_vec3(take.truth(frame));
+}
+
 TEST(TrunkInHull, TheTrueTrunkIsNeverOffTheTrueHull) {
   for (const char* motion : kMotions) {
-    sim::SceneOptions so;
-    so.motion.source = motion;
-    const sim::Scene scene(so);
-    const rig::VoxelGrid grid = *scene.calibration().grid;
-    HullBits hull(grid);
+    const testing::SyntheticTake take(motion, 0);
+    HullBits hull(take.grid());
     std::vector<uint8_t> bits;
     int worst = 1 << 30, frames = 0;
     for (int frame = 0; frame < 600; frame += 3) {
-      scene.occupancy(grid, frame, &bits);
-      hull.assign(bits);
-      const TrunkInHull t = trunk_in_hull(hull, to_vec3(testing::true_pose(scene, frame)));
+      true_hull(take, frame, &hull, &bits);
+      const TrunkInHull t = trunk_in_hull(hull, true_joints(take, frame));
       EXPECT_FALSE(trunk_off_hull(t))
           << motion << " frame " << frame << ": " << t.occupied << "/" << t.counted;
       worst = std::min(worst, t.occupied);
@@ -71,15 +77,12 @@ TEST(TrunkInHull, TheTrueTrunkIsNeverOffTheTrueHull) {
 // The rig's hull (six cameras, carved: phantom volumes, no holes) with the true trunk: never flagged.
 TEST(TrunkInHull, TheTrueTrunkIsNeverOffACarvedHull) {
   for (const char* motion : {"squat", "turn"}) {
-    sim::SceneOptions so;
-    so.motion.source = motion;
-    const sim::Scene scene(so);
-    const rig::VoxelGrid grid = *scene.calibration().grid;
-    HullBits hull(grid);
+    const testing::SyntheticTake take(motion, 0);
+    HullBits hull(take.grid());
     std::vector<cv::Mat> masks;
     for (int frame = 0; frame < 600; frame += 40) {
-      hull.assign(testing::carved_hull(scene, grid, frame, &masks));
-      const TrunkInHull t = trunk_in_hull(hull, to_vec3(testing::true_pose(scene, frame)));
+      hull.assign(testing::carved_hull(take.scene(), take.grid(), frame, &masks));
+      const TrunkInHull t = trunk_in_hull(hull, true_joints(take, frame));
       EXPECT_FALSE(trunk_off_hull(t)) << motion << " frame " << frame;
     }
   }
@@ -89,16 +92,12 @@ TEST(TrunkInHull, TheTrueTrunkIsNeverOffACarvedHull) {
 // 0.45 m and more from the body) is off the hull; one within 10 degrees of the truth is not.
 TEST(TrunkInHull, ATrunkLeftTurnedAwayFromTheBodyIsOffTheHull) {
   for (const char* motion : kMotions) {
-    sim::SceneOptions so;
-    so.motion.source = motion;
-    const sim::Scene scene(so);
-    const rig::VoxelGrid grid = *scene.calibration().grid;
-    HullBits hull(grid);
+    const testing::SyntheticTake take(motion, 0);
+    HullBits hull(take.grid());
     std::vector<uint8_t> bits;
     for (int frame = 0; frame < 600; frame += 50) {
-      scene.occupancy(grid, frame, &bits);
-      hull.assign(bits);
-      const auto truth = to_vec3(testing::true_pose(scene, frame));
+      true_hull(take, frame, &hull, &bits);
+      const auto truth = true_joints(take, frame);
       const Vec3 right =
           glm::normalize(truth[static_cast<size_t>(J::r_hip)] - truth[static_cast<size_t>(J::l_hip)]);
       const Vec3 up =
@@ -123,13 +122,10 @@ TEST(TrunkInHull, ATrunkLeftTurnedAwayFromTheBodyIsOffTheHull) {
 // A trunk outside the volume (the performer walked out of it) gives no verdict; an empty hull with the
 // trunk inside the grid does.
 TEST(TrunkInHull, OutsideTheVolumeIsNoVerdict) {
-  sim::SceneOptions so;
-  so.motion.source = "walk";
-  const sim::Scene scene(so);
-  const rig::VoxelGrid grid = *scene.calibration().grid;
-  HullBits hull(grid);
-  hull.assign(std::vector<uint8_t>(grid.bitset_bytes(), 0));
-  auto p = to_vec3(testing::true_pose(scene, 0));
+  const testing::SyntheticTake take("walk", 0);
+  HullBits hull(take.grid());
+  hull.assign(std::vector<uint8_t>(take.grid().bitset_bytes(), 0));
+  auto p = true_joints(take, 0);
   EXPECT_TRUE(trunk_off_hull(trunk_in_hull(hull, p)));
   for (Vec3& v : p) v.x += 100;
   const TrunkInHull t = trunk_in_hull(hull, p);
@@ -141,16 +137,12 @@ TEST(TrunkInHull, OutsideTheVolumeIsNoVerdict) {
 // after its initialization (no false alarm of the new check), the trunk never off the hull.
 TEST(TrunkInHull, AGoodFitIsNeverReacquired) {
   for (const char* motion : kMotions) {
-    sim::SceneOptions so;
-    so.motion.source = motion;
-    const sim::Scene scene(so);
-    const rig::VoxelGrid grid = *scene.calibration().grid;
-    Fitter fitter(grid, {}, 60);
-    HullBits hull(grid);
-    std::mt19937_64 rng(17);
+    testing::SyntheticTake take(motion, 17);
+    Fitter fitter(take.grid(), {}, 60);
+    HullBits hull(take.grid());
     int reinit = 0, off = 0, fitted = 0;
     for (int frame = 0; frame < 400; ++frame) {
-      const pipeline::Frame f = testing::synthetic_frame(scene, grid, frame, {}, rng);
+      const pipeline::Frame f = take.frame(frame);
       const pipeline::Pose pose = fitter.fit(f);
       if (!pose.valid()) continue;
       ++fitted;

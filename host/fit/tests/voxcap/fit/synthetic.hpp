@@ -172,6 +172,16 @@ inline void set_position(pipeline::Feature3D* ft, const cv::Vec3d& p) {
   for (size_t c = 0; c < 3; ++c) ft->p_world[c] = p[static_cast<int>(c)];
 }
 
+// A hull bitset of `grid` as a merged frame's RLE (a test's own hull in a frame).
+inline std::vector<uint8_t> encode_hull(const rig::VoxelGrid& grid, const std::vector<uint8_t>& bits) {
+  std::vector<uint8_t> rle(vc_rle_max_encoded_size(grid.count()));
+  size_t len = 0;
+  if (vc_rle_encode(bits.data(), grid.count(), rle.data(), rle.size(), &len) != 0)
+    throw std::runtime_error("encode_hull: RLE encoding failed");
+  rle.resize(len);
+  return rle;
+}
+
 // One motion of hw/sim (a built-in name or a BVH file) on its default rig and grid, with the features'
 // noise generator: what the fit tests start from. Frames are generated in any order, each from the
 // one generator (so a take's noise depends on the order frames are asked for, as the tests' did).
