@@ -24,7 +24,8 @@
 //     trusted), the cameras' kept swaps vote (confirm or correct), and without a vote it is untrusted;
 //     Feet only: a point beyond a side's gate (how far a foot moves since it was last seen) is not
 //     that side, and a point beside the other foot is dropped rather than named; with one point seen,
-//     a point away from where a foot stands still (planted) is the other foot;
+//     a point away from where a foot stands still (planted) is the other foot, and a lone foot named by
+//     continuity is reported untrusted unless the cameras' kept swaps vote for its name;
 //   - when the pair is named afresh (the first frame, or both sides unseen for identity_gap_frames),
 //     by the cameras' kept swaps when at least two cameras whose swap is decided agree, else by the
 //     initialization rule: the performer faces the front cameras, left = up x facing, so the point
@@ -533,6 +534,9 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
     return kGateM + kGatePerFrameM * static_cast<double>(now - t.last_frame - 1);
   };
   bool gated[2] = {false, false};  // found[k] fits neither side's gate: dropped for this frame
+  // Feet, followed, one point seen: continuity named it against the other foot's old position only, so
+  // its name is reported untrusted unless the cameras' kept swaps voted for it (README, "Left and right").
+  bool lone = false;
   if (!found.empty() && follow) {
     const std::optional<cv::Vec3d> pl = predicted(st.side[0]), pr = predicted(st.side[1]);
     const std::optional<cv::Vec3d> pred[2] = {pl, pr};
@@ -590,6 +594,7 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
       a_left = fits[0][0] && fits[0][1] ? dl <= dr : fits[0][0];
       gated[0] = !fits[0][0] && !fits[0][1];
       clear = !(pl && pr) || std::abs(dl - dr) >= 0.05 || !(fits[0][0] && fits[0][1]);
+      lone = pair == Pair::feet;
     }
     if (!clear || !certain) {
       // Re-check against the cameras' kept swaps: they confirm or correct; without them the naming
@@ -600,9 +605,13 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
       if (v != 0) {
         a_left = v > 0;
         certain = true;
+        lone = false;
       } else {
         certain = false;
       }
+    } else if (lone && !gated[0]) {
+      const int v = vote();
+      if (v != 0 && (v > 0) == a_left && fits[0][a_left ? 0 : 1]) lone = false;
     }
   } else if (!found.empty()) {
     // Named afresh: the cameras' kept swaps vote, else the initialization rule.
@@ -669,7 +678,7 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
     double conf =
         confidence(wsum / static_cast<double>(fd.r.inliers.size()), static_cast<int>(fd.r.inliers.size()),
                    reporting, fd.r.rms_px, widest_angle(prepared, fd.r.inliers, fd.r.p_world), opt_);
-    if (!certain) conf = std::min(conf, kUncertainCap);
+    if (!certain || lone) conf = std::min(conf, kUncertainCap);
     f.confidence = static_cast<float>(conf);
     Track& t = st.side[s];
     t.before = (t.last && now - t.last_frame == 1) ? t.last : std::nullopt;
