@@ -187,6 +187,10 @@ void add_edge_command(CLI::App& app) {
           "--grow-px", args->opt.grow_px,
           "The subtraction's limb-scale cue, pixels (0 = off; default that of voxcap/edge/bgmodel.h)")
       ->check(CLI::Range(0, static_cast<int>(VC_SUBTRACT_GROW_PX_MAX)));
+  edge->add_option("--grow-flat", args->opt.grow_flat,
+                   "The limb-scale cue in the shadow band where the background is flat (noise variances per "
+                   "pixel; 0 = never; default that of voxcap/edge/bgmodel.h)")
+      ->check(CLI::Range(0.0, VC_SUBTRACT_GROW_FLAT_MAX));
   edge->add_option(
           "--child", args->child,
           "Internal: run as the benchmark's own measuring child (rss, rss-footprint, rss-subpixel or "
@@ -346,6 +350,10 @@ void add_silhouettes_command(CLI::App& app) {
                   "The limb-scale cue's weak pixel (noise sigmas pooled over the channels; default that "
                   "of voxcap/edge/bgmodel.h)")
       ->check(CLI::Range(0.01, VC_SUBTRACT_GROW_SIGMA_MAX));
+  sil->add_option("--grow-flat", opt->grow_flat,
+                  "The limb-scale cue in the shadow band where the background is flat (noise variances "
+                  "per pixel; 0 = never; default that of voxcap/edge/bgmodel.h)")
+      ->check(CLI::Range(0.0, VC_SUBTRACT_GROW_FLAT_MAX));
   sil->add_option("--nodes", opt->nodes,
                   "Score a rig of N nodes (2 cameras each, all of them): each node's hull carved from its "
                   "masks, merged, against the true occupancy (0 = masks only)")

@@ -69,7 +69,8 @@ bool EdgeBenchOptions::valid(std::string* why) const {
 
 namespace {
 
-int g_grow_px = -1;  // EdgeBenchOptions::grow_px of the run (parent and child)
+int g_grow_px = -1;       // EdgeBenchOptions::grow_px of the run (parent and child)
+double g_grow_flat = -1;  // EdgeBenchOptions::grow_flat of the run (parent and child)
 
 // The parameters of the bench's scene: shadows darken the floor by 45 %, noise sigma is 2.
 vc_subtract_params scene_params() {
@@ -78,6 +79,7 @@ vc_subtract_params scene_params() {
   p.t_upper = 60.0;
   p.t_lower = 3.5;
   if (g_grow_px >= 0) p.grow_px = g_grow_px;
+  if (g_grow_flat >= 0) p.grow_flat = g_grow_flat;
   p.cos2_angular = std::pow(std::cos(8.0 * M_PI / 180.0), 2);
   p.shadow_min_gain = 0.3;
   p.shadow_max_gain = 1.0;
@@ -281,6 +283,7 @@ std::string child_command(const EdgeBenchOptions& o, const std::string& mode, co
       << o.bg_frames << " --width " << o.width << " --height " << o.height << " --child " << mode
       << " --frames-file " << shell_quote(frames);
   if (o.grow_px >= 0) cmd << " --grow-px " << o.grow_px;
+  if (o.grow_flat >= 0) cmd << " --grow-flat " << o.grow_flat;
   return cmd.str();
 }
 
@@ -313,6 +316,7 @@ json parse_callgrind_dir(const fs::path& dir) {
 json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
                           const std::string& frames_file) {
   g_grow_px = o.grow_px;
+  g_grow_flat = o.grow_flat;
   const EdgeScene scene(o.width, o.height, 1);  // cameras only: nothing is rendered here
   const vc_camera cams[2] = {scene.camera_model(0), scene.camera_model(1)};
   const vc_voxel_grid grid = EdgeScene::grid(o.grid);
@@ -399,6 +403,7 @@ json run_edge_bench_child(const EdgeBenchOptions& o, const std::string& mode,
 
 json run_edge_bench(const EdgeBenchOptions& o) {
   g_grow_px = o.grow_px;
+  g_grow_flat = o.grow_flat;
   std::string why;
   if (!o.valid(&why)) throw std::invalid_argument(why);
   const EdgeScene scene(o.width, o.height, 20240611);

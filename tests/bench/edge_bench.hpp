@@ -22,6 +22,7 @@ struct EdgeBenchOptions {
   bool callgrind = true;  // instruction counts via a child under valgrind --tool=callgrind
   bool rss = true;        // peak resident memory via a child that runs only the edge pipeline
   int grow_px = -1;       // the subtraction's limb-scale cue (bgmodel.h grow_px); < 0: its default
+  double grow_flat = -1;  // the cue in the shadow band over a flat background (bgmodel.h); < 0: its default
   std::string self_exe;   // the voxcap-bench binary, re-run as the measuring child ("" = /proc/self/exe)
 
   bool valid(std::string* why) const;

@@ -53,7 +53,7 @@ struct Counts {
   // in the raw mask and removed by the clean-up.
   uint64_t lost_noise = 0, lost_shadow = 0, lost_cleanup = 0;
   std::array<uint64_t, vc::sim::kPartGroups> part{}, part_kept{}, part_noise{};
-  std::array<uint64_t, vc::sim::kPartGroups> part_lost_shadow{};
+  std::array<uint64_t, vc::sim::kPartGroups> part_lost_shadow{}, part_lost_noise{}, part_lost_cleanup{};
 
   void add(const Counts& o) {
     body += o.body;
@@ -70,6 +70,8 @@ struct Counts {
     lost_cleanup += o.lost_cleanup;
     for (size_t g = 0; g < part.size(); g++) {
       part_lost_shadow[g] += o.part_lost_shadow[g];
+      part_lost_noise[g] += o.part_lost_noise[g];
+      part_lost_cleanup[g] += o.part_lost_cleanup[g];
       part[g] += o.part[g];
       part_kept[g] += o.part_kept[g];
       part_noise[g] += o.part_noise[g];
@@ -100,7 +102,9 @@ nlohmann::json to_json(const Counts& c) {
     parts[std::string(kGroups[g])] = {{"pixels", c.part[g]},
                                       {"recall", ratio(c.part_kept[g], c.part[g])},
                                       {"within_noise", ratio(c.part_noise[g], c.part[g])},
-                                      {"lost_called_shadow", ratio(c.part_lost_shadow[g], c.part[g])}};
+                                      {"lost_called_shadow", ratio(c.part_lost_shadow[g], c.part[g])},
+                                      {"lost_within_noise", ratio(c.part_lost_noise[g], c.part[g])},
+                                      {"lost_cleanup", ratio(c.part_lost_cleanup[g], c.part[g])}};
     if (hand_or_foot(g)) {
       hf += c.part[g];
       hf_kept += c.part_kept[g];
@@ -232,6 +236,10 @@ class HullScorer {
             const size_t g = group_of(static_cast<Part>(lab));
             part_n_[g]++;
             part_in_[g] += in_hull(v);
+            if (!in_hull(v)) {  // which cameras' masks carved it away (a camera that sees it empty)
+              const int missed = count_misses(masks, i, j, k);
+              part_lost_one_[g] += missed == 1;
+            }
           }
           if (!in_hull(v)) continue;
           hull_n++;
@@ -244,6 +252,32 @@ class HullScorer {
     hull_voxels_ += hull_n;
     hull_near_ += near;
     frames_++;
+  }
+
+  // The cameras whose mask has no foreground in the pixels voxel (i, j, k) reads (a node that does
+  // not see the voxel counts its two cameras), each counted in cam_miss_.
+  int count_misses(const std::vector<const uint8_t*>& masks, int i, int j, int k) {
+    int missed = 0;
+    for (size_t n = 0; n < carvers_.size(); n++) {
+      uint32_t rect[2][4];
+      if (vc_carver_footprint(carvers_[n].get(), static_cast<uint32_t>(i), static_cast<uint32_t>(j),
+                              static_cast<uint32_t>(k), rect) != 1) {
+        missed += 2;
+        continue;
+      }
+      for (size_t c = 0; c < 2; c++) {
+        const uint8_t* m = masks[2 * n + c];
+        bool fg = false;
+        for (uint32_t y = rect[c][1]; y <= rect[c][3] && !fg; y++)
+          for (uint32_t x = rect[c][0]; x <= rect[c][2] && !fg; x++)
+            fg = m[static_cast<size_t>(y) * static_cast<size_t>(opt_.width) + x] != 0;
+        if (!fg) {
+          missed++;
+          cam_miss_[2 * n + c]++;
+        }
+      }
+    }
+    return missed;
   }
 
   nlohmann::json json() const {
@@ -259,7 +293,9 @@ class HullScorer {
     for (size_t g = 0; g < kGroups.size(); g++) {
       all += part_n_[g];
       in += part_in_[g];
-      parts[std::string(kGroups[g])] = {{"voxels", part_n_[g]}, {"recall", ratio(part_in_[g], part_n_[g])}};
+      parts[std::string(kGroups[g])] = {{"voxels", part_n_[g]},
+                                        {"recall", ratio(part_in_[g], part_n_[g])},
+                                        {"lost_by_one_camera", ratio(part_lost_one_[g], part_n_[g])}};
       if (hand_or_foot(g) && part_n_[g] > 0) {
         const double r = static_cast<double>(part_in_[g]) / static_cast<double>(part_n_[g]);
         if (r < worst_hf) worst_hf = r, worst_name = kGroups[g];
@@ -270,6 +306,7 @@ class HullScorer {
     j["parts"] = parts;
     j["worst_hand_foot"] = worst_name.empty() ? nlohmann::json(nullptr) : nlohmann::json(worst_name);
     j["worst_hand_foot_recall"] = worst_name.empty() ? nlohmann::json(nullptr) : nlohmann::json(worst_hf);
+    j["lost_by_camera"] = cam_miss_;  // body voxels out of the hull that each camera's mask misses
     j["hull_voxels"] = hull_voxels_;
     j["precision"] = ratio(hull_near_, hull_voxels_);
     return j;
@@ -284,7 +321,8 @@ class HullScorer {
   vc::rig::VoxelGrid grid_;
   std::vector<std::unique_ptr<vc_carver, CarverDeleter>> carvers_;
   std::vector<uint8_t> merged_, part_, label_;
-  std::array<uint64_t, vc::sim::kPartGroups> part_n_{}, part_in_{};
+  std::array<uint64_t, vc::sim::kPartGroups> part_n_{}, part_in_{}, part_lost_one_{};
+  std::vector<uint64_t> cam_miss_ = std::vector<uint64_t>(2 * static_cast<size_t>(opt_.nodes), 0);
   uint64_t hull_voxels_ = 0, hull_near_ = 0, frames_ = 0;
 };
 
@@ -341,6 +379,7 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
   if (opt.shadow_flat_margin >= 0) params.shadow_flat_margin = opt.shadow_flat_margin;
   if (opt.grow_px >= 0) params.grow_px = opt.grow_px;
   if (opt.grow_sigma > 0) params.grow_sigma = opt.grow_sigma;
+  if (opt.grow_flat >= 0) params.grow_flat = opt.grow_flat;
   char bad[160];
   if (vc_subtract_params_check(&params, bad, sizeof bad) != 0) throw std::invalid_argument(bad);
 
@@ -420,6 +459,8 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
           }
           if (label[i] != kUnlabelled) {
             fc.part_lost_shadow[label[i]] += called_shadow;
+            fc.part_lost_noise[label[i]] += !e && noise;
+            fc.part_lost_cleanup[label[i]] += !e && raw[i] != 0;
             fc.part[label[i]]++;
             fc.part_kept[label[i]] += e;
             fc.part_noise[label[i]] += noise;
@@ -473,6 +514,7 @@ nlohmann::json run_silhouette_bench(const SilhouetteBenchOptions& opt) {
   out["shadow_flat_margin"] = params.shadow_flat_margin;
   out["grow_px"] = params.grow_px;
   out["grow_sigma"] = params.grow_sigma;
+  out["grow_flat"] = params.grow_flat;
   out["cameras"] = per_camera;
   out["overall"] = to_json(all);
   if (hull) out["hull"] = hull->json();

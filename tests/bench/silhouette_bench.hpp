@@ -34,6 +34,7 @@ struct SilhouetteBenchOptions {
   double shadow_flat_margin = -1;  // < 0: the default of voxcap/edge/bgmodel.h; 0 = flat-patch test off
   int grow_px = -1;                // < 0: the default of voxcap/edge/bgmodel.h; 0 = limb-scale cue off
   double grow_sigma = -1;          // < 0: the default of voxcap/edge/bgmodel.h
+  double grow_flat = -1;           // < 0: the default of voxcap/edge/bgmodel.h; 0 = not in the band
   std::string png_dir;             // when set: the worst frame of each camera as a PNG here
   int nodes = 0;                   // > 0: a rig of this many nodes (rig_cameras = 2 * nodes, all cameras) ...
   int grid = 128;                  // ... carved into a grid^3 over the emulated rig's volume ...

@@ -112,7 +112,8 @@ struct vc_bgmodel {
                       * ring: 64 pixels a word, a zero word before and after each row, a zero row
                       * above and below the image (grow_ring1) */
   uint8_t* row_any;  /* [h+2] whether a row of fgbits has foreground */
-  uint32_t* grow_d2; /* [w*h] the cue's weak test's least |p - mu|^2 per pixel (set_params) */
+  uint32_t* grow_d2; /* [w*h] the cue's weak test's least |p - mu|^2 per pixel (set_params), with
+                      * VC_GROW_FLAT set where the background is flat (grow_flat) */
   int16_t* span;     /* [h+2][2] a row of fgbits' first and last word with foreground (grow_ring1) */
   /* Scratch of vc_subtract's texture test (allocated by set_params when it is on): */
   struct vc_cand* cand; /* [5][w] the candidates of row y (slot y mod 5) with their terms */
@@ -137,6 +138,7 @@ void vc_subtract_params_default(vc_subtract_params* params) {
   params->shadow_flat_margin = VC_SUBTRACT_SHADOW_FLAT_MARGIN;
   params->grow_px = VC_SUBTRACT_GROW_PX;
   params->grow_sigma = VC_SUBTRACT_GROW_SIGMA;
+  params->grow_flat = VC_SUBTRACT_GROW_FLAT;
 }
 
 int vc_subtract_params_check(const vc_subtract_params* p, char* why, size_t why_len) {
@@ -177,6 +179,9 @@ int vc_subtract_params_check(const vc_subtract_params* p, char* why, size_t why_
   } else if (!(p->grow_sigma > 0.0 && p->grow_sigma <= VC_SUBTRACT_GROW_SIGMA_MAX)) {
     bad = "grow_sigma must be in (0, 16]";
     got = p->grow_sigma;
+  } else if (!(p->grow_flat >= 0.0 && p->grow_flat <= VC_SUBTRACT_GROW_FLAT_MAX)) {
+    bad = "grow_flat must be in [0, 16] (0 = off)";
+    got = p->grow_flat;
   }
   if (bad == NULL) {
     vc_why_clear(why, why_len);
@@ -307,6 +312,40 @@ int vc_bgmodel_restore(vc_bgmodel* m, const uint8_t* mean, const uint16_t* sigma
   return 0;
 }
 
+/* The cue's flat-background mark (bgmodel.h: grow_flat): VC_GROW_FLAT in grow_d2[i] where the
+ * variance of the background's luminance Lmu over the 5x5 window around pixel i (clipped to the
+ * image; exact integer sums of Lmu and Lmu^2 per window, the comparison in doubles, at set-up time)
+ * is below grow_flat times the noise variance of L at i (sum_c s_c^2, floored sigma). */
+#define VC_GROW_FLAT 0x80000000u
+static void mark_flat_background(vc_bgmodel* m, double grow_flat) {
+  const int w = m->width, h = m->height, r = VC_TEXTURE_RADIUS;
+  const double fl = fmax((double)m->floor_q8 / 256.0, 0.0);
+  for (int y = 0; y < h; y++)
+    for (int x = 0; x < w; x++) {
+      uint64_t s = 0, s2 = 0, cnt = 0;
+      for (int yy = y - r; yy <= y + r; yy++) {
+        if (yy < 0 || yy >= h) continue;
+        for (int xx = x - r; xx <= x + r; xx++) {
+          if (xx < 0 || xx >= w) continue;
+          const uint8_t* mu = m->mean + 3 * ((size_t)yy * (size_t)w + (size_t)xx);
+          const uint64_t l = (uint64_t)mu[0] + mu[1] + mu[2];
+          s += l;
+          s2 += l * l;
+          cnt++;
+        }
+      }
+      const size_t i = (size_t)y * (size_t)w + (size_t)x;
+      double v = 0.0;
+      for (int c = 0; c < 3; c++) {
+        const double sg = fmax((double)m->sigma_q8[3 * i + c] / 256.0, fl);
+        v += sg * sg;
+      }
+      /* variance * cnt^2 = cnt * s2 - s^2, exact in 64 bits (cnt <= 25, l <= 765) */
+      const double var = (double)(cnt * s2 - s * s) / ((double)cnt * (double)cnt);
+      if (var < grow_flat * v) m->grow_d2[i] |= VC_GROW_FLAT;
+    }
+}
+
 int vc_bgmodel_set_params(vc_bgmodel* m, const vc_subtract_params* p) {
   if (m == NULL || vc_subtract_params_check(p, NULL, 0) != 0) return -EINVAL;
   if (!m->finished) return -EAGAIN;
@@ -377,6 +416,7 @@ int vc_bgmodel_set_params(vc_bgmodel* m, const vc_subtract_params* p) {
       const uint64_t t = (m->grow_q8 * v + (1ull << 24) - 1) >> 24;
       m->grow_d2[i] = (uint32_t)(t > (1ull << 20) ? (1ull << 20) : t);
     }
+    if (p->grow_flat > 0.0) mark_flat_background(m, p->grow_flat);
   }
   m->c2_q24 = (uint64_t)llround(p->cos2_angular * 16777216.0);
   m->glo_q16 = (uint64_t)llround(p->shadow_min_gain * 65536.0);
@@ -700,12 +740,15 @@ enum { VC_GROW_QUEUED = 1 };
 /* Whether background pixel i (pixel index; px its colour) is weak: eq. 1's background in every
  * channel (not a shadow verdict of the band: p >= blo) and |p - mu|^2 >= grow_sigma^2 * sum_c s_c^2
  * (s_c floored sigma, Q8.8): d2 * 2^24 >= grow_q8 * v_q16, d2 < 2^18, v < 2^34, grow_q8 <= 2^16, as
- * d2 >= grow_d2[i], the least such d2 that set_params computed. */
+ * d2 >= grow_d2[i], the least such d2 that set_params computed; or in the band over a flat
+ * background (grow_flat: VC_GROW_FLAT in grow_d2[i], mark_flat_background). */
 static unsigned grow_weak(const vc_bgmodel* m, const uint8_t* px, size_t i) {
   const uint8_t *mu = m->mean + 3 * i, *blo = m->blo + 3 * i;
   const int d0 = (int)px[0] - mu[0], d1 = (int)px[1] - mu[1], d2 = (int)px[2] - mu[2];
   const unsigned in_band = (px[0] < blo[0]) | (px[1] < blo[1]) | (px[2] < blo[2]);
-  return !in_band & ((uint32_t)(d0 * d0 + d1 * d1 + d2 * d2) >= m->grow_d2[i]);
+  const uint32_t g = m->grow_d2[i];
+  /* in the band: weak only over a flat background (grow_flat); else off the background enough */
+  return in_band ? g >> 31 : (uint32_t)(d0 * d0 + d1 * d1 + d2 * d2) >= (g & ~VC_GROW_FLAT);
 }
 
 /* Queues the first ring: background pixels with at least 2 foreground pixels among their 8

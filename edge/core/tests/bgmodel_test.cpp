@@ -838,12 +838,32 @@ std::vector<uint8_t> reference_grow(const vc_bgmodel* m, const vc_subtract_param
   const uint16_t* sigma_q8 = vc_bgmodel_sigma_q8(m);
   const uint64_t floor_q8 = static_cast<uint64_t>(std::llround(p.sigma_floor * 256.0));
   const uint64_t grow_q8 = static_cast<uint64_t>(std::llround(p.grow_sigma * p.grow_sigma * 256.0));
+  // grow_flat: the background's luminance over the 5x5 window (clipped) varies by less than grow_flat
+  // noise variances of L (sum_c s_c^2) at the pixel
+  auto flat_background = [&](size_t i) {
+    const int x = static_cast<int>(i % w), y = static_cast<int>(i / w);
+    double s = 0, s2 = 0, n = 0, v = 0;
+    for (int yy = std::max(0, y - 2); yy <= std::min(h - 1, y + 2); yy++)
+      for (int xx = std::max(0, x - 2); xx <= std::min(w - 1, x + 2); xx++) {
+        const size_t j = static_cast<size_t>(yy) * w + xx;
+        const double l = static_cast<double>(mean[3 * j]) + mean[3 * j + 1] + mean[3 * j + 2];
+        s += l;
+        s2 += l * l;
+        n++;
+      }
+    for (int c = 0; c < 3; c++) {
+      const double sg =
+          std::max(static_cast<double>(sigma_q8[3 * i + c]), static_cast<double>(floor_q8)) / 256.0;
+      v += sg * sg;
+    }
+    return (n * s2 - s * s) / (n * n) < p.grow_flat * v;
+  };
   auto weak = [&](size_t i) {
     uint64_t d2 = 0, v = 0;
     for (int c = 0; c < 3; c++) {
       const double sigma = std::max(sigma_q8[3 * i + c] / 256.0, p.sigma_floor);
       const int tl = static_cast<int>(std::min(255.0, std::ceil(p.t_lower * sigma) - 1.0));
-      if (rgb[3 * i + c] < std::max(mean[3 * i + c] - tl, 0)) return false;  // the shadow band
+      if (rgb[3 * i + c] < std::max(mean[3 * i + c] - tl, 0)) return flat_background(i);  // the shadow band
       const int64_t d = static_cast<int64_t>(rgb[3 * i + c]) - mean[3 * i + c];
       const uint64_t s = std::max<uint64_t>(sigma_q8[3 * i + c], floor_q8);
       d2 += static_cast<uint64_t>(d * d);
@@ -948,17 +968,84 @@ TEST_P(SubtractVariants, LimbScaleCueKeepsCamouflagedSkinJoinedToTheBody) {
   EXPECT_LE(fg_share(with, 0, 0, kW, 8), 0.005);
 }
 
+// Flat paint (the camouflage room's wall, at a pixel's scale) behind a body block that the
+// subtraction sees, a sleeve of the paint's own hue beside it, shaded to 0.7 (per pixel and per window
+// a shadow: a scaled copy of a flat background), 4 pixels wide, and apart from both a true shadow of
+// the same depth on the same paint.
+CueScene paint_scene(std::mt19937& rng) {
+  CueScene s;
+  const double paint[3] = {50, 118, 62};
+  s.bg = flat(paint);
+  s.frame = render_frame(rng, [&](int x, int y, int c) {
+    const double b = paint[c];
+    if (y < 10 || y >= 60) return b;
+    if (x >= 30 && x < 46) return std::array<double, 3>{200, 150, 120}[static_cast<size_t>(c)];  // the body
+    if (x >= 46 && x < 50) return 0.7 * b;                                                       // the sleeve
+    if (x >= 70 && x < 86) return 0.7 * b;  // a shadow, not joined to the body
+    return b;
+  });
+  return s;
+}
+
+TEST_P(SubtractVariants, LimbScaleCueEntersTheShadowBandOnlyOverAFlatBackground) {
+  std::mt19937 rng(47);
+  const CueScene s = paint_scene(rng);
+  vc_subtract_params p;
+  vc_subtract_params_default(&p);
+  ASSERT_GT(p.grow_flat, 0.0);
+  ModelPtr on = model_of(s.bg, p);
+  p.grow_flat = 0;  // the cue outside the band only (the rule before grow_flat)
+  ModelPtr off = model_of(s.bg, p);
+  const std::vector<uint8_t> without = run_frame(off, s.frame), with = run_frame(on, s.frame);
+  // The sleeve passes every shadow test (the paint has no texture to compare): lost without ...
+  EXPECT_LE(fg_share(without, 46, 10, 50, 60), 0.05);
+  // ... kept with it, as the cue's pixels
+  EXPECT_GE(fg_share(with, 46, 10, 50, 60), 0.99);
+  EXPECT_EQ(with[static_cast<size_t>(30) * kW + 47], VC_MASK_GROWN);
+  // The shadow on the same paint, not joined to the body, stays background, and so does the paint
+  // beyond the sleeve (outside the band, within the noise).
+  EXPECT_LE(fg_share(with, 70, 10, 86, 60), 0.005);
+  EXPECT_LE(fg_share(with, 51, 10, 70, 60), 0.01);
+  // Over a textured floor the band is not entered: the faint tiles' shadow touching the body
+  // (cue_scene) is left as the cue outside the band leaves it.
+  const CueScene t = cue_scene(rng);
+  vc_subtract_params q;
+  vc_subtract_params_default(&q);
+  ModelPtr tiles_on = model_of(t.bg, q);
+  q.grow_flat = 0;
+  ModelPtr tiles_off = model_of(t.bg, q);
+  const std::vector<uint8_t> t_with = run_frame(tiles_on, t.frame), t_without = run_frame(tiles_off, t.frame);
+  EXPECT_EQ(fg_share(t_with, 14, 10, 30, 60), fg_share(t_without, 14, 10, 30, 60));
+  EXPECT_LE(fg_share(t_with, 14, 10, 30, 60), 0.01);
+  // ... nor over wood grain: a shadow of 0.6 touching a body block
+  const std::vector<uint8_t> bg = wood(rng);
+  const std::vector<uint8_t> frame = render_frame(rng, [&](int x, int y, int c) {
+    const double b = bg[(static_cast<size_t>(y) * kW + x) * 3 + c];
+    if (y < 10 || y >= 60) return b;
+    if (x >= 30 && x < 46) return std::array<double, 3>{60, 90, 200}[static_cast<size_t>(c)];
+    if (x >= 14 && x < 30) return 0.6 * b;
+    return b;
+  });
+  vc_subtract_params r;
+  vc_subtract_params_default(&r);
+  ModelPtr wood_on = model_of(bg, r);
+  r.grow_flat = 0;
+  ModelPtr wood_off = model_of(bg, r);
+  EXPECT_EQ(run_frame(wood_on, frame), run_frame(wood_off, frame));
+}
+
 TEST_P(SubtractVariants, LimbScaleCueEqualsItsPlainReference) {
   std::mt19937 rng(43);
-  for (int round = 0; round < 6; round++) {
-    const CueScene s = cue_scene(rng);
+  for (int round = 0; round < 8; round++) {
+    const CueScene s = round < 6 ? cue_scene(rng) : paint_scene(rng);
     vc_subtract_params p;
     vc_subtract_params_default(&p);
     p.grow_px = 0;
     ModelPtr off = model_of(s.bg, p);
     const std::vector<uint8_t> base = run_frame(off, s.frame);  // subtracted and cleaned, no cue
     p.grow_px = 1 + round % 5;
-    p.grow_sigma = round < 3 ? 1.5 : 0.8 + 0.4 * round;
+    p.grow_sigma = round < 3 || round >= 6 ? 1.5 : 0.8 + 0.4 * round;
+    p.grow_flat = round == 5 ? 0.0 : round == 4 ? 3.0 : VC_SUBTRACT_GROW_FLAT;
     ModelPtr on = model_of(s.bg, p);
     vc_subtract_stats st{};
     const std::vector<uint8_t> mask = run_frame(on, s.frame, &st);
@@ -995,6 +1082,14 @@ TEST(SubtractParams, LimbScaleCueRanges) {
   EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), -EINVAL);
   EXPECT_NE(std::string(why).find("grow_sigma"), std::string::npos) << why;
   p.grow_sigma = 2;
+  EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), 0);
+  EXPECT_EQ(p.grow_flat, VC_SUBTRACT_GROW_FLAT);
+  p.grow_flat = -0.5;
+  EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), -EINVAL);
+  EXPECT_NE(std::string(why).find("grow_flat"), std::string::npos) << why;
+  p.grow_flat = VC_SUBTRACT_GROW_FLAT_MAX + 1;
+  EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), -EINVAL);
+  p.grow_flat = 0;
   EXPECT_EQ(vc_subtract_params_check(&p, why, sizeof why), 0);
 }
 

@@ -85,6 +85,9 @@ typedef struct vc_subtract_params {
                               * steps of "weak" pixels become foreground (see below) */
   double grow_sigma;         /* a weak pixel: outside the shadow band and off the background by at least
                               * this many noise sigmas, pooled over the channels, (0, 16] */
+  double grow_flat;          /* the cue also enters the shadow band where the background is flat: its
+                              * luminance varies over the 5x5 window by less than this many noise
+                              * variances per pixel, [0, 16], 0 = never (see below) */
 } vc_subtract_params;
 
 /* The flat-patch test's margin (shadow_flat_margin), fixed on the edge (not in rig.toml or CONFIG).
@@ -116,7 +119,8 @@ typedef struct vc_subtract_params {
  * clean-up (vc_cleanup_grow, vc_mask_frame below; vc_subtract alone does not grow), so the noise
  * speckles the clean-up removes seed nothing. Skin of the floor's own colour is a little off it
  * everywhere, the sensor noise alone reaches the threshold in few pixels and not in connected runs,
- * and a shadow's pixels are in the band, so a floor shadow touching the feet is not grown into.
+ * and a shadow's pixels are in the band, so a floor shadow touching the feet is not grown into
+ * (the band is entered only over a flat background: grow_flat, below).
  * Exact integers, no allocation per frame (the model holds a queue of width * height indices, each
  * pixel's least |p - mu|^2 for the test, and the clean mask's foreground as bits, which the clean-up
  * writes in its own pass). The pixels it adds are VC_MASK_GROWN (below): the carver takes them, the
@@ -130,6 +134,22 @@ typedef struct vc_subtract_params {
 #define VC_SUBTRACT_GROW_PX_MAX 64.0
 #define VC_SUBTRACT_GROW_SIGMA 1.5 /* the value measured with grow_px 4 */
 #define VC_SUBTRACT_GROW_SIGMA_MAX 16.0
+
+/* The cue over a flat background (grow_flat), fixed on the edge: a pixel in the shadow band (darker
+ * than the noise, which the subtraction called shadow or the clean-up took back) is weak too when
+ * the learnt background around it is flat, its luminance Lmu = mu_0 + mu_1 + mu_2 varying over the
+ * 5x5 window (clipped at the image's border) by less than grow_flat * sum_c s_c^2 per pixel (the
+ * variance of the window's Lmu about its mean, against the noise variance of L at the pixel). There
+ * a shadow verdict rests on colour alone: the texture and flat-patch tests compare the window with
+ * the background's texture, and with none to compare (the flat-patch test sees a smooth body darker
+ * by a gain a only when a^2 times the texture's variance exceeds its margin of 0.2 noise variances,
+ * so below one variance it is blind at any gain down to the deepest shadow's 0.45) a shirt or skin of
+ * the background's hue, shaded, passes as a shadow. Joined to the body it is body, up to grow_px
+ * steps, as the cue already takes the pixels within the noise; a shadow over a textured floor or
+ * wall is still not entered. Computed once per model in vc_bgmodel_set_params (no per-frame cost
+ * but the cue's test of the pixels it visits). */
+#define VC_SUBTRACT_GROW_FLAT 1.0
+#define VC_SUBTRACT_GROW_FLAT_MAX 16.0
 
 /* Fills the defaults of voxcap/subtraction.h (the ones the host's rig.toml starts from): T_u 60,
  * T_l 3.5, T_angular 8 degrees, alpha in [0.45, 1.0], sigma floor 1.0, texture k 1.5; and the
