@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <optional>
 #include <random>
 
 #include "voxcap/fit/synthetic.hpp"
@@ -21,6 +22,33 @@ FeatureSet features_of(const pipeline::Frame& f) {
   return out;
 }
 
+// The init pose measured on a take's first ten frames and combined, as the fitter does; a frame that
+// does not decode, is not the init pose or cannot be measured fails the test (nothing is returned).
+std::optional<InitMeasurement> measure_first_frames(testing::SyntheticTake& take) {
+  HullBits hull(take.grid());
+  std::vector<InitMeasurement> ms;
+  for (int frame = 0; frame < 10; ++frame) {
+    const pipeline::Frame f = take.frame(frame);
+    if (!hull.decode(f.rle)) {
+      ADD_FAILURE() << "frame " << frame << ": the hull does not decode";
+      return std::nullopt;
+    }
+    const FeatureSet fs = features_of(f);
+    std::string why;
+    if (!looks_like_init_pose(fs, &why)) {
+      ADD_FAILURE() << "frame " << frame << " is not the init pose: " << why;
+      return std::nullopt;
+    }
+    const auto m = measure_init_frame(hull, fs, &why);
+    if (!m) {
+      ADD_FAILURE() << "frame " << frame << " not measured: " << why;
+      return std::nullopt;
+    }
+    ms.push_back(*m);
+  }
+  return combine_measurements(ms);
+}
+
 struct Case {
   double height_m;
   double voxel_m;
@@ -33,19 +61,9 @@ TEST(FitInit, MeasuresTheSimBodyOnTheInitFrames) {
     so.body = sim::BodyDescription::adult(c.height_m);
     so.rig.voxel_m = c.voxel_m;
     testing::SyntheticTake take("wave", 7, so);
-    HullBits hull(take.grid());
-    std::vector<InitMeasurement> ms;
-    for (int frame = 0; frame < 10; ++frame) {
-      const pipeline::Frame f = take.frame(frame);
-      ASSERT_TRUE(hull.decode(f.rle));
-      const FeatureSet fs = features_of(f);
-      std::string why;
-      ASSERT_TRUE(looks_like_init_pose(fs, &why)) << why;
-      const auto m = measure_init_frame(hull, fs, &why);
-      ASSERT_TRUE(m) << why;
-      ms.push_back(*m);
-    }
-    const InitMeasurement m = combine_measurements(ms);
+    const std::optional<InitMeasurement> measured = measure_first_frames(take);
+    ASSERT_TRUE(measured);
+    const InitMeasurement& m = *measured;
     const sim::BodyDescription& t = so.body;
     const BodyModel& b = m.body;
     const double neck_z =
@@ -90,17 +108,9 @@ TEST(FitInit, LongThighsKeepTheirOwnKnee) {
   so.body.thigh_m = 0.565 * leg;
   so.body.shank_m = leg - so.body.thigh_m;
   testing::SyntheticTake take("wave", 7, so);
-  HullBits hull(take.grid());
-  std::vector<InitMeasurement> ms;
-  for (int frame = 0; frame < 10; ++frame) {
-    const pipeline::Frame f = take.frame(frame);
-    ASSERT_TRUE(hull.decode(f.rle));
-    std::string why;
-    const auto m = measure_init_frame(hull, features_of(f), &why);
-    ASSERT_TRUE(m) << why;
-    ms.push_back(*m);
-  }
-  const BodyModel& b = combine_measurements(ms).body;
+  const std::optional<InitMeasurement> measured = measure_first_frames(take);
+  ASSERT_TRUE(measured);
+  const BodyModel& b = measured->body;
   EXPECT_NEAR(b.thigh_m + b.shank_m, leg, 0.02);
   EXPECT_NEAR(b.thigh_m, so.body.thigh_m, 0.03);
 }
