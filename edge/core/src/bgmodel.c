@@ -317,9 +317,20 @@ int vc_bgmodel_restore(vc_bgmodel* m, const uint8_t* mean, const uint16_t* sigma
  * image; exact integer sums of Lmu and Lmu^2 per window, the comparison in doubles, at set-up time)
  * is below grow_flat times the noise variance of L at i (sum_c s_c^2, floored sigma). */
 #define VC_GROW_FLAT 0x80000000u
+
+/* The noise variance of the luminance L = p_0 + p_1 + p_2 at pixel i: sum_c s_c^2, s_c the channel's
+ * sigma floored at floor_q8 (both Q8.8), so Q16.16. The cue's weak test and its flat mark use it. */
+static uint64_t noise_var_q16(const vc_bgmodel* m, size_t i) {
+  uint64_t v = 0;
+  for (int c = 0; c < 3; c++) {
+    const uint64_t sg = m->sigma_q8[3 * i + c] > m->floor_q8 ? m->sigma_q8[3 * i + c] : m->floor_q8;
+    v += sg * sg;
+  }
+  return v;
+}
+
 static void mark_flat_background(vc_bgmodel* m, double grow_flat) {
   const int w = m->width, h = m->height, r = VC_TEXTURE_RADIUS;
-  const double fl = fmax((double)m->floor_q8 / 256.0, 0.0);
   for (int y = 0; y < h; y++)
     for (int x = 0; x < w; x++) {
       uint64_t s = 0, s2 = 0, cnt = 0;
@@ -335,11 +346,7 @@ static void mark_flat_background(vc_bgmodel* m, double grow_flat) {
         }
       }
       const size_t i = (size_t)y * (size_t)w + (size_t)x;
-      double v = 0.0;
-      for (int c = 0; c < 3; c++) {
-        const double sg = fmax((double)m->sigma_q8[3 * i + c] / 256.0, fl);
-        v += sg * sg;
-      }
+      const double v = (double)noise_var_q16(m, i) / 65536.0; /* exact: an integer < 2^34 */
       /* variance * cnt^2 = cnt * s2 - s^2, exact in 64 bits (cnt <= 25, l <= 765) */
       const double var = (double)(cnt * s2 - s * s) / ((double)cnt * (double)cnt);
       if (var < grow_flat * v) m->grow_d2[i] |= VC_GROW_FLAT;
@@ -408,12 +415,7 @@ int vc_bgmodel_set_params(vc_bgmodel* m, const vc_subtract_params* p) {
   }
   if (m->grow_px > 0) { /* d2 * 2^24 >= grow_q8 * v  <=>  d2 >= ceil(grow_q8 * v / 2^24) (d2 < 2^18) */
     for (size_t i = 0; i < n / 3; i++) { /* n: the model's values, 3 a pixel */
-      uint64_t v = 0;
-      for (int c = 0; c < 3; c++) {
-        const uint64_t sg = m->sigma_q8[3 * i + c] > floor_q8 ? m->sigma_q8[3 * i + c] : floor_q8;
-        v += sg * sg;
-      }
-      const uint64_t t = (m->grow_q8 * v + (1ull << 24) - 1) >> 24;
+      const uint64_t t = (m->grow_q8 * noise_var_q16(m, i) + (1ull << 24) - 1) >> 24;
       m->grow_d2[i] = (uint32_t)(t > (1ull << 20) ? (1ull << 20) : t);
     }
     if (p->grow_flat > 0.0) mark_flat_background(m, p->grow_flat);
