@@ -211,6 +211,44 @@ TEST_P(KernelVariant, CarveEqualsGenericBitForBit) {
     }
 }
 
+// The carve takes any non-zero mask byte as foreground (the clean-up's cue marks its pixels 128): a
+// mask whose foreground bytes are 1, 0x7F, 0x80, 0xFE or 0xFF (the edge cases of the leaves' bit
+// packing: no low bit set, only the top bit, all but one) carves exactly as the same mask at 255,
+// under the generic kernels and the variant, for every rule and for 16-bit and full-index leaves.
+TEST_P(KernelVariant, CarveTakesAnyNonZeroByteAsForeground) {
+  std::mt19937 rng(1607);
+  const double none[5] = {0, 0, 0, 0, 0}, target[3] = {0, 0, 0.9};
+  const double eyes[][2][3] = {{{3.0, 0.2, 1.2}, {0.3, 3.1, 1.4}}, {{1.1, 0.1, 1.0}, {0.1, 1.2, 1.1}}};
+  const int sizes[][2] = {{320, 240}, {1456, 1088}};  // far cameras; a close, wide one (full indices)
+  const uint8_t values[] = {1, 0x7F, 0x80, 0xFE, 0xFF};
+  const vc_voxel_grid grid{32, 32, 32, {-0.8, -0.8, 0.1}, 1.6 / 32};
+  for (int c = 0; c < 2; c++)
+    for (vc_carve_rule rule : {VC_CARVE_CENTRE, VC_CARVE_FOOTPRINT, VC_CARVE_SUBPIXEL}) {
+      const int w = sizes[c][0], h = sizes[c][1];
+      const vc_camera cam0 = vc::edge_test::look_at(eyes[c][0], target, w, h, 0.9 * w, none);
+      const vc_camera cam1 = vc::edge_test::look_at(eyes[c][1], target, w, h, 0.9 * w, none);
+      vc_carver* raw = nullptr;
+      char why[200];
+      ASSERT_EQ(vc_carver_new(&grid, &cam0, &cam1, rule, &raw, why, sizeof why), 0) << why;
+      std::unique_ptr<vc_carver, CarverDeleter> cv(raw);
+      const std::vector<uint8_t> m0 = blob_mask(w, h, rng), m1 = blob_mask(w, h, rng);
+      std::vector<uint8_t> v0 = m0, v1 = m1;
+      for (size_t i = 0; i < v0.size(); i++) {
+        if (v0[i] != 0) v0[i] = values[rng() % 5];
+        if (v1[i] != 0) v1[i] = values[rng() % 5];
+      }
+      for (const char* variant : {"generic", GetParam()}) {
+        ASSERT_EQ(vc_edge_kernel_select(variant), 0);
+        std::vector<uint8_t> want(vc_carver_bitset_bytes(cv.get())), got(want.size());
+        vc_carve_stats st{};
+        ASSERT_EQ(vc_carver_run(cv.get(), m0.data(), m1.data(), want.data(), &st), 0);
+        ASSERT_GT(st.leaves_tested, 0u);
+        ASSERT_EQ(vc_carver_run(cv.get(), v0.data(), v1.data(), got.data(), nullptr), 0);
+        EXPECT_TRUE(got == want) << variant << " rule " << rule << " at " << w << "x" << h;
+      }
+    }
+}
+
 INSTANTIATE_TEST_SUITE_P(Kernels, KernelVariant, ::testing::Values("avx2", "neon"),
                          [](const auto& p) { return std::string(p.param); });
 
