@@ -905,15 +905,55 @@ static inline uint64_t has_zero_byte(uint64_t w) {
   return (w - 0x0101010101010101ull) & ~w & 0x8080808080808080ull;
 }
 
-/* Tile flags and their summed-area tables for one mask. */
-static void summarise(cam_frame* f, const uint8_t* mask, int W, int H) {
+#if defined(__SSE2__)
+/* ORs `rows` 16-byte rows from p (stride W) into *or_ and their bytes' compare with zero into *has0. */
+VC_HOT void tile_rows_sse2(const uint8_t* p, size_t W, int rows, __m128i* or_, __m128i* has0) {
+  const __m128i z128 = _mm_setzero_si128();
+  __m128i o = *or_, h = *has0;
+  for (int r = 0; r < rows; r++) {
+    const __m128i q = _mm_loadu_si128((const __m128i*)(const void*)(p + (size_t)r * W));
+    o = _mm_or_si128(o, q);
+    h = _mm_or_si128(h, _mm_cmpeq_epi8(q, z128));
+  }
+  *or_ = o;
+  *has0 = h;
+}
+#endif
+
+/* Tile flags and their summed-area tables for one mask. With SSE2 (the x86-64 baseline) two tiles
+ * side by side at a time: a 16-byte row's OR for "any", its byte compare with zero ORed for "not
+ * full", one movemask each per tile pair (8 rows: 59 -> ~30 instructions a tile); elsewhere one
+ * 8-byte word a row, the zero bytes found by the carry trick. Each row of tiles then goes into the
+ * tables at once, through local pointers the compiler need not reload after each store (the tile
+ * flags and the tables are different arrays; 22 -> ~12 instructions a tile). */
+__attribute__((noinline)) static void summarise(cam_frame* f, const uint8_t* mask, int W, int H) {
   const int ts = 1 << TILE_SHIFT;
   const int full_tiles = W >> TILE_SHIFT; /* tiles with all 8 columns inside the image */
-  for (int ty = 0; ty < f->th; ty++) {
-    uint8_t* any = f->any + (size_t)ty * (size_t)f->tw;
-    uint8_t* full = f->full + (size_t)ty * (size_t)f->tw;
+  const int tw = f->tw, th = f->th; /* locals: the stores below do not make the compiler reload them */
+  const size_t sw = (size_t)tw + 1;
+  for (int ty = 0; ty < th; ty++) {
+    uint8_t* restrict any = f->any + (size_t)ty * (size_t)tw;
+    uint8_t* restrict full = f->full + (size_t)ty * (size_t)tw;
     int y0 = ty * ts, y1 = imin(H, y0 + ts);
-    for (int tx = 0; tx < full_tiles; tx++) {
+    int tx = 0;
+#if defined(__SSE2__)
+    const __m128i z128 = _mm_setzero_si128();
+    for (; tx + 2 <= full_tiles; tx += 2) {
+      __m128i or_ = z128, has0 = z128;
+      const uint8_t* p = mask + (size_t)y0 * (size_t)W + (size_t)(tx * ts);
+      if (y1 - y0 == ts) /* a whole tile row: a constant count, unrolled */
+        tile_rows_sse2(p, (size_t)W, ts, &or_, &has0);
+      else
+        tile_rows_sse2(p, (size_t)W, y1 - y0, &or_, &has0);
+      const unsigned none = (unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(or_, z128)); /* bit: byte all 0 */
+      const unsigned holes = (unsigned)_mm_movemask_epi8(has0);                      /* bit: a byte was 0 */
+      any[tx] = (none & 0xFFu) != 0xFFu;
+      any[tx + 1] = (none >> 8) != 0xFFu;
+      full[tx] = (holes & 0xFFu) == 0;
+      full[tx + 1] = (holes >> 8) == 0;
+    }
+#endif
+    for (; tx < full_tiles; tx++) {
       uint64_t or_ = 0, zero = 0;
       for (int y = y0; y < y1; y++) {
         uint64_t w = load64(mask + (size_t)y * (size_t)W + (size_t)(tx * ts));
@@ -923,8 +963,8 @@ static void summarise(cam_frame* f, const uint8_t* mask, int W, int H) {
       any[tx] = or_ != 0;
       full[tx] = zero == 0;
     }
-    if (full_tiles < f->tw) { /* the last, narrower column of tiles */
-      int tx = full_tiles;
+    if (full_tiles < tw) { /* the last, narrower column of tiles */
+      tx = full_tiles;
       bool a = false, fl = true;
       for (int y = y0; y < y1; y++)
         for (int x = tx * ts; x < W; x++) {
@@ -935,16 +975,16 @@ static void summarise(cam_frame* f, const uint8_t* mask, int W, int H) {
       any[tx] = a;
       full[tx] = fl;
     }
-  }
-  const size_t sw = (size_t)f->tw + 1;
-  for (int ty = 0; ty < f->th; ty++) {
+    const uint32_t* restrict sa_up = f->sat_any + (size_t)ty * sw;
+    const uint32_t* restrict sf_up = f->sat_full + (size_t)ty * sw;
+    uint32_t* restrict sa = f->sat_any + (size_t)(ty + 1) * sw;
+    uint32_t* restrict sf = f->sat_full + (size_t)(ty + 1) * sw;
     uint32_t ra = 0, rf = 0;
-    for (int tx = 0; tx < f->tw; tx++) {
-      ra += f->any[(size_t)ty * (size_t)f->tw + (size_t)tx];
-      rf += f->full[(size_t)ty * (size_t)f->tw + (size_t)tx];
-      f->sat_any[(size_t)(ty + 1) * sw + (size_t)tx + 1] = f->sat_any[(size_t)ty * sw + (size_t)tx + 1] + ra;
-      f->sat_full[(size_t)(ty + 1) * sw + (size_t)tx + 1] =
-          f->sat_full[(size_t)ty * sw + (size_t)tx + 1] + rf;
+    for (int x = 0; x < tw; x++) {
+      ra += any[x];
+      rf += full[x];
+      sa[x + 1] = sa_up[x + 1] + ra;
+      sf[x + 1] = sf_up[x + 1] + rf;
     }
   }
 }
