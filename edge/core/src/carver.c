@@ -1197,18 +1197,25 @@ static inline uint64_t leaf_lookup_wide_neon(const uint8_t* mask, const uint32_t
 #endif
 
 /* ORs a leaf's 64 bits (x + 4y + 16z) into the bitset at voxel origin (i0, j0, k0). Bits of voxels
- * outside the grid are zero, so no byte past a row's last voxel is written. */
+ * outside the grid are zero, so no byte past a row's last voxel is written. The rows' bit positions
+ * are steps of nx (a y row) and nx * ny (a z slice) from the leaf's first: the grid's sizes are read
+ * once into locals, as a byte store may alias them and would make the compiler reload them after
+ * each write (15 -> ~8 instructions a row written). */
 static void write_leaf(const grid_i* g, uint8_t* bits, int i0, int j0, int k0, uint64_t b) {
-  for (int z = 0; z < LEAF; z++)
+  const uint64_t nx = (uint64_t)g->nx, slice = nx * (uint64_t)g->ny;
+  const uint64_t pos0 = (uint64_t)i0 + nx * (uint64_t)j0 + slice * (uint64_t)k0;
+  for (int z = 0; z < LEAF; z++) {
+    const unsigned sl = (unsigned)(b >> (LEAF * LEAF * z)) & 0xFFFFu; /* the z slice's 4 rows */
+    if (sl == 0) continue;
     for (int y = 0; y < LEAF; y++) {
-      unsigned nib = (unsigned)(b >> (LEAF * (y + LEAF * z))) & 0xFu;
+      const unsigned nib = (sl >> (LEAF * y)) & 0xFu;
       if (nib == 0) continue;
-      uint64_t pos =
-          (uint64_t)i0 + (uint64_t)g->nx * ((uint64_t)(j0 + y) + (uint64_t)g->ny * (uint64_t)(k0 + z));
-      unsigned sh = (unsigned)(pos & 7);
+      const uint64_t pos = pos0 + slice * (uint64_t)z + nx * (uint64_t)y;
+      const unsigned sh = (unsigned)(pos & 7);
       bits[pos >> 3] |= (uint8_t)(nib << sh);
       if ((nib << sh) > 0xFFu) bits[(pos >> 3) + 1] |= (uint8_t)(nib >> (8 - sh));
     }
+  }
 }
 
 int vc_carver_run(vc_carver* cv, const uint8_t* mask0, const uint8_t* mask1, uint8_t* bitset,
