@@ -929,7 +929,7 @@ VC_HOT void tile_rows_sse2(const uint8_t* p, size_t W, int rows, __m128i* or_, _
 __attribute__((noinline)) static void summarise(cam_frame* f, const uint8_t* mask, int W, int H) {
   const int ts = 1 << TILE_SHIFT;
   const int full_tiles = W >> TILE_SHIFT; /* tiles with all 8 columns inside the image */
-  const int tw = f->tw, th = f->th; /* locals: the stores below do not make the compiler reload them */
+  const int tw = f->tw, th = f->th;       /* locals: the stores below do not make the compiler reload them */
   const size_t sw = (size_t)tw + 1;
   for (int ty = 0; ty < th; ty++) {
     uint8_t* restrict any = f->any + (size_t)ty * (size_t)tw;
@@ -946,7 +946,7 @@ __attribute__((noinline)) static void summarise(cam_frame* f, const uint8_t* mas
       else
         tile_rows_sse2(p, (size_t)W, y1 - y0, &or_, &has0);
       const unsigned none = (unsigned)_mm_movemask_epi8(_mm_cmpeq_epi8(or_, z128)); /* bit: byte all 0 */
-      const unsigned holes = (unsigned)_mm_movemask_epi8(has0);                      /* bit: a byte was 0 */
+      const unsigned holes = (unsigned)_mm_movemask_epi8(has0);                     /* bit: a byte was 0 */
       any[tx] = (none & 0xFFu) != 0xFFu;
       any[tx + 1] = (none >> 8) != 0xFFu;
       full[tx] = (holes & 0xFFu) == 0;
