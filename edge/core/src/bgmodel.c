@@ -115,6 +115,7 @@ struct vc_bgmodel {
   uint32_t* grow_d2; /* [w*h] the cue's weak test's least |p - mu|^2 per pixel (set_params), with
                       * VC_GROW_FLAT set where the background is flat (grow_flat) */
   int16_t* span;     /* [h+2][2] a row of fgbits' first and last word with foreground (grow_ring1) */
+  uint8_t* raw;      /* [w*h] the frame's mask before the clean-up (vc__cleanup_radius_bits leaves it) */
   /* Scratch of vc_subtract's texture test (allocated by set_params when it is on): */
   struct vc_cand* cand; /* [5][w] the candidates of row y (slot y mod 5) with their terms */
   vc_sums* colsum;      /* [w + 4] per column: the candidates' count and sums over the window's rows */
@@ -235,6 +236,7 @@ void vc_bgmodel_free(vc_bgmodel* m) {
   free(m->row_any);
   free(m->span);
   free(m->grow_d2);
+  free(m->raw);
   free(m);
 }
 
@@ -398,18 +400,21 @@ int vc_bgmodel_set_params(vc_bgmodel* m, const vc_subtract_params* p) {
     m->row_any = malloc((size_t)m->height + 2);
     m->span = malloc(2 * ((size_t)m->height + 2) * sizeof(*m->span));
     m->grow_d2 = malloc((size_t)m->width * (size_t)m->height * sizeof(*m->grow_d2));
+    m->raw = malloc((size_t)m->width * (size_t)m->height);
     if (m->queue == NULL || m->fgbits == NULL || m->row_any == NULL || m->span == NULL ||
-        m->grow_d2 == NULL) {
+        m->grow_d2 == NULL || m->raw == NULL) {
       free(m->queue);
       free(m->fgbits);
       free(m->row_any);
       free(m->span);
       free(m->grow_d2);
+      free(m->raw);
       m->queue = NULL;
       m->fgbits = NULL;
       m->row_any = NULL;
       m->span = NULL;
       m->grow_d2 = NULL;
+      m->raw = NULL;
       return -ENOMEM;
     }
   }
@@ -813,8 +818,26 @@ static size_t grow_ring1(uint8_t* mk, const uint64_t* fg, size_t stride, uint8_t
 }
 
 /* The cue over a finished mask: ring 1 from the scan, then up to grow_px rings of breadth-first
- * search through weak pixels (4-connected), then the marks back to 0 / VC_MASK_GROWN. Returns the pixels
- * grown. */
+ * search through weak pixels (4-connected), then the marks back to 0 / VC_MASK_GROWN. A pixel the
+ * subtraction called foreground and the clean-up took away (m->raw) passes as weak when it is part of
+ * a structure of two or more such pixels (raw_joined): the filter is there for speckles apart from the
+ * body, so this gives back the thin parts it cut off the body (a reconstruction of the clean mask
+ * within the subtraction's, grow_px steps deep, on the weak pixels' path). Returns the pixels grown. */
+/* Whether pixel i, which the subtraction called foreground (m->raw) and the clean-up took away, is part
+ * of a structure the filter cut off: another such pixel (foreground in m->raw, not in the clean mask)
+ * among its 8 neighbours, as in a finger or a wrist 1-2 pixels wide. A lone one beside the clean
+ * outline is what the filter is there for (the subtraction's specks where a floor shadow meets the
+ * feet look the same as an outline's) and stays removed. */
+static unsigned raw_joined(const vc_bgmodel* m, const uint8_t* mk, uint32_t i) {
+  const int w = m->width, h = m->height, y = (int)(i / (uint32_t)w), x = (int)(i - (uint32_t)y * (uint32_t)w);
+  for (int yy = y > 0 ? y - 1 : 0; yy <= y + 1 && yy < h; yy++)
+    for (int xx = x > 0 ? x - 1 : 0; xx <= x + 1 && xx < w; xx++) {
+      const size_t j = (size_t)yy * (size_t)w + (size_t)xx;
+      if (j != i && m->raw[j] != 0 && mk[j] != VC_MASK_FG) return 1;
+    }
+  return 0;
+}
+
 static uint32_t grow_mask(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint8_t* mk) {
   const int w = m->width, h = m->height;
   const bool packed = stride == 3 * (size_t)w; /* pixel i at rgb + 3 i, no division to find its row */
@@ -827,7 +850,8 @@ static uint32_t grow_mask(const vc_bgmodel* m, const uint8_t* rgb, size_t stride
       const uint32_t i = q[head];
       const uint8_t* px = packed ? rgb + 3 * (size_t)i
                                  : rgb + (size_t)(i / (uint32_t)w) * stride + 3 * (size_t)(i % (uint32_t)w);
-      if (!grow_weak(m, px, i)) { /* unmarked at once: a later ring may queue it again, and it fails again */
+      /* a failed pixel is unmarked at once: a later ring may queue it again, and it fails again */
+      if (!(m->raw[i] && raw_joined(m, mk, i)) && !grow_weak(m, px, i)) {
         mk[i] = 0;
         continue;
       }
@@ -915,7 +939,7 @@ int vc_cleanup_grow(const vc_bgmodel* m, const uint8_t* rgb, size_t stride, uint
   const size_t fgs = vc_fg_stride(w);
   const int rc =
       vc__cleanup_radius_bits(mask, w, h, radius, scratch, scratch_len, grow ? m->fgbits + fgs + 1 : NULL,
-                              fgs, grow ? m->row_any + 1 : NULL);
+                              fgs, grow ? m->row_any + 1 : NULL, grow ? m->raw : NULL);
   if (rc < 0 || !grow) return rc;
   const uint32_t n = grow_mask(m, rgb, stride, mask);
   if (grown != NULL) *grown = n;

@@ -154,9 +154,11 @@ static int (*select_bits(void))(const uint8_t*, int, uint64_t*) {
   return bits_generic;
 }
 
-/* vc_cleanup with the bits of the last pass (cleanup_bits.h). */
+/* vc_cleanup with the bits of the last pass and, when `orig` is given (one pass at most), the mask as
+ * it came in there (cleanup_bits.h). */
 static int cleanup3_bits(uint8_t* mask, int width, int height, int iterations, uint8_t* scratch,
-                         size_t scratch_len, uint64_t* bits, size_t bits_stride, uint8_t* row_any) {
+                         size_t scratch_len, uint64_t* bits, size_t bits_stride, uint8_t* row_any,
+                         uint8_t* orig) {
   if (mask == NULL || scratch == NULL || width < 1 || height < 1 || iterations < 0 ||
       scratch_len < vc_cleanup_scratch_size(width))
     return -EINVAL;
@@ -167,18 +169,22 @@ static int cleanup3_bits(uint8_t* mask, int width, int height, int iterations, u
 #endif
   const size_t w = (size_t)width;
   int (*to_bits)(const uint8_t*, int, uint64_t*) = select_bits();
+  if (orig != NULL && iterations > 1) return -EINVAL;
   if (iterations == 0) {
     for (size_t i = 0; i < w * (size_t)height; i++) mask[i] = (uint8_t)(0u - bit(mask[i]));
+    if (orig != NULL) memcpy(orig, mask, w * (size_t)height);
     for (int y = 0; bits != NULL && y < height; y++)
       row_any[y] = (uint8_t)to_bits(mask + (size_t)y * w, width, bits + (size_t)y * bits_stride);
     return 0;
   }
-  uint8_t* prev = scratch;    /* original of row y-1 */
-  uint8_t* cur = scratch + w; /* original of row y */
+  /* The originals of rows y-1 and y: two rows of scratch that slide, or with `orig` its rows y-1 and
+   * y, so that the whole mask as it came in is left there (the same one copy of each row). */
+  uint8_t* prev = orig != NULL ? orig : scratch;
+  uint8_t* cur = orig != NULL ? orig : scratch + w;
   uint8_t* vs = scratch + 2 * w;
   for (int it = 0; it < iterations; it++) {
     memcpy(cur, mask, w);
-    memcpy(prev, mask, w); /* row -1 replicates row 0 */
+    if (orig == NULL) memcpy(prev, mask, w); /* row -1 replicates row 0 */
     for (int y = 0; y < height; y++) {
       uint8_t* out = mask + (size_t)y * w;
       const uint8_t* down = y + 1 < height ? out + w : cur; /* row h replicates row h-1 */
@@ -198,9 +204,14 @@ static int cleanup3_bits(uint8_t* mask, int width, int height, int iterations, u
       }
       /* Slide the window: the original of row y becomes "previous", row y+1 (still unfiltered
        * in the mask) becomes "current". */
-      uint8_t* t = prev;
-      prev = cur;
-      cur = t;
+      if (orig != NULL) {
+        prev = cur;
+        cur += w;
+      } else {
+        uint8_t* t = prev;
+        prev = cur;
+        cur = t;
+      }
       if (y + 1 < height) memcpy(cur, out + w, w);
     }
   }
@@ -208,7 +219,7 @@ static int cleanup3_bits(uint8_t* mask, int width, int height, int iterations, u
 }
 
 int vc_cleanup(uint8_t* mask, int width, int height, int iterations, uint8_t* scratch, size_t scratch_len) {
-  return cleanup3_bits(mask, width, height, iterations, scratch, scratch_len, NULL, 0, NULL);
+  return cleanup3_bits(mask, width, height, iterations, scratch, scratch_len, NULL, 0, NULL, NULL);
 }
 
 /* (2r+1) x (2r+1) majority, r >= 2 (cleanup.h), with running sums:
@@ -230,23 +241,26 @@ size_t vc_cleanup_radius_scratch_size(int width, int radius) {
 
 int vc_cleanup_radius(uint8_t* mask, int width, int height, int radius, uint8_t* scratch,
                       size_t scratch_len) {
-  return vc__cleanup_radius_bits(mask, width, height, radius, scratch, scratch_len, NULL, 0, NULL);
+  return vc__cleanup_radius_bits(mask, width, height, radius, scratch, scratch_len, NULL, 0, NULL, NULL);
 }
 
 int vc__cleanup_radius_bits(uint8_t* mask, int width, int height, int radius, uint8_t* scratch,
-                            size_t scratch_len, uint64_t* bits, size_t bits_stride, uint8_t* row_any) {
+                            size_t scratch_len, uint64_t* bits, size_t bits_stride, uint8_t* row_any,
+                            uint8_t* orig) {
   if (radius < 0 || radius > VC_CLEANUP_MAX_RADIUS || width < 1 ||
       scratch_len < vc_cleanup_radius_scratch_size(width, radius) || ((uintptr_t)scratch & 1u) != 0)
     return -EINVAL;
   if (radius <= 1)
-    return cleanup3_bits(mask, width, height, radius, scratch, scratch_len, bits, bits_stride, row_any);
+    return cleanup3_bits(mask, width, height, radius, scratch, scratch_len, bits, bits_stride, row_any, orig);
   if (mask == NULL || scratch == NULL || height < 1) return -EINVAL;
 
   const size_t w = (size_t)width;
   const int r = radius, side = 2 * radius + 1;
   const unsigned need = (unsigned)(side * side + 1) / 2; /* strict majority: 5 of 9, 13 of 25, ... */
   uint16_t* cs = (uint16_t*)(void*)scratch + r;          /* cs[-r .. width-1+r] */
-  uint8_t* ring = scratch + ring_offset(width, radius);  /* originals of rows y-r..y, row % (r+1) */
+  /* originals of rows y-r..y, row % (r+1); with `orig` every row there, row y at row y */
+  uint8_t* ring = orig != NULL ? orig : scratch + ring_offset(width, radius);
+  const int ring_rows = orig != NULL ? height : r + 1;
 #define ROW(yy) (mask + (size_t)((yy) < 0 ? 0 : (yy) >= height ? height - 1 : (yy)) * w)
 
   for (size_t x = 0; x < w; x++) {
@@ -256,7 +270,7 @@ int vc__cleanup_radius_bits(uint8_t* mask, int width, int height, int radius, ui
   }
   for (int y = 0; y < height; y++) {
     uint8_t* out = mask + (size_t)y * w;
-    uint8_t* keep = ring + (size_t)(y % (r + 1)) * w;
+    uint8_t* keep = ring + (size_t)(y % ring_rows) * w;
     for (size_t x = 0; x < w; x++) keep[x] = out[x] != 0;
     for (int k = 1; k <= r; k++) {
       cs[-k] = cs[0];
@@ -274,7 +288,7 @@ int vc__cleanup_radius_bits(uint8_t* mask, int width, int height, int radius, ui
     /* Next row's column counts: the row leaving above (an original, from the ring: rows <= y are
      * filtered now) out, the row entering below (still original in the mask) in. */
     const int leave = y - r < 0 ? 0 : y - r;
-    const uint8_t* old = ring + (size_t)(leave % (r + 1)) * w;
+    const uint8_t* old = ring + (size_t)(leave % ring_rows) * w;
     const uint8_t* enter = ROW(y + 1 + r);
     for (size_t x = 0; x < w; x++) cs[x] = (uint16_t)(cs[x] - old[x] + (enter[x] != 0));
   }

@@ -829,10 +829,13 @@ TEST(SubtractParams, GainsAndTextureKAreBounded) {
 
 // The cue of bgmodel.h on a clean mask (subtracted and cleaned up without it), in plain loops: the first ring
 // is the background pixels with a foreground 4-neighbour, each ring's weak pixels (eq. 1's background in
-// every channel and |p - mu|^2 >= grow_sigma^2 sum_c s_c^2, in the kernel's integers) become foreground and
-// queue their 4-neighbours that are background and not yet queued, for grow_px rings.
+// every channel and |p - mu|^2 >= grow_sigma^2 sum_c s_c^2, in the kernel's integers; or foreground in
+// `raw`, the subtraction's mask before the clean-up, with another such pixel among its 8 neighbours that
+// the clean mask does not hold) become foreground and queue their 4-neighbours that are background and
+// not yet queued, for grow_px rings.
 std::vector<uint8_t> reference_grow(const vc_bgmodel* m, const vc_subtract_params& p,
-                                    const std::vector<uint8_t>& rgb, std::vector<uint8_t> mask) {
+                                    const std::vector<uint8_t>& rgb, std::vector<uint8_t> mask,
+                                    const std::vector<uint8_t>& raw) {
   const int w = vc_bgmodel_width(m), h = vc_bgmodel_height(m);
   const uint8_t* mean = vc_bgmodel_mean(m);
   const uint16_t* sigma_q8 = vc_bgmodel_sigma_q8(m);
@@ -858,7 +861,19 @@ std::vector<uint8_t> reference_grow(const vc_bgmodel* m, const vc_subtract_param
     }
     return (n * s2 - s * s) / (n * n) < p.grow_flat * v;
   };
+  const std::vector<uint8_t> clean = mask;
+  auto cut_off = [&](size_t i) {  // what the clean-up took away from a structure of 2 or more pixels
+    if (raw[i] == 0) return false;
+    const int x = static_cast<int>(i % w), y = static_cast<int>(i / w);
+    for (int yy = std::max(0, y - 1); yy <= std::min(h - 1, y + 1); yy++)
+      for (int xx = std::max(0, x - 1); xx <= std::min(w - 1, x + 1); xx++) {
+        const size_t j = static_cast<size_t>(yy) * w + xx;
+        if (j != i && raw[j] != 0 && clean[j] == 0) return true;
+      }
+    return false;
+  };
   auto weak = [&](size_t i) {
+    if (cut_off(i)) return true;
     uint64_t d2 = 0, v = 0;
     for (int c = 0; c < 3; c++) {
       const double sigma = std::max(sigma_q8[3 * i + c] / 256.0, p.sigma_floor);
@@ -1016,7 +1031,9 @@ TEST_P(SubtractVariants, LimbScaleCueEntersTheShadowBandOnlyOverAFlatBackground)
   ModelPtr tiles_off = model_of(t.bg, q);
   const std::vector<uint8_t> t_with = run_frame(tiles_on, t.frame), t_without = run_frame(tiles_off, t.frame);
   EXPECT_EQ(fg_share(t_with, 14, 10, 30, 60), fg_share(t_without, 14, 10, 30, 60));
-  EXPECT_LE(fg_share(t_with, 14, 10, 30, 60), 0.01);
+  // (1.25 %, 10 of its 800 pixels: the subtraction's specks of 2 or more pixels joined to the body's
+  // edge, which the thin-part rule gives back as it gives back a finger; within 1 % before it)
+  EXPECT_LE(fg_share(t_with, 14, 10, 30, 60), 0.015);
   // ... nor over wood grain: a shadow of 0.6 touching a body block
   const std::vector<uint8_t> bg = wood(rng);
   const std::vector<uint8_t> frame = render_frame(rng, [&](int x, int y, int c) {
@@ -1049,7 +1066,7 @@ TEST_P(SubtractVariants, LimbScaleCueEqualsItsPlainReference) {
     ModelPtr on = model_of(s.bg, p);
     vc_subtract_stats st{};
     const std::vector<uint8_t> mask = run_frame(on, s.frame, &st);
-    const std::vector<uint8_t> ref = reference_grow(on.get(), p, s.frame, base);
+    const std::vector<uint8_t> ref = reference_grow(on.get(), p, s.frame, base, run(off, s.frame));
     EXPECT_EQ(mask, ref) << "round " << round;
     size_t grown = 0;
     for (size_t i = 0; i < mask.size(); i++) grown += mask[i] != base[i];
@@ -1063,6 +1080,100 @@ TEST_P(SubtractVariants, LimbScaleCueEqualsItsPlainReference) {
     std::vector<uint8_t> in_place = mask;
     vc_mask_ungrown(in_place.data(), in_place.size(), in_place.data());
     EXPECT_EQ(in_place, base) << "round " << round;
+  }
+}
+
+// Thin parts joined to the body (session 15): over oak boards (textured: the cue does not enter the
+// shadow band there), a body block and two limbs of a colour darker than the boards and off their hue
+// by 10.6 degrees, so every pixel of them is in the shadow band and foreground by eq. 2 alone (not a
+// weak pixel of the cue): a forearm 2 pixels wide and 16 long, a quarter of whose pixels the
+// subtraction misses (drawn as the boards), and a finger 1 pixel wide and 4 long. Apart from the body,
+// specks of the same colour: single pixels, pairs, and a line 1 pixel wide and 8 long.
+struct ThinScene {
+  std::vector<uint8_t> bg, frame;
+  std::vector<uint8_t> limb;  // 1 where the frame shows a limb pixel (not a missed one)
+};
+ThinScene thin_scene(std::mt19937& rng) {
+  ThinScene s;
+  s.bg = wood(rng);
+  s.limb.assign(static_cast<size_t>(kW) * kH, 0);
+  auto body = [](int x, int y) { return x >= 20 && x < 40 && y >= 10 && y < 60; };
+  auto forearm = [](int x, int y) {
+    return x >= 40 && x < 56 && (y == 30 || y == 31) && (x * 7 + y * 3) % 4 != 0;
+  };
+  auto finger = [](int x, int y) { return x >= 40 && x < 44 && y == 45; };
+  auto speck = [](int x, int y) {
+    return ((x == 70 || x == 80) && y == 20) || (x >= 74 && x < 76 && y == 40) ||
+           (x >= 66 && x < 74 && y == 55);
+  };
+  for (int y = 0; y < kH; y++)
+    for (int x = 0; x < kW; x++) s.limb[static_cast<size_t>(y) * kW + x] = forearm(x, y) || finger(x, y);
+  s.frame = render_frame(rng, [&](int x, int y, int c) {
+    const double b = s.bg[(static_cast<size_t>(y) * kW + x) * 3 + c];
+    const double gain[3] = {0.55, 0.8, 0.8};
+    return body(x, y) || forearm(x, y) || finger(x, y) || speck(x, y) ? gain[c] * b : b;
+  });
+  return s;
+}
+
+TEST_P(SubtractVariants, CleanupGivesBackThinPartsJoinedToTheBodyNotSpecks) {
+  std::mt19937 rng(53);
+  const ThinScene s = thin_scene(rng);
+  vc_subtract_params p;
+  vc_subtract_params_default(&p);
+  ModelPtr on = model_of(s.bg, p);
+  p.grow_px = 0;  // the clean-up alone
+  ModelPtr off = model_of(s.bg, p);
+  const std::vector<uint8_t> raw = run(on, s.frame), with = run_frame(on, s.frame),
+                             without = run_frame(off, s.frame);
+  size_t limb = 0, raw_fg = 0, kept_with = 0, kept_without = 0;
+  for (size_t i = 0; i < raw.size(); i++) {
+    if (!s.limb[i]) continue;
+    limb++;
+    raw_fg += raw[i] != 0;
+    kept_with += raw[i] != 0 && with[i] != 0;
+    kept_without += raw[i] != 0 && without[i] != 0;
+  }
+  // The subtraction sees the limbs (eq. 2: off the boards' hue) ...
+  ASSERT_EQ(limb, 24u + 4u);
+  EXPECT_GE(raw_fg, limb - 1);
+  // ... the 3x3 majority takes nearly half of them away (the finger but its root, the gapped forearm's
+  // pixels with fewer than 5 of 9: 15 of 28 kept here) ...
+  EXPECT_LE(kept_without, raw_fg * 6 / 10);
+  EXPECT_LE(fg_share(without, 40, 45, 44, 46), 0.25);
+  // ... and the cue gives every one of them back, as its pixels (the tracker's mask keeps the filter's)
+  EXPECT_EQ(kept_with, raw_fg);
+  EXPECT_EQ(fg_share(with, 40, 45, 44, 46), 1.0);
+  EXPECT_EQ(with[static_cast<size_t>(45) * kW + 43], VC_MASK_GROWN);
+  // The specks apart from the body stay removed: single pixels, the pair, the thin line ...
+  EXPECT_EQ(fg_share(with, 60, 0, kW, kH), 0.0);
+  EXPECT_EQ(fg_share(without, 60, 0, kW, kH), 0.0);
+  EXPECT_GE(fg_share(raw, 66, 55, 74, 56), 0.99);  // (the subtraction did see the line)
+  // ... and the body itself is what the filter keeps, the boards around it background.
+  EXPECT_GE(fg_share(with, 21, 11, 39, 59), 0.99);
+  EXPECT_LE(fg_share(with, 0, 0, 18, kH), 0.005);
+}
+
+// Every radius of the clean-up (0 normalises, 1 the vectorised 3x3, 2 and 3 the running sums) leaves
+// the subtraction's mask for the cue where it keeps its originals' rows: the cue equals its plain
+// reference on that radius's clean mask and the subtraction's.
+TEST_P(SubtractVariants, CleanupGivesBackWhatEachRadiusTookAway) {
+  std::mt19937 rng(59);
+  for (int radius = 0; radius <= 3; radius++) {
+    const ThinScene s = thin_scene(rng);
+    vc_subtract_params p;
+    vc_subtract_params_default(&p);
+    ModelPtr m = model_of(s.bg, p);
+    const std::vector<uint8_t> raw = run(m, s.frame);
+    std::vector<uint8_t> base = raw, mask = raw;
+    std::vector<uint8_t> scratch(vc_cleanup_radius_scratch_size(kW, 3));
+    ASSERT_EQ(vc_cleanup_radius(base.data(), kW, kH, radius, scratch.data(), scratch.size()), 0);
+    uint32_t grown = 0;
+    ASSERT_EQ(vc_cleanup_grow(m.get(), s.frame.data(), 3 * kW, mask.data(), radius, scratch.data(),
+                              scratch.size(), &grown),
+              0);
+    EXPECT_EQ(mask, reference_grow(m.get(), p, s.frame, base, raw)) << "radius " << radius;
+    if (radius >= 1) EXPECT_GT(grown, 0u) << "radius " << radius;
   }
 }
 

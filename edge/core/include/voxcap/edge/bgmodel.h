@@ -120,7 +120,10 @@ typedef struct vc_subtract_params {
  * speckles the clean-up removes seed nothing. Skin of the floor's own colour is a little off it
  * everywhere, the sensor noise alone reaches the threshold in few pixels and not in connected runs,
  * and a shadow's pixels are in the band, so a floor shadow touching the feet is not grown into
- * (the band is entered only over a flat background: grow_flat, below).
+ * (the band is entered only over a flat background: grow_flat, below). A pixel the subtraction called
+ * foreground that the clean-up took away is weak too when another such pixel is among its 8
+ * neighbours: the thin parts (a finger, a wrist 1-2 pixels wide) the 3x3 filter cuts off the body
+ * come back, a lone speck beside the outline does not (edge/core/README.md, session 15).
  * Exact integers, no allocation per frame (the model holds a queue of width * height indices, each
  * pixel's least |p - mu|^2 for the test, and the clean mask's foreground as bits, which the clean-up
  * writes in its own pass). The pixels it adds are VC_MASK_GROWN (below): the carver takes them, the
