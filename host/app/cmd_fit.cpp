@@ -51,7 +51,7 @@ struct FitArgs {
   std::optional<int> samples, steps, init_frames, reinit_after, predict_frames;
   std::optional<double> span_deg, k, straight_deg, min_cutoff, beta;
   std::string smoothing, body, frames_csv;
-  bool score = false, json = false, retriangulate = false;
+  bool score = false, json = false, retriangulate = false, no_hull_rule = false, hull_reject = false;
   std::optional<bool> follow_pair_swaps;
 };
 
@@ -112,15 +112,47 @@ class SwapAudit {
   static constexpr std::array<const char*, 4> kPairNames = {"hands", "feet", "shoulders", "hips"};
 
   SwapAudit(std::unique_ptr<sim::Scene> scene, const rig::VoxelGrid& grid, uint64_t origin,
-            const std::string& csv_path)
-      : scene_(std::move(scene)), grid_(grid), origin_(origin) {
+            const std::string& csv_path, double confident)
+      : scene_(std::move(scene)), grid_(grid), origin_(origin), confident_(confident) {
     if (csv_path.empty()) return;
     csv_.emplace(csv_path);
     if (!*csv_) throw UsageError(fmt::format("fit: --frames-csv {}: cannot write", csv_path));
     *csv_ << "frame,state,mpjpe_mm";
     for (int j = 0; j < pipeline::kPoseJointCount; ++j) *csv_ << "," << pipeline::pose_joint_name(j) << "_mm";
     for (const char* n : kPairNames) *csv_ << ",swap_" << n;
+    for (int f = 0; f < body::kFeatureCount; ++f)
+      for (const char* c : {"_conf", "_err_mm", "_other_mm", "_hull_mm"})
+        *csv_ << "," << body::feature_name(static_cast<body::Feature>(f)) << c;
     *csv_ << "\n";
+  }
+
+  // The frame's 3D features against the true head centre, wrists and ankles (as voxcap rig's
+  // feature scorer): a feature above `confident` more than 10 cm off is a confident wrong answer,
+  // counted on every frame.
+  void add_features(uint64_t seq, const std::vector<pipeline::Feature3D>& features) {
+    feature_row_.clear();
+    if (seq < origin_) return;
+    const std::array<cv::Vec3d, body::kJointCount> truth = scene_->joints(static_cast<int>(seq - origin_));
+    auto joint = [&truth](int f) {
+      return truth[static_cast<size_t>(body::feature_joint(static_cast<body::Feature>(f)))];
+    };
+    for (int f = 0; f < body::kFeatureCount; ++f) {
+      const pipeline::Feature3D* p = nullptr;
+      for (const pipeline::Feature3D& q : features)
+        if (q.feature_id == f) p = &q;
+      if (!p || p->state != pipeline::Feature3DState::Triangulated) {
+        feature_row_ += ",,,,";
+        continue;
+      }
+      const cv::Vec3d x(p->p_world[0], p->p_world[1], p->p_world[2]);
+      const double err = 1e3 * cv::norm(x - joint(f));
+      // The other side's truth (hands and feet): a point named wrong lies near it.
+      const int other = f == 0 ? 0 : f % 2 == 1 ? f + 1 : f - 1;
+      const double err_other = 1e3 * cv::norm(x - joint(other));
+      if (double(p->confidence) > confident_ && err > 100) confident_wrong_[static_cast<size_t>(f)]++;
+      feature_row_ += fmt::format(",{:.3f},{:.1f},{:.1f},", p->confidence, err, err_other);
+      if (p->hull_clearance_m >= 0) feature_row_ += fmt::format("{:.1f}", 1e3 * p->hull_clearance_m);
+    }
   }
 
   void add(uint64_t seq, const pipeline::Pose& pose) {
@@ -162,7 +194,19 @@ class SwapAudit {
           << fmt::format("{:.1f}", sum / pipeline::kPoseJointCount);
     for (double v : e) *csv_ << "," << fmt::format("{:.1f}", v);
     for (bool b : sw) *csv_ << "," << (b ? 1 : 0);
-    *csv_ << "\n";
+    *csv_ << (feature_row_.empty() ? std::string(4 * body::kFeatureCount, ',') : feature_row_) << "\n";
+  }
+
+  nlohmann::json confident_wrong_json() const {
+    nlohmann::json j = nlohmann::json::object();
+    uint64_t all = 0;
+    for (int f = 0; f < body::kFeatureCount; ++f) {
+      j[std::string(body::feature_name(static_cast<body::Feature>(f)))] =
+          confident_wrong_[static_cast<size_t>(f)];
+      all += confident_wrong_[static_cast<size_t>(f)];
+    }
+    j["all"] = all;
+    return j;
   }
 
   nlohmann::json json() const {
@@ -183,6 +227,9 @@ class SwapAudit {
   std::optional<std::ofstream> csv_;
   std::array<uint64_t, kPairs.size()> swaps_{};
   uint64_t any_ = 0;
+  double confident_ = 0.5;
+  std::array<uint64_t, body::kFeatureCount> confident_wrong_{};
+  std::string feature_row_;  // this frame's feature columns of the CSV
 };
 
 void run_fit(const FitArgs& a) {
@@ -193,6 +240,10 @@ void run_fit(const FitArgs& a) {
   if (a.out.empty() && !a.score)
     throw UsageError("fit: --out DIR is required (a new session folder), unless --score");
   if (!a.frames_csv.empty() && !a.score) throw UsageError("fit: --frames-csv needs --score");
+  if ((a.no_hull_rule || a.hull_reject) && !a.retriangulate)
+    throw UsageError("fit: --no-hull-rule and --hull-reject need --retriangulate");
+  if (a.no_hull_rule && a.hull_reject)
+    throw UsageError("fit: --hull-reject needs the hull rule (no --no-hull-rule)");
   if (a.retriangulate && (!a.score || !a.out.empty()))
     throw UsageError("fit: --retriangulate needs --score and no --out (the new 3D features are not written)");
   // The session's own rig.toml and calibration copies: the grid the hulls were carved on.
@@ -207,6 +258,8 @@ void run_fit(const FitArgs& a) {
   if (a.retriangulate) {
     try {
       tri.configure(tctx);
+      tri.set_hull_rule(!a.no_hull_rule);
+      tri.set_hull_reject(a.hull_reject);
     } catch (const std::invalid_argument& e) {
       throw UsageError(fmt::format("fit --retriangulate: {}", e.what()));
     }
@@ -227,7 +280,7 @@ void run_fit(const FitArgs& a) {
         std::make_unique<sim::Scene>(emulated::truth_scene_options(vrig->rig, cal)), rig.grid, false);
     scorer->set_origin(vrig->origin);
     audit.emplace(std::make_unique<sim::Scene>(emulated::truth_scene_options(vrig->rig, cal)), rig.grid,
-                  vrig->origin, a.frames_csv);
+                  vrig->origin, a.frames_csv, rig.triangulation.confident);
   }
 
   record::Reader reader = record::Reader::open(in);
@@ -274,6 +327,7 @@ void run_fit(const FitArgs& a) {
       frame.t_trigger_ns = t0;
       frame.pose = pose;
       scorer->process(frame);
+      audit->add_features(frame.seq, frame.features3d);
       audit->add(frame.seq, pose);
     }
     record::to_record(frame.seq, pose, frames == 0, &pose_rec);
@@ -335,6 +389,7 @@ void run_fit(const FitArgs& a) {
           {"room", vrig->rig.room}};
       j["live"] = vrig->live;
       j["lr_swap_frames"] = audit->json();
+      j["confident_wrong_features"] = audit->confident_wrong_json();
       j["fit_pair_swaps"] = {{"hands", fitter.pair_swaps()[0]}, {"feet", fitter.pair_swaps()[1]}};
       j["heading_flips"] = fitter.heading_flips();
       nlohmann::json stages = nlohmann::json::object();
@@ -391,20 +446,32 @@ void add_fit_commands(CLI::App& app) {
                 "Score the new poses against the virtual rig's truth offline (a session of voxcap demo, "
                 "with its virtual_rig.json): the figures of voxcap eval; latency_ms and fps are then the "
                 "fit's own time per frame, `live` the recorded run's figures");
-  cmd->add_flag("--json", a->json,
-                "With --score: the figures as one JSON object (voxcap eval's keys, reinitialized_frames "
-                "among them: frames whose pose is a re-initialization; offline: true, session, rig {...}, "
-                "live (the recorded run's figures), lr_swap_frames {any, hands, feet, shoulders, hips}, "
-                "fit_pair_swaps {hands, feet}, heading_flips: how often the feet on the hull turned the "
-                "torso round, host/fit/README.md; fit_stage_ms {decode, segment, pca, layer1, layer2, "
-                "total: {p50, p99, max}})");
+  cmd->add_flag(
+      "--json", a->json,
+      "With --score: the figures as one JSON object (voxcap eval's keys, reinitialized_frames "
+      "among them: frames whose pose is a re-initialization; offline: true, session, rig {...}, "
+      "live (the recorded run's figures), lr_swap_frames {any, hands, feet, shoulders, hips}, "
+      "fit_pair_swaps {hands, feet}, confident_wrong_features {head, l_hand, r_hand, l_foot, r_foot, all}: "
+      "3D features above `confident` more than 10 cm off, heading_flips: how often the feet on the hull "
+      "turned the "
+      "torso round, host/fit/README.md; fit_stage_ms {decode, segment, pca, layer1, layer2, "
+      "total: {p50, p99, max}})");
   cmd->add_option("--frames-csv", a->frames_csv,
                   "With --score: write every scored frame's per-joint errors (mm) and left/right swaps "
-                  "to this CSV");
+                  "to this CSV, and per 3D feature its confidence, its error against the true head "
+                  "centre / wrist / ankle, against the other side's, and its clearance outside the "
+                  "merged hull (mm; --retriangulate)");
   cmd->add_flag("--retriangulate", a->retriangulate,
                 "With --score (no --out): triangulate the recorded 2D features again (this build's "
                 "host/triangulate, the fit's torso right fed back as live) instead of using the recorded "
                 "3D features: a deterministic check of the left/right naming");
+  cmd->add_flag("--no-hull-rule", a->no_hull_rule,
+                "With --retriangulate: triangulate without the merged hull's rule (a point outside the "
+                "hull may be confident, host/triangulate/README.md \"On the body\"); the clearance is "
+                "still reported");
+  cmd->add_flag("--hull-reject", a->hull_reject,
+                "With --retriangulate: also reject two-view hypotheses more than 2 voxels outside the "
+                "merged hull (off by default: host/triangulate/README.md \"On the body\")");
   cmd->add_option("--samples", a->samples, "Cylinder samples per limb");
   cmd->add_option("--steps", a->steps, "The method's nu: angles tried per layer-2 search");
   cmd->add_option("--span-deg", a->span_deg, "The method's s: the search covers rho(t-1) +- s degrees");

@@ -225,8 +225,14 @@ double confidence(double mean_weight, int used, int reported, double rms_px, dou
   return std::clamp(mean_weight, 0.0, 1.0) * count * agreement * fit * geometry;
 }
 
+bool off_the_body(const HullMap* hull, const cv::Vec3d& p) {
+  if (!hull || !hull->on()) return false;
+  const double margin = kHullMarginVoxels * hull->grid().voxel_m;
+  return hull->clearance(p, margin) > margin;
+}
+
 PointResult triangulate_point(const std::vector<rig::Camera>& cameras, const std::vector<View>& views,
-                              const Options& options) {
+                              const Options& options, const HullMap* hull) {
   PointResult res;
   if (views.size() < 2) return res;
   std::vector<Prepared> prepared;
@@ -238,7 +244,7 @@ PointResult triangulate_point(const std::vector<rig::Camera>& cameras, const std
   for (size_t a = 0; a < views.size(); ++a)
     for (size_t b = a + 1; b < views.size(); ++b) {
       const std::optional<cv::Vec3d> X = dlt(prepared, {static_cast<int>(a), static_cast<int>(b)});
-      if (!X) continue;
+      if (!X || off_the_body(hull, *X)) continue;  // not the body: a ghost of two views
       double sum = 0;
       std::vector<int> in = agreeing(prepared, views, *X, options.inlier_px, &sum);
       if (in.size() > best.size() || (in.size() == best.size() && sum < best_sum)) {
@@ -326,8 +332,11 @@ void fill(pipeline::Feature3D* f, const PointResult& r, const std::vector<View>&
 
 }  // namespace
 
-std::array<pipeline::Feature3D, 5> FeatureTriangulator::process(
-    const std::vector<CameraObservations>& frame) {
+std::array<pipeline::Feature3D, 5> FeatureTriangulator::process(const std::vector<CameraObservations>& frame,
+                                                                const HullMap* hull) {
+  seen_ = hull && hull->on() ? hull : nullptr;
+  hull_ = hull_rule_ ? seen_ : nullptr;
+  reject_ = hull_reject_ ? hull_ : nullptr;
   std::array<pipeline::Feature3D, 5> out;
   for (size_t i = 0; i < out.size(); ++i) out[i].feature_id = static_cast<uint16_t>(i);
   ++frames_;
@@ -338,14 +347,27 @@ std::array<pipeline::Feature3D, 5> FeatureTriangulator::process(
     const Observation& o = c.features[VC_FEATURE_HEAD];
     if (usable(o)) head_views.push_back({c.camera, o.uv_px, view_weight(o)});
   }
-  const PointResult head = triangulate_point(cameras_, head_views, opt_);
+  const PointResult head = triangulate_point(cameras_, head_views, opt_, reject_);
   fill(&out[VC_FEATURE_HEAD], head, head_views, static_cast<int>(head_views.size()));
+  on_the_body(&out[VC_FEATURE_HEAD]);
   std::optional<cv::Vec3d> head_p;
   if (head.ok) head_p = head.p_world;
 
   solve_pair(frame, Pair::hands, head_p, &out);
   solve_pair(frame, Pair::feet, head_p, &out);
+  hull_ = seen_ = reject_ = nullptr;
   return out;
+}
+
+void FeatureTriangulator::on_the_body(pipeline::Feature3D* f) const {
+  f->hull_clearance_m = -1;
+  if (!seen_ || f->state != pipeline::Feature3DState::Triangulated) return;
+  const cv::Vec3d p(f->p_world[0], f->p_world[1], f->p_world[2]);
+  const double c = seen_->clearance(p, kHullClearanceCapM);
+  if (c < 0) return;
+  f->hull_clearance_m = static_cast<float>(std::min(c, kHullClearanceCapM));
+  // Outside the hull at all: where the silhouettes say there is no body (README, "On the body").
+  if (hull_ && c > 0) f->confidence = std::min(f->confidence, static_cast<float>(kUncertainCap));
 }
 
 void FeatureTriangulator::set_body_right(const std::optional<cv::Vec3d>& right) {
@@ -459,7 +481,8 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
         for (int ia : per_cam[static_cast<size_t>(cams[a])])
           for (int ib : per_cam[static_cast<size_t>(cams[b])]) {
             const PointResult h = triangulate_point(
-                cameras_, {cands[static_cast<size_t>(ia)].view, cands[static_cast<size_t>(ib)].view}, opt_);
+                cameras_, {cands[static_cast<size_t>(ia)].view, cands[static_cast<size_t>(ib)].view}, opt_,
+                reject_);
             if (!h.ok) continue;
             std::vector<int> sel;
             double sum = 0;
@@ -490,7 +513,7 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
     if (best_sel.size() < 2) break;
     Found f;
     for (int i : best_sel) f.views.push_back(cands[static_cast<size_t>(i)].view);
-    f.r = triangulate_point(cameras_, f.views, opt_);
+    f.r = triangulate_point(cameras_, f.views, opt_, reject_);
     if (!f.r.ok) break;
     for (int i : f.r.inliers) f.cand.push_back(best_sel[static_cast<size_t>(i)]);
     for (int i : f.cand) taken[static_cast<size_t>(i)] = true;
@@ -680,6 +703,7 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
                    reporting, fd.r.rms_px, widest_angle(prepared, fd.r.inliers, fd.r.p_world), opt_);
     if (!certain || lone) conf = std::min(conf, kUncertainCap);
     f.confidence = static_cast<float>(conf);
+    on_the_body(&f);
     Track& t = st.side[s];
     t.before = (t.last && now - t.last_frame == 1) ? t.last : std::nullopt;
     t.last = fd.r.p_world;

@@ -42,6 +42,7 @@ void TriangulateStage::configure(const pipeline::StageContext& ctx) {
     nodes_.push_back(std::move(m));
   }
   heading_ = ctx.body_heading;
+  grid_ = rig.grid;
   tri_ =
       std::make_unique<FeatureTriangulator>(rig.calibration.cameras, front_cameras(rig), rig.triangulation);
 }
@@ -75,7 +76,11 @@ void TriangulateStage::process(pipeline::Frame& frame) {
     if (const auto h = heading_->latest(); h && h->seq <= frame.seq && frame.seq - h->seq <= kHeadingMaxAge)
       right = cv::Vec3d(h->right[0], h->right[1], h->right[2]);
   tri_->set_body_right(right);
-  const std::array<pipeline::Feature3D, 5> r = tri_->process(obs_);
+  // The merged hull (README, "On the body"): off for a frame without one (an older session, no hull).
+  const bool hull = frame.merged && grid_.valid(nullptr) && frame.voxel_count == grid_.count() &&
+                    hull_.set(grid_, frame.rle.data(), frame.rle.size());
+  if (!hull) hull_.clear();
+  const std::array<pipeline::Feature3D, 5> r = tri_->process(obs_, hull ? &hull_ : nullptr);
   frame.features3d.assign(r.begin(), r.end());
   frame.triangulated = true;
 }

@@ -8,6 +8,7 @@
 #include <random>
 
 #include "voxcap/pipeline/pipeline.hpp"
+#include "voxcap/rle.h"
 #include "voxcap/triangulate/synthetic.hpp"
 
 namespace vc::triangulate {
@@ -125,6 +126,48 @@ TEST(TriangulateStage, MapsNodeCamerasToTheRigAndFillsTheFrame) {
   EXPECT_GT(good, frames * 4);
   EXPECT_TRUE(out.frames.back().triangulated);
   EXPECT_EQ(p.report().stages.size(), 2u);
+}
+
+TEST(TriangulateStage, ReportsTheClearanceOutsideTheMergedHullWhenTheFrameHasOne) {
+  sim::SceneOptions so;
+  so.motion.source = "wave";
+  so.rig.cameras = 6;
+  const sim::Scene scene(so);
+  config::RigConfig rig = make_rig(scene.calibration());
+  rig.grid = rig::VoxelGrid::covering(so.rig.volume_min_m, so.rig.volume_max_m, 0.0175);
+  TriangulateStage stage;
+  pipeline::StageContext ctx;
+  ctx.rig = &rig;
+  stage.configure(ctx);
+  std::mt19937_64 rng(9);
+  const testing::Noise noise;
+  std::vector<uint8_t> bits, rle(vc_rle_max_encoded_size(rig.grid.count()));
+  int reported = 0;
+  for (int f = 0; f < 40; ++f) {
+    pipeline::FramePtr fr = to_frame(static_cast<uint64_t>(f), testing::observe(scene, f * 3, noise, rng));
+    // The body's own occupancy as the merged hull; every third frame none (an older session), every
+    // fifth a malformed one (hostile input): the rule is off there, said by a clearance of -1.
+    scene.occupancy(rig.grid, f * 3, &bits);
+    size_t len = 0;
+    ASSERT_EQ(vc_rle_encode(bits.data(), rig.grid.count(), rle.data(), rle.size(), &len), 0);
+    fr->rle.assign(rle.begin(), rle.begin() + static_cast<std::ptrdiff_t>(len));
+    fr->voxel_count = rig.grid.count();
+    fr->merged = f % 3 != 0;
+    if (f % 5 == 0) fr->rle.resize(len / 2);
+    stage.process(*fr);
+    const bool hull = fr->merged && f % 5 != 0;
+    for (const pipeline::Feature3D& r : fr->features3d) {
+      if (r.state != pipeline::Feature3DState::Triangulated || !hull) {
+        EXPECT_EQ(r.hull_clearance_m, -1) << f;
+        continue;
+      }
+      // The true points (1 px noise) lie on the body: within a voxel of its occupancy.
+      EXPECT_GE(r.hull_clearance_m, 0) << f;
+      EXPECT_LE(r.hull_clearance_m, 0.0175) << f << " feature " << r.feature_id;
+      ++reported;
+    }
+  }
+  EXPECT_GT(reported, 40 * 2);
 }
 
 TEST(TriangulateStage, ConfigureRejectsARigWithoutCameras) {

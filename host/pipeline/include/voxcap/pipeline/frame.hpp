@@ -66,6 +66,9 @@ struct Feature3D {
   float confidence = 0;                    // 0..1 (host/triangulate/README.md, "Confidence")
   float reproj_px = 0;                     // RMS reprojection error over the views used, pixels
   std::vector<uint16_t> views;             // rig camera indices (calibration order) used, ascending
+  // How far p_world lies outside the frame's merged hull, metres (0 inside; host/triangulate/README.md,
+  // "On the body"); -1 when not known (no merged hull, the point outside the grid, not triangulated).
+  float hull_clearance_m = -1;
 };
 
 // The fitted skeleton of one frame, from the fitting stage (host/fit/README.md has the model and the

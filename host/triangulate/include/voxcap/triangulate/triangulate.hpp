@@ -22,6 +22,7 @@
 #include "voxcap/config/rig_config.hpp"
 #include "voxcap/pipeline/frame.hpp"
 #include "voxcap/rig/camera.hpp"
+#include "voxcap/triangulate/hull_map.hpp"
 
 namespace vc::triangulate {
 
@@ -42,10 +43,20 @@ struct PointResult {
   std::vector<int> inliers;    // indices into the views given, ascending
 };
 
-// Triangulates one point from its views (any order; a camera at most once). Throws
-// std::invalid_argument for a camera index outside `cameras`.
+// On the body (README, "On the body"): a point outside the frame's merged hull is not confident; with
+// rejection on, a hypothesis whose point lies more than this many voxels outside it is not considered.
+constexpr double kHullMarginVoxels = 2;
+// Clearances are searched up to this far outside the hull (metres); farther is reported as this.
+constexpr double kHullClearanceCapM = 0.25;
+
+// Triangulates one point from its views (any order; a camera at most once). With a hull that is on,
+// two-view hypotheses whose point lies more than kHullMarginVoxels outside it are not considered.
+// Throws std::invalid_argument for a camera index outside `cameras`.
 PointResult triangulate_point(const std::vector<rig::Camera>& cameras, const std::vector<View>& views,
-                              const Options& options);
+                              const Options& options, const HullMap* hull = nullptr);
+// Whether p lies more than kHullMarginVoxels outside the hull (false without a hull, or when the hull
+// says nothing about p).
+bool off_the_body(const HullMap* hull, const cv::Vec3d& p);
 
 // The 3D confidence of a point (README, "Confidence"): the mean weight of the views used, times a
 // factor for their count (two views: 0.5, three: 0.85, more: 1 — two views cannot outvote an
@@ -75,7 +86,15 @@ class FeatureTriangulator {
   FeatureTriangulator(std::vector<rig::Camera> cameras, std::vector<int> front_cameras, Options options);
 
   // One frame. Returns the five features in vc_feature_id order, named by the performer's side.
-  std::array<pipeline::Feature3D, 5> process(const std::vector<CameraObservations>& frame);
+  // `hull`: the frame's merged hull (README, "On the body"), or null / off: the rule is off.
+  std::array<pipeline::Feature3D, 5> process(const std::vector<CameraObservations>& frame,
+                                             const HullMap* hull = nullptr);
+  // The hull rule (README, "On the body") on (default) or off: a point outside the merged hull is
+  // not confident. Off, the clearance is still reported (for before/after figures).
+  void set_hull_rule(bool on) { hull_rule_ = on; }
+  // With the rule on, also reject two-view hypotheses more than kHullMarginVoxels outside the hull
+  // (off by default: README, "On the body", for what it gains and what it breaks).
+  void set_hull_reject(bool on) { hull_reject_ = on; }
 
   // Whether camera `camera`'s left/right labels of a pair are the performer's right/left: 1 swapped,
   // 0 not, -1 not decided yet.
@@ -112,6 +131,9 @@ class FeatureTriangulator {
 
   void solve_pair(const std::vector<CameraObservations>& frame, Pair pair,
                   const std::optional<cv::Vec3d>& head, std::array<pipeline::Feature3D, 5>* out);
+  // A triangulated feature against this frame's hull: its clearance reported, its confidence capped
+  // below `confident` when it lies more than the margin outside (README, "On the body").
+  void on_the_body(pipeline::Feature3D* f) const;
   bool usable(const Observation& o) const;
   double view_weight(const Observation& o) const;
   int camera_slot(int camera) const;
@@ -124,6 +146,11 @@ class FeatureTriangulator {
   std::optional<cv::Vec3d> body_right_;   // unit, level
   std::optional<cv::Vec3d> last_right_;   // the last body's right given (kept while none is given)
   uint64_t frames_ = 0;
+  const HullMap* hull_ = nullptr;    // this frame's hull for the rule (null: off), during process()
+  const HullMap* reject_ = nullptr;  // this frame's hull for rejecting hypotheses (null: off)
+  const HullMap* seen_ = nullptr;    // this frame's hull for the reported clearance, during process()
+  bool hull_rule_ = true;
+  bool hull_reject_ = false;
 };
 
 }  // namespace vc::triangulate

@@ -24,6 +24,14 @@ class TriangulateStage : public pipeline::Stage {
 
   // The running solver (after configure), e.g. for its per-camera swaps; nullptr before.
   const FeatureTriangulator* triangulator() const { return tri_.get(); }
+  // The hull rule on (default) or off, its rejection of hypotheses off (default) or on (after
+  // configure; FeatureTriangulator::set_hull_rule, set_hull_reject).
+  void set_hull_rule(bool on) {
+    if (tri_) tri_->set_hull_rule(on);
+  }
+  void set_hull_reject(bool on) {
+    if (tri_) tri_->set_hull_reject(on);
+  }
 
  private:
   struct NodeMap {
@@ -32,6 +40,8 @@ class TriangulateStage : public pipeline::Stage {
   };
   std::vector<NodeMap> nodes_;
   std::unique_ptr<FeatureTriangulator> tri_;
+  rig::VoxelGrid grid_;                             // the rig's grid: the merged hull's
+  HullMap hull_;                                    // this frame's merged hull, decoded (kept)
   std::vector<CameraObservations> obs_;             // kept: no allocation per frame after the first
   std::shared_ptr<pipeline::BodyHeading> heading_;  // the fit's torso right (the pipeline's), or null
 };
