@@ -132,7 +132,8 @@ class FeatureTriangulator {
   void solve_pair(const std::vector<CameraObservations>& frame, Pair pair,
                   const std::optional<cv::Vec3d>& head, std::array<pipeline::Feature3D, 5>* out);
   // A triangulated feature against this frame's hull: its clearance reported, its confidence capped
-  // below `confident` when it lies more than the margin outside (README, "On the body").
+  // below `confident` when it lies outside the hull at all (README, "On the body": the margin is
+  // rejection's only).
   void on_the_body(pipeline::Feature3D* f) const;
   bool usable(const Observation& o) const;
   double view_weight(const Observation& o) const;
