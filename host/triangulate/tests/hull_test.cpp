@@ -37,6 +37,13 @@ std::vector<uint8_t> balls_rle(const rig::VoxelGrid& grid,
   return rle;
 }
 
+// The map of a hull over g; the caller checks on().
+HullMap map_of(const rig::VoxelGrid& g, const std::vector<uint8_t>& rle) {
+  HullMap h;
+  h.set(g, rle.data(), rle.size());
+  return h;
+}
+
 TEST(HullMap, ClearanceIsTheDistanceToTheNearestOccupiedVoxel) {
   const rig::VoxelGrid g = test_grid();
   const cv::Vec3d c(0.1, -0.2, 1.0);
@@ -94,9 +101,8 @@ struct Ghost {
 TEST(HullRule, ATwoViewGhostOutsideTheHullIsRejected) {
   const Ghost s;
   const rig::VoxelGrid g = test_grid();
-  const std::vector<uint8_t> rle = s.hull(g);
-  HullMap h;
-  ASSERT_TRUE(h.set(g, rle.data(), rle.size()));
+  const HullMap h = map_of(g, s.hull(g));
+  ASSERT_TRUE(h.on());
   ASSERT_GT(h.clearance(s.ghost, 0.25), 0.2);
   // Without the hull the exact ghost views win the 3-3 tie (smaller summed error): the wrong point.
   const PointResult without = triangulate_point(s.cal.cameras, s.views(), Options{});
@@ -112,9 +118,8 @@ TEST(HullRule, ATwoViewGhostOutsideTheHullIsRejected) {
 TEST(HullRule, NoConfidentWrongHeadAndTheClearanceIsReported) {
   const Ghost s;
   const rig::VoxelGrid g = test_grid();
-  const std::vector<uint8_t> rle = s.hull(g);
-  HullMap h;
-  ASSERT_TRUE(h.set(g, rle.data(), rle.size()));
+  const HullMap h = map_of(g, s.hull(g));
+  ASSERT_TRUE(h.on());
   std::vector<CameraObservations> frame;
   for (const View& v : s.views()) {
     CameraObservations co;
@@ -156,9 +161,8 @@ TEST(HullRule, WithRejectionNoHypothesisOffTheBodySurvives) {
   // Every view sees one consistent point, outside the hull: no hypothesis survives, no point.
   const Ghost s;
   const rig::VoxelGrid g = test_grid();
-  const std::vector<uint8_t> rle = balls_rle(g, {{cv::Vec3d(0, 0, 1.1), 0.25}});
-  HullMap h;
-  ASSERT_TRUE(h.set(g, rle.data(), rle.size()));
+  const HullMap h = map_of(g, balls_rle(g, {{cv::Vec3d(0, 0, 1.1), 0.25}}));
+  ASSERT_TRUE(h.on());
   std::vector<View> v;
   v.reserve(6);
   for (int c = 0; c < 6; ++c) v.push_back({c, s.cal.cameras[static_cast<size_t>(c)].project(s.ghost), 0.9});
