@@ -31,7 +31,12 @@
  *  C. the texture test (texture_row): a candidate is shadow only when the candidates of its 5x5
  *     window, fitted as one scaled copy of the background (P = a * M over all their channels), leave
  *     a residual within k noise sigmas. Lit floor next to a shadow is background in pass A and
- *     outside the fit, so shadow edges pass; body pixels that failed eq. 2 are outside it too.
+ *     outside the fit, so shadow edges pass; body pixels that failed eq. 2 are outside it too,
+ *     except those that failed only its lower gain bound (the background's hue, darker than g_lo:
+ *     eq. 1 lets them into the band within T_l sigma of the deepest shadow). They stay foreground
+ *     but count in the windows' fits: a per-pixel cut at a fixed ratio keeps, of a flat surface
+ *     at about that ratio (skin in deep shade over tiles), the pixels over the darker tiles, and
+ *     those alone are a scaled copy of the background (session 16, edge/core/README.md).
  *     Then the flat-patch test (flat_beats_texture), on the luminance L = p_0 + p_1 + p_2: a flat
  *     patch must not explain the window's L better than the background's L scaled.
  *     Passes A and B run 2 rows ahead of C. Pass B lists each row's candidates with their |p|^2,
@@ -81,7 +86,10 @@
 enum { VC_S_N, VC_S_PP, VC_S_PM, VC_S_MM, VC_S_L, VC_S_LM, VC_S_MML, VC_S_X, VC_SUMS };
 typedef uint32_t vc_sums __attribute__((vector_size(VC_SUMS * sizeof(uint32_t))));
 
-/* A shadow candidate as pass B found it: its terms and its column (t[VC_S_X]). */
+/* A shadow candidate as pass B found it: its terms and its column (t[VC_S_X]), with VC_CAND_DARK
+ * set for a pixel below eq. 2's lower gain bound with the background's hue, which the windows' fits
+ * count but which is foreground and not tested (columns < 16384, so the top bit is free). */
+#define VC_CAND_DARK 0x80000000u
 struct vc_cand {
   vc_sums t;
 };
@@ -623,8 +631,9 @@ static int classify_row_neon(const uint8_t* restrict px, const uint8_t* restrict
 /* Pass B: eq. 2 for the band pixels of one row (bit i of `bits`), walked with count-trailing-zeros
  * (words without band pixels cost a test). A pixel that fails is foreground (0xFF); one that
  * passes is background (0), and when the texture test is on (`cand` not NULL) also a candidate,
- * appended to cand[] with its terms. Returns the number of pixels that passed (the candidates);
- * adds the row's band pixels to *band_count. */
+ * appended to cand[] with its terms; so is a pixel that failed only the lower gain bound, marked
+ * VC_CAND_DARK (in the windows' sums, not tested). Returns the number of entries of cand[] (with
+ * the texture test off: the pixels that passed); adds the row's band pixels to *band_count. */
 static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mean, uint8_t* out,
                       const uint64_t* bits, int n, struct vc_cand* cand, uint32_t* band_count) {
   const uint64_t c2 = m->c2_q24, glo = m->glo_q16, ghi = m->ghi_q16;
@@ -639,15 +648,18 @@ static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mea
       const uint64_t mm = (uint64_t)mu[0] * mu[0] + (uint64_t)mu[1] * mu[1] + (uint64_t)mu[2] * mu[2];
       /* dot, pp, mm < 2^18: dot^2 * 2^24 < 2^60 and c2 * pp * mm <= 2^24 * 2^36 = 2^60. */
       const uint64_t dot16 = dot << 16;
-      const unsigned is_shadow =
-          ((dot * dot << 24) >= c2 * pp * mm) & (dot16 >= glo * mm) & (dot16 <= ghi * mm);
+      const unsigned hue = (dot * dot << 24) >= c2 * pp * mm, above = dot16 >= glo * mm;
+      const unsigned is_shadow = hue & above & (dot16 <= ghi * mm);
       out[i] = (uint8_t)(is_shadow - 1u); /* shadow -> 0 (background, or a candidate), else 0xFF */
       band++;
-      if (cand != NULL && is_shadow) {
+      /* below the gain bound with the background's hue: foreground itself, but in the windows' fits
+       * (VC_CAND_DARK), so that they see the sample untruncated by eq. 2's per-pixel gain bound */
+      const unsigned dark = hue & (above ^ 1u);
+      if (cand != NULL && (is_shadow | dark)) {
         const uint32_t l = (uint32_t)p[0] + p[1] + p[2], lmu = (uint32_t)mu[0] + mu[1] + mu[2];
         /* the lanes in the order of enum VC_S_*: N, PP, PM, MM, L, LM, MML, X */
-        cand[k].t =
-            (vc_sums){1, (uint32_t)pp, (uint32_t)dot, (uint32_t)mm, l, l * lmu, lmu * lmu, (uint32_t)i};
+        cand[k].t = (vc_sums){1, (uint32_t)pp, (uint32_t)dot, (uint32_t)mm,
+                              l, l * lmu,      lmu * lmu,     (uint32_t)i | (dark << 31)};
         k++;
       } else {
         k += (int)is_shadow; /* counted as shadows when the texture test is off */
@@ -664,9 +676,11 @@ static int shadow_row(const vc_bgmodel* m, const uint8_t* px, const uint8_t* mea
  * branch-free at the image's edges. */
 static void colsum_update(vc_sums* colsum, const struct vc_cand* cand, int count, bool add) {
   if (add)
-    for (int k = 0; k < count; k++) colsum[cand[k].t[VC_S_X] + VC_TEXTURE_RADIUS] += cand[k].t;
+    for (int k = 0; k < count; k++)
+      colsum[(cand[k].t[VC_S_X] & ~VC_CAND_DARK) + VC_TEXTURE_RADIUS] += cand[k].t;
   else
-    for (int k = 0; k < count; k++) colsum[cand[k].t[VC_S_X] + VC_TEXTURE_RADIUS] -= cand[k].t;
+    for (int k = 0; k < count; k++)
+      colsum[(cand[k].t[VC_S_X] & ~VC_CAND_DARK) + VC_TEXTURE_RADIUS] -= cand[k].t;
 }
 
 /* The flat-patch test of a window's sums s (enum VC_S_*, n >= 1 candidates, v the noise as in
@@ -711,6 +725,7 @@ static uint32_t texture_row(const vc_bgmodel* m, uint8_t* out, const uint16_t* s
   uint32_t shadow = 0, last = UINT32_MAX - 1;
   vc_sums s = {0}; /* the window sums of the previous candidate (slid when x follows it) */
   for (int k = 0; k < count; k++) {
+    if (cand[k].t[VC_S_X] & VC_CAND_DARK) continue; /* in the fits, not tested: foreground already */
     const uint32_t x = cand[k].t[VC_S_X];
     if (x == last + 1) /* the window one column on: add column x + r, drop column x - r - 1 */
       s += colsum[x + 4] - colsum[x - 1];

@@ -22,7 +22,11 @@
  *                     (eq. 2) or the brightness ratio alpha = p.mu / |mu|^2 lies outside
  *                     [g_lo, g_hi]; the band pixels that pass are shadow candidates;
  *   texture test      (shadow_texture_k = k > 0) over the 5x5 window around a candidate, with the
- *                     window's candidates C (at least 3, else the per-pixel test decides): their
+ *                     window's candidates C (at least 3, else the per-pixel test decides; C also
+ *                     holds the band pixels that failed only eq. 2's lower gain bound, alpha < g_lo
+ *                     with the background's colour direction: foreground themselves, but a shadow
+ *                     near g_lo has them by noise, and without them the window sees only the part
+ *                     of a flat surface at about g_lo over the darker texture, a scaled copy): their
  *                     colours must be one scaled copy of the background's, P = a * mu, up to the noise:
  *                     shadow iff sum_C,c p^2 - (sum_C,c p mu)^2 / sum_C,c mu^2 <= k^2 |C| sum_c s_c^2,
  *                     s_c = max(sigma_c, sigma_floor) of the candidate itself, both in Q8.8 (the
