@@ -6,13 +6,12 @@
 // passes. A node handles its frames in pulse order and sends a frame's FEATURES, SILHOUETTEs and HULL
 // before anything of the next one, on one TCP connection (proto/SPEC.md, HULL): once its message about
 // seq n+1 is here, its HULL for seq n is not coming (the camera missed the pulse, the edge dropped the
-// frame), so waiting out the deadline for it only delays the frame. Frames leave in seq order. The merge is the AND of the partial hulls,
-// done on the RLE streams directly in one pass over all of them (vc_rle_and_n, no bitset in between).
-// When a configured node is missing from a frame, the policy decides: Drop the frame, or merge what
-// came and mark it degraded.
-// A HULL for a frame that was already emitted is late: counted per node and discarded. FEATURES and
-// SILHOUETTEs join the frame of their seq (they never hold it back; late ones are counted and
-// discarded); STATS are not about one seq and join the next frame the assembler emits.
+// frame), so waiting out the deadline for it only delays the frame. Frames leave in seq order. The merge is
+// the AND of the partial hulls, done on the RLE streams directly in one pass over all of them (vc_rle_and_n,
+// no bitset in between). When a configured node is missing from a frame, the policy decides: Drop the frame,
+// or merge what came and mark it degraded. A HULL for a frame that was already emitted is late: counted per
+// node and discarded. FEATURES and SILHOUETTEs join the frame of their seq (they never hold it back; late
+// ones are counted and discarded); STATS are not about one seq and join the next frame the assembler emits.
 // With AssemblerOptions::merge false the frames leave unmerged (the host's pipeline merges them in its
 // merge stage, merge_stage.hpp); merge() below is that step.
 //
