@@ -4,6 +4,7 @@
 // figures and writes DIR/take.bvh, DIR/joints.csv and the session (with virtual_rig.json, what
 // `voxcap fit SESSION --score` needs to score it again offline); `eval` prints the same figures (with
 // --json as one object). Thin: options -> emulated::Options, run, then the take (host/export).
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -36,9 +37,10 @@ struct DemoArgs {
   std::string out;  // demo: where the take and the session go
   bool json = false;
   bool eval = false;
-  std::string vmc;     // --vmc HOST:PORT: the live pose stream out
-  bool view = false;   // serve the live viewer while it runs
-  int view_port = -1;  // -1: 8080
+  std::string vmc;         // --vmc HOST:PORT: the live pose stream out
+  std::string timing_csv;  // --timing-csv FILE: every fitted frame's path through the host
+  bool view = false;       // serve the live viewer while it runs
+  int view_port = -1;      // -1: 8080
 };
 
 void add_rig_options(CLI::App* cmd, DemoArgs& a) {
@@ -73,6 +75,74 @@ void add_rig_options(CLI::App* cmd, DemoArgs& a) {
   cmd->add_flag(
       "--verbose", [&a](int64_t) { a.rig.quiet = false; }, "Info logs from host and edges");
   cmd->add_option("--vmc", a.vmc, kVmcHelp)->type_name("HOST:PORT");
+  cmd->add_option(
+         "--timing-csv", a.timing_csv,
+         "Write every fitted frame's path through the host (ms after its trigger pulse): each node's "
+         "HULL received, the frame leaving the assembler, each chain stage's start and end, and its "
+         "segments (edges, last_node, assembly, <stage>_queue, <stage>) as in the latency line")
+      ->type_name("FILE");
+}
+
+// The latency line's and --json latency_split's figures: where the fitted frames' trigger -> pose time
+// went, per segment, over all frames and over the slowest 1% (pipeline/timing.hpp).
+nlohmann::json latency_split_json(const pipeline::LatencySplit& s) {
+  nlohmann::json mean = nlohmann::json::object(), tail = nlohmann::json::object();
+  for (size_t i = 0; i < s.segments.size(); i++) {
+    mean[s.segments[i]] = s.mean_ms[i];
+    tail[s.segments[i]] = s.tail_mean_ms[i];
+  }
+  return {{"frames", s.frames},
+          {"mean_ms", mean},
+          {"tail_from_ms", s.tail_from_ms},
+          {"tail_frames", s.tail_frames},
+          {"tail_degraded", s.tail_degraded},
+          {"tail_mean_ms", tail}};
+}
+
+std::string latency_split_line(const pipeline::LatencySplit& s) {
+  std::string segs;
+  for (size_t i = 0; i < s.segments.size(); i++)
+    segs += fmt::format("{}{} {:.1f}/{:.1f}", i ? ", " : "", s.segments[i], s.mean_ms[i], s.tail_mean_ms[i]);
+  return fmt::format(
+      "latency     where trigger -> pose goes, mean over {} frames / over the slowest {} (from {:.1f} ms, {} "
+      "degraded), ms: {}",
+      s.frames, s.tail_frames, s.tail_from_ms, s.tail_degraded, segs);
+}
+
+void write_timing_csv(const fs::path& path, const emulated::PoseAccuracy& p,
+                      const std::vector<uint16_t>& nodes, const std::vector<std::string>& segments,
+                      uint64_t origin) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (!f) throw std::runtime_error(fmt::format("--timing-csv {}: cannot write", path.string()));
+  std::string head = "seq,frame,degraded,missing";
+  for (uint16_t n : nodes) head += fmt::format(",hull_node{}_ms", n);
+  head += ",assembled_ms";
+  const size_t stages = segments.size() > 3 ? (segments.size() - 3) / 2 : 0;
+  for (size_t i = 0; i < stages; i++)
+    head += fmt::format(",{0}_start_ms,{0}_end_ms", segments[3 + 2 * i + 1]);
+  for (const std::string& s : segments) head += "," + s + "_ms";
+  head += ",total_ms\n";
+  std::fputs(head.c_str(), f);
+  for (const pipeline::FrameTiming& t : p.timing) {
+    std::string missing;
+    for (uint16_t n : t.missing) missing += fmt::format("{}{}", missing.empty() ? "" : " ", n);
+    std::string row =
+        fmt::format("{},{},{},{}", t.seq, static_cast<int64_t>(t.seq - origin), t.degraded ? 1 : 0, missing);
+    for (uint16_t n : nodes) {
+      auto it = std::find_if(t.hull_ms.begin(), t.hull_ms.end(), [n](const auto& h) { return h.first == n; });
+      row += it == t.hull_ms.end() ? "," : fmt::format(",{:.3f}", it->second);
+    }
+    row += fmt::format(",{:.3f}", t.assembled_ms);
+    for (size_t i = 0; i < stages; i++)
+      row += i < t.stage_ms.size() ? fmt::format(",{:.3f},{:.3f}", t.stage_ms[i].first, t.stage_ms[i].second)
+                                   : ",,";
+    for (size_t i = 0; i < segments.size(); i++)
+      row += i < t.segments_ms.size() ? fmt::format(",{:.3f}", t.segments_ms[i]) : ",";
+    row += fmt::format(",{:.3f}\n", t.total_ms);
+    std::fputs(row.c_str(), f);
+  }
+  if (std::fclose(f) != 0)
+    throw std::runtime_error(fmt::format("--timing-csv {}: write failed", path.string()));
 }
 
 nlohmann::json figures_json(const DemoArgs& a, const emulated::Result& r) {
@@ -90,6 +160,7 @@ nlohmann::json figures_json(const DemoArgs& a, const emulated::Result& r) {
     stages[s.name] = {
         {"busy_ms_mean", s.busy_ms_mean}, {"busy_ms_max", s.busy_ms_max}, {"queue_max", s.queue.max_depth}};
   j["stages"] = stages;
+  j["latency_split"] = latency_split_json(r.poses.latency_split);
   j["rig"] = {{"motion", a.rig.motion},     {"nodes", a.rig.nodes},
               {"cameras", 2 * a.rig.nodes}, {"size", a.size},
               {"grid", a.rig.grid},         {"noise", a.rig.noise},
@@ -117,7 +188,7 @@ void run_demo(DemoArgs& a) {
   }
   a.rig.truth_every = 0;  // the hull scorer (voxcap rig --emulated) is not needed here: its renders cost
   a.rig.score_poses = true;
-  a.rig.keep_poses = !a.eval;
+  a.rig.keep_poses = !a.eval || !a.timing_csv.empty();
   if (!a.eval) {
     if (a.out.empty()) a.out = "voxcap-demo";
     std::error_code ec;
@@ -173,7 +244,13 @@ void run_demo(DemoArgs& a) {
         "stages      trigger -> merged p50 {:.1f} ms, p99 {:.1f} ms;{} (mean/max in process(), most "
         "queued)\n",
         m.percentile_ms(0.5), m.percentile_ms(0.99), stages);
+    fmt::print("{}\n", latency_split_line(r.poses.latency_split));
     if (rec) fmt::print("{}\n", record::run_recording_line(*rec));
+  }
+  if (!a.timing_csv.empty()) {
+    std::vector<uint16_t> nodes;
+    for (const auto& n : r.report.nodes) nodes.push_back(n.id);
+    write_timing_csv(a.timing_csv, r.poses, nodes, r.poses.latency_split.segments, r.origin);
   }
   if (a.eval) return;
   if (!r.session_dir.empty()) {  // what voxcap fit SESSION --score needs to score it again offline
@@ -216,11 +293,14 @@ void add_demo_commands(CLI::App& app) {
                          "virtual_rig.json: voxcap fit SESSION --score re-fits and scores it offline)");
   add_rig_options(d, *demo);
   d->add_option("--out", demo->out, "Output folder (default ./voxcap-demo)");
-  d->add_flag("--json", demo->json,
-              "Print the figures as JSON (the keys of voxcap eval --json: mpjpe_mm ... latency_ms, "
-              "pipeline_drops, merged_latency_ms, stages, rig, wall_seconds; and session {dir, frames, "
-              "merged_frames, frames_not_recorded, records, skipped_records, skipped_bytes, truncated_bytes, "
-              "closed_cleanly, stop, damage[]}: the recorded session read back once closed)");
+  d->add_flag(
+      "--json", demo->json,
+      "Print the figures as JSON (the keys of voxcap eval --json: mpjpe_mm ... latency_ms, "
+      "pipeline_drops, merged_latency_ms, stages, latency_split {frames, mean_ms, tail_from_ms, tail_frames, "
+      "tail_degraded, tail_mean_ms}: where trigger -> pose goes per segment, rig, wall_seconds; and session "
+      "{dir, frames, "
+      "merged_frames, frames_not_recorded, records, skipped_records, skipped_bytes, truncated_bytes, "
+      "closed_cleanly, stop, damage[]}: the recorded session read back once closed)");
   d->callback([demo] { run_demo(*demo); });
 
   auto eval = std::make_shared<DemoArgs>();
@@ -242,7 +322,10 @@ void add_demo_commands(CLI::App& app) {
       "inside the true torso volume), predicted_frames, reinitialized_frames, fps (poses per second), "
       "latency_ms {p50, p99, max} (trigger -> pose), pipeline_drops {stage: frames}, merged_latency_ms "
       "{p50, p99, max} (trigger -> merged), stages {stage: {busy_ms_mean, busy_ms_max, queue_max}} (time in "
-      "process(), most queued), rig {...}, wall_seconds");
+      "process(), most queued), latency_split {frames, mean_ms, tail_from_ms, tail_frames, tail_degraded, "
+      "tail_mean_ms} (trigger -> pose per segment: edges, last_node, assembly, <stage>_queue, <stage>; over "
+      "all "
+      "fitted frames and over the slowest 1%), rig {...}, wall_seconds");
   add_rig_options(e, *eval);
   e->add_flag("--json", eval->json, "Print the figures as one JSON object");
   e->callback([eval] { run_demo(*eval); });

@@ -2,6 +2,7 @@
 
 #include <fmt/core.h>
 
+#include <algorithm>
 #include <chrono>
 
 #include "voxcap/base/clock.hpp"
@@ -167,8 +168,18 @@ void AssemblyStage::run() {
   const uint64_t poll_ns = static_cast<uint64_t>(opt_.poll_ms) * 1'000'000u;
   uint64_t last_poll = 0;
   std::vector<assemble::MergedFrame> out;
+  uint64_t next_deadline = 0;  // the earliest pending frame's (0: none pending)
   for (;;) {
-    std::optional<Input> in = inbox_.pop_for(poll);
+    // Wait for the next message, or until the earliest pending frame's deadline (at most poll_ms: a
+    // pulse note can still move a deadline earlier): a deadline is met when it passes, not at the
+    // next tick of a fixed poll.
+    std::chrono::nanoseconds wait = poll;
+    if (next_deadline != 0) {
+      const uint64_t t = vc::monotonic_ns();
+      wait = std::min<std::chrono::nanoseconds>(
+          poll, std::chrono::nanoseconds(next_deadline > t ? next_deadline - t : 0));
+    }
+    std::optional<Input> in = inbox_.pop_for(wait);
     auto t0 = Clock::now();
     uint64_t now = vc::monotonic_ns();
     {
@@ -197,10 +208,11 @@ void AssemblyStage::run() {
           assembler_.set_running(r->node_id, r->running);
         }
       }
-      if (!in || now - last_poll >= poll_ns) {
+      if (!in || now - last_poll >= poll_ns || (next_deadline != 0 && now >= next_deadline)) {
         assembler_.poll(now, out);
         last_poll = now;
       }
+      next_deadline = assembler_.next_deadline_ns();
       if (in) {
         processed_++;
         double ns = std::chrono::duration<double, std::nano>(Clock::now() - t0).count();

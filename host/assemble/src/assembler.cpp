@@ -72,13 +72,33 @@ void Assembler::set_running(uint16_t node_id, bool running) {
   if (it != running_.end()) it->second = running;
 }
 
-bool Assembler::complete(const Pending& p) const {
+bool Assembler::complete(uint64_t seq, const Pending& p) const {
   for (const auto& [node, run] : running_) {
     if (!run) continue;
     auto it = p.parts.find(node);
-    if (it == p.parts.end() || !it->second.has_hull) return false;
+    if (it != p.parts.end() && it->second.has_hull) continue;
+    auto seen = seen_.find(node);
+    if (seen != seen_.end() && seen->second > seq + 1) continue;  // it is past seq: no hull will come
+    return false;
   }
   return true;
+}
+
+void Assembler::note_seen(uint16_t node_id, uint64_t seq) {
+  uint64_t& s = seen_[node_id];
+  if (seq + 1 > s) s = seq + 1;
+}
+
+void Assembler::resolve_ready(uint64_t now_ns, bool check_deadlines, std::vector<MergedFrame>& out) {
+  for (auto it = pending_.begin(); it != pending_.end();) {
+    if ((check_deadlines && it->second.t_trigger_ns + opt_.deadline_ns <= now_ns) ||
+        complete(it->first, it->second)) {
+      resolve(it->first, it->second, now_ns, out);
+      it = pending_.erase(it);
+    } else {
+      ++it;
+    }
+  }
 }
 
 void intersect(const std::vector<const std::vector<uint8_t>*>& hulls, std::vector<uint8_t>& out,
@@ -226,10 +246,10 @@ bool Assembler::add(PartialHull h, uint64_t now_ns, std::vector<MergedFrame>& ou
   part.occupied = h.occupied;
   part.rle = std::move(h.rle);
   nc.received++;
-  if (complete(*p)) {
-    resolve(h.seq, *p, now_ns, out);
-    pending_.erase(h.seq);
-  }
+  note_seen(h.node_id, h.seq);
+  // This hull may complete its frame and, being of a later seq than some pending frames, tell that
+  // its node skipped them: those go first (frames leave in seq order).
+  resolve_ready(now_ns, false, out);
   return true;
 }
 
@@ -255,6 +275,8 @@ bool Assembler::add_features(uint16_t node_id, uint64_t seq, uint64_t t_trigger_
   }
   part.features.push_back(features);
   nc.features++;
+  note_seen(node_id, seq);
+  resolve_ready(now_ns, false, out);  // older frames this node skipped need not wait for it
   return true;
 }
 
@@ -281,6 +303,8 @@ bool Assembler::add_silhouette(uint16_t node_id, uint64_t seq, uint64_t t_trigge
   }
   part.silhouettes.push_back(std::move(silhouette));
   nc.silhouettes++;
+  note_seen(node_id, seq);
+  resolve_ready(now_ns, false, out);
   return true;
 }
 
@@ -292,14 +316,16 @@ void Assembler::add_stats(uint16_t node_id, const vc_stats& stats) {
 }
 
 void Assembler::poll(uint64_t now_ns, std::vector<MergedFrame>& out) {
-  for (auto it = pending_.begin(); it != pending_.end();) {
-    if (it->second.t_trigger_ns + opt_.deadline_ns <= now_ns || complete(it->second)) {
-      resolve(it->first, it->second, now_ns, out);
-      it = pending_.erase(it);
-    } else {
-      ++it;
-    }
+  resolve_ready(now_ns, true, out);
+}
+
+uint64_t Assembler::next_deadline_ns() const {
+  uint64_t next = 0;
+  for (const auto& [seq, p] : pending_) {
+    const uint64_t d = p.t_trigger_ns + opt_.deadline_ns;
+    if (next == 0 || d < next) next = d;
   }
+  return next;
 }
 
 void Assembler::flush(uint64_t now_ns, std::vector<MergedFrame>& out) {

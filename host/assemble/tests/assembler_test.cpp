@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <map>
 #include <random>
 
 #include "voxcap/assemble/merge_stage.hpp"
@@ -93,6 +94,23 @@ TEST(Assembler, DeadlineDropsOrDegradesByPolicy) {
     }
     EXPECT_EQ(a.stats().nodes.at(3).missing, 1u);
   }
+}
+
+// What the assembly thread waits for when no message comes: the earliest pending frame's deadline,
+// none when nothing is pending.
+TEST(Assembler, NextDeadlineIsTheEarliestPendingFramesDeadline) {
+  Assembler a(opts(MissingPolicy::Degraded));
+  std::vector<MergedFrame> out;
+  EXPECT_EQ(a.next_deadline_ns(), 0u);
+  a.add(hull(1, 8, random_bits(1, 0.5), 3000), 0, out);
+  a.add(hull(3, 7, random_bits(3, 0.5), 2000), 0, out);
+  EXPECT_EQ(a.next_deadline_ns(), 2000u + 50'000u);
+  a.poll(2000 + 50'000, out);
+  ASSERT_EQ(out.size(), 1u);
+  EXPECT_EQ(a.next_deadline_ns(), 3000u + 50'000u);
+  a.add(hull(2, 8, random_bits(2, 0.5), 3000), 0, out);
+  a.add(hull(3, 8, random_bits(3, 0.5), 3000), 0, out);
+  EXPECT_EQ(a.next_deadline_ns(), 0u);
 }
 
 TEST(Assembler, StoppedNodeIsNotWaitedForButMarksTheFrame) {
@@ -215,6 +233,88 @@ pipeline::Silhouette silhouette(uint16_t camera, uint16_t fg) {
   s.foreground = fg;
   s.rle = {static_cast<uint8_t>(32 - fg), static_cast<uint8_t>(fg)};  // the last fg pixels
   return s;
+}
+
+// A node's message about a later seq says its hull for an earlier one is not coming (its camera missed
+// the pulse, it dropped the frame): the frame leaves on that message, not at its deadline, which in
+// this test never comes (no poll, the deadline far away). A FEATURES of the same seq says nothing.
+TEST(Assembler, ANodesLaterMessageResolvesTheFrameItSkippedWithoutTheDeadline) {
+  for (MissingPolicy policy : {MissingPolicy::Degraded, MissingPolicy::Drop}) {
+    AssemblerOptions o = opts(policy);
+    o.deadline_ns = uint64_t{1} << 62;
+    Assembler a(o);
+    std::vector<MergedFrame> out;
+    a.add(hull(1, 10, random_bits(1, 0.5)), 0, out);
+    a.add(hull(2, 10, random_bits(2, 0.5)), 0, out);
+    EXPECT_TRUE(a.add_features(3, 10, 1000, features(0, 1), 0, out));
+    EXPECT_TRUE(out.empty()) << "node 3 is still on seq 10: its hull may come";
+    EXPECT_EQ(a.pending(), 1u);
+    a.add(hull(1, 11, random_bits(1, 0.5)), 0, out);
+    EXPECT_TRUE(a.add_features(3, 11, 1000, features(0, 1), 0, out));  // node 3 is past seq 10
+    EXPECT_EQ(a.pending(), 1u) << "frame 10 resolved, frame 11 waits";
+    EXPECT_EQ(a.stats().nodes.at(3).missing, 1u);
+    if (policy == MissingPolicy::Degraded) {
+      ASSERT_EQ(out.size(), 1u);
+      EXPECT_EQ(out[0].seq, 10u);
+      EXPECT_TRUE(out[0].degraded);
+      EXPECT_EQ(out[0].missing, (std::vector<uint16_t>{3}));
+      ASSERT_NE(out[0].node(3), nullptr);
+      EXPECT_EQ(out[0].node(3)->features.size(), 1u) << "what node 3 sent for seq 10 goes with it";
+    } else {
+      EXPECT_TRUE(out.empty());
+      EXPECT_EQ(a.stats().dropped, 1u);
+    }
+    EXPECT_FALSE(a.add(hull(3, 10, random_bits(3, 0.5)), 0, out)) << "had it come after all: late";
+    EXPECT_EQ(a.stats().nodes.at(3).late, 1u);
+  }
+}
+
+// The edges' messages arrive in seq order per node, interleaved across nodes in any way, and each
+// node skips some frames. Frames leave in seq order as soon as every node has moved past them, each
+// missing exactly the nodes that skipped it; only the last frames wait (for the stop). Before, a frame
+// a node skipped waited for its deadline while the complete frames after it left first.
+TEST(Assembler, FramesLeaveInSeqOrderEachWhenEveryNodeMovedPastIt) {
+  AssemblerOptions o = opts(MissingPolicy::Degraded);
+  o.deadline_ns = uint64_t{1} << 62;
+  o.max_pending = 64;
+  Assembler a(o);
+  std::mt19937 rng(7);
+  std::bernoulli_distribution skip(0.15);
+  constexpr uint64_t kFrames = 300;
+  std::map<uint16_t, std::vector<uint64_t>> sent;  // per node, the seqs it sends a hull for
+  std::map<uint64_t, std::vector<uint16_t>> skipped;
+  for (uint16_t n : {1, 2, 3})
+    for (uint64_t seq = 0; seq < kFrames; seq++) {
+      if (seq + 1 < kFrames && skip(rng))
+        skipped[seq].push_back(n);
+      else
+        sent[n].push_back(seq);
+    }
+  auto bits = random_bits(5, 0.5);
+  std::vector<MergedFrame> out;
+  std::map<uint16_t, size_t> next;
+  for (;;) {
+    std::vector<uint16_t> left;
+    for (uint16_t n : {1, 2, 3})
+      if (next[n] < sent[n].size()) left.push_back(n);
+    if (left.empty()) break;
+    const uint16_t n = left[std::uniform_int_distribution<size_t>(0, left.size() - 1)(rng)];
+    ASSERT_TRUE(a.add(hull(n, sent[n][next[n]++], bits), 0, out));
+  }
+  EXPECT_EQ(a.pending(), 0u) << "the last seq is sent by every node";
+  size_t k = 0;
+  for (uint64_t seq = 0; seq < kFrames; seq++) {
+    const std::vector<uint16_t>& missing = skipped[seq];
+    if (missing.size() == 3) continue;  // no node sent it: there is no frame
+    ASSERT_LT(k, out.size());
+    EXPECT_EQ(out[k].seq, seq);
+    EXPECT_EQ(out[k].missing, missing) << "seq " << seq;
+    EXPECT_EQ(out[k].degraded, !missing.empty());
+    k++;
+  }
+  EXPECT_EQ(k, out.size());
+  EXPECT_GT(a.stats().degraded, 50u);
+  EXPECT_EQ(a.stats().evicted, 0u);
 }
 
 TEST(Assembler, SilhouettesJoinTheFrameOfTheirSeqBoundedAndLateOnesCounted) {

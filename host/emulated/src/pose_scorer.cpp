@@ -34,6 +34,11 @@ PoseScorer::PoseScorer(std::unique_ptr<sim::Scene> scene, const rig::VoxelGrid& 
 
 PoseScorer::~PoseScorer() = default;
 
+void PoseScorer::configure(const pipeline::StageContext& ctx) {
+  std::lock_guard<std::mutex> g(mu_);
+  timing_.set_chain(ctx.chain);
+}
+
 void PoseScorer::set_origin(uint64_t origin) {
   origin_ = origin;
   started_ = true;
@@ -96,8 +101,10 @@ void PoseScorer::process(pipeline::Frame& f) {
   acc_.fitted_frames++;
   acc_.predicted_frames += pose.state == pipeline::PoseState::Predicted ? 1 : 0;
   acc_.reinitialized_frames += pose.state == pipeline::PoseState::Reinitialized ? 1 : 0;
-  if (pose.t_fitted_ns >= f.t_trigger_ns && f.t_trigger_ns > 0)
+  if (pose.t_fitted_ns >= f.t_trigger_ns && f.t_trigger_ns > 0) {
     latency_.add(pose.t_fitted_ns - f.t_trigger_ns);
+    timing_.add(f);
+  }
   if (t_first_ns_ == 0) t_first_ns_ = pose.t_fitted_ns;
   t_last_ns_ = pose.t_fitted_ns;
 
@@ -155,6 +162,8 @@ PoseAccuracy PoseScorer::accuracy() const {
   a.latency_p50_ms = latency_.percentile_ms(0.50);
   a.latency_p99_ms = latency_.percentile_ms(0.99);
   a.latency_max_ms = latency_.max_ms();
+  a.latency_split = timing_.split();
+  if (keep_poses_) a.timing = timing_.rows();
   return a;
 }
 

@@ -6,6 +6,8 @@
 #include <exception>
 #include <stdexcept>
 
+#include "voxcap/base/clock.hpp"
+
 namespace vc::pipeline {
 
 const char* overflow_name(Overflow o) {
@@ -60,8 +62,11 @@ void StageRunner::run() {
   using Clock = std::chrono::steady_clock;
   auto last_error_log = Clock::time_point{};
   uint64_t errors_unlogged = 0;
+  const bool stamp = chain_index_ >= 0 && static_cast<size_t>(chain_index_) < Frame::kTimedStages;
+  const auto slot = static_cast<size_t>(chain_index_);
   while (std::optional<FramePtr> f = queue_.pop()) {
     auto t0 = Clock::now();
+    if (stamp) (*f)->t_stage_start_ns[slot] = vc::monotonic_ns();
     bool ok = true;
     std::string error;
     try {
@@ -74,6 +79,7 @@ void StageRunner::run() {
       error = "unknown exception";
     }
     double ns = std::chrono::duration<double, std::nano>(Clock::now() - t0).count();
+    if (stamp) (*f)->t_stage_end_ns[slot] = vc::monotonic_ns();
     {
       std::lock_guard<std::mutex> g(mu_);
       busy_ns_sum_ += ns;
@@ -143,6 +149,11 @@ void Pipeline::add(std::unique_ptr<Stage> stage, QueueOptions queue, bool tap) {
 
 void Pipeline::start() {
   if (started_) return;
+  ctx_.chain.clear();
+  for (size_t i = 0; i < chain_.size(); i++) {
+    ctx_.chain.push_back(chain_[i]->stage().name());
+    chain_[i]->set_chain_index(static_cast<int>(i));
+  }
   for (auto& r : chain_) r->configure(ctx_);
   for (auto& r : taps_) r->configure(ctx_);
   std::vector<StageRunner*> consumers;

@@ -1,6 +1,7 @@
 // The stage runner and the pipeline: order, both overflow policies of the stages, stop while a
 // producer is blocked, exceptions in a stage, the lifecycle and the context.
 #include "voxcap/pipeline/pipeline.hpp"
+#include "voxcap/pipeline/timing.hpp"
 
 #include <gtest/gtest.h>
 
@@ -75,7 +76,7 @@ class Probe : public Stage {
   uint64_t throw_on = 0;
   int sleep_ms = 0;
   // Only chain stages may change a frame: consumers share it read-only and run at the same time.
-  bool mutates = false;  // set on chain stages
+  bool mutates = false;                // set on chain stages
   std::vector<uint64_t> saw_occupied;  // f.occupied as this stage left it, per frame
   std::mutex mu;
   std::condition_variable cv;
@@ -117,7 +118,8 @@ TEST(Pipeline, EveryStageSeesFramesInOrderThroughTheChainAndEveryConsumer) {
     EXPECT_EQ(s->seqs(), range(1, 201)) << s->name();
     EXPECT_EQ(s->calls, (std::vector<std::string>{"configure", "start", "stop"})) << s->name();
   }
-  for (const FramePtr& f : frames) EXPECT_EQ(f->occupied, 2u) << "each chain stage ran once on frame " << f->seq;
+  for (const FramePtr& f : frames)
+    EXPECT_EQ(f->occupied, 2u) << "each chain stage ran once on frame " << f->seq;
   EXPECT_EQ(a.saw_occupied, std::vector<uint64_t>(200, 1u)) << "a runs first";
   EXPECT_EQ(b.saw_occupied, std::vector<uint64_t>(200, 2u)) << "b runs after a";
   for (Probe* s : {&c, &d})
@@ -294,6 +296,84 @@ TEST(BodyHeading, KeepsTheLatestLevelRightAndIsSharedByCopiesOfTheContext) {
   a.body_heading->publish(13, {-2, 0, 0});
   EXPECT_EQ(b.body_heading->latest()->seq, 13u);
   EXPECT_DOUBLE_EQ(b.body_heading->latest()->right[0], -1.0);
+}
+
+// Where a frame's time went: each chain stage stamps its start and end of process() in its place in the
+// chain (the context names the chain), in the order the frame went through them; consumers stamp
+// nothing. TimingLog splits a frame into segments that add up to its last stage's end.
+TEST(Pipeline, ChainStagesStampTheirStartAndEndInChainOrder) {
+  struct Names : Stage {
+    std::string name() const override { return "names"; }
+    void configure(const StageContext& ctx) override { chain = ctx.chain; }
+    void process(Frame&) override {}
+    std::vector<std::string> chain;
+  };
+  Pipeline p(StageContext{});
+  p.then(std::make_unique<Probe>("merge"), {4, Overflow::Block});
+  p.then(std::make_unique<Probe>("fit"), {4, Overflow::Block});
+  Names& n = p.tap(std::make_unique<Names>(), {4, Overflow::Block});
+  p.start();
+  std::vector<FramePtr> frames;
+  for (uint64_t s = 1; s <= 20; s++) {
+    frames.push_back(frame(s));
+    ASSERT_TRUE(p.push(frames.back()));
+  }
+  p.stop();
+  EXPECT_EQ(n.chain, (std::vector<std::string>{"merge", "fit"}));
+  for (const FramePtr& f : frames) {
+    EXPECT_GT(f->t_stage_start_ns[0], 0u);
+    EXPECT_LE(f->t_stage_start_ns[0], f->t_stage_end_ns[0]);
+    EXPECT_LE(f->t_stage_end_ns[0], f->t_stage_start_ns[1]) << "fit starts after merge ended";
+    EXPECT_LE(f->t_stage_start_ns[1], f->t_stage_end_ns[1]);
+    for (size_t i = 2; i < Frame::kTimedStages; i++)
+      EXPECT_EQ(f->t_stage_start_ns[i], 0u) << "no stage " << i;
+  }
+}
+
+TEST(TimingLog, SplitsAFrameIntoSegmentsThatAddUpAndFindsTheTail) {
+  TimingLog log;
+  log.set_chain({"merge", "fit"});
+  auto make = [](uint64_t seq, uint64_t slow_node_ms, bool degraded) {
+    Frame f;
+    f.seq = seq;
+    const uint64_t t0 = 1'000'000'000, ms = 1'000'000;
+    f.t_trigger_ns = t0;
+    for (uint16_t n : {1, 2}) {
+      NodePart p;
+      p.node_id = n;
+      p.has_hull = !(degraded && n == 2);
+      p.t_received_ns = t0 + (n == 1 ? 8 : slow_node_ms) * ms;
+      f.nodes.push_back(p);
+    }
+    f.degraded = degraded;
+    if (degraded) f.missing = {2};
+    f.t_assembled_ns = t0 + (degraded ? 30 : slow_node_ms + 1) * ms;
+    uint64_t t = f.t_assembled_ns;
+    for (size_t i = 0; i < 2; i++) {
+      f.t_stage_start_ns[i] = t + 1 * ms;
+      f.t_stage_end_ns[i] = t + 3 * ms;
+      t = f.t_stage_end_ns[i];
+    }
+    return f;
+  };
+  for (uint64_t seq = 0; seq < 99; seq++) EXPECT_TRUE(log.add(make(seq, 10, false)));
+  EXPECT_TRUE(log.add(make(99, 10, true)));  // node 2 skipped it: waited until t + 30 ms
+  Frame unstamped = make(100, 10, false);
+  unstamped.t_stage_start_ns[1] = 0;
+  EXPECT_FALSE(log.add(unstamped)) << "a frame that never reached fit is not split";
+  const FrameTiming& r = log.rows()[0];
+  EXPECT_EQ(r.hull_ms, (std::vector<std::pair<uint16_t, double>>{{1, 8.0}, {2, 10.0}}));
+  EXPECT_EQ(r.segments_ms, (std::vector<double>{8, 2, 1, 1, 2, 1, 2}));
+  EXPECT_DOUBLE_EQ(r.total_ms, 17.0);
+  LatencySplit s = log.split();
+  EXPECT_EQ(s.segments, (std::vector<std::string>{"edges", "last_node", "assembly", "merge_queue", "merge",
+                                                  "fit_queue", "fit"}));
+  EXPECT_EQ(s.frames, 100u);
+  EXPECT_DOUBLE_EQ(s.tail_from_ms, 36.0);
+  EXPECT_EQ(s.tail_frames, 1u);
+  EXPECT_EQ(s.tail_degraded, 1u);
+  EXPECT_DOUBLE_EQ(s.tail_mean_ms[2], 22.0) << "the degraded frame waited in the assembler";
+  EXPECT_DOUBLE_EQ(s.mean_ms[0], 8.0);
 }
 
 }  // namespace

@@ -1,12 +1,13 @@
 // The assembly stage: the head of the host's pipeline. The session server's thread hands it what the
 // nodes send (post_*: never waits — when its queue is full the message is dropped and counted for its
 // node); on its own thread it groups them by seq (assemble::Assembler, unmerged), resolves each frame
-// when every running node's HULL is in or at its deadline, and pushes it into the pipeline, where it
-// may wait for room (a Block stage further down holds back this thread, never the session thread).
+// when every running node's HULL is in (or the node moved past it) or at its deadline, and pushes it into the
+// pipeline, where it may wait for room (a Block stage further down holds back this thread, never the session
+// thread).
 //
 // Lifecycle as every stage: configure (the constructor: options from the rig) → start → process (its
-// thread: one message at a time, deadlines polled every poll_ms) → stop (the queue is drained, pending
-// frames are flushed into the pipeline).
+// thread: one message at a time; without one it waits for the earliest pending deadline, at most
+// poll_ms) → stop (the queue is drained, pending frames are flushed into the pipeline).
 #pragma once
 
 #include <atomic>
@@ -26,7 +27,7 @@ namespace vc::aggregator {
 
 struct AssemblyOptions {
   size_t queue = 1024;  // messages waiting at most (~8 s of 3 nodes at 60 Hz with FEATURES)
-  int poll_ms = 5;      // deadlines are checked at least this often (as the session tick did before)
+  int poll_ms = 5;      // the longest wait without a message (it waits for the earliest pending deadline)
   // Bytes one node may have waiting in the queue (hull and silhouette RLE, FEATURES, STATS): beyond
   // them its messages are dropped (counted as its drops) while the other nodes' still get in, so the
   // queue's memory is bounded by nodes x this, whatever one node sends (a HULL may be 8 MiB).

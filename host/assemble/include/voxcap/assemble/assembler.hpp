@@ -1,14 +1,17 @@
 // Frame assembly on the host: group what the nodes send by trigger seq into one pipeline::Frame —
 // partial hulls, FEATURES and SILHOUETTEs (per camera) and STATS — and intersect the hulls.
 //
-// A frame is merged as soon as every node that is currently running has sent its HULL for that seq,
-// or when its deadline (trigger time + deadline) passes. The merge is the AND of the partial hulls,
-// done on the RLE streams directly in one pass over all of them (vc_rle_and_n, no bitset in between).
-// When a configured node is missing from a frame, the policy decides: Drop the frame, or merge what
-// came and mark it degraded.
-// A HULL for a frame that was already emitted is late: counted per node and discarded. FEATURES and
-// SILHOUETTEs join the frame of their seq (they never hold it back; late ones are counted and
-// discarded); STATS are not about one seq and join the next frame the assembler emits.
+// A frame is merged as soon as every node that is currently running has sent its HULL for that seq
+// or has already sent something about a later seq, or when its deadline (trigger time + deadline)
+// passes. A node handles its frames in pulse order and sends a frame's FEATURES, SILHOUETTEs and HULL
+// before anything of the next one, on one TCP connection (proto/SPEC.md, HULL): once its message about
+// seq n+1 is here, its HULL for seq n is not coming (the camera missed the pulse, the edge dropped the
+// frame), so waiting out the deadline for it only delays the frame. Frames leave in seq order. The merge is
+// the AND of the partial hulls, done on the RLE streams directly in one pass over all of them (vc_rle_and_n,
+// no bitset in between). When a configured node is missing from a frame, the policy decides: Drop the frame,
+// or merge what came and mark it degraded. A HULL for a frame that was already emitted is late: counted per
+// node and discarded. FEATURES and SILHOUETTEs join the frame of their seq (they never hold it back; late
+// ones are counted and discarded); STATS are not about one seq and join the next frame the assembler emits.
 // With AssemblerOptions::merge false the frames leave unmerged (the host's pipeline merges them in its
 // merge stage, merge_stage.hpp); merge() below is that step.
 //
@@ -121,6 +124,10 @@ class Assembler {
   // Resolves every frame whose deadline passed at now_ns (in seq order), appending merged ones.
   void poll(uint64_t now_ns, std::vector<MergedFrame>& out);
 
+  // The earliest deadline of the frames pending (host clock), or 0 when none is: what the caller's
+  // thread waits for when no message comes (poll() then).
+  uint64_t next_deadline_ns() const;
+
   // Resolves everything pending (at stop).
   void flush(uint64_t now_ns, std::vector<MergedFrame>& out);
 
@@ -143,10 +150,17 @@ class Assembler {
   // pulsed_only: false (counted in nc.unpulsed) when seq was not pulsed; t_trigger_ns becomes the
   // host's time of the pulse when it is known.
   bool trusted(uint64_t seq, uint64_t& t_trigger_ns, NodeCounters& nc) const;
-  bool complete(const Pending& p) const;
+  // Every running node sent its hull for seq, or a message about a later seq (its hull is not coming).
+  bool complete(uint64_t seq, const Pending& p) const;
+  // Resolves, in seq order, every pending frame that is complete or whose deadline passed at now_ns
+  // (check_deadlines), appending the merged ones.
+  void resolve_ready(uint64_t now_ns, bool check_deadlines, std::vector<MergedFrame>& out);
+  // A message about seq from node (accepted): nothing older than seq will come from it.
+  void note_seen(uint16_t node_id, uint64_t seq);
 
   AssemblerOptions opt_;
   std::map<uint16_t, bool> running_;
+  std::map<uint16_t, uint64_t> seen_;  // per node: 1 + the highest seq it sent anything about (0: none)
   std::map<uint64_t, Pending> pending_;
   bool any_resolved_ = false;
   uint64_t max_resolved_ = 0;

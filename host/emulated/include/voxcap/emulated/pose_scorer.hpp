@@ -29,6 +29,7 @@
 #include "voxcap/export/take.hpp"
 #include "voxcap/pipeline/frame.hpp"
 #include "voxcap/pipeline/pipeline.hpp"
+#include "voxcap/pipeline/timing.hpp"
 #include "voxcap/rig/calibration.hpp"
 
 namespace vc::sim {
@@ -51,6 +52,10 @@ struct PoseAccuracy {
   double max_joint_mm = 0;                                       // the worst joint of any scored frame
   double fps = 0;  // poses per second: fitted frames over the span of their t_fitted_ns
   double latency_p50_ms = 0, latency_p99_ms = 0, latency_max_ms = 0;  // trigger -> pose, fitted frames
+  // Where the fitted frames' time went (pipeline/timing.hpp): per segment over all and over the
+  // slowest 1%; and each frame's stamps (kept with the poses, for voxcap demo --timing-csv).
+  pipeline::LatencySplit latency_split;
+  std::vector<pipeline::FrameTiming> timing;
   std::vector<take::PosedFrame>
       poses;  // every frame's pose by the virtual rig's frame number (kept when asked)
 };
@@ -63,6 +68,7 @@ class PoseScorer : public pipeline::Stage {
   PoseScorer(std::unique_ptr<sim::Scene> scene, const rig::VoxelGrid& grid, bool keep_poses);
   ~PoseScorer() override;
   std::string name() const override { return "pose-score"; }
+  void configure(const pipeline::StageContext& ctx) override;
   void set_origin(uint64_t origin);
   void process(pipeline::Frame& frame) override;
   PoseAccuracy accuracy() const;
@@ -85,6 +91,7 @@ class PoseScorer : public pipeline::Stage {
   std::array<double, pipeline::kPoseJointCount> sum_joint_{};
   aggregator::Latency latency_;  // trigger -> pose: bounded reservoir, as the host's own latency figures
   uint64_t t_first_ns_ = 0, t_last_ns_ = 0;
+  pipeline::TimingLog timing_;  // the fitted frames' stamps
 };
 
 }  // namespace vc::emulated

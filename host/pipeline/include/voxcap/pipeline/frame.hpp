@@ -143,6 +143,12 @@ struct Frame {
   uint64_t t_first_rx_ns = 0, t_last_rx_ns = 0;  // first and last partial hull received
   uint64_t t_assembled_ns = 0;                   // left the assembler (complete, or its deadline passed)
   uint64_t t_merged_ns = 0;                      // the merged hull was ready
+  // Each chain stage's (Pipeline::then, in chain order: StageContext::chain names them) start and end
+  // of process() on this frame, host CLOCK_MONOTONIC, stamped by its StageRunner (0: not reached).
+  // With the times above they say where a frame's time went: the wait in a stage's queue is its start
+  // less the previous stage's end (the first's: t_assembled_ns).
+  static constexpr size_t kTimedStages = 8;  // chain stages beyond these are not stamped
+  std::array<uint64_t, kTimedStages> t_stage_start_ns{}, t_stage_end_ns{};
   uint32_t grid_id = 0;
   uint64_t voxel_count = 0;
   uint64_t occupied = 0;                   // occupied voxels of the merged hull

@@ -69,6 +69,9 @@ class StageRunner {
   void stop();
   // Where processed frames go next (the next chain stage, or the consumers).
   void set_next(std::vector<StageRunner*> next) { next_ = std::move(next); }
+  // Its place in the chain: it stamps Frame::t_stage_start_ns / t_stage_end_ns[index] (a consumer,
+  // the default, stamps nothing).
+  void set_chain_index(int index) { chain_index_ = index; }
 
   StageReport report() const;
   Stage& stage() { return *stage_; }
@@ -81,6 +84,7 @@ class StageRunner {
   std::string name_;
   BoundedQueue<FramePtr> queue_;
   std::vector<StageRunner*> next_;
+  int chain_index_ = -1;
   StageContext ctx_;
   std::thread thread_;
   bool started_ = false, stopped_ = false;

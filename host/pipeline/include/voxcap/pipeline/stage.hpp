@@ -16,6 +16,7 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "voxcap/base/log.hpp"
 #include "voxcap/pipeline/body_heading.hpp"
@@ -34,6 +35,9 @@ struct StageContext {
   // The fit's last torso right, shared by every stage of one pipeline (the context is copied to each
   // stage: they share this one object). The fit publishes it, the triangulation reads it.
   std::shared_ptr<BodyHeading> body_heading = std::make_shared<BodyHeading>();
+  // The names of the pipeline's chain stages in order (Pipeline::start fills it): Frame's
+  // t_stage_start_ns / t_stage_end_ns are in this order.
+  std::vector<std::string> chain;
 };
 
 class Stage {
