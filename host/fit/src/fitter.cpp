@@ -12,6 +12,7 @@
 #include "voxcap/base/clock.hpp"
 #include "voxcap/fit/failure.hpp"
 #include "voxcap/fit/heading.hpp"
+#include "voxcap/fit/sides.hpp"
 
 namespace vc::fit {
 namespace {
@@ -38,6 +39,7 @@ constexpr double kOnePointApartM =
 constexpr double kLumbarLeanDeg = 10;  // the pelvis tilts with the torso's lean beyond this
 constexpr int kNearReachSteps = 4;     // cm: a limb near full reach is tried this much bent (1 cm steps) ...
 constexpr int kNearReachDirs = 12;     // ... in this many directions about its root-to-end line
+constexpr double kSidesPadM = 0.25;    // m: the box searched for the feet's sides, around hips and feet
 
 struct OneEuro {
   bool init = false;
@@ -130,9 +132,17 @@ struct Fitter::State {
   // The body's own heading (heading.hpp): the feet on the hull, voting on the torso's sign.
   HeadingVote heading_vote;
   uint64_t heading_flips = 0;
+  // The feet's names from the hull (README, "The feet's names from the hull").
+  PairSides sides;
+  uint64_t hull_named_feet = 0;   // frames where the hull changed an untrusted foot name
+  std::array<bool, 5> off_leg{};  // this frame: the feature was on the other leg (by feature id)
 
   State(const rig::VoxelGrid& grid, const config::FittingOptions& o, double rate)
-      : opt(o), rate_hz(rate > 0 ? rate : 60), hull(grid), pattern(cylinder_sample_pattern(o.samples)) {
+      : opt(o),
+        rate_hz(rate > 0 ? rate : 60),
+        hull(grid),
+        pattern(cylinder_sample_pattern(o.samples)),
+        sides(grid) {
     std::string why;
     if (!opt.valid(&why)) throw std::invalid_argument("fit: " + why);
     for (const SamplePattern::S& p : pattern.samples)
@@ -542,6 +552,57 @@ struct Fitter::State {
     last[li] = solve_limb(root, end, L1, L2, best_dir, best_slack);
   }
 
+  // ---- The feet's names from the hull (README, "The feet's names from the hull"): a foot point whose
+  // name the triangulation did not trust is put on the leg the hull connects it to. Below the hips a
+  // leg is hull connected to its own hip joint: a point on the right leg is nearer the right hip than
+  // the left one through the hull by about a hip width (sides.hpp); half a hip width is asked for. On
+  // the other leg: a lone point takes that leg's name; two points on one leg, the one named for the
+  // other is not a foot this frame (that leg fitted to the hull from its track); two points each on the
+  // other's leg are a pair named the wrong way round, taken crosswise for this frame. Nothing is kept
+  // from frame to frame: the names are judged again on every frame they are not trusted. ----
+  void feet_named_by_hull(FeatureSet* f, std::array<bool, 5>* ok, std::array<double, 5>* conf,
+                          const std::array<bool, 5>& trusted) {
+    constexpr size_t L = 3, R = 4;
+    off_leg = {};
+    FeatureSet& p = *f;
+    std::array<bool, 5>& k = *ok;
+    if (!((k[L] && !trusted[L]) || (k[R] && !trusted[R]))) return;
+    Vec3 pts[2];
+    int n = 0;
+    if (k[L]) pts[n++] = p[L];
+    if (k[R]) pts[n++] = p[R];
+    const Vec3 hip_l = limb_root(body, l1, static_cast<int>(Limb::l_leg));
+    const Vec3 hip_r = limb_root(body, l1, static_cast<int>(Limb::r_leg));
+    if (!sides.compute(hull, hip_l, hip_r, pts, n, kSidesPadM)) return;
+    const double margin = body.hip_half_width_m;
+    const int sl = k[L] ? sides.side(p[L], margin) : 0, sr = k[R] ? sides.side(p[R], margin) : 0;
+    const bool l_wrong = k[L] && !trusted[L] && sl > 0, r_wrong = k[R] && !trusted[R] && sr < 0;
+    if (!l_wrong && !r_wrong) return;
+    ++hull_named_feet;
+    if ((l_wrong && k[R] && sr < 0) || (r_wrong && k[L] && sl > 0)) {  // each on the other's leg
+      std::swap(p[L], p[R]);
+      std::swap((*conf)[L], (*conf)[R]);
+      return;
+    }
+    const size_t wrong = l_wrong ? L : R, other = l_wrong ? R : L;
+    if (!k[other]) {  // a lone point: the leg it is on
+      p[other] = p[wrong];
+      (*conf)[other] = (*conf)[wrong];
+      k[other] = true;
+    }
+    k[wrong] = false;  // both on one leg (or the lone point renamed): no feature for this leg
+    off_leg[wrong] = true;
+  }
+
+  // The end of a leg whose feature was on the other leg: fitted to the hull from its track's
+  // prediction (last end + velocity in the pelvis frame); false when that end is on the other leg.
+  bool leg_end_from_track(int limb, const Vec3& root, Vec3* end) const {
+    const LimbTrack& t = limbs[static_cast<size_t>(limb)];
+    *end = fit_end_to_hull(limb, root, root + limb_frame(l1, limb) * (t.last_local + t.vel_local));
+    const int other_side = limb_side(limb) < 0 ? 1 : -1;
+    return sides.side(*end, body.hip_half_width_m) != other_side;
+  }
+
   // ---- A foot feature against the leg's hull: one off its leg (a drifting or mislabelled track, a
   // point triangulated from the wrong blobs) leaves the leg's samples outside the hull. Then the leg is
   // fitted to the hull twice, from the feature and from the end its track predicts (last end + velocity
@@ -771,6 +832,7 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
   FeatureSet f{};
   std::array<bool, 5> ok{};
   std::array<double, 5> conf{};
+  std::array<bool, 5> trusted{true, true, true, true, true};  // the names the triangulation trusted
   for (const pipeline::Feature3D& ft : frame.features3d) {
     if (ft.feature_id >= 5 || ft.state != pipeline::Feature3DState::Triangulated) continue;
     if (!(ft.confidence >= kMinFeatureConfidence)) continue;
@@ -779,15 +841,17 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
     f[ft.feature_id] = p;
     ok[ft.feature_id] = true;
     conf[ft.feature_id] = std::min(1.0, static_cast<double>(ft.confidence));
+    trusted[ft.feature_id] = ft.name_trusted;
   }
 
   // A pair taken crosswise (README: "A pair named the wrong way round"): the left limb gets the
   // right feature and the other way round, until continuity says otherwise.
-  auto swap_pair = [&f, &ok, &conf](int pair) {
+  auto swap_pair = [&f, &ok, &conf, &trusted](int pair) {
     const size_t a = 1 + 2 * static_cast<size_t>(pair), b = a + 1;
     std::swap(f[a], f[b]);
     std::swap(ok[a], ok[b]);
     std::swap(conf[a], conf[b]);
+    std::swap(trusted[a], trusted[b]);
   };
   for (int pair = 0; pair < 2; ++pair)
     if (s.swapped[static_cast<size_t>(pair)]) swap_pair(pair);
@@ -884,6 +948,8 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
     s.last_head = f[0];
     s.have_head = true;
   }
+  // The feet's untrusted names checked against the legs the hull connects them to.
+  s.feet_named_by_hull(&f, &ok, &conf, trusted);
   // Each pair's features against its limbs' paths: the ends predicted from the last frame (in the
   // root's frame, so the body's own motion and turn are followed); when the features fit the two paths
   // crosswise clearly better (kSwapMargin), the pair's naming changed (the triangulation named them the
@@ -921,11 +987,20 @@ pipeline::Pose Fitter::fit_next(const pipeline::Frame& frame) {
     // hands) is never a wrist: taken as lost.
     const bool good = ok[li + 1] && glm::length(f[li + 1] - root) <= 1.3 * reach + 0.05 &&
                       !(is_arm(limb) && s.deep_in_torso(f[li + 1]));
-    if (good) {
+    // A leg whose feature the hull put on the other leg (README, "The feet's names from the hull"):
+    // fitted to the hull from its track, which goes on following it, unless that end is on the other
+    // leg too (the track had followed the wrong name): then lost.
+    Vec3 from_track(0.0);
+    const bool on_track =
+        !good && s.off_leg[li + 1] && t.have && t.lost == 0 && s.leg_end_from_track(limb, root, &from_track);
+    if (good || on_track) {
       // A foot feature checked against the leg's hull (README, "A foot feature off its leg"). Not the
       // arms: near the torso or the other arm few of their samples count, and the check moved correct
       // wrists (README).
-      const Vec3 end = is_arm(limb) ? f[li + 1] : s.foot_checked_against_hull(limb, root, f[li + 1]);
+      const Vec3 end = on_track       ? from_track
+                       : is_arm(limb) ? f[li + 1]
+                                      : s.foot_checked_against_hull(limb, root, f[li + 1]);
+      predicted = predicted || on_track;
       const Vec3 local = glm::transpose(F) * (end - root);
       t.vel_local = t.have && t.lost == 0 ? 0.5 * t.vel_local + 0.5 * (local - t.last_local) : Vec3(0.0);
       t.last_local = local;

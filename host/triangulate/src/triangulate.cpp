@@ -702,6 +702,7 @@ void FeatureTriangulator::solve_pair(const std::vector<CameraObservations>& fram
         confidence(wsum / static_cast<double>(fd.r.inliers.size()), static_cast<int>(fd.r.inliers.size()),
                    reporting, fd.r.rms_px, widest_angle(prepared, fd.r.inliers, fd.r.p_world), opt_);
     if (!certain || lone) conf = std::min(conf, kUncertainCap);
+    f.name_trusted = certain && !lone;
     f.confidence = static_cast<float>(conf);
     on_the_body(&f);
     Track& t = st.side[s];

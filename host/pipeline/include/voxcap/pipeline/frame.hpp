@@ -69,6 +69,10 @@ struct Feature3D {
   // How far p_world lies outside the frame's merged hull, metres (0 inside; host/triangulate/README.md,
   // "On the body"); -1 when not known (no merged hull, the point outside the grid, not triangulated).
   float hull_clearance_m = -1;
+  // A hand's or foot's left/right naming as the triangulation judged it (host/triangulate/README.md,
+  // "Left and right"): false where it reported the naming untrusted (its confidence capped). True for
+  // the head and where not known (features read back from a recording). In memory only.
+  bool name_trusted = true;
 };
 
 // The fitted skeleton of one frame, from the fitting stage (host/fit/README.md has the model and the
