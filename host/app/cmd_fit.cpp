@@ -358,6 +358,7 @@ void run_fit(const FitArgs& a) {
           q.p_world = {p.x, p.y, p.z};
           q.confidence = p.confidence;
           q.reproj_px = p.reproj_px;
+          q.name_trusted = p.name_trusted;
           q.views = p.views;
           frame.features3d.push_back(std::move(q));
         }

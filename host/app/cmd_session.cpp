@@ -127,6 +127,7 @@ nlohmann::json to_json(const record::Record& r) {
               one["p_world_m"] = {f.x, f.y, f.z};
               one["reproj_px"] = f.reproj_px;
             }
+            if (f.id != 0) one["name_trusted"] = f.name_trusted;
             fs_json.push_back(one);
           }
           return {{"type", "features3d"}, {"seq", x.seq}, {"features", fs_json}};
@@ -188,8 +189,9 @@ std::string to_text(const record::Record& r) {
           for (const auto& f : x.features) {
             if (f.state == 0)
               fs_text +=
-                  fmt::format("  {} ({:.3f}, {:.3f}, {:.3f}) m c{:.2f} {:.1f} px cams {}", feature_name(f.id),
-                              f.x, f.y, f.z, f.confidence, f.reproj_px, fmt::join(f.views, ","));
+                  fmt::format("  {} ({:.3f}, {:.3f}, {:.3f}) m c{:.2f}{} {:.1f} px cams {}", feature_name(f.id),
+                              f.x, f.y, f.z, f.confidence, f.name_trusted ? "" : " name-untrusted", f.reproj_px,
+                              fmt::join(f.views, ","));
             else
               fs_text +=
                   fmt::format("  {} {}", feature_name(f.id),

@@ -74,6 +74,7 @@ void RecordStage::process(pipeline::Frame& f) {
       o.z = in.p_world[2];
       o.confidence = in.confidence;
       o.reproj_px = in.reproj_px;
+      o.name_trusted = in.name_trusted;
       o.views.assign(in.views.begin(), in.views.end());
     }
     rec_->append(features3d_);

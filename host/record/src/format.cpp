@@ -310,8 +310,8 @@ void encode(const FeatureRecord& r, uint64_t index, std::vector<uint8_t>& out) {
   end_record(put, out);
 }
 
-// FEATURES3D (7): `0` u64 seq · `8` u16 count · `10` u16 reserved 0 · then count × (u16 id, u8 state,
-// u8 n_views, f64 x, f64 y, f64 z, f32 confidence, f32 reproj_px, n_views × u16 camera).
+// FEATURES3D (7): `0` u64 seq · `8` u16 count · `10` u16 reserved 0 · then count × (u16 id, u8 state
+// (bit 7, version 3: the left/right naming not trusted), u8 n_views, f64 x, f64 y, f64 z, f32 confidence, f32 reproj_px, n_views × u16 camera).
 void encode(const Features3DRecord& r, uint64_t index, std::vector<uint8_t>& out) {
   require(r);
   Put put = begin_record(RecordType::Features3D, index, features3d_body(r), out);
@@ -320,7 +320,7 @@ void encode(const Features3DRecord& r, uint64_t index, std::vector<uint8_t>& out
   put.u16(0);
   for (const Features3DRecord::P& f : r.features) {
     put.u16(f.id);
-    put.u8(f.state);
+    put.u8(static_cast<uint8_t>(f.state | (f.name_trusted ? 0u : kNameUntrusted)));
     put.u8(static_cast<uint8_t>(f.views.size()));
     put.f64(f.x);
     put.f64(f.y);
@@ -470,7 +470,9 @@ bool decode_body(std::span<const uint8_t> body, Features3DRecord* out, std::stri
   out->features.resize(count);
   for (Features3DRecord::P& f : out->features) {
     f.id = get.u16();
-    f.state = get.u8();
+    const uint8_t state = get.u8();
+    f.state = static_cast<uint8_t>(state & ~kNameUntrusted);
+    f.name_trusted = (state & kNameUntrusted) == 0;
     const uint8_t n_views = get.u8();
     f.x = get.f64();
     f.y = get.f64();

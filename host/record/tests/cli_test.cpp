@@ -203,7 +203,7 @@ TEST_F(RecordCli, FlippedByteInTheFirstRecordLosesNoFrame) {
   const auto j = nlohmann::json::parse(voxcap("session info --json '" + closed.string() + "'").out);
   EXPECT_EQ(j["frames"], 20);
   EXPECT_EQ(j["rig_name"], "studio");  // from session.json
-  EXPECT_EQ(j["format_version"], 2);
+  EXPECT_EQ(j["format_version"], 3);
   EXPECT_EQ(j["stop"], "closed");
   EXPECT_EQ(j["skipped_records"], 0);
   EXPECT_GT(j["skipped_bytes"].get<int>(), 40);

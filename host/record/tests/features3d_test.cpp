@@ -1,5 +1,6 @@
-// FEATURES3D (format version 2): the host's triangulated features round-trip bit-exactly through the
-// format and a session; bad bodies are rejected; version-1 sessions (without them) still read.
+// FEATURES3D (format version 2; 3: the naming's trust in the state byte's bit 7): the host's triangulated
+// features round-trip bit-exactly through the format and a session; bad bodies are rejected; version-1
+// sessions (without them) and version-2 bodies (every name trusted) still read.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
@@ -29,6 +30,7 @@ Features3DRecord make_features3d(uint64_t seq) {
     p.z = 1.75 - 0.4 * id;
     p.confidence = 0.2f * static_cast<float>(id);
     p.reproj_px = 0.75f + static_cast<float>(id);
+    p.name_trusted = id != 3;  // the left foot's naming not trusted
     for (uint16_t v = 0; v < id + 1; ++v) p.views.push_back(static_cast<uint16_t>(7 - v));
     r.features.push_back(p);
   }
@@ -59,11 +61,32 @@ TEST(RecordFeatures3D, RoundTripsBitExactlyWithTheDocumentedLayout) {
   EXPECT_EQ(body[8], 5);       // u16 count
   EXPECT_EQ(body[12 + 2], 0);  // first feature's state
   EXPECT_EQ(body[12 + 3], 1);  // its n_views
+  // The fourth feature (1 + 2 + 3 views before it): state 0 with bit 7, its naming not trusted.
+  EXPECT_EQ(body[12 + 3 * 36 + 2 * 6 + 2], 0x80);
   Features3DRecord out;
   ASSERT_TRUE(format::decode_body(body, &out, &why)) << why;
   EXPECT_TRUE(bit_equal(r, out));
   EXPECT_EQ(out.features[2].views, (std::vector<uint16_t>{7, 6, 5}));
   EXPECT_TRUE(std::isnan(out.features[4].y));
+  EXPECT_FALSE(out.features[3].name_trusted);
+  EXPECT_TRUE(out.features[2].name_trusted);
+}
+
+TEST(RecordFeatures3D, AVersionTwoBodyReadsWithEveryNameTrusted) {
+  // Version 2 wrote the state byte without bit 7: the same bytes read back with every name trusted.
+  Features3DRecord r = make_features3d(7);
+  for (Features3DRecord::P& p : r.features) p.name_trusted = true;
+  std::vector<uint8_t> bytes;
+  format::encode(r, 1, bytes);
+  const std::span<const uint8_t> body(bytes.data() + format::kHeaderBytes,
+                                      bytes.size() - format::kHeaderBytes - format::kTrailerBytes);
+  for (size_t off = 12, i = 0; i < r.features.size(); off += 36 + 2 * r.features[i].views.size(), ++i)
+    EXPECT_EQ(body[off + 2], r.features[i].state) << i;  // the version-2 layout, byte for byte
+  Features3DRecord out;
+  std::string why;
+  ASSERT_TRUE(format::decode_body(body, &out, &why)) << why;
+  for (const Features3DRecord::P& p : out.features) EXPECT_TRUE(p.name_trusted);
+  EXPECT_TRUE(bit_equal(out, r));  // (a NaN coordinate: not operator==)
 }
 
 TEST(RecordFeatures3D, BadBodiesAreRejected) {
@@ -81,6 +104,7 @@ TEST(RecordFeatures3D, BadBodiesAreRejected) {
   };
   EXPECT_FALSE(with(10, 1));        // reserved
   EXPECT_FALSE(with(12 + 2, 3));    // unknown state
+  EXPECT_FALSE(with(12 + 2, 0x83)); // unknown state, its naming untrusted
   EXPECT_FALSE(with(12 + 3, 200));  // n_views past the body
   EXPECT_FALSE(with(8, 6));         // count past the body
   std::vector<uint8_t> longer = body;

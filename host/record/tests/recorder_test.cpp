@@ -146,7 +146,7 @@ TEST_F(RecordSession, ClosedSessionRoundTrips) {
   EXPECT_TRUE(s.calibration_ok);
   EXPECT_THAT(s.rig_node_ids, ::testing::ElementsAre("front0", "side1", "side2"));
   EXPECT_TRUE(s.warnings.empty()) << s.warnings.front();
-  EXPECT_EQ(s.format_version, 2u);
+  EXPECT_EQ(s.format_version, 3u);
   EXPECT_EQ(nlohmann::json::parse(s.meta_json)["take"], 1);
   EXPECT_EQ(s.records, records.size());
   EXPECT_EQ(s.frames, 30u);

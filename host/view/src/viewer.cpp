@@ -260,6 +260,7 @@ class Replay {
           q.p_world = {p.x, p.y, p.z};
           q.confidence = p.confidence;
           q.reproj_px = p.reproj_px;
+          q.name_trusted = p.name_trusted;
           q.views = p.views;
           f.features3d.push_back(std::move(q));
         }

@@ -71,7 +71,8 @@ struct Feature3D {
   float hull_clearance_m = -1;
   // A hand's or foot's left/right naming as the triangulation judged it (host/triangulate/README.md,
   // "Left and right"): false where it reported the naming untrusted (its confidence capped). True for
-  // the head and where not known (features read back from a recording). In memory only.
+  // the head and where not known (features read back from a session older than format version 3). Recorded
+  // in the session (FEATURES3D, host/record/README.md), so a re-fit sees what the live fit saw.
   bool name_trusted = true;
 };
 

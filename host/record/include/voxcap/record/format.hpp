@@ -18,8 +18,9 @@
 namespace vc::record::format {
 
 inline constexpr uint32_t kMagic = 0x43525856;  // "VXRC" in file order
-// BEGIN record's format_version: 2 since FEATURES3D (7); the reader also reads 1 (no FEATURES3D).
-inline constexpr uint16_t kFormatVersion = 2;
+// BEGIN record's format_version: 3 since FEATURES3D's state byte carries the naming's trust (bit 7),
+// 2 since FEATURES3D (7); the reader also reads 1 (no FEATURES3D) and 2 (every name trusted).
+inline constexpr uint16_t kFormatVersion = 3;
 inline constexpr uint16_t kOldestFormatVersion = 1;
 inline constexpr size_t kHeaderBytes = 24;
 inline constexpr size_t kTrailerBytes = 4;
@@ -52,6 +53,8 @@ inline constexpr size_t kStatsFixed = 16;
 inline constexpr size_t kEndBody = 16;
 inline constexpr size_t kFeatures3DFixed = 12;
 inline constexpr size_t kFeature3DFixed = 36;  // without its views (2 bytes each)
+// FEATURES3D's state byte, bit 7 (version 3): the hand's or foot's left/right naming not trusted.
+inline constexpr uint8_t kNameUntrusted = 0x80;
 
 struct BeginRecord {
   uint16_t format_version = kFormatVersion;

@@ -87,6 +87,9 @@ struct Features3DRecord {
     double x = 0, y = 0, z = 0;  // metres, world frame (any bits stored exactly)
     float confidence = 0, reproj_px = 0;  // 0..1; RMS reprojection error, pixels
     std::vector<uint16_t> views;          // rig camera indices used, at most kMaxViews
+    // A hand's or foot's left/right naming as the triangulation trusted it (pipeline::Feature3D's
+    // name_trusted; version 3: bit 7 of the state byte set when not trusted; older versions: true).
+    bool name_trusted = true;
     bool operator==(const P&) const = default;
   };
   static constexpr size_t kMaxViews = 255;
@@ -171,7 +174,7 @@ class Reader {
   struct Summary {
     // Counts of valid records (the brief's fields first).
     uint64_t frames = 0, degraded_frames = 0, features = 0, poses = 0, stats = 0;
-    uint64_t features3d = 0;               // Features3DRecords (format version 2)
+    uint64_t features3d = 0;               // Features3DRecords (format version 2 on)
     uint64_t first_seq = 0, last_seq = 0;  // seq of the first and the last frame record; 0 without frames
     bool closed_cleanly = false;           // an END record, and no damaged record skipped on the way
     uint64_t truncated_bytes = 0;  // bytes after the last valid record that were ignored (torn/corrupt tail)
