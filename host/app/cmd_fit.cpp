@@ -393,6 +393,7 @@ void run_fit(const FitArgs& a) {
       j["confident_wrong_features"] = audit->confident_wrong_json();
       j["fit_pair_swaps"] = {{"hands", fitter.pair_swaps()[0]}, {"feet", fitter.pair_swaps()[1]}};
       j["heading_flips"] = fitter.heading_flips();
+      j["hull_named_feet"] = fitter.hull_named_feet();
       nlohmann::json stages = nlohmann::json::object();
       for (size_t i = 0; i < kStageNames.size(); ++i)
         stages[kStageNames[i]] = {{"p50", stage_ns[i].percentile_ms(0.5)},
@@ -407,9 +408,10 @@ void run_fit(const FitArgs& a) {
       fmt::print(
           "swaps       left/right swapped on {} (fitted pairs against the truth); the fit swapped the "
           "hands' features {} times, the feet's {} times; the feet turned the torso round {} times "
-          "(heading_flips), {} frames re-initialized (reinitialized_frames)\n",
+          "(heading_flips), {} frames re-initialized (reinitialized_frames); the hull renamed a foot on {} "
+          "frames (hull_named_feet)\n",
           audit->line(), fitter.pair_swaps()[0], fitter.pair_swaps()[1], fitter.heading_flips(),
-          acc.reinitialized_frames);
+          acc.reinitialized_frames, fitter.hull_named_feet());
       std::string stages;
       for (size_t i = 0; i < kStageNames.size(); ++i)
         stages += fmt::format(" {} {:.3f}/{:.3f}/{:.3f}", kStageNames[i], stage_ns[i].percentile_ms(0.5),
@@ -455,7 +457,8 @@ void add_fit_commands(CLI::App& app) {
       "fit_pair_swaps {hands, feet}, confident_wrong_features {head, l_hand, r_hand, l_foot, r_foot, all}: "
       "3D features above `confident` more than 10 cm off, heading_flips: how often the feet on the hull "
       "turned the "
-      "torso round, host/fit/README.md; fit_stage_ms {decode, segment, pca, layer1, layer2, "
+      "torso round, hull_named_feet: frames where the hull changed an untrusted foot name, "
+      "host/fit/README.md; fit_stage_ms {decode, segment, pca, layer1, layer2, "
       "total: {p50, p99, max}})");
   cmd->add_option("--frames-csv", a->frames_csv,
                   "With --score: write every scored frame's per-joint errors (mm) and left/right swaps "

@@ -799,6 +799,10 @@ uint64_t Fitter::heading_flips() const {
   return s_->heading_flips;
 }
 
+uint64_t Fitter::hull_named_feet() const {
+  return s_->hull_named_feet;
+}
+
 pipeline::Pose Fitter::fit(const pipeline::Frame& frame) {
   if (!s_->have_seq || frame.seq >= s_->last_seq) return fit_next(frame);
   // A frame older than the last one fitted: the assembler passes a complete frame on at once while an

@@ -69,6 +69,8 @@ class Fitter {
   uint64_t late_frames() const;
   // How often the feet on the hull turned the torso round (README: "The heading from the body").
   uint64_t heading_flips() const;
+  // Frames where the hull changed an untrusted foot name (README: "The feet's names from the hull").
+  uint64_t hull_named_feet() const;
 
   struct State;
 
