@@ -189,9 +189,9 @@ std::string to_text(const record::Record& r) {
           for (const auto& f : x.features) {
             if (f.state == 0)
               fs_text +=
-                  fmt::format("  {} ({:.3f}, {:.3f}, {:.3f}) m c{:.2f}{} {:.1f} px cams {}", feature_name(f.id),
-                              f.x, f.y, f.z, f.confidence, f.name_trusted ? "" : " name-untrusted", f.reproj_px,
-                              fmt::join(f.views, ","));
+                  fmt::format("  {} ({:.3f}, {:.3f}, {:.3f}) m c{:.2f}{} {:.1f} px cams {}",
+                              feature_name(f.id), f.x, f.y, f.z, f.confidence,
+                              f.name_trusted ? "" : " name-untrusted", f.reproj_px, fmt::join(f.views, ","));
             else
               fs_text +=
                   fmt::format("  {} {}", feature_name(f.id),

@@ -311,7 +311,8 @@ void encode(const FeatureRecord& r, uint64_t index, std::vector<uint8_t>& out) {
 }
 
 // FEATURES3D (7): `0` u64 seq · `8` u16 count · `10` u16 reserved 0 · then count × (u16 id, u8 state
-// (bit 7, version 3: the left/right naming not trusted), u8 n_views, f64 x, f64 y, f64 z, f32 confidence, f32 reproj_px, n_views × u16 camera).
+// (bit 7, version 3: the left/right naming not trusted), u8 n_views, f64 x, f64 y, f64 z, f32 confidence, f32
+// reproj_px, n_views × u16 camera).
 void encode(const Features3DRecord& r, uint64_t index, std::vector<uint8_t>& out) {
   require(r);
   Put put = begin_record(RecordType::Features3D, index, features3d_body(r), out);

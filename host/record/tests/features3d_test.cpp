@@ -102,11 +102,11 @@ TEST(RecordFeatures3D, BadBodiesAreRejected) {
     b[off] = v;
     return format::decode_body(b, &out, &why);
   };
-  EXPECT_FALSE(with(10, 1));        // reserved
-  EXPECT_FALSE(with(12 + 2, 3));    // unknown state
-  EXPECT_FALSE(with(12 + 2, 0x83)); // unknown state, its naming untrusted
-  EXPECT_FALSE(with(12 + 3, 200));  // n_views past the body
-  EXPECT_FALSE(with(8, 6));         // count past the body
+  EXPECT_FALSE(with(10, 1));         // reserved
+  EXPECT_FALSE(with(12 + 2, 3));     // unknown state
+  EXPECT_FALSE(with(12 + 2, 0x83));  // unknown state, its naming untrusted
+  EXPECT_FALSE(with(12 + 3, 200));   // n_views past the body
+  EXPECT_FALSE(with(8, 6));          // count past the body
   std::vector<uint8_t> longer = body;
   longer.push_back(0);
   EXPECT_FALSE(format::decode_body(longer, &out, &why));
