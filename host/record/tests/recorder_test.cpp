@@ -62,7 +62,7 @@ TEST_F(RecordSession, CreateWritesTheSessionFolder) {
   const auto m = nlohmann::json::parse(manifest.begin(), manifest.end());
   EXPECT_EQ(m["format"], "voxcap-session");
   EXPECT_EQ(m["format_version"], format::kFormatVersion);
-  EXPECT_EQ(format::kFormatVersion, 2u) << "FEATURES3D records need version 2";
+  EXPECT_EQ(format::kFormatVersion, 3u) << "FEATURES3D's naming-trust bit needs version 3";
   EXPECT_EQ(m["rig_name"], "testrig");
   EXPECT_EQ(m["meta"]["operator"], "ana");
   EXPECT_EQ(m["meta"]["take"], 3);
