@@ -350,18 +350,7 @@ void run_fit(const FitArgs& a) {
       if (pending && f3->seq == frame.seq && !a.retriangulate) {
         frame.triangulated = true;
         frame.features3d.clear();
-        for (const auto& p : f3->features) {
-          pipeline::Feature3D q;
-          q.feature_id = p.id;
-          q.state = p.state < pipeline::kFeature3DStateCount ? static_cast<pipeline::Feature3DState>(p.state)
-                                                             : pipeline::Feature3DState::Inconsistent;
-          q.p_world = {p.x, p.y, p.z};
-          q.confidence = p.confidence;
-          q.reproj_px = p.reproj_px;
-          q.name_trusted = p.name_trusted;
-          q.views = p.views;
-          frame.features3d.push_back(std::move(q));
-        }
+        for (const auto& p : f3->features) frame.features3d.push_back(record::feature3d_from_record(p));
       }
       append(*f3);
     } else if (std::holds_alternative<record::PoseRecord>(r)) {

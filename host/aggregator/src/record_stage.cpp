@@ -64,19 +64,8 @@ void RecordStage::process(pipeline::Frame& f) {
   if (f.triangulated) {
     features3d_.seq = f.seq;
     features3d_.features.resize(f.features3d.size());
-    for (size_t i = 0; i < f.features3d.size(); ++i) {
-      const pipeline::Feature3D& in = f.features3d[i];
-      record::Features3DRecord::P& o = features3d_.features[i];
-      o.id = in.feature_id;
-      o.state = static_cast<uint8_t>(in.state);
-      o.x = in.p_world[0];
-      o.y = in.p_world[1];
-      o.z = in.p_world[2];
-      o.confidence = in.confidence;
-      o.reproj_px = in.reproj_px;
-      o.name_trusted = in.name_trusted;
-      o.views.assign(in.views.begin(), in.views.end());
-    }
+    for (size_t i = 0; i < f.features3d.size(); ++i)
+      record::to_record(f.features3d[i], &features3d_.features[i]);
     rec_->append(features3d_);
   }
   // The fitting stage ran on this frame (it stamps t_fitted_ns; an initialization frame's pose has state

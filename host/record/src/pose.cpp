@@ -87,4 +87,30 @@ pipeline::Frame frame_from_record(const FrameRecord& record) {
   return f;
 }
 
+void to_record(const pipeline::Feature3D& feature, Features3DRecord::P* out) {
+  out->id = feature.feature_id;
+  out->state = static_cast<uint8_t>(feature.state);
+  out->x = feature.p_world[0];
+  out->y = feature.p_world[1];
+  out->z = feature.p_world[2];
+  out->confidence = feature.confidence;
+  out->reproj_px = feature.reproj_px;
+  out->name_trusted = feature.name_trusted;
+  out->views.assign(feature.views.begin(), feature.views.end());
+}
+
+pipeline::Feature3D feature3d_from_record(const Features3DRecord::P& record) {
+  pipeline::Feature3D f;
+  f.feature_id = record.id;
+  f.state = record.state < pipeline::kFeature3DStateCount
+                ? static_cast<pipeline::Feature3DState>(record.state)
+                : pipeline::Feature3DState::Inconsistent;
+  f.p_world = {record.x, record.y, record.z};
+  f.confidence = record.confidence;
+  f.reproj_px = record.reproj_px;
+  f.name_trusted = record.name_trusted;
+  f.views = record.views;
+  return f;
+}
+
 }  // namespace vc::record

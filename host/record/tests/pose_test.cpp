@@ -137,5 +137,37 @@ TEST(RecordPose, RefusesRecordsThatAreNotTheLayout) {
   refused(r, "not finite");
 }
 
+// A triangulated feature through its record and back: every recorded field kept (the naming's trust
+// among them), the clearance unknown; a state out of range (an unchecked record) reads as inconsistent.
+TEST(RecordFeature3D, MapsToItsRecordAndBack) {
+  pipeline::Feature3D f;
+  f.feature_id = 4;
+  f.state = pipeline::Feature3DState::Triangulated;
+  f.p_world = {0.25, -1.5, 0.125};
+  f.confidence = 0.45f;
+  f.reproj_px = 1.75f;
+  f.views = {1, 3, 6};
+  f.hull_clearance_m = 0.04f;
+  f.name_trusted = false;
+  Features3DRecord::P p;
+  p.views.reserve(8);
+  to_record(f, &p);
+  EXPECT_EQ(p.id, 4);
+  EXPECT_EQ(p.state, 0);
+  EXPECT_FALSE(p.name_trusted);
+  EXPECT_EQ(p.views, f.views);
+  const pipeline::Feature3D back = feature3d_from_record(p);
+  EXPECT_EQ(back.feature_id, f.feature_id);
+  EXPECT_EQ(back.state, f.state);
+  EXPECT_EQ(back.p_world, f.p_world);
+  EXPECT_EQ(back.confidence, f.confidence);
+  EXPECT_EQ(back.reproj_px, f.reproj_px);
+  EXPECT_EQ(back.views, f.views);
+  EXPECT_FALSE(back.name_trusted);
+  EXPECT_EQ(back.hull_clearance_m, -1.0f);  // not recorded
+  p.state = 9;
+  EXPECT_EQ(feature3d_from_record(p).state, pipeline::Feature3DState::Inconsistent);
+}
+
 }  // namespace
 }  // namespace vc::record

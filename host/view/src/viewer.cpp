@@ -253,17 +253,7 @@ class Replay {
         part->features.push_back(v);
       } else if (auto* f3 = std::get_if<record::Features3DRecord>(&rec); f3 && f3->seq == f.seq) {
         f.triangulated = true;
-        for (const auto& p : f3->features) {
-          pipeline::Feature3D q;
-          q.feature_id = p.id;
-          q.state = static_cast<pipeline::Feature3DState>(p.state);
-          q.p_world = {p.x, p.y, p.z};
-          q.confidence = p.confidence;
-          q.reproj_px = p.reproj_px;
-          q.name_trusted = p.name_trusted;
-          q.views = p.views;
-          f.features3d.push_back(std::move(q));
-        }
+        for (const auto& p : f3->features) f.features3d.push_back(record::feature3d_from_record(p));
       } else if (auto* po = std::get_if<record::PoseRecord>(&rec); po && po->seq == f.seq) {
         std::string why;
         pipeline::Pose pose;

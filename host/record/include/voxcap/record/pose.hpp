@@ -40,4 +40,11 @@ bool from_record(const PoseRecord& record, pipeline::Pose* out, std::string* why
 // a replay or an offline re-fit starts from; features, poses and stats are added from their records.
 pipeline::Frame frame_from_record(const FrameRecord& record);
 
+// A triangulated feature (pipeline::Feature3D, host/triangulate) in a FEATURES3D record and back: the
+// one mapping the record stage, a replay and an offline re-fit share. The record does not keep the
+// clearance outside the hull (hull_clearance_m reads as -1, unknown); a state out of range (a record
+// not checked by format::check) reads as inconsistent.
+void to_record(const pipeline::Feature3D& feature, Features3DRecord::P* out);
+pipeline::Feature3D feature3d_from_record(const Features3DRecord::P& record);
+
 }  // namespace vc::record
